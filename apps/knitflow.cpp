@@ -1,0 +1,147 @@
+// knitflow: the command. Parses arguments, then calls the library; every failure ends with a
+// one-line reason and a non-zero exit code (2: bad input, 1: failure while running).
+#include "comm/MpiContext.hpp"
+#include "core/Error.hpp"
+#include "domain/Runner.hpp"
+#include "domain/Scene.hpp"
+#include "domain/Simulation.hpp"
+#include "kernels/exec/Backend.hpp"
+
+#include <CLI/CLI.hpp>
+#include <mpi.h>
+
+#include <cstdio>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#if defined(_OPENMP)
+#include <omp.h>
+#endif
+
+namespace {
+
+struct Args {
+  std::string scene;
+  std::vector<std::string> overrides;
+  std::string device = "auto";
+  std::string restart;
+  std::string output;
+  bool quiet = false;
+  bool profile = false;
+  int threads = 0;
+};
+
+void add_scene_options(CLI::App* cmd, Args& a) {
+  cmd->add_option("scene", a.scene, "scene file (TOML)")->required();
+  cmd->add_option("--set", a.overrides, "override a scene key: --set fluid.spacing=0.02")
+      ->take_all();
+}
+
+kf::exec::Backend choose_backend(const std::string& device) {
+  if (device == "cpu") return kf::exec::Backend::Cpu;
+  if (device == "cuda") return kf::exec::Backend::Cuda;
+  return kf::exec::cuda_available() ? kf::exec::Backend::Cuda : kf::exec::Backend::Cpu;
+}
+
+std::string human_bytes(double b) {
+  const char* unit[] = {"B", "KiB", "MiB", "GiB", "TiB"};
+  int k = 0;
+  while (b >= 1024 && k < 4) {
+    b /= 1024;
+    ++k;
+  }
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f %s", b, unit[k]);
+  return buf;
+}
+
+int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
+  const kf::Scene scene = kf::load_scene(a.scene, a.overrides);
+  const kf::PlanReport r = kf::Simulation::plan(scene);
+  if (!mpi.root()) return 0;
+  std::string mods;
+  for (auto m : scene.modules) mods += (mods.empty() ? "" : ", ") + kf::to_string(m);
+  std::printf("scene      %s (%s)\n", scene.name.c_str(), scene.path.c_str());
+  std::printf("modules    %s\n", mods.c_str());
+  std::printf("precision  %s\n", std::string(kf::to_string(scene.precision)).c_str());
+  std::printf("particles  fluid %zu, boundary %zu\n", r.fluid, r.boundary);
+  std::printf("radius     h = %.6g m (kernel support; %.3g x spacing), grid %d x %d x %d cells\n",
+              r.support_radius, scene.fluid.support, r.grid[0], r.grid[1], r.grid[2]);
+  const double total = double(r.bytes_fluid + r.bytes_boundary + r.bytes_grid);
+  std::printf("memory     %s per rank on %d rank(s) (fluid %s, boundary %s, grids %s)\n",
+              human_bytes(total / mpi.size()).c_str(), mpi.size(), human_bytes(r.bytes_fluid).c_str(),
+              human_bytes(r.bytes_boundary).c_str(), human_bytes(r.bytes_grid).c_str());
+  std::printf("halo       %.6g m (one interaction radius; single rank: none exchanged)\n",
+              r.support_radius);
+  std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
+  std::printf("output     %s every %.4g s to t = %.4g s\n",
+              scene.output.enabled ? scene.output.dir.c_str() : "(disabled)", scene.output.interval,
+              scene.end_time);
+  std::printf("stages     (one time step, in order)\n");
+  int i = 0;
+  for (const auto& [name, what] : r.stages)
+    std::printf("  %2d. %-34s %s\n", ++i, name.c_str(), what.c_str());
+  return 0;
+}
+
+int cmd_run(const Args& a, const kf::comm::MpiContext& mpi) {
+  std::vector<std::string> overrides = a.overrides;
+  if (!a.output.empty()) overrides.push_back("output.dir=\"" + a.output + "\"");
+  const kf::Scene scene = kf::load_scene(a.scene, overrides);
+#if defined(_OPENMP)
+  if (a.threads > 0) omp_set_num_threads(a.threads);
+#endif
+  kf::RunOptions opt;
+  opt.backend = choose_backend(a.device);
+  if (opt.backend == kf::exec::Backend::Cuda) kf::exec::cuda_select_device(mpi.local_rank());
+  opt.restart = a.restart;
+  opt.progress = !a.quiet;
+  opt.profile = a.profile;
+  if (mpi.root() && !a.quiet)
+    std::cerr << "knitflow: " << scene.name << " on " << kf::exec::describe(opt.backend) << ", "
+              << mpi.size() << " rank(s), " << kf::to_string(scene.precision) << "\n";
+  const kf::RunSummary s = kf::run_scene(scene, opt, mpi, std::cerr);
+  if (mpi.root() && !a.quiet) std::cerr << kf::format_summary(s);
+  return 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  MPI_Init(&argc, &argv);
+  int rc = 0;
+  {
+    kf::comm::MpiContext mpi;
+    CLI::App app{"knitflow: knitted cloth and liquid, simulated with particles"};
+    app.require_subcommand(1);
+    Args a;
+    auto* run = app.add_subcommand("run", "run a scene, writing snapshots");
+    add_scene_options(run, a);
+    run->add_option("--device", a.device, "cpu, cuda or auto (the GPU when present)")
+        ->check(CLI::IsMember({"auto", "cpu", "cuda"}));
+    run->add_option("--restart", a.restart, "continue from this snapshot (frame_NNNNNN.h5)");
+    run->add_option("--output", a.output, "output directory (overrides output.dir)");
+    run->add_option("--threads", a.threads, "OpenMP threads for the CPU backend");
+    run->add_flag("--quiet,-q", a.quiet, "no progress line or summary");
+    run->add_flag("--profile", a.profile, "time every stage (synchronises the device)");
+    auto* plan = app.add_subcommand("plan", "print stages, particle counts, memory and dt; run nothing");
+    add_scene_options(plan, a);
+    try {
+      app.parse(argc, argv);
+      rc = run->parsed() ? cmd_run(a, mpi) : cmd_plan(a, mpi);
+    } catch (const CLI::ParseError& e) {
+      rc = app.exit(e);
+      if (rc != 0) rc = 2;
+    } catch (const kf::SceneError& e) {
+      if (mpi.root()) std::cerr << "knitflow: error: " << e.what() << "\n";
+      rc = 2;
+    } catch (const std::exception& e) {
+      if (mpi.root()) std::cerr << "knitflow: error: " << e.what() << "\n";
+      rc = 1;
+    }
+  }
+  if (rc == 1) MPI_Abort(MPI_COMM_WORLD, 1); // another rank may be waiting in a collective
+  MPI_Finalize();
+  return rc;
+}

@@ -1,0 +1,11 @@
+#pragma once
+// Numerical choices shared by the scene (domain layer) and the kernels.
+
+namespace kf {
+
+/// Smoothing kernels (support radius h): the paper's spiky (Eq. 5, 6), cubic spline, Wendland C2.
+enum class KernelType { Spiky, CubicSpline, WendlandC2 };
+/// Equations of state: the paper's linear P = k (rho - rho0), and Tait.
+enum class EosType { Linear, Tait };
+
+} // namespace kf

@@ -1,0 +1,115 @@
+#include "domain/Runner.hpp"
+
+#include "core/Error.hpp"
+#include "io/Progress.hpp"
+#include "io/SnapshotReader.hpp"
+#include "io/SnapshotWriter.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <ostream>
+#include <sstream>
+
+namespace kf {
+
+RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,
+                     std::ostream& log) {
+  auto sim = Simulation::create(scene, opt.backend);
+  sim->set_profiling(opt.profile);
+  std::uint64_t frame_index = 0;
+  if (!opt.restart.empty()) {
+    io::Frame fr = io::read_snapshot(mpi.comm(), opt.restart);
+    sim->restore(fr);
+    frame_index = fr.index;
+  }
+  const double end = opt.stop_time >= 0 ? std::min(opt.stop_time, scene.end_time) : scene.end_time;
+  const double interval = scene.output.interval;
+  const bool output = scene.output.enabled;
+
+  // The writer is made only now: a scene or restart that fails above has written nothing.
+  std::unique_ptr<io::SnapshotWriter> writer;
+  RunSummary sum;
+  auto write_frame = [&](std::uint64_t index) {
+    io::Frame fr = sim->frame();
+    fr.index = index;
+    sum.last_snapshot = writer->write(fr);
+    ++sum.frames;
+  };
+  if (output) {
+    writer = std::make_unique<io::SnapshotWriter>(mpi.comm(), scene.output.dir);
+    if (opt.restart.empty()) write_frame(0);
+  }
+
+  io::Progress progress(log, end, opt.progress_interval_s, opt.progress && mpi.root());
+  const std::uint64_t start_steps = sim->steps();
+  const std::uint64_t particles = sim->diagnostics().fluid;
+  double next_out = (frame_index + 1) * interval;
+  const double eps = 1e-12 * std::max(1.0, end);
+  try {
+    while (sim->time() < end - eps) {
+      if (scene.solver.max_steps > 0 &&
+          sim->steps() >= static_cast<std::uint64_t>(scene.solver.max_steps))
+        break;
+      const double t_limit = std::min(next_out, end);
+      const double dt = sim->step(t_limit);
+      progress.update(sim->steps(), sim->time(), dt, particles);
+      if (sim->time() >= next_out - eps) {
+        ++frame_index;
+        if (output) write_frame(frame_index);
+        next_out = (frame_index + 1) * interval;
+      }
+    }
+  } catch (const InstabilityError& e) {
+    progress.finish();
+    throw InstabilityError(std::string(e.what()) + (sum.last_snapshot.empty()
+                                                        ? "; no snapshot was written"
+                                                        : "; last good snapshot: " + sum.last_snapshot));
+  }
+  progress.update(sim->steps(), sim->time(), 0, 0, true);
+  progress.finish();
+
+  sum.steps = sim->steps() - start_steps;
+  sum.sim_time = sim->time();
+  sum.wall_seconds = progress.wall_seconds();
+  sum.particle_steps_per_s =
+      sum.wall_seconds > 0 ? double(sum.steps) * double(particles) / sum.wall_seconds : 0;
+  sum.diagnostics = sim->diagnostics();
+  for (const auto& s : sim->pipeline().stages()) {
+    Pipeline::Stage copy{s.name, s.module, s.what, {}, s.seconds, s.calls};
+    sum.stages.push_back(std::move(copy));
+  }
+  return sum;
+}
+
+std::string format_summary(const RunSummary& s) {
+  std::ostringstream o;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "done: %llu steps to t = %.6g s in %.2f s wall, %.3e fluid particle-steps/s\n",
+                static_cast<unsigned long long>(s.steps), s.sim_time, s.wall_seconds,
+                s.particle_steps_per_s);
+  o << buf;
+  const auto& d = s.diagnostics;
+  std::snprintf(buf, sizeof buf,
+                "particles: fluid %zu, boundary %zu | max speed %.4g m/s | density error max "
+                "%.3g%%, mean %.3g%% | closest approach to a solid %.3g m | guard corrections %llu\n",
+                d.fluid, d.boundary, d.max_speed, 100 * d.max_density_error,
+                100 * d.mean_density_error, d.min_rigid_distance,
+                static_cast<unsigned long long>(d.guard_corrections));
+  o << buf;
+  if (s.frames) o << "snapshots: " << s.frames << " written, last " << s.last_snapshot << "\n";
+  double total = 0;
+  for (const auto& st : s.stages) total += st.seconds;
+  if (total > 0) {
+    o << "stages (time, share):\n";
+    for (const auto& st : s.stages) {
+      std::snprintf(buf, sizeof buf, "  %-22s %9.3f s %6.1f%%\n", st.name.c_str(), st.seconds,
+                    100 * st.seconds / total);
+      o << buf;
+    }
+  }
+  return o.str();
+}
+
+} // namespace kf

@@ -1,0 +1,42 @@
+#pragma once
+// Runs a scene from start (or a restart snapshot) to its end time: steps, snapshots at the output
+// cadence, the progress line and the closing summary. The `knitflow run` command is a thin layer
+// over this.
+#include "comm/MpiContext.hpp"
+#include "domain/Scene.hpp"
+#include "domain/Simulation.hpp"
+#include "kernels/exec/Backend.hpp"
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace kf {
+
+struct RunOptions {
+  exec::Backend backend = exec::Backend::Cpu;
+  std::string restart;        // snapshot to continue from ("" = start at t = 0)
+  bool progress = true;
+  double progress_interval_s = 1.0;
+  bool profile = false;       // time each stage (synchronises the device after each)
+  double stop_time = -1;      // stop early at this simulated time (< 0: scene end time)
+};
+
+struct RunSummary {
+  std::uint64_t steps = 0;    // steps taken by this run (not counting those before a restart)
+  double sim_time = 0;        // simulated time reached
+  double wall_seconds = 0;
+  double particle_steps_per_s = 0;
+  std::uint64_t frames = 0;   // snapshots written by this run
+  std::string last_snapshot;
+  Diagnostics diagnostics;
+  std::vector<Pipeline::Stage> stages; // with their times when profiled (run functions dropped)
+};
+
+RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,
+                     std::ostream& log);
+
+/// The closing summary as text (steps, time, throughput, snapshots, diagnostics, stage shares).
+std::string format_summary(const RunSummary& s);
+
+} // namespace kf

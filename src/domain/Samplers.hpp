@@ -1,0 +1,33 @@
+#pragma once
+// Turns scene geometry into particles: fluid blocks into lattices, rigid surfaces into boundary
+// particles. Host-only and deterministic (the same scene always gives the same particles in the
+// same order), so `plan` can count particles without a device.
+#include "core/SolverOptions.hpp"
+#include "core/Vec3.hpp"
+#include "domain/Scene.hpp"
+
+#include <cstdint>
+#include <vector>
+
+namespace kf {
+
+/// Cubic lattice filling [min, max) at spacing dp, particles at cell centres.
+std::vector<Vec3d> sample_fluid_block(const FluidBlock& block, double dp);
+
+/// All fluid particles of the scene, blocks in order.
+std::vector<Vec3d> sample_fluid(const Scene& scene);
+
+/// Particle mass that makes an interior particle of a perfect lattice sit at rest density with
+/// the chosen kernel (so a fluid at rest starts without a pressure jolt).
+double lattice_particle_mass(KernelType kernel, double support, double dp, double rho0);
+
+struct BoundarySamples {
+  std::vector<Vec3d> x;
+  std::vector<std::uint32_t> obstacle; // index into scene.obstacles, kWallObstacle for walls
+};
+
+/// Boundary particles filling a shell `depth` thick (the kernel support) inside every solid: the
+/// domain walls and each obstacle, on the fluid's lattice of spacing dp.
+BoundarySamples sample_boundaries(const Scene& scene, double dp, double depth);
+
+} // namespace kf

@@ -1,0 +1,108 @@
+#pragma once
+// A validated scene: everything a run needs, in SI units, with defaults filled in.
+// Produced only by load_scene/parse_scene, which reject anything out of range, so the rest of
+// the program can trust every field.
+#include "core/Precision.hpp"
+#include "core/SolverOptions.hpp"
+#include "core/Vec3.hpp"
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace kf {
+
+/// Physics modules a scene may ask for (DESIGN §5). P1 implements fluid and boundary.
+enum class Module { Fluid, Boundary };
+/// Rigid obstacle shapes; all are solid (fluid stays outside).
+enum class ObstacleShape { Plane, Box, Sphere };
+
+struct FluidBlock {
+  Vec3d min{}, max{};
+  Vec3d velocity{0, 0, 0};
+};
+
+struct Obstacle {
+  ObstacleShape shape = ObstacleShape::Box;
+  std::string name;        // "obstacle[2]" unless given
+  Vec3d point{0, 0, 0};    // plane: a point on it
+  Vec3d normal{0, 0, 1};   // plane: unit normal pointing into the fluid side
+  Vec3d min{}, max{};      // box
+  Vec3d center{0, 0, 0};   // sphere
+  double radius = 0;       // sphere
+  Vec3d velocity{0, 0, 0}; // prescribed translation velocity (0: static)
+};
+
+struct Scene {
+  std::string path; // file it was read from ("<string>" for text)
+  std::string text; // the scene text as read, followed by the --set overrides as comments
+
+  // [simulation]
+  std::string name = "scene";
+  double end_time = 1.0;
+  Vec3d gravity{0, 0, -9.81};
+  std::vector<Module> modules;
+  Precision precision = Precision::Float;
+
+  // [domain]: the box nothing leaves. walls: x-, x+, y-, y+, z-, z+ (solid outside the box).
+  struct Domain {
+    Vec3d min{0, 0, 0}, max{1, 1, 1};
+    std::array<bool, 6> walls{true, true, true, true, true, true};
+  } domain;
+
+  // [output]
+  struct Output {
+    std::string dir = "out/scene";
+    double interval = 0.02; // simulated seconds between snapshots
+    bool enabled = true;
+  } output;
+
+  // [solver]
+  struct Solver {
+    KernelType kernel = KernelType::Spiky;
+    double cfl = 0.2;            // dt <= cfl * h / (c + v_max)
+    double force_factor = 0.25;  // dt <= force_factor * sqrt(h / a_max)
+    double viscous_factor = 0.1; // dt <= viscous_factor * h^2 rho0 / mu
+    double dt_max = 1e-3;
+    double dt_min = 1e-9; // a step below this is reported as an instability
+    long max_steps = 0;   // 0: no limit
+    double damping = 0;       // global velocity damping rate zeta [1/s] (settling a rest state)
+    double damping_until = 0; // damping acts while t < damping_until
+  } solver;
+
+  // [fluid]
+  struct Fluid {
+    double spacing = 0.01;         // initial particle spacing dp [m]
+    double support = 2.0;          // kernel support radius h in units of dp
+    double rest_density = 1000.0;  // rho0 [kg/m^3]
+    EosType eos = EosType::Tait;
+    double speed_of_sound = 20.0;  // c [m/s]; the linear EOS uses k = c^2
+    double tait_exponent = 7.0;    // gamma
+    double viscosity = 1e-3;       // dynamic viscosity mu [Pa s], Eq. 4
+    bool clamp_negative_pressure = true;
+    std::vector<FluidBlock> blocks;
+  } fluid;
+
+  std::vector<Obstacle> obstacles;
+
+  bool has(Module m) const {
+    for (Module x : modules)
+      if (x == m) return true;
+    return false;
+  }
+  double support_radius() const { return fluid.spacing * fluid.support; }
+};
+
+/// Reads, validates and returns a scene. overrides are "dotted.key=value" strings (--set),
+/// the value written in TOML syntax. Throws SceneError("FILE:LINE: key 'K': expected ..., got ...").
+Scene load_scene(const std::string& path, const std::vector<std::string>& overrides = {});
+/// Same, from text; source_name stands in for the file name in messages.
+Scene parse_scene(const std::string& text, const std::string& source_name,
+                  const std::vector<std::string>& overrides = {});
+
+std::string to_string(KernelType k);
+std::string to_string(EosType e);
+std::string to_string(Module m);
+std::string to_string(ObstacleShape s);
+
+} // namespace kf

@@ -1,0 +1,340 @@
+// Scene loading: TOML text -> overrides -> schema validation -> kf::Scene.
+// The schema lives here, one read_* function per table; typed, range-checked access and the
+// error wording live in SceneReader, the --set merging in SceneOverrides.
+#include "core/Error.hpp"
+#include "domain/Scene.hpp"
+#include "domain/SceneOverrides.hpp"
+#include "domain/SceneReader.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <utility>
+
+namespace kf {
+
+namespace {
+
+using scene::Choice;
+using scene::format_vec3;
+using scene::Range;
+using scene::repr;
+using scene::TableReader;
+
+// The spellings in scene files; to_string uses the same tables.
+constexpr std::array kModules{Choice<Module>{"fluid", Module::Fluid},
+                              Choice<Module>{"boundary", Module::Boundary}};
+constexpr std::array kPrecisions{Choice<Precision>{"float", Precision::Float},
+                                 Choice<Precision>{"double", Precision::Double}};
+constexpr std::array kKernels{Choice<KernelType>{"spiky", KernelType::Spiky},
+                              Choice<KernelType>{"cubic", KernelType::CubicSpline},
+                              Choice<KernelType>{"wendland", KernelType::WendlandC2}};
+constexpr std::array kEos{Choice<EosType>{"linear", EosType::Linear},
+                          Choice<EosType>{"tait", EosType::Tait}};
+constexpr std::array kShapes{Choice<ObstacleShape>{"plane", ObstacleShape::Plane},
+                             Choice<ObstacleShape>{"box", ObstacleShape::Box},
+                             Choice<ObstacleShape>{"sphere", ObstacleShape::Sphere}};
+// Index into Scene::Domain::walls.
+constexpr std::array kWalls{Choice<int>{"x-", 0}, Choice<int>{"x+", 1}, Choice<int>{"y-", 2},
+                            Choice<int>{"y+", 3}, Choice<int>{"z-", 4}, Choice<int>{"z+", 5}};
+
+bool all_less(const Vec3d& a, const Vec3d& b) {
+  return a.x < b.x && a.y < b.y && a.z < b.z;
+}
+bool all_less_equal(const Vec3d& a, const Vec3d& b) {
+  return a.x <= b.x && a.y <= b.y && a.z <= b.z;
+}
+
+/// The required min/max of a box-like table, with max > min in every axis.
+std::pair<Vec3d, Vec3d> read_box(const TableReader& t) {
+  const Vec3d lo = t.require_vec3("min");
+  const Vec3d hi = t.require_vec3("max");
+  if (!all_less(lo, hi))
+    t.fail_key(*t.node("max"), "max",
+               "every component > " + t.key_path("min") + " " + format_vec3(lo),
+               repr(*t.node("max")));
+  return {lo, hi};
+}
+
+void read_simulation(const TableReader& t, Scene& s) {
+  t.allow_only({"name", "end_time", "gravity", "modules", "precision"});
+  t.read("name", s.name);
+  s.end_time = t.require("end_time", Range::positive());
+  t.read("gravity", s.gravity);
+  if (!t.read_set("modules", s.modules, kModules))
+    t.fail_missing("modules");
+  const toml::node& modules = *t.node("modules");
+  if (s.modules.empty())
+    t.fail_key(modules, "modules", "at least one module (\"fluid\", \"boundary\")", "none");
+  if (s.has(Module::Fluid) && !s.has(Module::Boundary))
+    t.fail_key(modules, "modules",
+               "\"boundary\" as well (module \"fluid\" requires module \"boundary\")",
+               repr(modules));
+  t.read("precision", s.precision, kPrecisions);
+}
+
+void read_domain(const TableReader& t, Scene::Domain& d) {
+  t.allow_only({"min", "max", "walls"});
+  std::tie(d.min, d.max) = read_box(t);
+  std::vector<int> walls;
+  if (t.read_set("walls", walls, kWalls)) {
+    d.walls.fill(false);
+    for (int w : walls)
+      d.walls[static_cast<std::size_t>(w)] = true;
+  }
+}
+
+void read_output(const TableReader& t, Scene& s) {
+  t.allow_only({"dir", "interval", "enabled"});
+  s.output.dir = "out/" + s.name;
+  t.read("dir", s.output.dir);
+  t.read("interval", s.output.interval, Range::positive());
+  t.read("enabled", s.output.enabled);
+}
+
+void read_solver(const TableReader& t, Scene::Solver& sv) {
+  t.allow_only(
+      {"kernel", "cfl", "force_factor", "viscous_factor", "dt_max", "dt_min", "max_steps",
+       "damping", "damping_until"});
+  t.read("kernel", sv.kernel, kKernels);
+  t.read("cfl", sv.cfl, Range::above_up_to(0, 1));
+  t.read("force_factor", sv.force_factor, Range::above_up_to(0, 1));
+  t.read("viscous_factor", sv.viscous_factor, Range::above_up_to(0, 1));
+  t.read("dt_max", sv.dt_max, Range::positive());
+  t.read("dt_min", sv.dt_min, Range::positive());
+  if (sv.dt_min >= sv.dt_max) {
+    // Blame the key the user wrote (dt_min when both are given).
+    if (const toml::node* n = t.node("dt_min"))
+      t.fail_key(*n, "dt_min",
+                 "a number < " + t.key_path("dt_max") + " (" + scene::format_number(sv.dt_max) +
+                     ")",
+                 repr(*n));
+    const toml::node& n = *t.node("dt_max");
+    t.fail_key(n, "dt_max",
+               "a number > " + t.key_path("dt_min") + " (" + scene::format_number(sv.dt_min) + ")",
+               repr(n));
+  }
+  t.read_integer("max_steps", sv.max_steps, 0);
+  t.read("damping", sv.damping, Range::at_least(0));
+  t.read("damping_until", sv.damping_until, Range::at_least(0));
+}
+
+/// speed_of_sound, or stiffness k of the linear EOS (c = sqrt(k)); never both.
+void read_sound_speed(const TableReader& t, Scene::Fluid& f) {
+  const bool has_c = t.read("speed_of_sound", f.speed_of_sound, Range::positive());
+  double k = 0;
+  if (!t.read("stiffness", k, Range::positive()))
+    return;
+  const toml::node& n = *t.node("stiffness");
+  if (has_c)
+    t.fail_key(n, "stiffness", "either stiffness or speed_of_sound, not both",
+               "both (speed_of_sound = " + repr(*t.node("speed_of_sound")) + ")");
+  if (f.eos != EosType::Linear)
+    t.fail_key(n, "stiffness",
+               "no stiffness with eos = \"tait\" (stiffness is k of eos = \"linear\"; "
+               "for tait give speed_of_sound)",
+               repr(n));
+  f.speed_of_sound = std::sqrt(k);
+}
+
+FluidBlock read_block(const TableReader& t, const Scene::Domain& d) {
+  t.allow_only({"min", "max", "velocity"});
+  FluidBlock b;
+  std::tie(b.min, b.max) = read_box(t);
+  const bool min_in = all_less_equal(d.min, b.min) && all_less_equal(b.min, d.max);
+  if (!min_in || !all_less_equal(b.max, d.max)) {
+    const char* key = min_in ? "max" : "min";
+    t.fail_key(*t.node(key), key,
+               "a point inside the domain " + format_vec3(d.min) + ".." + format_vec3(d.max),
+               repr(*t.node(key)));
+  }
+  t.read("velocity", b.velocity);
+  return b;
+}
+
+void read_fluid(const TableReader& t, Scene& s) {
+  t.allow_only({"spacing", "support", "rest_density", "eos", "speed_of_sound", "stiffness",
+                "tait_exponent", "viscosity", "clamp_negative_pressure", "block"});
+  Scene::Fluid& f = s.fluid;
+  t.read("spacing", f.spacing, Range::positive());
+  t.read("support", f.support, Range::closed(1.0, 4.0));
+  t.read("rest_density", f.rest_density, Range::positive());
+  t.read("eos", f.eos, kEos);
+  read_sound_speed(t, f);
+  t.read("tait_exponent", f.tait_exponent, Range::at_least(1));
+  t.read("viscosity", f.viscosity, Range::at_least(0));
+  t.read("clamp_negative_pressure", f.clamp_negative_pressure);
+  for (const TableReader& b : t.array_of_tables("block"))
+    f.blocks.push_back(read_block(b, s.domain));
+}
+
+/// Fluid blocks exist exactly when the fluid module is on.
+void check_fluid_blocks(const TableReader& sim, const TableReader& fluid, const Scene& s) {
+  const bool on = s.has(Module::Fluid);
+  if (on && s.fluid.blocks.empty())
+    fluid.fail(fluid.present() ? nullptr : sim.node("modules"),
+               "key 'fluid.block': expected at least one [[fluid.block]] (module \"fluid\" is in "
+               "simulation.modules), got none");
+  if (!on && !s.fluid.blocks.empty())
+    fluid.fail_key(*fluid.node("block"), "block",
+                   "no [[fluid.block]] (module \"fluid\" is not in simulation.modules)",
+                   std::to_string(s.fluid.blocks.size()) + " block(s)");
+}
+
+constexpr std::array<std::string_view, 3> kCommonObstacleKeys{"shape", "name", "velocity"};
+
+/// The keys of each shape beyond the common ones.
+std::array<std::string_view, 2> shape_keys(ObstacleShape shape) {
+  switch (shape) {
+  case ObstacleShape::Plane:
+    return {"point", "normal"};
+  case ObstacleShape::Box:
+    return {"min", "max"};
+  case ObstacleShape::Sphere:
+    return {"center", "radius"};
+  }
+  return {};
+}
+
+/// The keys every obstacle may have plus those of the given shapes.
+template <typename Shapes>
+std::vector<std::string_view> obstacle_keys(const Shapes& shapes) {
+  std::vector<std::string_view> keys(kCommonObstacleKeys.begin(), kCommonObstacleKeys.end());
+  for (ObstacleShape shape : shapes)
+    for (std::string_view k : shape_keys(shape))
+      keys.push_back(k);
+  return keys;
+}
+
+/// A key of another shape is an error of its own ("radius" on a box), not an unknown key.
+void check_shape_keys(const TableReader& t, ObstacleShape shape) {
+  const auto bad = t.first_key_not_in(obstacle_keys(std::array{shape}));
+  if (!bad)
+    return;
+  const std::string name(scene::choice_name(kShapes, shape));
+  const auto own = shape_keys(shape);
+  t.fail(t.node(*bad), "table '" + t.path() + "': key '" + std::string(*bad) +
+                           "' does not apply to shape '" + name + "' (a " + name + " takes " +
+                           std::string(own[0]) + ", " + std::string(own[1]) + ")");
+}
+
+Vec3d read_unit_normal(const TableReader& t) {
+  const Vec3d n = t.require_vec3("normal");
+  const double len = norm(n);
+  if (len == 0)
+    t.fail_key(*t.node("normal"), "normal", "a non-zero vector", repr(*t.node("normal")));
+  return n * (1.0 / len);
+}
+
+Obstacle read_obstacle(const TableReader& t, std::size_t index) {
+  t.allow_only(
+      obstacle_keys(std::array{ObstacleShape::Plane, ObstacleShape::Box, ObstacleShape::Sphere}));
+  Obstacle o;
+  o.shape = t.require("shape", kShapes);
+  check_shape_keys(t, o.shape);
+  o.name = "obstacle[" + std::to_string(index) + "]";
+  t.read("name", o.name);
+  t.read("velocity", o.velocity);
+  switch (o.shape) {
+  case ObstacleShape::Plane:
+    o.point = t.require_vec3("point");
+    o.normal = read_unit_normal(t);
+    break;
+  case ObstacleShape::Box:
+    std::tie(o.min, o.max) = read_box(t);
+    break;
+  case ObstacleShape::Sphere:
+    o.center = t.require_vec3("center");
+    o.radius = t.require("radius", Range::positive());
+    break;
+  }
+  return o;
+}
+
+Scene build_scene(const TableReader& root) {
+  root.allow_only({"simulation", "domain", "output", "solver", "fluid", "obstacle"});
+  Scene s;
+  const TableReader sim = root.table("simulation");
+  read_simulation(sim, s);
+  read_domain(root.table("domain"), s.domain);
+  read_output(root.table("output"), s);
+  read_solver(root.table("solver"), s.solver);
+  const TableReader fluid = root.table("fluid");
+  read_fluid(fluid, s);
+  check_fluid_blocks(sim, fluid, s);
+  const auto obstacles = root.array_of_tables("obstacle");
+  for (std::size_t i = 0; i < obstacles.size(); ++i)
+    s.obstacles.push_back(read_obstacle(obstacles[i], i));
+  return s;
+}
+
+toml::table parse_toml(const std::string& text, const std::string& source_name) {
+  try {
+    return toml::parse(text, std::string_view(source_name));
+  } catch (const toml::parse_error& e) {
+    const auto& at = e.source().begin;
+    throw SceneError(source_name + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) +
+                     ": TOML syntax error: " + std::string(e.description()));
+  }
+}
+
+std::string read_file(const std::string& path) {
+  const auto cannot = [&](int err) {
+    return SceneError(path + ": cannot open scene file (" + std::strerror(err) + ")");
+  };
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw cannot(EISDIR);
+  errno = 0;
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw cannot(errno ? errno : ENOENT);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad())
+    throw cannot(errno ? errno : EIO);
+  return text.str();
+}
+
+/// The text as read plus one "# --set ..." line per override: a snapshot records what ran.
+std::string text_with_overrides(std::string text, const std::vector<std::string>& overrides) {
+  if (!overrides.empty() && !text.empty() && text.back() != '\n')
+    text += '\n';
+  for (const std::string& o : overrides)
+    text += "# --set " + o + "\n";
+  return text;
+}
+
+} // namespace
+
+Scene parse_scene(const std::string& text, const std::string& source_name,
+                  const std::vector<std::string>& overrides) {
+  toml::table root = parse_toml(text, source_name);
+  scene::apply_overrides(root, overrides);
+  Scene s = build_scene(TableReader(source_name, &root, ""));
+  s.path = source_name;
+  s.text = text_with_overrides(text, overrides);
+  return s;
+}
+
+Scene load_scene(const std::string& path, const std::vector<std::string>& overrides) {
+  return parse_scene(read_file(path), path, overrides);
+}
+
+std::string to_string(KernelType k) {
+  return std::string(scene::choice_name(kKernels, k));
+}
+std::string to_string(EosType e) {
+  return std::string(scene::choice_name(kEos, e));
+}
+std::string to_string(Module m) {
+  return std::string(scene::choice_name(kModules, m));
+}
+std::string to_string(ObstacleShape s) {
+  return std::string(scene::choice_name(kShapes, s));
+}
+
+} // namespace kf

@@ -1,0 +1,72 @@
+#pragma once
+// A running scene: the particle sets the scene's modules need, the pipeline of stages, and the
+// adaptive time step. Precision is chosen at run time (SimulationT<float|double> behind this
+// interface); the backend too.
+#include "domain/Pipeline.hpp"
+#include "domain/Scene.hpp"
+#include "io/Frame.hpp"
+#include "kernels/exec/Backend.hpp"
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace kf {
+
+/// Whole-system figures for progress lines, snapshots and tests (host values).
+struct Diagnostics {
+  std::size_t fluid = 0, boundary = 0;
+  double kinetic_energy = 0;     // sum 1/2 m v^2 of fluid
+  double max_speed = 0;
+  double max_density_error = 0;  // max (rho - rho0) / rho0 over fluid
+  double mean_density_error = 0;
+  double min_rigid_distance = 0; // smallest signed distance of a fluid particle to any solid
+  std::uint64_t guard_corrections = 0; // particles put back by the boundary guard, whole run
+};
+
+/// What `knitflow plan` prints: computed from the scene alone, nothing allocated or run.
+struct PlanReport {
+  std::vector<std::pair<std::string, std::string>> stages; // (name [module], what)
+  std::size_t fluid = 0, boundary = 0;
+  double support_radius = 0;
+  int grid[3] = {0, 0, 0};
+  std::size_t bytes_fluid = 0, bytes_boundary = 0, bytes_grid = 0;
+  double initial_dt = 0;
+  std::string dt_limit; // which condition sets the initial dt
+};
+
+class Simulation {
+public:
+  /// The stages, particle counts, memory and initial dt of a scene, without running it.
+  static PlanReport plan(const Scene& scene);
+
+  virtual ~Simulation() = default;
+
+  /// Builds the particle sets and the pipeline for the scene and evaluates the initial forces.
+  static std::unique_ptr<Simulation> create(const Scene& scene, exec::Backend backend);
+
+  /// Advances one step of the adaptive size, never past `t_limit`; returns the dt taken.
+  virtual double step(double t_limit) = 0;
+  virtual double time() const = 0;
+  virtual std::uint64_t steps() const = 0;
+  /// The dt the next step would take if nothing limited it (CFL, force, viscous, dt_max).
+  virtual double stable_dt() = 0;
+
+  /// Full state (every field needed to continue bit for bit) as a snapshot frame.
+  virtual io::Frame frame() const = 0;
+  /// Continues from a frame written by frame() of a run of the same scene.
+  virtual void restore(const io::Frame& frame) = 0;
+
+  virtual Diagnostics diagnostics() const = 0;
+  virtual const Pipeline& pipeline() const = 0;
+  virtual const Scene& scene() const = 0;
+  virtual exec::Backend backend() const = 0;
+  /// Device memory held by particle sets and grids, in bytes.
+  virtual std::size_t memory_bytes() const = 0;
+  /// Measure each stage's time (synchronising the device after each stage).
+  virtual void set_profiling(bool on) = 0;
+};
+
+} // namespace kf

@@ -1,0 +1,511 @@
+// SimulationT<T>: the fluid + boundary pipeline of P1 in precision T on one backend.
+#include "core/Error.hpp"
+#include "domain/RigidShapes.hpp"
+#include "domain/Samplers.hpp"
+#include "domain/Simulation.hpp"
+#include "kernels/boundary/Boundary.hpp"
+#include "kernels/grid/NeighbourGrid.hpp"
+#include "kernels/integrate/Verlet.hpp"
+#include "kernels/particles/FluidSet.hpp"
+#include "kernels/sph/Sph.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <optional>
+#include <sstream>
+
+namespace kf {
+
+namespace {
+
+template <typename T>
+std::vector<T> flatten(const std::vector<Vec3<T>>& v) {
+  std::vector<T> out(3 * v.size());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    out[3 * i] = v[i].x;
+    out[3 * i + 1] = v[i].y;
+    out[3 * i + 2] = v[i].z;
+  }
+  return out;
+}
+
+template <typename T>
+std::vector<Vec3<T>> unflatten(const std::vector<T>& v) {
+  std::vector<Vec3<T>> out(v.size() / 3);
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = {v[3 * i], v[3 * i + 1], v[3 * i + 2]};
+  return out;
+}
+
+const io::Field& require(const io::Phase& p, const std::string& name) {
+  const io::Field* f = p.find(name);
+  if (!f) throw Error("snapshot phase '" + p.name + "' has no field '" + name + "'");
+  return *f;
+}
+
+} // namespace
+
+template <typename T>
+class SimulationT final : public Simulation {
+public:
+  SimulationT(const Scene& scene, exec::Backend backend, bool plan_only = false);
+
+  double step(double t_limit) override;
+  double time() const override { return time_; }
+  std::uint64_t steps() const override { return steps_; }
+  double stable_dt() override;
+  io::Frame frame() const override;
+  void restore(const io::Frame& frame) override;
+  Diagnostics diagnostics() const override;
+  const Pipeline& pipeline() const override { return pipeline_; }
+  const Scene& scene() const override { return scene_; }
+  exec::Backend backend() const override { return ex_.backend; }
+  std::size_t memory_bytes() const override;
+  void set_profiling(bool on) override { profiling_ = on; }
+
+private:
+  void build_pipeline();
+  void init_shapes();
+  void init_particles();
+  void update_shapes(double t);
+  void sort_fluid();
+  void sort_boundary();
+  void compute_forces();
+  BoundaryNeighbours<T> boundary_neighbours();
+  void extrapolate_boundary_pressure();
+  /// Velocity factor of one half kick: exp(-zeta dt / 2) while settling, else 1.
+  T damping_keep() const {
+    const auto& s = scene_.solver;
+    return (s.damping > 0 && time_ < s.damping_until) ? static_cast<T>(std::exp(-0.5 * s.damping * dt_))
+                                                      : T(1);
+  }
+  [[noreturn]] void report_instability(const std::string& why);
+
+  Scene scene_;
+  exec::Exec ex_;
+  bool fluid_on_ = false, boundary_on_ = false, moving_ = false;
+  SphParams<T> sph_;
+  double h_ = 0, margin_ = 0;
+  double time_ = 0, dt_ = 0;
+  std::uint64_t steps_ = 0, guard_corrections_ = 0;
+  bool profiling_ = false;
+
+  std::optional<FluidSet<T>> fluid_;
+  std::optional<BoundarySet<T>> boundary_;
+  std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
+  std::vector<RigidShape<T>> shapes_host_;
+  exec::DeviceBuffer<RigidShape<T>> shapes_;
+  Pipeline pipeline_;
+};
+
+template <typename T>
+SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only)
+    : scene_(scene), ex_{backend}, shapes_(backend, 0, "rigid.shapes") {
+  fluid_on_ = scene.has(Module::Fluid);
+  boundary_on_ = scene.has(Module::Boundary);
+  h_ = scene.support_radius();
+  // Only a true crossing is corrected: near a wall at the free surface the pressure is zero and
+  // particles may touch the wall, which is physical.
+  margin_ = 0.01 * scene.fluid.spacing;
+  for (const auto& o : scene.obstacles)
+    if (o.velocity.x != 0 || o.velocity.y != 0 || o.velocity.z != 0) moving_ = true;
+
+  sph_.kernel = scene.solver.kernel;
+  sph_.h = static_cast<T>(h_);
+  sph_.eos.type = scene.fluid.eos;
+  sph_.eos.rho0 = static_cast<T>(scene.fluid.rest_density);
+  sph_.eos.c2 = static_cast<T>(scene.fluid.speed_of_sound * scene.fluid.speed_of_sound);
+  sph_.eos.gamma = static_cast<T>(scene.fluid.tait_exponent);
+  sph_.eos.clamp_negative = scene.fluid.clamp_negative_pressure;
+  sph_.viscosity = static_cast<T>(scene.fluid.viscosity);
+  sph_.gravity = vec_cast<T>(scene.gravity);
+
+  init_shapes();
+  build_pipeline();
+  if (plan_only) return; // the stage list is all `plan` needs
+  init_particles();
+  update_shapes(0.0);
+  if (boundary_on_) sort_boundary();
+  if (fluid_on_) {
+    sort_fluid();
+    compute_forces(); // a(t = 0), which the first half kick needs
+  }
+}
+
+template <typename T>
+void SimulationT<T>::init_shapes() {
+  shapes_host_ = make_rigid_shapes<T>(scene_);
+}
+
+template <typename T>
+void SimulationT<T>::init_particles() {
+  const auto& d = scene_.domain;
+  if (fluid_on_) {
+    const auto x = sample_fluid(scene_);
+    const double m = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support,
+                                           scene_.fluid.spacing, scene_.fluid.rest_density);
+    std::vector<Vec3<T>> xs(x.size()), vs(x.size());
+    std::vector<std::uint64_t> ids(x.size());
+    std::size_t i = 0;
+    for (const auto& b : scene_.fluid.blocks) {
+      const std::size_t n = sample_fluid_block(b, scene_.fluid.spacing).size();
+      for (std::size_t k = 0; k < n; ++k, ++i) {
+        xs[i] = vec_cast<T>(x[i]);
+        vs[i] = vec_cast<T>(b.velocity);
+        ids[i] = i;
+      }
+    }
+    fluid_.emplace(ex_.backend);
+    fluid_->resize(x.size());
+    fluid_->x.assign(xs);
+    fluid_->v.assign(vs);
+    fluid_->a.assign(std::vector<Vec3<T>>(x.size(), Vec3<T>{}));
+    fluid_->m.assign(std::vector<T>(x.size(), static_cast<T>(m)));
+    fluid_->id.assign(ids);
+    fluid_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_));
+  }
+  if (boundary_on_) {
+    const auto s = sample_boundaries(scene_, scene_.fluid.spacing, h_);
+    // Lattice particles: each stands for the volume of one lattice site, 1 / sum W.
+    const T volume = static_cast<T>(lattice_particle_mass(
+        scene_.solver.kernel, scene_.fluid.support, scene_.fluid.spacing, 1.0));
+    std::vector<Vec3<T>> xs(s.x.size());
+    std::vector<std::uint64_t> ids(s.x.size());
+    for (std::size_t i = 0; i < s.x.size(); ++i) {
+      xs[i] = vec_cast<T>(s.x[i]);
+      ids[i] = i;
+    }
+    boundary_.emplace(ex_.backend);
+    boundary_->resize(xs.size());
+    boundary_->x.assign(xs);
+    boundary_->x0.assign(xs);
+    boundary_->obstacle.assign(s.obstacle);
+    boundary_->volume.assign(std::vector<T>(xs.size(), volume));
+    boundary_->id.assign(ids);
+    boundary_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_));
+  }
+}
+
+template <typename T>
+void SimulationT<T>::build_pipeline() {
+  if (fluid_on_)
+    pipeline_.add("integrate.kick_drift", "fluid", "velocity Verlet: half kick, drift", [this] {
+      auto f = fluid_->view();
+      kick_drift(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(),
+                 "integrate.kick_drift");
+    });
+  if (boundary_on_ && moving_) {
+    pipeline_.add("boundary.move", "boundary", "translate moving obstacles", [this] {
+      update_shapes(time_ + dt_);
+      move_boundary(ex_, boundary_->view(), shapes_.data());
+    });
+    pipeline_.add("grid.boundary", "boundary", "sort boundary particles by cell",
+                  [this] { sort_boundary(); });
+  }
+  if (fluid_on_ && !shapes_host_.empty())
+    pipeline_.add("boundary.guard", "boundary", "put back particles crossing into a solid (counted)",
+                  [this] {
+                    auto f = fluid_->view();
+                    guard_corrections_ += enforce_rigid_shapes(
+                        ex_, f.x, f.v, f.n, shapes_.data(), shapes_.size(),
+                        static_cast<T>(margin_), "boundary.guard");
+                  });
+  if (fluid_on_) {
+    pipeline_.add("grid.fluid", "fluid", "sort fluid by cell (Morton order), cell ranges",
+                  [this] { sort_fluid(); });
+    pipeline_.add("sph.density", "fluid", "density (Eq. 2) and pressure (EOS)", [this] {
+      sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours());
+    });
+    if (boundary_on_)
+      pipeline_.add("boundary.pressure", "boundary", "wall pressure from the fluid (Adami 2012)",
+                    [this] { extrapolate_boundary_pressure(); });
+    pipeline_.add("sph.forces", "fluid", "pressure (Eq. 3), viscosity (Eq. 4), gravity", [this] {
+      sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours());
+    });
+    pipeline_.add("integrate.kick", "fluid", "velocity Verlet: half kick", [this] {
+      auto f = fluid_->view();
+      kick(ex_, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(), "integrate.kick");
+    });
+  }
+}
+
+template <typename T>
+void SimulationT<T>::update_shapes(double t) {
+  for (auto& s : shapes_host_)
+    s.offset = {static_cast<T>(s.velocity.x * t), static_cast<T>(s.velocity.y * t),
+                static_cast<T>(s.velocity.z * t)};
+  shapes_.assign(shapes_host_);
+}
+
+template <typename T>
+void SimulationT<T>::sort_fluid() {
+  fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
+  fluid_->reorder(ex_, fluid_grid_->permutation());
+}
+
+template <typename T>
+void SimulationT<T>::sort_boundary() {
+  boundary_grid_->build(ex_, boundary_->x.data(), boundary_->size());
+  boundary_->reorder(ex_, boundary_grid_->permutation());
+}
+
+template <typename T>
+BoundaryNeighbours<T> SimulationT<T>::boundary_neighbours() {
+  if (!boundary_on_ || boundary_->size() == 0) return {};
+  return {boundary_->x.data(), boundary_->volume.data(), boundary_->p.data(),
+          boundary_->rho.data(), boundary_grid_->view(), boundary_->size()};
+}
+
+template <typename T>
+void SimulationT<T>::compute_forces() {
+  sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours());
+  if (boundary_on_) extrapolate_boundary_pressure();
+  sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours());
+}
+
+template <typename T>
+void SimulationT<T>::extrapolate_boundary_pressure() {
+  if (boundary_->size() == 0) return;
+  boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view());
+}
+
+template <typename T>
+double SimulationT<T>::stable_dt() {
+  const auto& s = scene_.solver;
+  double dt = s.dt_max;
+  if (!fluid_on_) return dt;
+  auto f = fluid_->view();
+  const MotionBounds<T> mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
+  const double vmax = std::sqrt(static_cast<double>(mb.v2));
+  const double amax = std::sqrt(static_cast<double>(mb.a2));
+  if (!std::isfinite(vmax) || !std::isfinite(amax))
+    report_instability("a fluid velocity or acceleration is not finite");
+  dt = std::min(dt, s.cfl * h_ / (scene_.fluid.speed_of_sound + vmax));
+  if (amax > 0) dt = std::min(dt, s.force_factor * std::sqrt(h_ / amax));
+  if (scene_.fluid.viscosity > 0)
+    dt = std::min(dt, s.viscous_factor * h_ * h_ * scene_.fluid.rest_density / scene_.fluid.viscosity);
+  return dt;
+}
+
+template <typename T>
+double SimulationT<T>::step(double t_limit) {
+  double dt = stable_dt();
+  if (dt < scene_.solver.dt_min)
+    report_instability("the stable time step " + std::to_string(dt) + " s fell below dt_min " +
+                       std::to_string(scene_.solver.dt_min) + " s");
+  // Land exactly on t_limit (output times), without leaving a sliver of a step before it.
+  const double remaining = t_limit - time_;
+  bool lands = false;
+  if (remaining <= dt * (1 + 1e-9)) {
+    dt = remaining;
+    lands = true;
+  } else if (remaining < 2 * dt) {
+    dt = 0.5 * remaining;
+  }
+  dt_ = dt;
+  pipeline_.run(profiling_ ? std::function<void()>([this] { exec::synchronize(ex_.backend); })
+                           : std::function<void()>());
+  time_ = lands ? t_limit : time_ + dt;
+  ++steps_;
+  return dt;
+}
+
+template <typename T>
+void SimulationT<T>::report_instability(const std::string& why) {
+  std::ostringstream msg;
+  msg << "instability at step " << steps_ << ", t = " << time_ << " s: " << why;
+  if (fluid_on_) {
+    const auto v = fluid_->v.to_host();
+    const auto a = fluid_->a.to_host();
+    const auto x = fluid_->x.to_host();
+    const auto id = fluid_->id.to_host();
+    std::size_t worst = 0;
+    double worst_v = -1;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      const double s = std::sqrt(double(norm2(v[i]))) + std::sqrt(double(norm2(a[i])));
+      if (!std::isfinite(s)) {
+        worst = i;
+        break;
+      }
+      if (s > worst_v) {
+        worst_v = s;
+        worst = i;
+      }
+    }
+    if (!v.empty())
+      msg << "; worst fluid particle id " << id[worst] << " at (" << x[worst].x << ", "
+          << x[worst].y << ", " << x[worst].z << ") with |v| = " << std::sqrt(double(norm2(v[worst])))
+          << " m/s, |a| = " << std::sqrt(double(norm2(a[worst]))) << " m/s^2";
+  }
+  throw InstabilityError(msg.str());
+}
+
+template <typename T>
+io::Frame SimulationT<T>::frame() const {
+  io::Frame fr;
+  fr.time = time_;
+  fr.step = steps_;
+  fr.scene_text = scene_.text;
+  fr.precision = std::string(to_string(scene_.precision));
+  fr.scalars.push_back({"guard_corrections", static_cast<double>(guard_corrections_)});
+  if (fluid_on_) {
+    io::Phase p{"fluid", {}};
+    p.fields.push_back(io::Field::from("position", flatten(fluid_->x.to_host()), 3));
+    p.fields.push_back(io::Field::from("velocity", flatten(fluid_->v.to_host()), 3));
+    p.fields.push_back(io::Field::from("acceleration", flatten(fluid_->a.to_host()), 3));
+    p.fields.push_back(io::Field::from("mass", fluid_->m.to_host(), 1));
+    p.fields.push_back(io::Field::from("density", fluid_->rho.to_host(), 1));
+    p.fields.push_back(io::Field::from("pressure", fluid_->p.to_host(), 1));
+    p.fields.push_back(io::Field::from("id", fluid_->id.to_host(), 1));
+    fr.phases.push_back(std::move(p));
+  }
+  if (boundary_on_) {
+    io::Phase p{"boundary", {}};
+    p.fields.push_back(io::Field::from("position", flatten(boundary_->x.to_host()), 3));
+    p.fields.push_back(io::Field::from("rest_position", flatten(boundary_->x0.to_host()), 3));
+    p.fields.push_back(io::Field::from("volume", boundary_->volume.to_host(), 1));
+    p.fields.push_back(io::Field::from("pressure", boundary_->p.to_host(), 1));
+    p.fields.push_back(io::Field::from("obstacle", boundary_->obstacle.to_host(), 1));
+    p.fields.push_back(io::Field::from("id", boundary_->id.to_host(), 1));
+    fr.phases.push_back(std::move(p));
+  }
+  return fr;
+}
+
+template <typename T>
+void SimulationT<T>::restore(const io::Frame& fr) {
+  if (fr.precision != to_string(scene_.precision))
+    throw Error("restart: the snapshot holds " + fr.precision + " data but the scene asks for " +
+                std::string(to_string(scene_.precision)));
+  time_ = fr.time;
+  steps_ = fr.step;
+  for (const auto& [k, v] : fr.scalars)
+    if (k == "guard_corrections") guard_corrections_ = static_cast<std::uint64_t>(v);
+  update_shapes(time_);
+  if (fluid_on_) {
+    const io::Phase* p = fr.find("fluid");
+    if (!p) throw Error("restart: the snapshot has no fluid phase but the scene has fluid");
+    const auto x = unflatten(require(*p, "position").as<T>());
+    fluid_->resize(x.size());
+    fluid_->x.assign(x);
+    fluid_->v.assign(unflatten(require(*p, "velocity").as<T>()));
+    fluid_->a.assign(unflatten(require(*p, "acceleration").as<T>()));
+    fluid_->m.assign(require(*p, "mass").as<T>());
+    fluid_->rho.assign(require(*p, "density").as<T>());
+    fluid_->p.assign(require(*p, "pressure").as<T>());
+    fluid_->id.assign(require(*p, "id").as<std::uint64_t>());
+  }
+  if (boundary_on_) {
+    const io::Phase* p = fr.find("boundary");
+    if (!p) throw Error("restart: the snapshot has no boundary phase but the scene has one");
+    const auto x = unflatten(require(*p, "position").as<T>());
+    boundary_->resize(x.size());
+    boundary_->x.assign(x);
+    boundary_->x0.assign(unflatten(require(*p, "rest_position").as<T>()));
+    boundary_->obstacle.assign(require(*p, "obstacle").as<std::uint32_t>());
+    boundary_->volume.assign(require(*p, "volume").as<T>());
+    boundary_->id.assign(require(*p, "id").as<std::uint64_t>());
+    // Same order as when written, so the grid comes out identical.
+    sort_boundary();
+  }
+  // The fluid order is kept as written; the next step's sort starts from it as the
+  // uninterrupted run did. The grid tables are rebuilt by that sort.
+}
+
+template <typename T>
+Diagnostics SimulationT<T>::diagnostics() const {
+  Diagnostics d;
+  d.guard_corrections = guard_corrections_;
+  if (boundary_on_) d.boundary = boundary_->size();
+  if (!fluid_on_) return d;
+  d.fluid = fluid_->size();
+  const auto v = fluid_->v.to_host();
+  const auto m = fluid_->m.to_host();
+  const auto rho = fluid_->rho.to_host();
+  const double rho0 = scene_.fluid.rest_density;
+  double sum_err = 0;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const double v2 = norm2(vec_cast<double>(v[i]));
+    d.kinetic_energy += 0.5 * m[i] * v2;
+    d.max_speed = std::max(d.max_speed, std::sqrt(v2));
+    const double e = (rho[i] - rho0) / rho0;
+    d.max_density_error = std::max(d.max_density_error, e);
+    sum_err += e;
+  }
+  if (!v.empty()) d.mean_density_error = sum_err / v.size();
+  d.min_rigid_distance =
+      shapes_host_.empty()
+          ? std::numeric_limits<double>::infinity()
+          : static_cast<double>(min_rigid_distance(ex_, fluid_->x.data(), fluid_->size(),
+                                                   shapes_.data(), shapes_.size()));
+  return d;
+}
+
+template <typename T>
+std::size_t SimulationT<T>::memory_bytes() const {
+  std::size_t b = shapes_.capacity_bytes();
+  if (fluid_) b += fluid_->size() * FluidSet<T>::bytes_per_particle() + fluid_grid_->bytes();
+  if (boundary_) b += boundary_->size() * BoundarySet<T>::bytes_per_particle() + boundary_grid_->bytes();
+  return b;
+}
+
+PlanReport Simulation::plan(const Scene& scene) {
+  PlanReport r;
+  const bool dbl = scene.precision == Precision::Double;
+  std::unique_ptr<Simulation> shell;
+  if (dbl) shell.reset(new SimulationT<double>(scene, exec::Backend::Cpu, true));
+  else shell.reset(new SimulationT<float>(scene, exec::Backend::Cpu, true));
+  for (const auto& s : shell->pipeline().stages())
+    r.stages.push_back({s.name + " [" + s.module + "]", s.what});
+  r.support_radius = scene.support_radius();
+  const double h = r.support_radius;
+  const auto geo = NeighbourGrid<double>::cover(scene.domain.min, scene.domain.max, h);
+  r.grid[0] = geo.nx;
+  r.grid[1] = geo.ny;
+  r.grid[2] = geo.nz;
+  const std::size_t grid_bytes = std::size_t(geo.cells()) * 3 * sizeof(std::uint32_t);
+  if (scene.has(Module::Fluid)) {
+    r.fluid = sample_fluid(scene).size();
+    r.bytes_fluid = r.fluid * (dbl ? FluidSet<double>::bytes_per_particle()
+                                   : FluidSet<float>::bytes_per_particle());
+    r.bytes_grid += grid_bytes;
+  }
+  if (scene.has(Module::Boundary)) {
+    r.boundary = sample_boundaries(scene, scene.fluid.spacing, h).x.size();
+    r.bytes_boundary = r.boundary * (dbl ? BoundarySet<double>::bytes_per_particle()
+                                         : BoundarySet<float>::bytes_per_particle());
+    r.bytes_grid += grid_bytes;
+  }
+  // Initial dt from the initial velocities and gravity (the first forces are not evaluated).
+  const auto& s = scene.solver;
+  double vmax = 0;
+  for (const auto& b : scene.fluid.blocks) vmax = std::max(vmax, norm(b.velocity));
+  r.initial_dt = s.dt_max;
+  r.dt_limit = "dt_max";
+  auto limit = [&](double dt, const char* why) {
+    if (dt < r.initial_dt) {
+      r.initial_dt = dt;
+      r.dt_limit = why;
+    }
+  };
+  if (scene.has(Module::Fluid)) {
+    limit(s.cfl * h / (scene.fluid.speed_of_sound + vmax), "CFL (sound speed + velocity)");
+    const double g = norm(scene.gravity);
+    if (g > 0) limit(s.force_factor * std::sqrt(h / g), "force (gravity)");
+    if (scene.fluid.viscosity > 0)
+      limit(s.viscous_factor * h * h * scene.fluid.rest_density / scene.fluid.viscosity, "viscosity");
+  }
+  return r;
+}
+
+std::unique_ptr<Simulation> Simulation::create(const Scene& scene, exec::Backend backend) {
+  if (backend == exec::Backend::Cuda && !exec::cuda_available())
+    throw Error(exec::cuda_compiled() ? "--device cuda: no CUDA device is visible"
+                                      : "--device cuda: this knitflow was built without CUDA");
+  if (scene.precision == Precision::Double)
+    return std::make_unique<SimulationT<double>>(scene, backend);
+  return std::make_unique<SimulationT<float>>(scene, backend);
+}
+
+} // namespace kf

@@ -1,0 +1,24 @@
+#pragma once
+// Reads a snapshot written by SnapshotWriter (restart, rendering, tests).
+#include "io/Frame.hpp"
+#include "io/SnapshotInfo.hpp"
+
+#include <mpi.h>
+
+#include <string>
+
+namespace kf::io {
+
+/// Collective over comm: every rank gets the whole frame (all rows of every phase and field, with
+/// element type and components as stored, plus time/step/frame/precision/scene and the double
+/// scalars). A missing or unreadable file throws kf::Error naming the path.
+Frame read_snapshot(MPI_Comm comm, const std::string& path);
+
+/// Collective over comm: like read_snapshot, but rank r of P gets only rows
+/// [r*N/P, (r+1)*N/P) of each phase (N its global count), so the shares concatenate in rank order.
+Frame read_snapshot_share(MPI_Comm comm, const std::string& path);
+
+/// One process, no MPI: the file's index, time and phase/field layout, without particle data.
+SnapshotInfo read_snapshot_info(const std::string& path);
+
+} // namespace kf::io

@@ -1,0 +1,67 @@
+#include "kernels/boundary/Boundary.hpp"
+
+namespace kf {
+
+template <typename T>
+void move_boundary(const exec::Exec& ex, BoundaryView<T> b, const RigidShape<T>* shapes) {
+  exec::for_each(
+      ex, b.n,
+      [=] KF_HD(std::size_t i) {
+        const std::uint32_t o = b.obstacle[i];
+        b.x[i] = o == kWallObstacle ? b.x0[i] : b.x0[i] + shapes[o].offset;
+      },
+      "boundary.move");
+}
+
+template <typename T>
+std::size_t enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
+                                 const RigidShape<T>* shapes, std::size_t n_shapes, T margin,
+                                 const char* label) {
+  // A reduction whose functor also corrects the particle: one pass over the particles, and each
+  // index is visited exactly once on either backend.
+  return exec::transform_reduce(
+      ex, n, std::size_t(0), exec::SumOp{},
+      [=] KF_HD(std::size_t i) -> std::size_t {
+        std::size_t hits = 0;
+        for (std::size_t s = 0; s < n_shapes; ++s) {
+          Vec3<T> nrm;
+          const T d = shapes[s].distance(x[i], nrm);
+          if (d >= margin) continue;
+          x[i] += nrm * (margin - d);
+          const T vn = dot(v[i] - shapes[s].velocity, nrm);
+          if (vn < T(0)) v[i] -= nrm * vn;
+          hits = 1;
+        }
+        return hits;
+      },
+      label);
+}
+
+template <typename T>
+T min_rigid_distance(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
+                     const RigidShape<T>* shapes, std::size_t n_shapes) {
+  return exec::transform_reduce(
+      ex, n, T(1e30), exec::MinOp{},
+      [=] KF_HD(std::size_t i) {
+        T best = T(1e30);
+        for (std::size_t s = 0; s < n_shapes; ++s) {
+          Vec3<T> nrm;
+          const T d = shapes[s].distance(x[i], nrm);
+          best = d < best ? d : best;
+        }
+        return best;
+      },
+      "boundary.min_distance");
+}
+
+#define KF_INSTANTIATE(T)                                                                          \
+  template void move_boundary<T>(const exec::Exec&, BoundaryView<T>, const RigidShape<T>*);        \
+  template std::size_t enforce_rigid_shapes<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, std::size_t, \
+                                               const RigidShape<T>*, std::size_t, T, const char*); \
+  template T min_rigid_distance<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                 \
+                                   const RigidShape<T>*, std::size_t);
+KF_INSTANTIATE(float)
+KF_INSTANTIATE(double)
+#undef KF_INSTANTIATE
+
+} // namespace kf

@@ -1,0 +1,222 @@
+#pragma once
+// The execution layer: the few parallel primitives every kernel is launched through.
+// Templates taking functors are defined here so nvcc instantiates them for the device when the
+// including file is compiled as CUDA; on a CPU build the same call runs an OpenMP loop.
+#include "core/Error.hpp"
+#include "core/HostDevice.hpp"
+#include "kernels/exec/Backend.hpp"
+#include "kernels/exec/DeviceBuffer.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#if defined(_OPENMP)
+#include <omp.h>
+#endif
+
+#if defined(__CUDACC__)
+#include "kernels/exec/CudaCheck.hpp"
+#include <cub/block/block_reduce.cuh>
+#endif
+
+namespace kf::exec {
+
+/// Backend plus a label naming the stage, used in every error message a launch can produce.
+struct Exec {
+  Backend backend = Backend::Cpu;
+};
+
+[[noreturn]] void throw_not_compiled_for_cuda(const char* label);
+
+#if defined(__CUDACC__)
+template <typename F>
+__global__ void for_each_kernel(std::size_t n, F f) {
+  const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n)
+    f(i);
+}
+#endif
+
+/// Calls f(i) for i in [0, n): a CUDA kernel launch or an OpenMP static loop.
+template <typename F>
+void for_each(const Exec& ex, std::size_t n, const F& f, const char* label) {
+  if (n == 0)
+    return;
+  if (ex.backend == Backend::Cuda) {
+#if defined(__CUDACC__)
+    constexpr unsigned block = 256;
+    const std::size_t grid = (n + block - 1) / block;
+    for_each_kernel<<<static_cast<unsigned>(grid), block>>>(n, f);
+    KF_CHECK_LAUNCH(label, n);
+#else
+    throw_not_compiled_for_cuda(label);
+#endif
+  } else {
+    const std::int64_t m = static_cast<std::int64_t>(n);
+#pragma omp parallel for schedule(static)
+    for (std::int64_t i = 0; i < m; ++i)
+      f(static_cast<std::size_t>(i));
+  }
+}
+
+struct SumOp {
+  template <typename T>
+  KF_HD KF_INLINE T operator()(const T& a, const T& b) const {
+    return a + b;
+  }
+};
+struct MaxOp {
+  template <typename T>
+  KF_HD KF_INLINE T operator()(const T& a, const T& b) const {
+    return a < b ? b : a;
+  }
+};
+struct MinOp {
+  template <typename T>
+  KF_HD KF_INLINE T operator()(const T& a, const T& b) const {
+    return b < a ? b : a;
+  }
+};
+
+#if defined(__CUDACC__)
+// Fixed grid so the reduction tree, and therefore a floating-point sum, is the same every call.
+constexpr unsigned kReduceBlocks = 512;
+constexpr unsigned kReduceThreads = 256;
+
+// Each thread folds its grid-stride elements starting from its first one (not from init, which
+// need not be op's identity); threads past n hold no value and are left out via num_valid. They
+// are always the tail of the last block, which is what BlockReduce's num_valid expects.
+template <typename R, typename Op, typename F>
+__global__ void __launch_bounds__(kReduceThreads)
+    transform_reduce_kernel(std::size_t n, R placeholder, Op op, F f, R* partial) {
+  using BlockReduce = cub::BlockReduce<R, kReduceThreads>;
+  __shared__ typename BlockReduce::TempStorage tmp;
+  const std::size_t first = static_cast<std::size_t>(blockIdx.x) * blockDim.x;
+  const std::size_t stride = static_cast<std::size_t>(gridDim.x) * blockDim.x;
+  std::size_t i = first + threadIdx.x;
+  R acc = placeholder;
+  if (i < n) {
+    acc = f(i);
+    for (i += stride; i < n; i += stride)
+      acc = op(acc, f(i));
+  }
+  const int valid =
+      n - first < blockDim.x ? static_cast<int>(n - first) : static_cast<int>(blockDim.x);
+  R block = BlockReduce(tmp).Reduce(acc, op, valid);
+  if (threadIdx.x == 0)
+    partial[blockIdx.x] = block;
+}
+
+// One block folds the per-block partials, then applies init exactly once.
+template <typename R, typename Op>
+__global__ void __launch_bounds__(kReduceThreads)
+    reduce_partials_kernel(unsigned nblocks, R init, Op op, const R* partial, R* out) {
+  using BlockReduce = cub::BlockReduce<R, kReduceThreads>;
+  __shared__ typename BlockReduce::TempStorage tmp;
+  R acc = init;
+  if (threadIdx.x < nblocks) {
+    acc = partial[threadIdx.x];
+    for (unsigned i = threadIdx.x + blockDim.x; i < nblocks; i += blockDim.x)
+      acc = op(acc, partial[i]);
+  }
+  const int valid = nblocks < blockDim.x ? static_cast<int>(nblocks) : static_cast<int>(blockDim.x);
+  R total = BlockReduce(tmp).Reduce(acc, op, valid);
+  if (threadIdx.x == 0)
+    *out = op(init, total);
+}
+#endif
+
+/// Returns op-reduction of f(i) over [0, n) starting from init (applied once; it need not be op's
+/// identity), on the host. op must be associative and commutative (SumOp, MaxOp, MinOp). The result
+/// is deterministic for a given n (and, on CPU, thread count); CPU and CUDA floating-point sums
+/// differ in rounding because their trees differ.
+template <typename R, typename Op, typename F>
+R transform_reduce(const Exec& ex, std::size_t n, R init, Op op, const F& f, const char* label) {
+  if (n == 0)
+    return init;
+  if (ex.backend == Backend::Cuda) {
+#if defined(__CUDACC__)
+    // partial[0..kReduceBlocks) per block, partial[kReduceBlocks] the result.
+    DeviceBuffer<R> partial(Backend::Cuda, kReduceBlocks + 1, label);
+    const std::size_t want = (n + kReduceThreads - 1) / kReduceThreads;
+    const unsigned blocks = static_cast<unsigned>(want < kReduceBlocks ? want : kReduceBlocks);
+    transform_reduce_kernel<R, Op, F><<<blocks, kReduceThreads>>>(n, init, op, f, partial.data());
+    KF_CHECK_LAUNCH(label, n);
+    reduce_partials_kernel<R, Op>
+        <<<1, kReduceThreads>>>(blocks, init, op, partial.data(), partial.data() + kReduceBlocks);
+    KF_CHECK_LAUNCH(label, blocks);
+    R out = init;
+    copy_bytes(&out, Backend::Cpu, partial.data() + kReduceBlocks, Backend::Cuda, sizeof(R));
+    return out;
+#else
+    throw_not_compiled_for_cuda(label);
+#endif
+  }
+  // Fixed contiguous chunk per thread and an in-order combine: the same result every run (an
+  // omp critical combine would add the partials in arrival order).
+#if defined(_OPENMP)
+  const int max_threads = omp_get_max_threads();
+#else
+  const int max_threads = 1;
+#endif
+  std::vector<R> part(static_cast<std::size_t>(max_threads), init);
+  std::vector<unsigned char> has(static_cast<std::size_t>(max_threads), 0);
+#pragma omp parallel num_threads(max_threads) if (n >= 4096)
+  {
+#if defined(_OPENMP)
+    const std::size_t t = static_cast<std::size_t>(omp_get_thread_num());
+    const std::size_t nt = static_cast<std::size_t>(omp_get_num_threads());
+#else
+    const std::size_t t = 0, nt = 1;
+#endif
+    const std::size_t lo = n * t / nt, hi = n * (t + 1) / nt;
+    if (lo < hi) {
+      R acc = f(lo);
+      for (std::size_t i = lo + 1; i < hi; ++i)
+        acc = op(acc, f(i));
+      part[t] = acc;
+      has[t] = 1;
+    }
+  }
+  R result = init;
+  for (std::size_t t = 0; t < part.size(); ++t)
+    if (has[t])
+      result = op(result, part[t]);
+  return result;
+}
+
+/// Stable ascending sort of keys (only the low `key_bits` bits are looked at), carrying values.
+/// Both buffers must be on ex.backend and hold n elements; the sort is done in place.
+void sort_by_key(const Exec& ex, DeviceBuffer<std::uint32_t>& keys,
+                 DeviceBuffer<std::uint32_t>& values, int key_bits, const char* label);
+
+/// out[i] = sum of in[0..i); returns the total. out may alias in.
+std::uint64_t exclusive_scan(const Exec& ex, const DeviceBuffer<std::uint32_t>& in,
+                             DeviceBuffer<std::uint32_t>& out, const char* label);
+
+/// Fills buf[0..n) with value.
+template <typename T>
+void fill(const Exec& ex, DeviceBuffer<T>& buf, T value, const char* label) {
+  T* p = buf.data();
+  for_each(
+      ex, buf.size(), [=] KF_HD(std::size_t i) { p[i] = value; }, label);
+}
+
+/// dst[i] = src[perm[i]] — reorders one per-particle field after a sort.
+template <typename T>
+void gather(const Exec& ex, const DeviceBuffer<std::uint32_t>& perm, const DeviceBuffer<T>& src,
+            DeviceBuffer<T>& dst, const char* label) {
+  if (dst.size() != perm.size())
+    throw Error(std::string(label) + ": gather into " + std::to_string(dst.size()) +
+                " elements with a permutation of " + std::to_string(perm.size()));
+  const std::uint32_t* pp = perm.data();
+  const T* s = src.data();
+  T* d = dst.data();
+  for_each(
+      ex, perm.size(), [=] KF_HD(std::size_t i) { d[i] = s[pp[i]]; }, label);
+}
+
+} // namespace kf::exec

@@ -1,0 +1,29 @@
+#pragma once
+#include <cstddef>
+#include <string>
+#include <string_view>
+
+namespace kf::exec {
+
+/// Where data lives and kernels run. Every build has Cpu; Cuda exists when built with nvcc.
+enum class Backend { Cpu, Cuda };
+
+inline std::string_view to_string(Backend b) { return b == Backend::Cpu ? "cpu" : "cuda"; }
+
+/// True when this binary was built with the CUDA backend.
+bool cuda_compiled();
+/// True when the CUDA backend is compiled in and at least one device is visible.
+bool cuda_available();
+/// Selects the CUDA device this process uses (rank-local index); no-op on CPU builds.
+void cuda_select_device(int device);
+/// One-line description of the device in use ("NVIDIA H100 80GB HBM3, 132 SMs" or "CPU, 2 threads").
+std::string describe(Backend b);
+
+/// Raw memory on a backend. All host<->device traffic goes through copy_bytes.
+void* alloc_bytes(Backend b, std::size_t bytes, const char* what);
+void free_bytes(Backend b, void* p) noexcept;
+void copy_bytes(void* dst, Backend dst_b, const void* src, Backend src_b, std::size_t bytes);
+/// Waits until all work queued on the backend is finished (no-op on CPU).
+void synchronize(Backend b);
+
+} // namespace kf::exec

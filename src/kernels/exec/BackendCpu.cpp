@@ -1,0 +1,220 @@
+// Host side of the execution layer: CPU memory, the CPU sort and scan, and the dispatch to the
+// CUDA implementations (BackendCuda.cu) when they are compiled in.
+#include "core/Error.hpp"
+#include "kernels/exec/Algorithms.hpp"
+#include "kernels/exec/Backend.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <new>
+#include <vector>
+
+#if defined(_OPENMP)
+#include <omp.h>
+#endif
+
+namespace kf::exec {
+
+#if defined(KF_WITH_CUDA)
+// Defined in BackendCuda.cu.
+void* cuda_alloc(std::size_t bytes, const char* what);
+void cuda_free(void* p) noexcept;
+void cuda_copy(void* dst, bool dst_dev, const void* src, bool src_dev, std::size_t bytes);
+void cuda_synchronize();
+bool cuda_device_present();
+void cuda_set_device(int device);
+std::string cuda_describe();
+void cuda_sort_by_key(DeviceBuffer<std::uint32_t>& keys, DeviceBuffer<std::uint32_t>& values,
+                      int key_bits, const char* label);
+std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
+                                  DeviceBuffer<std::uint32_t>& out, const char* label);
+#endif
+
+[[noreturn]] static void no_cuda(const char* what) {
+  throw Error(std::string(what) + ": this knitflow was built without CUDA (use the 'cuda' preset)");
+}
+
+void throw_not_compiled_for_cuda(const char* label) {
+  throw Error(std::string(label) +
+              ": kernel launched on the CUDA backend from a file not compiled by nvcc (build bug)");
+}
+
+bool cuda_compiled() {
+#if defined(KF_WITH_CUDA)
+  return true;
+#else
+  return false;
+#endif
+}
+
+bool cuda_available() {
+#if defined(KF_WITH_CUDA)
+  return cuda_device_present();
+#else
+  return false;
+#endif
+}
+
+void cuda_select_device([[maybe_unused]] int device) {
+#if defined(KF_WITH_CUDA)
+  cuda_set_device(device);
+#endif
+}
+
+std::string describe(Backend b) {
+  if (b == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    return cuda_describe();
+#else
+    no_cuda("describe");
+#endif
+  }
+#if defined(_OPENMP)
+  return "CPU, " + std::to_string(omp_get_max_threads()) + " OpenMP threads";
+#else
+  return "CPU, 1 thread (no OpenMP)";
+#endif
+}
+
+void* alloc_bytes(Backend b, std::size_t bytes, const char* what) {
+  if (bytes == 0) return nullptr;
+  if (b == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    return cuda_alloc(bytes, what);
+#else
+    no_cuda(what);
+#endif
+  }
+  // 64-byte alignment: one cache line, and what SIMD loads like.
+  void* p = std::aligned_alloc(64, (bytes + 63) / 64 * 64);
+  if (!p)
+    throw Error(std::string("out of host memory allocating ") + std::to_string(bytes) +
+                " bytes for " + what);
+  return p;
+}
+
+void free_bytes(Backend b, void* p) noexcept {
+  if (!p) return;
+  if (b == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    cuda_free(p);
+#endif
+    return;
+  }
+  std::free(p);
+}
+
+void copy_bytes(void* dst, Backend dst_b, const void* src, Backend src_b, std::size_t bytes) {
+  if (bytes == 0) return;
+  if (dst_b == Backend::Cpu && src_b == Backend::Cpu) {
+    std::memcpy(dst, src, bytes);
+    return;
+  }
+#if defined(KF_WITH_CUDA)
+  cuda_copy(dst, dst_b == Backend::Cuda, src, src_b == Backend::Cuda, bytes);
+#else
+  no_cuda("copy_bytes");
+#endif
+}
+
+void synchronize(Backend b) {
+#if defined(KF_WITH_CUDA)
+  if (b == Backend::Cuda) cuda_synchronize();
+#else
+  (void)b;
+#endif
+}
+
+// LSD radix sort, 8 bits a pass, per-thread histograms: stable, O(n) per pass. The particle
+// order changes little between steps, so the passes stream through memory.
+static void cpu_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::size_t n,
+                            int key_bits) {
+  if (n < 2) return;
+  std::vector<std::uint32_t> k2(n), v2(n);
+  std::uint32_t *ks = keys, *vs = values, *kd = k2.data(), *vd = v2.data();
+  const int passes = std::max(1, (key_bits + 7) / 8);
+#if defined(_OPENMP)
+  const int nt = omp_get_max_threads();
+#else
+  const int nt = 1;
+#endif
+  std::vector<std::size_t> hist(static_cast<std::size_t>(nt) * 256);
+  for (int pass = 0; pass < passes; ++pass) {
+    const int shift = 8 * pass;
+    std::fill(hist.begin(), hist.end(), 0);
+#pragma omp parallel num_threads(nt)
+    {
+#if defined(_OPENMP)
+      const int t = omp_get_thread_num();
+#else
+      const int t = 0;
+#endif
+      const std::size_t lo = n * t / nt, hi = n * (t + 1) / nt;
+      std::size_t* h = &hist[static_cast<std::size_t>(t) * 256];
+      for (std::size_t i = lo; i < hi; ++i) ++h[(ks[i] >> shift) & 0xFF];
+#pragma omp barrier
+#pragma omp single
+      {
+        std::size_t sum = 0; // digit-major, thread-minor order keeps the sort stable
+        for (int d = 0; d < 256; ++d)
+          for (int tt = 0; tt < nt; ++tt) {
+            std::size_t c = hist[static_cast<std::size_t>(tt) * 256 + d];
+            hist[static_cast<std::size_t>(tt) * 256 + d] = sum;
+            sum += c;
+          }
+      }
+      for (std::size_t i = lo; i < hi; ++i) {
+        std::size_t pos = h[(ks[i] >> shift) & 0xFF]++;
+        kd[pos] = ks[i];
+        vd[pos] = vs[i];
+      }
+    }
+    std::swap(ks, kd);
+    std::swap(vs, vd);
+  }
+  if (ks != keys) {
+    std::memcpy(keys, ks, n * sizeof(std::uint32_t));
+    std::memcpy(values, vs, n * sizeof(std::uint32_t));
+  }
+}
+
+void sort_by_key(const Exec& ex, DeviceBuffer<std::uint32_t>& keys,
+                 DeviceBuffer<std::uint32_t>& values, int key_bits, const char* label) {
+  if (keys.size() != values.size())
+    throw Error(std::string(label) + ": sort_by_key with " + std::to_string(keys.size()) +
+                " keys but " + std::to_string(values.size()) + " values");
+  if (ex.backend == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    cuda_sort_by_key(keys, values, key_bits, label);
+    return;
+#else
+    no_cuda(label);
+#endif
+  }
+  cpu_sort_by_key(keys.data(), values.data(), keys.size(), key_bits);
+}
+
+std::uint64_t exclusive_scan(const Exec& ex, const DeviceBuffer<std::uint32_t>& in,
+                             DeviceBuffer<std::uint32_t>& out, const char* label) {
+  if (out.size() != in.size())
+    throw Error(std::string(label) + ": exclusive_scan output size differs from input");
+  if (ex.backend == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    return cuda_exclusive_scan(in, out, label);
+#else
+    no_cuda(label);
+#endif
+  }
+  std::uint64_t sum = 0;
+  const std::uint32_t* a = in.data();
+  std::uint32_t* b = out.data();
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    std::uint32_t v = a[i];
+    b[i] = static_cast<std::uint32_t>(sum);
+    sum += v;
+  }
+  return sum;
+}
+
+} // namespace kf::exec

@@ -1,0 +1,277 @@
+// Device side of the execution layer: CUDA memory, copies, device selection, and the CUB radix
+// sort and scan. Declared in BackendCpu.cpp, which dispatches here for Backend::Cuda. Everything
+// runs on the legacy default stream, so it is ordered with the kernels Algorithms.hpp launches.
+#include "core/Error.hpp"
+#include "kernels/exec/Algorithms.hpp"
+#include "kernels/exec/CudaCheck.hpp"
+#include "kernels/exec/DeviceBuffer.hpp"
+
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <string_view>
+
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_reduce.cuh>
+#include <cub/device/device_scan.cuh>
+#include <cuda/std/functional>
+#include <cuda_runtime.h>
+
+namespace kf::exec {
+
+namespace {
+
+std::string mib(std::size_t bytes) {
+  return std::to_string((bytes + (1u << 19)) >> 20) + " MiB";
+}
+
+std::string error_text(cudaError_t e) {
+  return std::string(cudaGetErrorName(e)) + ": " + cudaGetErrorString(e);
+}
+
+// Keeps only the file name: full build paths make one-line messages unreadable.
+const char* base_name(const char* file) {
+  const char* slash = std::strrchr(file, '/');
+  return slash ? slash + 1 : file;
+}
+
+int current_device() {
+  int d = 0;
+  KF_CUDA(cudaGetDevice(&d), std::string("querying the current CUDA device"));
+  return d;
+}
+
+// CUB sizes are 32-bit here: 32-bit offsets are CUB's fast path, and the values are uint32
+// indices anyway, so more than 2^32-1 elements cannot be meaningful.
+std::uint32_t checked_count(std::size_t n, const char* op, const char* label) {
+  if (n > std::numeric_limits<std::uint32_t>::max())
+    throw Error(std::string(label) + ": " + op + " of " + std::to_string(n) +
+                " elements exceeds the CUDA backend's limit of 2^32-1");
+  return static_cast<std::uint32_t>(n);
+}
+
+// Rounds a byte offset up so that every sub-array carved out of one scratch block stays aligned
+// the way cudaMalloc aligns (256 bytes), which CUB's vectorised loads want.
+constexpr std::size_t align_up(std::size_t bytes) {
+  return (bytes + 255) / 256 * 256;
+}
+
+// Widens the scanned values so the total cannot wrap at 2^32.
+struct Widen {
+  __host__ __device__ std::uint64_t operator()(std::uint32_t v) const { return v; }
+};
+
+} // namespace
+
+// ---- errors -------------------------------------------------------------------------------------
+
+void throw_cuda_error(cudaError_t e, const char* what, const char* file, int line) {
+  // Clears a non-sticky error so that the next launch check does not report it a second time.
+  (void)cudaGetLastError();
+  throw Error("CUDA error in " + std::string(what) + " (" + base_name(file) + ":" +
+              std::to_string(line) + "): " + error_text(e));
+}
+
+void throw_cuda_error(cudaError_t e, const char* what, const char* file, int line,
+                      const std::string& context) {
+  (void)cudaGetLastError();
+  throw Error(context + ": " + error_text(e) + " (in " + what + ", " + base_name(file) + ":" +
+              std::to_string(line) + ")");
+}
+
+void check_launch_impl(const char* label, std::size_t n, const char* file, int line) {
+  // KF_CUDA_SYNC_CHECK=1: synchronise after every launch so that an asynchronous fault is
+  // pinned on the kernel that caused it (slow; for debugging only). Read once per process.
+  static const bool sync_check = [] {
+    const char* v = std::getenv("KF_CUDA_SYNC_CHECK");
+    return v != nullptr && std::string_view(v) == "1";
+  }();
+  const auto where = [&] {
+    return std::string(" (") + base_name(file) + ":" + std::to_string(line) + ")";
+  };
+  cudaError_t e = cudaGetLastError();
+  if (e != cudaSuccess)
+    throw Error("kernel '" + std::string(label) + "' (n=" + std::to_string(n) +
+                ") failed to launch: " + error_text(e) + where());
+  if (sync_check) {
+    e = cudaDeviceSynchronize();
+    if (e != cudaSuccess) {
+      (void)cudaGetLastError();
+      throw Error("kernel '" + std::string(label) + "' (n=" + std::to_string(n) +
+                  ") failed while running: " + error_text(e) + where() + " [KF_CUDA_SYNC_CHECK=1]");
+    }
+  }
+}
+
+// ---- devices ------------------------------------------------------------------------------------
+
+bool cuda_device_present() {
+  // No driver or no GPU makes cudaGetDeviceCount fail: that means "no device", not an error.
+  static const bool present = [] {
+    int count = 0;
+    const cudaError_t e = cudaGetDeviceCount(&count);
+    if (e != cudaSuccess) {
+      (void)cudaGetLastError();
+      return false;
+    }
+    return count > 0;
+  }();
+  return present;
+}
+
+void cuda_set_device(int device) {
+  int count = 0;
+  KF_CUDA(cudaGetDeviceCount(&count),
+          "selecting CUDA device " + std::to_string(device) + " (no usable CUDA device)");
+  if (device < 0 || device >= count) {
+    const char* vis = std::getenv("CUDA_VISIBLE_DEVICES");
+    throw Error("CUDA device " + std::to_string(device) + " requested but " +
+                std::to_string(count) + " visible (CUDA_VISIBLE_DEVICES=" + (vis ? vis : "unset") +
+                ")");
+  }
+  KF_CUDA(cudaSetDevice(device), "selecting CUDA device " + std::to_string(device));
+}
+
+std::string cuda_describe() {
+  if (!cuda_device_present())
+    throw Error("describe: no CUDA device is visible");
+  const int d = current_device();
+  cudaDeviceProp p{};
+  KF_CUDA(cudaGetDeviceProperties(&p, d), "reading properties of CUDA device " + std::to_string(d));
+  return std::string(p.name) + ", " + std::to_string(p.multiProcessorCount) + " SMs, " +
+         mib(p.totalGlobalMem) + ", sm_" + std::to_string(p.major) + std::to_string(p.minor) +
+         ", device " + std::to_string(d);
+}
+
+void cuda_synchronize() {
+  // Faults of earlier kernels surface here; KF_CUDA_SYNC_CHECK=1 pins them to the kernel.
+  KF_CUDA(cudaDeviceSynchronize(),
+          std::string("waiting for queued GPU work (a kernel launched earlier failed; run with "
+                      "KF_CUDA_SYNC_CHECK=1 to name it)"));
+}
+
+// ---- memory -------------------------------------------------------------------------------------
+
+void* cuda_alloc(std::size_t bytes, const char* what) {
+  void* p = nullptr;
+  const cudaError_t e = cudaMalloc(&p, bytes);
+  if (e == cudaErrorMemoryAllocation) {
+    (void)cudaGetLastError(); // out-of-memory is not sticky; the context stays usable
+    std::size_t free_b = 0, total_b = 0;
+    const bool info = cudaMemGetInfo(&free_b, &total_b) == cudaSuccess;
+    (void)cudaGetLastError();
+    throw Error(
+        "out of GPU memory: requested " + std::to_string(bytes) + " bytes (" + mib(bytes) +
+        ") for '" + what + "'; " +
+        (info ? mib(free_b) + " free of " + mib(total_b) : std::string("free memory unknown")) +
+        " on device " + std::to_string(current_device()));
+  }
+  if (e != cudaSuccess)
+    throw_cuda_error(e, "cudaMalloc", __FILE__, __LINE__,
+                     "allocating " + std::to_string(bytes) + " bytes of GPU memory for '" + what +
+                         "'");
+  return p;
+}
+
+void cuda_free(void* p) noexcept {
+  // Cannot throw (destructors call this). A failure here is either process teardown or a sticky
+  // error that the next checked call reports; clear a non-sticky one so it is not misattributed to
+  // the next kernel launch.
+  if (cudaFree(p) != cudaSuccess)
+    (void)cudaGetLastError();
+}
+
+void cuda_copy(void* dst, bool dst_dev, const void* src, bool src_dev, std::size_t bytes) {
+  const cudaMemcpyKind kind = dst_dev
+                                  ? (src_dev ? cudaMemcpyDeviceToDevice : cudaMemcpyHostToDevice)
+                                  : (src_dev ? cudaMemcpyDeviceToHost : cudaMemcpyHostToHost);
+  KF_CUDA(cudaMemcpy(dst, src, bytes, kind), "copying " + std::to_string(bytes) + " bytes " +
+                                                 (src_dev ? "device" : "host") + "->" +
+                                                 (dst_dev ? "device" : "host"));
+}
+
+// ---- sort and scan ------------------------------------------------------------------------------
+
+void cuda_sort_by_key(DeviceBuffer<std::uint32_t>& keys, DeviceBuffer<std::uint32_t>& values,
+                      int key_bits, const char* label) {
+  if (key_bits < 0 || key_bits > 32)
+    throw Error(std::string(label) + ": sort_by_key with key_bits=" + std::to_string(key_bits) +
+                " (expected 0..32)");
+  const std::uint32_t n = checked_count(keys.size(), "sort_by_key", label);
+  if (n < 2 || key_bits == 0)
+    return; // already sorted
+  const auto ctx = [&] {
+    return std::string(label) + ": sort_by_key of " + std::to_string(n) + " pairs, " +
+           std::to_string(key_bits) + " key bits";
+  };
+
+  // One scratch block: alternate keys, alternate values, then CUB's temporary storage. Sizing
+  // needs only the element count; the pointers may be null.
+  const std::size_t array_bytes = align_up(std::size_t(n) * sizeof(std::uint32_t));
+  cub::DoubleBuffer<std::uint32_t> dk(keys.data(), nullptr), dv(values.data(), nullptr);
+  std::size_t temp_bytes = 0;
+  KF_CUDA(cub::DeviceRadixSort::SortPairs(nullptr, temp_bytes, dk, dv, n, 0, key_bits), ctx());
+  const std::string what = std::string(label) + " (sort scratch)";
+  DeviceBuffer<unsigned char> scratch(Backend::Cuda, 2 * array_bytes + temp_bytes, what.c_str());
+  auto* alt_keys = reinterpret_cast<std::uint32_t*>(scratch.data());
+  auto* alt_values = reinterpret_cast<std::uint32_t*>(scratch.data() + array_bytes);
+  dk = cub::DoubleBuffer<std::uint32_t>(keys.data(), alt_keys);
+  dv = cub::DoubleBuffer<std::uint32_t>(values.data(), alt_values);
+  KF_CUDA(cub::DeviceRadixSort::SortPairs(scratch.data() + 2 * array_bytes, temp_bytes, dk, dv, n,
+                                          0, key_bits),
+          ctx());
+
+  // The pass count decides which half holds the result; bring it home if it ended in scratch.
+  const std::size_t bytes = std::size_t(n) * sizeof(std::uint32_t);
+  if (dk.Current() != keys.data())
+    KF_CUDA(cudaMemcpyAsync(keys.data(), dk.Current(), bytes, cudaMemcpyDeviceToDevice),
+            ctx() + " (copying keys back)");
+  if (dv.Current() != values.data())
+    KF_CUDA(cudaMemcpyAsync(values.data(), dv.Current(), bytes, cudaMemcpyDeviceToDevice),
+            ctx() + " (copying values back)");
+  // The scratch is freed on return; cudaFree waits for the sort, so no explicit sync is needed.
+}
+
+std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
+                                  DeviceBuffer<std::uint32_t>& out, const char* label) {
+  const std::uint32_t n = checked_count(in.size(), "exclusive_scan", label);
+  if (n == 0)
+    return 0;
+  const auto ctx = [&] {
+    return std::string(label) + ": exclusive_scan of " + std::to_string(n) + " elements";
+  };
+
+  // The total is a separate 64-bit reduction, run before the scan because out may alias in (CUB
+  // scans in place when the pointers are equal), and because out[n-1] + in[n-1] wraps at 2^32.
+  const std::uint32_t* d_in = in.data();
+  std::uint32_t* d_out = out.data();
+  std::uint64_t* d_total = nullptr;
+  std::size_t reduce_bytes = 0, scan_bytes = 0;
+  KF_CUDA(cub::DeviceReduce::TransformReduce(nullptr, reduce_bytes, d_in, d_total, n,
+                                             ::cuda::std::plus<>{}, Widen{}, std::uint64_t{0}),
+          ctx());
+  KF_CUDA(cub::DeviceScan::ExclusiveSum(nullptr, scan_bytes, d_in, d_out, n), ctx());
+  std::size_t temp_bytes = reduce_bytes > scan_bytes ? reduce_bytes : scan_bytes;
+
+  // One scratch block: the total (padded to keep alignment), then the shared temporary storage.
+  const std::string what = std::string(label) + " (scan scratch)";
+  DeviceBuffer<unsigned char> scratch(Backend::Cuda, align_up(sizeof(std::uint64_t)) + temp_bytes,
+                                      what.c_str());
+  d_total = reinterpret_cast<std::uint64_t*>(scratch.data());
+  void* d_temp = scratch.data() + align_up(sizeof(std::uint64_t));
+  std::size_t bytes = temp_bytes;
+  KF_CUDA(cub::DeviceReduce::TransformReduce(d_temp, bytes, d_in, d_total, n, ::cuda::std::plus<>{},
+                                             Widen{}, std::uint64_t{0}),
+          ctx() + " (total)");
+  bytes = temp_bytes;
+  KF_CUDA(cub::DeviceScan::ExclusiveSum(d_temp, bytes, d_in, d_out, n), ctx());
+
+  std::uint64_t total = 0;
+  KF_CUDA(cudaMemcpy(&total, d_total, sizeof(total), cudaMemcpyDeviceToHost),
+          ctx() + " (reading the total)");
+  return total;
+}
+
+} // namespace kf::exec

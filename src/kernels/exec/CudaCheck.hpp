@@ -1,0 +1,32 @@
+#pragma once
+// CUDA error checks. Every runtime call goes through KF_CUDA(call[, context]); every launch is
+// followed by KF_CHECK_LAUNCH(label, n) so a failure names the stage and the problem size.
+//
+// KF_CUDA's optional second argument is a std::string expression naming what was being done
+// ("copying 4096 bytes host->device for 'positions'"); it is evaluated only on failure.
+//
+// Launch checks are cheap (cudaGetLastError, no sync), so a kernel that faults while running is
+// reported by the next synchronising call instead. For debugging, set KF_CUDA_SYNC_CHECK=1 in the
+// environment: every launch check then also synchronises, so the fault names its own kernel.
+#include <cstddef>
+#include <string>
+
+#include <cuda_runtime.h>
+
+namespace kf::exec {
+
+[[noreturn]] void throw_cuda_error(cudaError_t e, const char* what, const char* file, int line);
+[[noreturn]] void throw_cuda_error(cudaError_t e, const char* what, const char* file, int line,
+                                   const std::string& context);
+void check_launch_impl(const char* label, std::size_t n, const char* file, int line);
+
+} // namespace kf::exec
+
+#define KF_CUDA(call, ...)                                                                         \
+  do {                                                                                             \
+    cudaError_t kf_err_ = (call);                                                                  \
+    if (kf_err_ != cudaSuccess)                                                                    \
+      ::kf::exec::throw_cuda_error(kf_err_, #call, __FILE__, __LINE__ __VA_OPT__(, ) __VA_ARGS__); \
+  } while (0)
+
+#define KF_CHECK_LAUNCH(label, n) ::kf::exec::check_launch_impl((label), (n), __FILE__, __LINE__)

@@ -1,0 +1,93 @@
+#pragma once
+#include "kernels/exec/Backend.hpp"
+
+#include <cstring>
+#include <utility>
+#include <vector>
+
+namespace kf::exec {
+
+/// An owning array on one backend. Resizing keeps the leading elements. Copies to and from the
+/// host are explicit (to_host / assign) so that hidden transfers cannot creep into hot loops.
+template <typename T>
+class DeviceBuffer {
+public:
+  DeviceBuffer() = default;
+  explicit DeviceBuffer(Backend b, std::size_t n = 0, const char* what = "buffer")
+      : backend_(b), what_(what) {
+    resize(n);
+  }
+  DeviceBuffer(const DeviceBuffer&) = delete;
+  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
+  DeviceBuffer(DeviceBuffer&& o) noexcept { swap(o); }
+  DeviceBuffer& operator=(DeviceBuffer&& o) noexcept {
+    swap(o);
+    return *this;
+  }
+  ~DeviceBuffer() { free_bytes(backend_, ptr_); }
+
+  void swap(DeviceBuffer& o) noexcept {
+    std::swap(backend_, o.backend_);
+    std::swap(ptr_, o.ptr_);
+    std::swap(size_, o.size_);
+    std::swap(capacity_, o.capacity_);
+    std::swap(what_, o.what_);
+  }
+
+  Backend backend() const { return backend_; }
+  std::size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  T* data() { return ptr_; }
+  const T* data() const { return ptr_; }
+  std::size_t bytes() const { return size_ * sizeof(T); }
+  std::size_t capacity_bytes() const { return capacity_ * sizeof(T); }
+
+  /// Grows geometrically; the first min(old, new) elements are kept.
+  void resize(std::size_t n) {
+    if (n > capacity_) {
+      std::size_t cap = capacity_ == 0 ? n : std::max(n, capacity_ + capacity_ / 2);
+      T* p = static_cast<T*>(alloc_bytes(backend_, cap * sizeof(T), what_));
+      if (size_ > 0) copy_bytes(p, backend_, ptr_, backend_, size_ * sizeof(T));
+      free_bytes(backend_, ptr_);
+      ptr_ = p;
+      capacity_ = cap;
+    }
+    size_ = n;
+  }
+
+  /// Replaces the contents with host data.
+  void assign(const T* src, std::size_t n) {
+    resize(n);
+    if (n) copy_bytes(ptr_, backend_, src, Backend::Cpu, n * sizeof(T));
+  }
+  void assign(const std::vector<T>& v) { assign(v.data(), v.size()); }
+
+  /// Copies the contents to a host vector.
+  std::vector<T> to_host() const {
+    std::vector<T> v(size_);
+    if (size_) copy_bytes(v.data(), Backend::Cpu, ptr_, backend_, size_ * sizeof(T));
+    return v;
+  }
+
+  /// Copies `n` elements from another buffer (any backend) starting at the given offsets.
+  void copy_from(const DeviceBuffer& src, std::size_t n, std::size_t dst_off = 0,
+                 std::size_t src_off = 0) {
+    if (n) copy_bytes(ptr_ + dst_off, backend_, src.ptr_ + src_off, src.backend_, n * sizeof(T));
+  }
+
+  /// Fills every byte with `byte` (tests poison outputs with 0xFF so unwritten elements show).
+  void poison(unsigned char byte = 0xFF) {
+    if (!size_) return;
+    std::vector<unsigned char> h(bytes(), byte);
+    copy_bytes(ptr_, backend_, h.data(), Backend::Cpu, bytes());
+  }
+
+private:
+  Backend backend_ = Backend::Cpu;
+  T* ptr_ = nullptr;
+  std::size_t size_ = 0;
+  std::size_t capacity_ = 0;
+  const char* what_ = "buffer";
+};
+
+} // namespace kf::exec

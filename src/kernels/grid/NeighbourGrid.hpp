@@ -1,0 +1,30 @@
+#pragma once
+#include "kernels/exec/Algorithms.hpp"
+#include "kernels/grid/GridGeometry.hpp"
+
+namespace kf {
+
+/// Sorts one particle set by cell (Morton order) and keeps the cell tables for neighbour loops.
+/// After build(), permutation()[i] is the old index of the particle now at i; the owner reorders
+/// its fields with it so that positions and tables agree.
+template <typename T>
+class NeighbourGrid {
+public:
+  NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo);
+
+  /// Grid covering [lo, hi] with cells of edge `cell` plus one cell of padding on every side.
+  static GridGeometry<T> cover(const Vec3d& lo, const Vec3d& hi, double cell);
+
+  void build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n);
+  const exec::DeviceBuffer<std::uint32_t>& permutation() const { return perm_; }
+  CellView<T> view() const { return {geo_, rank_.data(), start_.data(), end_.data()}; }
+  const GridGeometry<T>& geometry() const { return geo_; }
+  std::size_t bytes() const;
+
+private:
+  GridGeometry<T> geo_;
+  int key_bits_ = 1;
+  exec::DeviceBuffer<std::uint32_t> rank_, start_, end_, keys_, perm_;
+};
+
+} // namespace kf

@@ -1,0 +1,54 @@
+#include "kernels/integrate/Verlet.hpp"
+
+namespace kf {
+
+template <typename T>
+void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, std::size_t n,
+                T dt, T keep, const char* label) {
+  const T half = T(0.5) * dt;
+  exec::for_each(
+      ex, n,
+      [=] KF_HD(std::size_t i) {
+        const Vec3<T> vh = (v[i] + a[i] * half) * keep;
+        v[i] = vh;
+        x[i] += vh * dt;
+      },
+      label);
+}
+
+template <typename T>
+void kick(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt, T keep,
+          const char* label) {
+  const T half = T(0.5) * dt;
+  exec::for_each(ex, n, [=] KF_HD(std::size_t i) { v[i] = (v[i] + a[i] * half) * keep; }, label);
+}
+
+// Max that lets NaN win, so a blown-up particle cannot hide from the step-size control.
+struct NanMaxOp {
+  template <typename T>
+  KF_HD KF_INLINE MotionBounds<T> operator()(const MotionBounds<T>& p, const MotionBounds<T>& q) const {
+    auto m = [](T s, T t) { return (s != s || t != t) ? (s != s ? s : t) : (s < t ? t : s); };
+    return {m(p.v2, q.v2), m(p.a2, q.a2)};
+  }
+};
+
+template <typename T>
+MotionBounds<T> motion_bounds(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a,
+                              std::size_t n, const char* label) {
+  return exec::transform_reduce(
+      ex, n, MotionBounds<T>{}, NanMaxOp{},
+      [=] KF_HD(std::size_t i) { return MotionBounds<T>{norm2(v[i]), norm2(a[i])}; }, label);
+}
+
+#define KF_INSTANTIATE(T)                                                                          \
+  template void kick_drift<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, const Vec3<T>*, std::size_t,  \
+                              T, T, const char*);                                                  \
+  template void kick<T>(const exec::Exec&, Vec3<T>*, const Vec3<T>*, std::size_t, T, T,            \
+                        const char*);                                                              \
+  template MotionBounds<T> motion_bounds<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,     \
+                                            std::size_t, const char*);
+KF_INSTANTIATE(float)
+KF_INSTANTIATE(double)
+#undef KF_INSTANTIATE
+
+} // namespace kf

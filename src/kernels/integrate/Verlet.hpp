@@ -1,0 +1,26 @@
+#pragma once
+// Velocity Verlet (kick-drift-kick), the paper's integrator (§7), and the step-size reductions.
+#include "core/Vec3.hpp"
+#include "kernels/exec/Algorithms.hpp"
+
+namespace kf {
+
+/// v = keep (v + a dt/2), then x += v dt. keep = exp(-zeta dt/2) < 1 damps (settling); 1 does not.
+template <typename T>
+void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, std::size_t n,
+                T dt, T keep, const char* label);
+/// v = keep (v + a dt/2).
+template <typename T>
+void kick(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt, T keep,
+          const char* label);
+
+/// max |v|^2 and max |a|^2 over n particles, in one pass. NaN anywhere yields NaN.
+template <typename T>
+struct MotionBounds {
+  T v2 = T(0), a2 = T(0);
+};
+template <typename T>
+MotionBounds<T> motion_bounds(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a,
+                              std::size_t n, const char* label);
+
+} // namespace kf

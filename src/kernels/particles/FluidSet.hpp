@@ -1,0 +1,86 @@
+#pragma once
+#include "core/Vec3.hpp"
+#include "kernels/exec/Algorithms.hpp"
+
+#include <cstdint>
+
+namespace kf {
+
+/// Raw pointers into a FluidSet, passed by value into kernels.
+template <typename T>
+struct FluidView {
+  Vec3<T>* x;
+  Vec3<T>* v;
+  Vec3<T>* a; // acceleration at the current positions (kept: the next half kick needs it)
+  T* m;
+  T* rho;
+  T* p;
+  std::uint64_t* id; // global id, never changes
+  std::size_t n;
+};
+
+/// SPH fluid particles, structure of arrays, allocated only when a scene has fluid.
+template <typename T>
+class FluidSet {
+public:
+  explicit FluidSet(exec::Backend b);
+
+  std::size_t size() const { return x.size(); }
+  void resize(std::size_t n);
+  /// Reorders the state carried across steps (x, v, a, m, id); rho and p are recomputed after a sort.
+  void reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm);
+  FluidView<T> view();
+  /// Bytes each particle costs, scratch included (for `plan` and the memory report).
+  static std::size_t bytes_per_particle();
+
+  exec::DeviceBuffer<Vec3<T>> x, v, a;
+  exec::DeviceBuffer<T> m, rho, p;
+  exec::DeviceBuffer<std::uint64_t> id;
+
+private:
+  exec::DeviceBuffer<Vec3<T>> scratch_v3_;
+  exec::DeviceBuffer<T> scratch_t_;
+  exec::DeviceBuffer<std::uint64_t> scratch_id_;
+};
+
+/// Raw pointers into a BoundarySet.
+template <typename T>
+struct BoundaryView {
+  Vec3<T>* x;
+  const Vec3<T>* x0;            // position at t = 0 (moving obstacles translate it)
+  const std::uint32_t* obstacle; // index into the scene's obstacle list; walls use kWallObstacle
+  T* volume;                    // volume the particle stands for (psi_b = rho0 volume)
+  T* p;                         // pressure extrapolated from the fluid (Adami et al. 2012)
+  T* rho;                       // density matching p through the EOS
+  std::size_t n;
+};
+
+inline constexpr std::uint32_t kWallObstacle = 0xFFFFFFFFu;
+
+/// Particles filling a shell of each rigid solid (domain walls and obstacles). They add psi = rho0 V
+/// to the fluid's density and enter the pressure force like fluid particles whose pressure is
+/// extrapolated from the fluid next to them (Adami et al. 2012), which holds a column at rest.
+template <typename T>
+class BoundarySet {
+public:
+  explicit BoundarySet(exec::Backend b);
+  std::size_t size() const { return x.size(); }
+  void resize(std::size_t n);
+  void reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm);
+  BoundaryView<T> view();
+  // volume is reordered too: it is per particle so that irregular samplings (meshes) fit.
+  static std::size_t bytes_per_particle();
+
+  exec::DeviceBuffer<Vec3<T>> x, x0;
+  exec::DeviceBuffer<std::uint32_t> obstacle;
+  exec::DeviceBuffer<T> volume, p, rho;
+  exec::DeviceBuffer<std::uint64_t> id;
+
+private:
+  exec::DeviceBuffer<Vec3<T>> scratch_v3_;
+  exec::DeviceBuffer<std::uint32_t> scratch_u32_;
+  exec::DeviceBuffer<T> scratch_t_;
+  exec::DeviceBuffer<std::uint64_t> scratch_id_;
+};
+
+} // namespace kf

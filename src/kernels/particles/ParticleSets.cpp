@@ -1,0 +1,89 @@
+#include "kernels/particles/FluidSet.hpp"
+#include "kernels/particles/Permute.hpp"
+
+namespace kf {
+
+template <typename T>
+FluidSet<T>::FluidSet(exec::Backend b)
+    : x(b, 0, "fluid.x"), v(b, 0, "fluid.v"), a(b, 0, "fluid.a"), m(b, 0, "fluid.m"),
+      rho(b, 0, "fluid.rho"), p(b, 0, "fluid.p"), id(b, 0, "fluid.id"),
+      scratch_v3_(b, 0, "fluid.scratch"), scratch_t_(b, 0, "fluid.scratch"),
+      scratch_id_(b, 0, "fluid.scratch") {}
+
+template <typename T>
+void FluidSet<T>::resize(std::size_t n) {
+  x.resize(n);
+  v.resize(n);
+  a.resize(n);
+  m.resize(n);
+  rho.resize(n);
+  p.resize(n);
+  id.resize(n);
+}
+
+template <typename T>
+void FluidSet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm) {
+  permute(ex, perm, x, scratch_v3_, "fluid.reorder");
+  permute(ex, perm, v, scratch_v3_, "fluid.reorder");
+  permute(ex, perm, a, scratch_v3_, "fluid.reorder");
+  permute(ex, perm, m, scratch_t_, "fluid.reorder");
+  permute(ex, perm, id, scratch_id_, "fluid.reorder");
+}
+
+template <typename T>
+FluidView<T> FluidSet<T>::view() {
+  return {x.data(), v.data(), a.data(), m.data(), rho.data(), p.data(), id.data(), size()};
+}
+
+template <typename T>
+std::size_t FluidSet<T>::bytes_per_particle() {
+  // x v a + scratch (Vec3), m rho p + scratch (T), id + scratch, grid keys + permutation.
+  return 4 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint64_t) + 2 * sizeof(std::uint32_t);
+}
+
+template <typename T>
+BoundarySet<T>::BoundarySet(exec::Backend b)
+    : x(b, 0, "boundary.x"), x0(b, 0, "boundary.x0"), obstacle(b, 0, "boundary.obstacle"),
+      volume(b, 0, "boundary.volume"), p(b, 0, "boundary.p"), rho(b, 0, "boundary.rho"),
+      id(b, 0, "boundary.id"),
+      scratch_v3_(b, 0, "boundary.scratch"), scratch_u32_(b, 0, "boundary.scratch"),
+      scratch_t_(b, 0, "boundary.scratch"),
+      scratch_id_(b, 0, "boundary.scratch") {}
+
+template <typename T>
+void BoundarySet<T>::resize(std::size_t n) {
+  x.resize(n);
+  x0.resize(n);
+  obstacle.resize(n);
+  volume.resize(n);
+  p.resize(n);
+  rho.resize(n);
+  id.resize(n);
+}
+
+template <typename T>
+void BoundarySet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm) {
+  permute(ex, perm, x, scratch_v3_, "boundary.reorder");
+  permute(ex, perm, x0, scratch_v3_, "boundary.reorder");
+  permute(ex, perm, obstacle, scratch_u32_, "boundary.reorder");
+  permute(ex, perm, volume, scratch_t_, "boundary.reorder");
+  permute(ex, perm, id, scratch_id_, "boundary.reorder");
+}
+
+template <typename T>
+BoundaryView<T> BoundarySet<T>::view() {
+  return {x.data(), x0.data(), obstacle.data(), volume.data(), p.data(), rho.data(), size()};
+}
+
+template <typename T>
+std::size_t BoundarySet<T>::bytes_per_particle() {
+  return 3 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint32_t) +
+         2 * sizeof(std::uint64_t) + 2 * sizeof(std::uint32_t);
+}
+
+template class FluidSet<float>;
+template class FluidSet<double>;
+template class BoundarySet<float>;
+template class BoundarySet<double>;
+
+} // namespace kf

@@ -1,0 +1,47 @@
+#include "kernels/sph/Sph.hpp"
+
+#include "kernels/sph/SmoothingKernels.hpp"
+#include "kernels/sph/SphEvaluators_K.hpp"
+
+namespace kf {
+
+template <typename T>
+void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
+                 const BoundaryNeighbours<T>& b) {
+  with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
+    using K = decltype(k);
+    exec::for_each(ex, f.n, DensityEvaluator<T, K>{k, prm.eos, f, cells, b}, "sph.density");
+  });
+}
+
+template <typename T>
+void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
+                       const FluidView<T>& f, CellView<T> fluid_cells) {
+  with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
+    using K = decltype(k);
+    exec::for_each(ex, b.n, BoundaryPressureEvaluator<T, K>{k, prm, b, f, fluid_cells},
+                   "boundary.pressure");
+  });
+}
+
+template <typename T>
+void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
+                const BoundaryNeighbours<T>& b) {
+  with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
+    using K = decltype(k);
+    exec::for_each(ex, f.n, ForceEvaluator<T, K>{k, prm, f, cells, b}, "sph.forces");
+  });
+}
+
+#define KF_INSTANTIATE(T)                                                                          \
+  template void sph_density<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,  \
+                               const BoundaryNeighbours<T>&);                                      \
+  template void boundary_pressure<T>(const exec::Exec&, const SphParams<T>&, BoundaryView<T>,    \
+                                     const FluidView<T>&, CellView<T>);                            \
+  template void sph_forces<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,   \
+                              const BoundaryNeighbours<T>&);
+KF_INSTANTIATE(float)
+KF_INSTANTIATE(double)
+#undef KF_INSTANTIATE
+
+} // namespace kf

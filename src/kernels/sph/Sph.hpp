@@ -1,0 +1,49 @@
+#pragma once
+// SPH fluid stages (paper §4): density (Eq. 2) with the EOS, and accelerations from pressure
+// (Eq. 3), viscosity (Eq. 4) and gravity, with Akinci et al. 2012 boundary particles.
+#include "core/SolverOptions.hpp"
+#include "kernels/exec/Algorithms.hpp"
+#include "kernels/grid/GridGeometry.hpp"
+#include "kernels/particles/FluidSet.hpp"
+#include "kernels/sph/Eos.hpp"
+
+namespace kf {
+
+template <typename T>
+struct SphParams {
+  KernelType kernel = KernelType::Spiky;
+  T h = T(0.02); // support radius
+  Eos<T> eos;
+  T viscosity = T(1e-3); // dynamic viscosity mu
+  Vec3<T> gravity{T(0), T(0), T(-9.81)};
+};
+
+/// Boundary particles seen by fluid kernels (empty when the scene has no boundary module).
+template <typename T>
+struct BoundaryNeighbours {
+  const Vec3<T>* x = nullptr;
+  const T* volume = nullptr;
+  const T* p = nullptr;
+  const T* rho = nullptr;
+  CellView<T> cells{};
+  std::size_t n = 0;
+};
+
+/// rho_i (Eq. 2, plus boundary psi_b W) and P_i from the EOS, for every fluid particle.
+template <typename T>
+void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
+                 const BoundaryNeighbours<T>& b);
+
+/// Boundary pressure from the fluid around each boundary particle (Adami et al. 2012):
+/// P_b = (sum_f P_f W + (g - a_b) . sum_f rho_f (x_b - x_f) W) / sum_f W, and rho_b from the EOS.
+/// Static and constant-velocity solids have a_b = 0.
+template <typename T>
+void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
+                       const FluidView<T>& f, CellView<T> fluid_cells);
+
+/// a_i = g + pressure (Eq. 3) + viscosity (Eq. 4) + boundary pressure, for every fluid particle.
+template <typename T>
+void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
+                const BoundaryNeighbours<T>& b);
+
+} // namespace kf

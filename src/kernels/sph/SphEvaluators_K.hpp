@@ -1,0 +1,115 @@
+#pragma once
+#include "core/Math.hpp"
+// The SPH evaluators: one particle's gather over its neighbours, as host-device functors.
+// Gather only (each particle sums what acts on it): no atomics, deterministic sums.
+#include "kernels/sph/Sph.hpp"
+
+namespace kf {
+
+template <typename T, typename K>
+struct DensityEvaluator {
+  K kernel;
+  Eos<T> eos;
+  FluidView<T> f;
+  CellView<T> cells;
+  BoundaryNeighbours<T> b;
+
+  KF_HD void operator()(std::size_t i) const {
+    const Vec3<T> xi = f.x[i];
+    const T h2 = kernel.h * kernel.h;
+    T rho = T(0);
+    cells.for_each_candidate(xi, [&](std::uint32_t j) {
+      const T r2 = norm2(xi - f.x[j]);
+      if (r2 < h2) rho += f.m[j] * kernel.W(ksqrt(r2));
+    });
+    if (b.n) {
+      T vol = T(0);
+      b.cells.for_each_candidate(xi, [&](std::uint32_t k) {
+        const T r2 = norm2(xi - b.x[k]);
+        if (r2 < h2) vol += b.volume[k] * kernel.W(ksqrt(r2));
+      });
+      rho += eos.rho0 * vol; // psi_b = rho0 V_b
+    }
+    f.rho[i] = rho;
+    f.p[i] = eos.pressure(rho);
+  }
+};
+
+template <typename T, typename K>
+struct BoundaryPressureEvaluator {
+  K kernel;
+  SphParams<T> prm;
+  BoundaryView<T> b;
+  FluidView<T> f;
+  CellView<T> cells;
+
+  KF_HD void operator()(std::size_t k) const {
+    const Vec3<T> xb = b.x[k];
+    const T h2 = kernel.h * kernel.h;
+    T sum_w = T(0), sum_p = T(0);
+    Vec3<T> sum_rho_r{T(0), T(0), T(0)};
+    cells.for_each_candidate(xb, [&](std::uint32_t j) {
+      const Vec3<T> r = xb - f.x[j];
+      const T r2 = norm2(r);
+      if (r2 >= h2) return;
+      const T w = kernel.W(ksqrt(r2));
+      sum_w += w;
+      sum_p += f.p[j] * w;
+      sum_rho_r += r * (f.rho[j] * w);
+    });
+    T p = T(0);
+    if (sum_w > T(0)) p = (sum_p + dot(prm.gravity, sum_rho_r)) / sum_w;
+    if (p < T(0)) p = T(0); // a wall never pulls the fluid
+    b.p[k] = p;
+    b.rho[k] = prm.eos.density(p);
+  }
+};
+
+template <typename T, typename K>
+struct ForceEvaluator {
+  K kernel;
+  SphParams<T> prm;
+  FluidView<T> f;
+  CellView<T> cells;
+  BoundaryNeighbours<T> b;
+
+  KF_HD void operator()(std::size_t i) const {
+    const Vec3<T> xi = f.x[i];
+    const Vec3<T> vi = f.v[i];
+    const T h2 = kernel.h * kernel.h;
+    const T eta2 = T(0.01) * h2; // keeps the viscous term finite as r -> 0 (Morris et al. 1997)
+    const T rho_i = f.rho[i];
+    const T pi = f.p[i] / (rho_i * rho_i);
+    const T mu2 = T(2) * prm.viscosity;
+    Vec3<T> acc = prm.gravity;
+    cells.for_each_candidate(xi, [&](std::uint32_t j) {
+      if (j == i) return;
+      const Vec3<T> rij = xi - f.x[j];
+      const T r2 = norm2(rij);
+      if (r2 >= h2) return;
+      const T r = ksqrt(r2);
+      const Vec3<T> gw = kernel.grad(rij, r);
+      const T rho_j = f.rho[j];
+      const T mj = f.m[j];
+      // Eq. 3: pressure, symmetric in i and j so pair forces cancel.
+      acc -= gw * (mj * (pi + f.p[j] / (rho_j * rho_j)));
+      // Eq. 4 (Morris form): mu_i + mu_j, relative velocity, (r . grad W) / (r^2 + eta^2).
+      const T visc = mj * mu2 / (rho_i * rho_j) * dot(rij, gw) / (r2 + eta2);
+      acc += (vi - f.v[j]) * visc;
+    });
+    if (b.n) {
+      // Boundary particles as fluid particles of mass psi_b = rho0 V_b and pressure P_b.
+      const T rho0 = prm.eos.rho0;
+      b.cells.for_each_candidate(xi, [&](std::uint32_t k) {
+        const Vec3<T> rik = xi - b.x[k];
+        const T r2 = norm2(rik);
+        if (r2 >= h2) return;
+        const T rho_k = b.rho[k];
+        acc -= kernel.grad(rik, ksqrt(r2)) * (rho0 * b.volume[k] * (pi + b.p[k] / (rho_k * rho_k)));
+      });
+    }
+    f.a[i] = acc;
+  }
+};
+
+} // namespace kf

@@ -1,0 +1,439 @@
+// The execution layer on every backend this binary has: for_each, transform_reduce, sort_by_key,
+// exclusive_scan, gather and DeviceBuffer, each checked against the standard library, plus a
+// CPU-vs-CUDA comparison. Compiled by nvcc in the CUDA build (the _K suffix), so the lambdas below
+// run as CUDA kernels there.
+#include "core/Error.hpp"
+#include "kernels/exec/Algorithms.hpp"
+#include "kernels/exec/Backend.hpp"
+#include "kernels/exec/DeviceBuffer.hpp"
+
+#if defined(KF_WITH_CUDA) && defined(__CUDACC__)
+#include "kernels/exec/CudaCheck.hpp"
+#endif
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+// Kernel-launching helpers live in named free functions: nvcc's extended lambdas may not be
+// defined inside gtest's test bodies (private member functions of local classes).
+namespace kf_exec_test {
+
+using kf::exec::Backend;
+using kf::exec::DeviceBuffer;
+using kf::exec::Exec;
+
+std::vector<std::uint32_t> random_u32(std::size_t n, std::uint32_t max, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<std::uint32_t> dist(0, max);
+  std::vector<std::uint32_t> v(n);
+  for (auto& x : v)
+    x = dist(rng);
+  return v;
+}
+
+std::vector<double> random_f64(std::size_t n, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> dist(-1000.0, 1000.0);
+  std::vector<double> v(n);
+  for (auto& x : v)
+    x = dist(rng);
+  return v;
+}
+
+std::uint32_t key_mask(int key_bits) {
+  return key_bits >= 32 ? 0xFFFFFFFFu : (std::uint32_t{1} << key_bits) - 1u;
+}
+
+/// out[i] = 3i + 1 (never the poison value for the sizes used).
+void write_index(const Exec& ex, DeviceBuffer<std::uint32_t>& out) {
+  std::uint32_t* p = out.data();
+  kf::exec::for_each(
+      ex, out.size(), [=] KF_HD(std::size_t i) { p[i] = static_cast<std::uint32_t>(3 * i + 1); },
+      "test.write_index");
+}
+
+/// A float computation whose rounding cannot differ between host and device (a single multiply
+/// cannot be contracted into an FMA), plus an integer hash.
+void mix(const Exec& ex, const DeviceBuffer<double>& in, DeviceBuffer<double>& out_f,
+         DeviceBuffer<std::uint32_t>& out_u) {
+  const double* a = in.data();
+  double* f = out_f.data();
+  std::uint32_t* u = out_u.data();
+  kf::exec::for_each(
+      ex, in.size(),
+      [=] KF_HD(std::size_t i) {
+        f[i] = a[i] * 1.25;
+        std::uint32_t h = static_cast<std::uint32_t>(i) * 2654435761u;
+        u[i] = h ^ (h >> 13);
+      },
+      "test.mix");
+}
+
+template <typename Op>
+double reduce_f64(const Exec& ex, const DeviceBuffer<double>& v, double init, Op op) {
+  const double* p = v.data();
+  return kf::exec::transform_reduce(
+      ex, v.size(), init, op, [=] KF_HD(std::size_t i) { return p[i]; }, "test.reduce_f64");
+}
+
+std::uint64_t sum_u64(const Exec& ex, const DeviceBuffer<std::uint32_t>& v, std::uint64_t init) {
+  const std::uint32_t* p = v.data();
+  return kf::exec::transform_reduce(
+      ex, v.size(), init, kf::exec::SumOp{},
+      [=] KF_HD(std::size_t i) { return static_cast<std::uint64_t>(p[i]); }, "test.sum_u64");
+}
+
+} // namespace kf_exec_test
+
+namespace {
+
+using namespace kf_exec_test;
+
+class ExecTest : public ::testing::TestWithParam<Backend> {
+protected:
+  void SetUp() override {
+    if (GetParam() == Backend::Cuda && !kf::exec::cuda_available())
+      GTEST_SKIP() << "no CUDA device"
+                   << (kf::exec::cuda_compiled() ? "" : " (built without CUDA)");
+  }
+  Exec ex() const { return Exec{GetParam()}; }
+  Backend b() const { return GetParam(); }
+};
+
+// Sizes around the CUDA block (256) and the reduction grid cap (512 blocks of 256).
+const std::size_t kSizes[] = {1,    2,      255,       256,           257,
+                              1000, 100003, 512 * 256, 512 * 256 + 1, 1u << 20};
+
+TEST_P(ExecTest, ForEachWritesEveryElement) {
+  for (std::size_t n : kSizes) {
+    DeviceBuffer<std::uint32_t> out(b(), n, "out");
+    out.poison();
+    write_index(ex(), out);
+    const auto h = out.to_host();
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      bad += h[i] != 3 * i + 1;
+    EXPECT_EQ(bad, 0u) << "n=" << n;
+  }
+  DeviceBuffer<std::uint32_t> empty(b(), 0, "empty");
+  write_index(ex(), empty); // n = 0 launches nothing
+}
+
+TEST_P(ExecTest, FillSetsEveryElement) {
+  DeviceBuffer<double> buf(b(), 1001, "buf");
+  buf.poison();
+  kf::exec::fill(ex(), buf, 2.5, "test.fill");
+  for (double x : buf.to_host())
+    ASSERT_EQ(x, 2.5);
+}
+
+TEST_P(ExecTest, TransformReduceMatchesStd) {
+  for (std::size_t n : kSizes) {
+    const auto hf = random_f64(n, 11 + static_cast<std::uint32_t>(n));
+    const auto hu = random_u32(n, 0xFFFFFFFFu, 17 + static_cast<std::uint32_t>(n));
+    DeviceBuffer<double> f(b(), 0, "f");
+    DeviceBuffer<std::uint32_t> u(b(), 0, "u");
+    f.assign(hf);
+    u.assign(hu);
+
+    // Integer sums are exact; init must be added once, not once per thread or block.
+    std::uint64_t want_u = 7;
+    for (auto x : hu)
+      want_u += x;
+    EXPECT_EQ(sum_u64(ex(), u, 7), want_u) << "n=" << n;
+
+    double want_sum = 0, abs_sum = 0;
+    for (double x : hf)
+      want_sum += x, abs_sum += std::fabs(x);
+    EXPECT_NEAR(reduce_f64(ex(), f, 0.0, kf::exec::SumOp{}), want_sum, 1e-12 * abs_sum + 1e-12)
+        << "n=" << n;
+    EXPECT_EQ(reduce_f64(ex(), f, -1e300, kf::exec::MaxOp{}),
+              *std::max_element(hf.begin(), hf.end()))
+        << "n=" << n;
+    EXPECT_EQ(reduce_f64(ex(), f, 1e300, kf::exec::MinOp{}),
+              *std::min_element(hf.begin(), hf.end()))
+        << "n=" << n;
+    // An init that wins must come back unchanged.
+    EXPECT_EQ(reduce_f64(ex(), f, 5000.0, kf::exec::MaxOp{}), 5000.0) << "n=" << n;
+    EXPECT_EQ(reduce_f64(ex(), f, -5000.0, kf::exec::MinOp{}), -5000.0) << "n=" << n;
+  }
+}
+
+TEST_P(ExecTest, TransformReduceOfNothingIsInit) {
+  DeviceBuffer<double> f(b(), 0, "f");
+  DeviceBuffer<std::uint32_t> u(b(), 0, "u");
+  EXPECT_EQ(sum_u64(ex(), u, 42), 42u);
+  EXPECT_EQ(reduce_f64(ex(), f, 3.5, kf::exec::SumOp{}), 3.5);
+  EXPECT_EQ(reduce_f64(ex(), f, -3.5, kf::exec::MaxOp{}), -3.5);
+  EXPECT_EQ(reduce_f64(ex(), f, 9.0, kf::exec::MinOp{}), 9.0);
+}
+
+TEST_P(ExecTest, TransformReduceIsDeterministic) {
+  const auto hf = random_f64(300001, 5);
+  DeviceBuffer<double> f(b(), 0, "f");
+  f.assign(hf);
+  const double first = reduce_f64(ex(), f, 0.0, kf::exec::SumOp{});
+  for (int rep = 0; rep < 3; ++rep)
+    EXPECT_EQ(reduce_f64(ex(), f, 0.0, kf::exec::SumOp{}), first);
+}
+
+TEST_P(ExecTest, SortByKeyIsStableSort) {
+  for (int key_bits : {1, 8, 17, 24, 32}) {
+    for (std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{1000}, std::size_t{100003}}) {
+      auto hk = random_u32(n, 0xFFFFFFFFu, 100u + static_cast<std::uint32_t>(key_bits));
+      for (auto& k : hk)
+        k &= key_mask(key_bits);
+      const auto hv = random_u32(n, 0xFFFFFFFFu, 200u + static_cast<std::uint32_t>(n));
+
+      std::vector<std::pair<std::uint32_t, std::uint32_t>> want(n);
+      for (std::size_t i = 0; i < n; ++i)
+        want[i] = {hk[i], hv[i]};
+      std::stable_sort(want.begin(), want.end(),
+                       [](const auto& a, const auto& c) { return a.first < c.first; });
+
+      DeviceBuffer<std::uint32_t> keys(b(), 0, "keys"), values(b(), 0, "values");
+      keys.assign(hk);
+      values.assign(hv);
+      kf::exec::sort_by_key(ex(), keys, values, key_bits, "test.sort");
+      const auto gk = keys.to_host(), gv = values.to_host();
+      ASSERT_EQ(gk.size(), n);
+      ASSERT_EQ(gv.size(), n);
+      std::size_t bad = 0;
+      for (std::size_t i = 0; i < n; ++i)
+        bad += gk[i] != want[i].first || gv[i] != want[i].second;
+      EXPECT_EQ(bad, 0u) << "key_bits=" << key_bits << " n=" << n;
+    }
+  }
+}
+
+TEST_P(ExecTest, SortByKeyRejectsMismatchedSizes) {
+  DeviceBuffer<std::uint32_t> keys(b(), 10, "keys"), values(b(), 9, "values");
+  EXPECT_THROW(kf::exec::sort_by_key(ex(), keys, values, 8, "test.sort"), kf::Error);
+}
+
+TEST_P(ExecTest, ExclusiveScanMatchesStd) {
+  for (std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{1000}, std::size_t{100003},
+                        std::size_t{1} << 20}) {
+    // Small counts (the usual use: cell occupancies) and large values whose sum passes 2^32.
+    for (std::uint32_t max : {1000u, 0x7FFFFFFFu}) {
+      const auto h = random_u32(n, max, 300u + static_cast<std::uint32_t>(n));
+      std::vector<std::uint32_t> want(n);
+      std::exclusive_scan(h.begin(), h.end(), want.begin(), std::uint32_t{0});
+      std::uint64_t want_total = 0;
+      for (auto x : h)
+        want_total += x;
+
+      DeviceBuffer<std::uint32_t> in(b(), 0, "in"), out(b(), n, "out");
+      in.assign(h);
+      out.poison();
+      EXPECT_EQ(kf::exec::exclusive_scan(ex(), in, out, "test.scan"), want_total)
+          << "n=" << n << " max=" << max;
+      EXPECT_EQ(out.to_host(), want) << "n=" << n << " max=" << max;
+      EXPECT_EQ(in.to_host(), h) << "input modified, n=" << n;
+
+      // In place: out aliases in.
+      EXPECT_EQ(kf::exec::exclusive_scan(ex(), in, in, "test.scan_inplace"), want_total)
+          << "n=" << n << " max=" << max;
+      EXPECT_EQ(in.to_host(), want) << "in place, n=" << n << " max=" << max;
+    }
+  }
+}
+
+TEST_P(ExecTest, GatherPermutes) {
+  for (std::size_t n : {std::size_t{1}, std::size_t{1000}, std::size_t{100003}}) {
+    std::vector<std::uint32_t> perm(n);
+    std::iota(perm.begin(), perm.end(), 0u);
+    std::shuffle(perm.begin(), perm.end(), std::mt19937(static_cast<std::uint32_t>(n)));
+    const auto src = random_f64(n, 400);
+
+    DeviceBuffer<std::uint32_t> p(b(), 0, "perm");
+    DeviceBuffer<double> s(b(), 0, "src"), d(b(), n, "dst");
+    p.assign(perm);
+    s.assign(src);
+    d.poison();
+    kf::exec::gather(ex(), p, s, d, "test.gather");
+    const auto got = d.to_host();
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      bad += got[i] != src[perm[i]];
+    EXPECT_EQ(bad, 0u) << "n=" << n;
+  }
+  DeviceBuffer<std::uint32_t> p(b(), 4, "perm");
+  DeviceBuffer<double> s(b(), 4, "src"), d(b(), 3, "dst");
+  EXPECT_THROW(kf::exec::gather(ex(), p, s, d, "test.gather"), kf::Error);
+}
+
+// The first k elements, copied to the host without touching the (uninitialised) rest, so the test
+// stays clean under compute-sanitizer --tool initcheck.
+std::vector<std::uint32_t> prefix(const DeviceBuffer<std::uint32_t>& buf, std::size_t k) {
+  DeviceBuffer<std::uint32_t> h(Backend::Cpu, k, "prefix");
+  h.copy_from(buf, k);
+  return h.to_host();
+}
+
+TEST_P(ExecTest, DeviceBufferResizeKeepsLeadingContents) {
+  const auto h = random_u32(1000, 0xFFFFFFFFu, 500);
+  DeviceBuffer<std::uint32_t> buf(b(), 0, "buf");
+  EXPECT_TRUE(buf.empty());
+  EXPECT_TRUE(buf.to_host().empty());
+  buf.assign(h);
+  EXPECT_EQ(buf.to_host(), h);
+
+  buf.resize(5000); // reallocates
+  EXPECT_EQ(buf.size(), 5000u);
+  EXPECT_EQ(prefix(buf, 1000), h);
+
+  buf.resize(10); // shrinks in place
+  EXPECT_EQ(buf.to_host(), std::vector<std::uint32_t>(h.begin(), h.begin() + 10));
+
+  buf.resize(4000); // within capacity: the first 10 must still be there
+  EXPECT_EQ(buf.size(), 4000u);
+  EXPECT_EQ(prefix(buf, 10), std::vector<std::uint32_t>(h.begin(), h.begin() + 10));
+  EXPECT_GE(buf.capacity_bytes(), 5000 * sizeof(std::uint32_t));
+}
+
+TEST_P(ExecTest, DeviceBufferCopiesAndMoves) {
+  const auto h = random_f64(777, 600);
+  DeviceBuffer<double> a(b(), 0, "a");
+  a.assign(h);
+  // Copy to the same backend and to the host backend, with offsets.
+  DeviceBuffer<double> c(b(), 777, "c"), host(Backend::Cpu, 777, "host");
+  c.poison();
+  c.copy_from(a, 777);
+  EXPECT_EQ(c.to_host(), h);
+  host.poison();
+  host.copy_from(a, 700, 77, 0);
+  for (std::size_t i = 0; i < 700; ++i)
+    ASSERT_EQ(host.data()[77 + i], h[i]);
+  // And back from the host into this backend.
+  DeviceBuffer<double> back(b(), 777, "back");
+  back.poison();
+  back.copy_from(host, 700, 0, 77);
+  const auto gb = back.to_host();
+  EXPECT_TRUE(std::equal(h.begin(), h.begin() + 700, gb.begin()));
+
+  DeviceBuffer<double> moved(std::move(a));
+  EXPECT_EQ(moved.backend(), b());
+  EXPECT_EQ(moved.to_host(), h);
+  EXPECT_EQ(a.size(), 0u); // NOLINT(bugprone-use-after-move): moved-from is empty by contract
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, ExecTest, ::testing::Values(Backend::Cpu, Backend::Cuda),
+                         [](const ::testing::TestParamInfo<Backend>& info) {
+                           return info.param == Backend::Cpu ? std::string("Cpu")
+                                                             : std::string("Cuda");
+                         });
+
+// ---- CPU and CUDA agree ------------------------------------------------------------------------
+
+class ExecCpuVsCuda : public ::testing::Test {
+protected:
+  void SetUp() override {
+    if (!kf::exec::cuda_available())
+      GTEST_SKIP() << "no CUDA device";
+  }
+  const Exec cpu{Backend::Cpu};
+  const Exec gpu{Backend::Cuda};
+};
+
+TEST_F(ExecCpuVsCuda, SameInputsSameOutputs) {
+  const std::size_t n = 100003;
+  const auto keys = random_u32(n, (1u << 20) - 1, 700);
+  const auto vals = random_u32(n, 0xFFFFFFFFu, 701);
+  const auto counts = random_u32(n, 64, 702);
+  const auto data = random_f64(n, 703);
+
+  // sort_by_key
+  DeviceBuffer<std::uint32_t> kc(Backend::Cpu, 0, "kc"), vc(Backend::Cpu, 0, "vc");
+  DeviceBuffer<std::uint32_t> kg(Backend::Cuda, 0, "kg"), vg(Backend::Cuda, 0, "vg");
+  kc.assign(keys), vc.assign(vals), kg.assign(keys), vg.assign(vals);
+  kf::exec::sort_by_key(cpu, kc, vc, 20, "test.sort");
+  kf::exec::sort_by_key(gpu, kg, vg, 20, "test.sort");
+  EXPECT_EQ(kc.to_host(), kg.to_host());
+  EXPECT_EQ(vc.to_host(), vg.to_host());
+
+  // exclusive_scan
+  DeviceBuffer<std::uint32_t> ic(Backend::Cpu, 0, "ic"), oc(Backend::Cpu, n, "oc");
+  DeviceBuffer<std::uint32_t> ig(Backend::Cuda, 0, "ig"), og(Backend::Cuda, n, "og");
+  ic.assign(counts), ig.assign(counts);
+  EXPECT_EQ(kf::exec::exclusive_scan(cpu, ic, oc, "test.scan"),
+            kf::exec::exclusive_scan(gpu, ig, og, "test.scan"));
+  EXPECT_EQ(oc.to_host(), og.to_host());
+
+  // gather by the sorted values' order (a permutation of 0..n)
+  std::vector<std::uint32_t> perm(n);
+  std::iota(perm.begin(), perm.end(), 0u);
+  std::shuffle(perm.begin(), perm.end(), std::mt19937(704));
+  DeviceBuffer<std::uint32_t> pc(Backend::Cpu, 0, "pc"), pg(Backend::Cuda, 0, "pg");
+  pc.assign(perm), pg.assign(perm);
+  DeviceBuffer<double> sc(Backend::Cpu, 0, "sc"), sg(Backend::Cuda, 0, "sg");
+  sc.assign(data), sg.assign(data);
+  DeviceBuffer<double> dc(Backend::Cpu, n, "dc"), dg(Backend::Cuda, n, "dg");
+  kf::exec::gather(cpu, pc, sc, dc, "test.gather");
+  kf::exec::gather(gpu, pg, sg, dg, "test.gather");
+  EXPECT_EQ(dc.to_host(), dg.to_host());
+
+  // for_each
+  DeviceBuffer<double> fc(Backend::Cpu, n, "fc"), fg(Backend::Cuda, n, "fg");
+  DeviceBuffer<std::uint32_t> uc(Backend::Cpu, n, "uc"), ug(Backend::Cuda, n, "ug");
+  mix(cpu, sc, fc, uc);
+  mix(gpu, sg, fg, ug);
+  EXPECT_EQ(fc.to_host(), fg.to_host());
+  EXPECT_EQ(uc.to_host(), ug.to_host());
+
+  // transform_reduce: exact for integers and max/min; sums of doubles differ only in rounding.
+  EXPECT_EQ(sum_u64(cpu, kc, 1), sum_u64(gpu, kg, 1));
+  EXPECT_EQ(reduce_f64(cpu, sc, -1e300, kf::exec::MaxOp{}),
+            reduce_f64(gpu, sg, -1e300, kf::exec::MaxOp{}));
+  EXPECT_EQ(reduce_f64(cpu, sc, 1e300, kf::exec::MinOp{}),
+            reduce_f64(gpu, sg, 1e300, kf::exec::MinOp{}));
+  double abs_sum = 0;
+  for (double x : data)
+    abs_sum += std::fabs(x);
+  EXPECT_NEAR(reduce_f64(cpu, sc, 0.0, kf::exec::SumOp{}),
+              reduce_f64(gpu, sg, 0.0, kf::exec::SumOp{}), 1e-12 * abs_sum);
+}
+
+#if defined(KF_WITH_CUDA) && defined(__CUDACC__)
+// Error text needs no device: cudaGetErrorString is a table lookup.
+TEST(ExecCudaErrors, MessagesNameContextAndError) {
+  try {
+    KF_CUDA(cudaErrorInvalidValue, std::string("copying 12 bytes host->device for 'x'"));
+    FAIL() << "KF_CUDA did not throw";
+  } catch (const kf::Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("copying 12 bytes host->device for 'x'"), std::string::npos) << m;
+    EXPECT_NE(m.find(cudaGetErrorString(cudaErrorInvalidValue)), std::string::npos) << m;
+  }
+  EXPECT_THROW(KF_CUDA(cudaErrorInvalidValue), kf::Error);
+}
+
+TEST(ExecCudaErrors, OutOfMemoryNamesBytesAndFreeMemory) {
+  if (!kf::exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  const std::size_t huge = std::size_t{1} << 50; // 1 PiB
+  try {
+    DeviceBuffer<unsigned char> buf(Backend::Cuda, huge, "test huge buffer");
+    FAIL() << "a 1 PiB allocation succeeded";
+  } catch (const kf::Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("test huge buffer"), std::string::npos) << m;
+    EXPECT_NE(m.find(std::to_string(huge)), std::string::npos) << m;
+    EXPECT_NE(m.find("free"), std::string::npos) << m;
+  }
+  // The context is still usable afterwards.
+  DeviceBuffer<std::uint32_t> small(Backend::Cuda, 256, "small");
+  write_index(Exec{Backend::Cuda}, small);
+  EXPECT_EQ(small.to_host()[255], 3u * 255u + 1u);
+}
+#endif
+
+} // namespace

@@ -1,0 +1,108 @@
+// A tank of water at rest. After settling:
+// - density error below 1% in the bulk (deeper than one support radius below the surface: there
+//   the kernel is cut off and particles are under-dense by construction);
+// - the pressure profile within 3% (of the bottom pressure rho0 g H) of rho0 g depth, where depth is
+//   measured from the free surface z0 = where the bulk pressure extrapolates to zero;
+// - the bulk pressure gradient within 3% of rho0 g, and the bottom pressure within 3% of M g / A
+//   (force balance, independent of particle arrangement);
+// - z0 within one particle spacing of H = M / (rho0 A), the height the mass fills at rest density.
+#include "domain/Simulation.hpp"
+#include "support/SceneFactory.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+using namespace kf;
+
+struct KernelCase {
+  KernelType kernel;
+  double support; // in particle spacings
+};
+
+class Hydrostatic : public ::testing::TestWithParam<KernelCase> {};
+
+// The paper's spiky kernel is not among these: at 2 dp its discrete gradient is 0.77 of the true
+// one and the profile misses by ~8% even at 3 dp (docs/VALIDATION.md); the study quantifies it.
+INSTANTIATE_TEST_SUITE_P(Kernels, Hydrostatic,
+                         ::testing::Values(KernelCase{KernelType::CubicSpline, 2.0},
+                                           KernelCase{KernelType::WendlandC2, 3.0}));
+
+TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
+  Scene s = test::tank_scene({0.15, 0.15, 0.35}, {0.15, 0.15, 0.25}, 0.01);
+  s.fluid.eos = EosType::Linear; // the paper's EOS
+  s.fluid.speed_of_sound = 20;   // hydrostatic compression g H / c^2 = 0.6%
+  s.fluid.viscosity = 0.05;
+  // Settle: viscosity hardly damps the column's compression mode (wavelength 4H), so damp all
+  // velocities for 0.6 s, then let it run free for 0.4 s: what remains is the equilibrium.
+  s.solver.damping = 30;
+  s.solver.damping_until = 0.6;
+  s.solver.kernel = GetParam().kernel;
+  s.fluid.support = GetParam().support;
+  auto sim = Simulation::create(s, exec::Backend::Cpu);
+  while (sim->time() < 1.0 - 1e-12) sim->step(1.0);
+  {
+    // Settled: rms speed small against the free-fall speed sqrt(g H) = 1.6 m/s.
+    const Diagnostics d = sim->diagnostics();
+    const double total_mass = 1000.0 * 0.15 * 0.15 * 0.25;
+    const double v_rms = std::sqrt(2 * d.kinetic_energy / total_mass);
+    std::printf("after settling: rms speed %.4f m/s, max %.4f m/s\n", v_rms, d.max_speed);
+    ASSERT_LT(v_rms, 0.03) << "not settled";
+  }
+
+  const io::Frame fr = sim->frame();
+  const io::Phase& f = *fr.find("fluid");
+  const auto x = f.find("position")->as<float>(), rho = f.find("density")->as<float>(),
+             p = f.find("pressure")->as<float>(), m = f.find("mass")->as<float>();
+  const std::size_t n = rho.size();
+  const double rho0 = s.fluid.rest_density, g = 9.81, dp = s.fluid.spacing, h = s.support_radius();
+  double mass = 0;
+  for (float mi : m) mass += mi;
+  const double area = 0.15 * 0.15;
+  const double H = mass / (rho0 * area);
+
+  // Slices one spacing thick: mean height and pressure.
+  const int slices = static_cast<int>(0.35 / dp);
+  std::vector<double> psum(slices, 0), zsum(slices, 0), cnt(slices, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int k = std::min(slices - 1, std::max(0, static_cast<int>(x[3 * i + 2] / dp)));
+    psum[k] += p[i];
+    zsum[k] += x[3 * i + 2];
+    cnt[k] += 1;
+  }
+  // Least-squares line through the bulk slices (below H - 2h, above the first layer).
+  double sz = 0, sp = 0, szz = 0, szp = 0, ns = 0;
+  std::vector<std::pair<double, double>> bulk;
+  for (int k = 1; k < slices; ++k) {
+    if (!cnt[k]) continue;
+    const double z = zsum[k] / cnt[k], pm = psum[k] / cnt[k];
+    if (z > H - 2 * h) continue;
+    bulk.push_back({z, pm});
+    sz += z, sp += pm, szz += z * z, szp += z * pm, ns += 1;
+  }
+  ASSERT_GE(ns, 10);
+  const double slope = (ns * szp - sz * sp) / (ns * szz - sz * sz);
+  const double intercept = (sp - slope * sz) / ns;
+  const double z0 = -intercept / slope;
+  const double pbottom_expected = mass * g / area;
+  const double p0 = psum[0] / cnt[0];
+  double max_profile_err = 0, max_bulk_rho_err = 0;
+  for (const auto& [z, pm] : bulk)
+    max_profile_err = std::max(max_profile_err, std::fabs(pm - rho0 * g * (z0 - z)) / (rho0 * g * H));
+  for (std::size_t i = 0; i < n; ++i)
+    if (x[3 * i + 2] < z0 - h) max_bulk_rho_err = std::max(max_bulk_rho_err, std::fabs(rho[i] - rho0) / rho0);
+  // Bottom layer: extrapolate its pressure to the floor (z = 0) along the measured gradient.
+  const double p_floor = p0 - slope * (zsum[0] / cnt[0]);
+  std::printf("hydrostatic: gradient %.1f Pa/m (rho0 g = %.1f), surface z0 = %.4f m (H = %.4f m), "
+              "floor pressure %.1f Pa (M g / A = %.1f), profile error %.2f%%, bulk density error %.3f%%\n",
+              -slope, rho0 * g, z0, H, p_floor, pbottom_expected, 100 * max_profile_err,
+              100 * max_bulk_rho_err);
+  EXPECT_NEAR(-slope, rho0 * g, 0.03 * rho0 * g);
+  EXPECT_NEAR(p_floor, pbottom_expected, 0.03 * pbottom_expected);
+  EXPECT_LT(max_profile_err, 0.03);
+  EXPECT_LT(max_bulk_rho_err, 0.01);
+  EXPECT_NEAR(z0, H, dp);
+  EXPECT_EQ(sim->diagnostics().guard_corrections, 0u) << "the wall forces alone must hold the fluid";
+}

@@ -1,0 +1,304 @@
+// Scene loading and validation: a full scene and defaults, --set overrides, and one broken scene
+// file per rule, each checked for a SceneError naming file, line and key.
+#include "core/Error.hpp"
+#include "domain/Scene.hpp"
+#include "support/TestPaths.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace kf {
+namespace {
+
+std::string scene_file(const std::string& name) {
+  return (test::data_dir() / "scenes" / name).string();
+}
+
+/// The message of the SceneError that loading throws ("" and a test failure when none is thrown).
+std::string load_error(const std::string& path, const std::vector<std::string>& overrides = {}) {
+  try {
+    load_scene(path, overrides);
+  } catch (const SceneError& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << path << " loaded without a SceneError";
+  return "";
+}
+
+void expect_vec(const Vec3d& v, double x, double y, double z) {
+  EXPECT_DOUBLE_EQ(v.x, x);
+  EXPECT_DOUBLE_EQ(v.y, y);
+  EXPECT_DOUBLE_EQ(v.z, z);
+}
+
+TEST(Scene, FullSceneReadsEveryKey) {
+  const Scene s = load_scene(scene_file("full.toml"));
+  EXPECT_EQ(s.path, scene_file("full.toml"));
+  EXPECT_EQ(s.name, "full");
+  EXPECT_DOUBLE_EQ(s.end_time, 2.5);
+  expect_vec(s.gravity, 0, -9.8, 0);
+  EXPECT_EQ(s.modules, (std::vector<Module>{Module::Boundary, Module::Fluid}));
+  EXPECT_EQ(s.precision, Precision::Double);
+
+  expect_vec(s.domain.min, -1, -1, 0);
+  expect_vec(s.domain.max, 1, 1, 2);
+  EXPECT_EQ(s.domain.walls, (std::array<bool, 6>{true, false, false, false, true, false}));
+
+  EXPECT_EQ(s.output.dir, "results/full");
+  EXPECT_DOUBLE_EQ(s.output.interval, 0.05);
+  EXPECT_FALSE(s.output.enabled);
+
+  EXPECT_EQ(s.solver.kernel, KernelType::WendlandC2);
+  EXPECT_DOUBLE_EQ(s.solver.cfl, 0.3);
+  EXPECT_DOUBLE_EQ(s.solver.force_factor, 0.2);
+  EXPECT_DOUBLE_EQ(s.solver.viscous_factor, 0.15);
+  EXPECT_DOUBLE_EQ(s.solver.dt_max, 5e-4);
+  EXPECT_DOUBLE_EQ(s.solver.dt_min, 1e-8);
+  EXPECT_EQ(s.solver.max_steps, 100);
+
+  EXPECT_DOUBLE_EQ(s.fluid.spacing, 0.02);
+  EXPECT_DOUBLE_EQ(s.fluid.support, 2.5);
+  EXPECT_DOUBLE_EQ(s.support_radius(), 0.05);
+  EXPECT_DOUBLE_EQ(s.fluid.rest_density, 998);
+  EXPECT_EQ(s.fluid.eos, EosType::Linear);
+  EXPECT_DOUBLE_EQ(s.fluid.speed_of_sound, 30.0); // stiffness 900 = c^2
+  EXPECT_DOUBLE_EQ(s.fluid.tait_exponent, 3);
+  EXPECT_DOUBLE_EQ(s.fluid.viscosity, 0.002);
+  EXPECT_FALSE(s.fluid.clamp_negative_pressure);
+  ASSERT_EQ(s.fluid.blocks.size(), 2u);
+  expect_vec(s.fluid.blocks[0].velocity, 1, 0, 0);
+  expect_vec(s.fluid.blocks[1].min, 0.5, 0.5, 0.5);
+  expect_vec(s.fluid.blocks[1].velocity, 0, 0, 0);
+
+  ASSERT_EQ(s.obstacles.size(), 3u);
+  EXPECT_EQ(s.obstacles[0].shape, ObstacleShape::Plane);
+  EXPECT_EQ(s.obstacles[0].name, "obstacle[0]");
+  expect_vec(s.obstacles[0].normal, 0, 0, 1); // normalised
+  EXPECT_EQ(s.obstacles[1].name, "crate");
+  expect_vec(s.obstacles[1].max, 0.3, 0.3, 0.2);
+  expect_vec(s.obstacles[1].velocity, 0, 0.5, 0);
+  EXPECT_EQ(s.obstacles[2].shape, ObstacleShape::Sphere);
+  EXPECT_EQ(s.obstacles[2].name, "obstacle[2]");
+  EXPECT_DOUBLE_EQ(s.obstacles[2].radius, 0.25);
+}
+
+TEST(Scene, MinimalSceneTakesDefaults) {
+  const Scene s = load_scene(scene_file("minimal.toml"));
+  const Scene def;
+  EXPECT_EQ(s.name, "scene");
+  EXPECT_EQ(s.output.dir, "out/scene");
+  EXPECT_DOUBLE_EQ(s.output.interval, def.output.interval);
+  EXPECT_TRUE(s.output.enabled);
+  EXPECT_EQ(s.precision, Precision::Float);
+  expect_vec(s.gravity, 0, 0, -9.81);
+  EXPECT_EQ(s.domain.walls, def.domain.walls);
+  EXPECT_EQ(s.solver.kernel, KernelType::Spiky);
+  EXPECT_DOUBLE_EQ(s.solver.cfl, def.solver.cfl);
+  EXPECT_DOUBLE_EQ(s.solver.dt_max, def.solver.dt_max);
+  EXPECT_EQ(s.solver.max_steps, 0);
+  EXPECT_DOUBLE_EQ(s.fluid.spacing, def.fluid.spacing);
+  EXPECT_EQ(s.fluid.eos, EosType::Tait);
+  EXPECT_DOUBLE_EQ(s.fluid.speed_of_sound, def.fluid.speed_of_sound);
+  EXPECT_TRUE(s.fluid.clamp_negative_pressure);
+  EXPECT_TRUE(s.obstacles.empty());
+  EXPECT_TRUE(s.has(Module::Fluid) && s.has(Module::Boundary));
+}
+
+TEST(Scene, OutputDirDefaultsToName) {
+  const Scene s =
+      parse_scene("[simulation]\nname = \"pour\"\nend_time = 1\nmodules = [\"boundary\"]\n"
+                  "[domain]\nmin = [0, 0, 0]\nmax = [1, 1, 1]\nwalls = []\n",
+                  "<string>");
+  EXPECT_EQ(s.output.dir, "out/pour");
+  EXPECT_EQ(s.domain.walls, (std::array<bool, 6>{}));
+  EXPECT_EQ(s.path, "<string>");
+}
+
+TEST(Scene, StiffnessGivesSpeedOfSound) {
+  const Scene s =
+      load_scene(scene_file("minimal.toml"), {"fluid.eos=\"linear\"", "fluid.stiffness=400"});
+  EXPECT_DOUBLE_EQ(s.fluid.speed_of_sound, 20.0);
+}
+
+TEST(Scene, OverridesChangeValues) {
+  const Scene s =
+      load_scene(scene_file("minimal.toml"),
+                 {"fluid.spacing=0.02", "solver.kernel=\"cubic\"", "output.enabled=false",
+                  "domain.walls=[\"z-\"]", "simulation.name = pour"});
+  EXPECT_DOUBLE_EQ(s.fluid.spacing, 0.02);
+  EXPECT_EQ(s.solver.kernel, KernelType::CubicSpline);
+  EXPECT_FALSE(s.output.enabled); // [output] is absent from the file
+  EXPECT_EQ(s.domain.walls, (std::array<bool, 6>{false, false, false, false, true, false}));
+  EXPECT_EQ(s.name, "pour"); // a bare word is a string
+  EXPECT_EQ(s.output.dir, "out/pour");
+}
+
+TEST(Scene, BareWordOverrideIsAString) {
+  const Scene s = load_scene(scene_file("minimal.toml"), {"solver.kernel=wendland"});
+  EXPECT_EQ(s.solver.kernel, KernelType::WendlandC2);
+}
+
+TEST(Scene, OverrideAddressesArrayOfTablesElement) {
+  const Scene s =
+      load_scene(scene_file("full.toml"), {"fluid.block.1.velocity=[0, 0, -2]",
+                                           "obstacle.2.radius=0.5", "fluid.block.0.max.2=0.5"});
+  expect_vec(s.fluid.blocks[0].velocity, 1, 0, 0); // untouched
+  expect_vec(s.fluid.blocks[0].max, 0, 0, 0.5);
+  expect_vec(s.fluid.blocks[1].velocity, 0, 0, -2);
+  expect_vec(s.fluid.blocks[1].min, 0.5, 0.5, 0.5); // merged, not replaced
+  EXPECT_DOUBLE_EQ(s.obstacles[2].radius, 0.5);
+}
+
+TEST(Scene, TextRecordsOverrides) {
+  const Scene s = load_scene(scene_file("minimal.toml"), {"fluid.spacing=0.02"});
+  EXPECT_EQ(s.text.find("[simulation]"), s.text.find('['));
+  EXPECT_NE(s.text.find("\n# --set fluid.spacing=0.02\n"), std::string::npos);
+  EXPECT_EQ(load_scene(scene_file("minimal.toml")).text.find("--set"), std::string::npos);
+}
+
+TEST(Scene, ExampleScenesLoad) {
+  const Scene dam = load_scene((test::source_dir() / "scenes" / "dambreak.toml").string());
+  EXPECT_EQ(dam.fluid.eos, EosType::Tait);
+  EXPECT_EQ(dam.output.dir, "out/dambreak");
+  expect_vec(dam.fluid.blocks.at(0).max, 0.2, 0.2, 0.4);
+  for (const char* name : {"hydrostatic.toml", "obstacles.toml"})
+    EXPECT_NO_THROW(load_scene((test::source_dir() / "scenes" / name).string())) << name;
+}
+
+TEST(Scene, ToStringUsesSceneSpelling) {
+  EXPECT_EQ(to_string(KernelType::CubicSpline), "cubic");
+  EXPECT_EQ(to_string(EosType::Linear), "linear");
+  EXPECT_EQ(to_string(Module::Boundary), "boundary");
+  EXPECT_EQ(to_string(ObstacleShape::Sphere), "sphere");
+}
+
+TEST(Scene, MissingFileNamesPath) {
+  const std::string path = scene_file("no/such/scene.toml");
+  const std::string msg = load_error(path);
+  EXPECT_NE(msg.find(path + ": cannot open scene file"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("No such file or directory"), std::string::npos) << msg;
+}
+
+TEST(Scene, SyntaxErrorInTextNamesSource) {
+  try {
+    parse_scene("[simulation]\nend_time = [1,\n", "<string>");
+    FAIL() << "no SceneError";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("<string>:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("TOML syntax error"), std::string::npos) << e.what();
+  }
+}
+
+// A broken scene file, the line its error must name, the key (none for syntax errors), and what
+// the message must say.
+struct Broken {
+  const char* file;
+  int line;
+  const char* key;
+  const char* says;
+};
+
+// clang-format off
+const Broken kBroken[] = {
+  {"syntax_error", 3, "", ":3:12: TOML syntax error"},
+  {"unknown_key", 11, "fluid.spaceing", "unknown key 'fluid.spaceing' (did you mean 'spacing'?)"},
+  {"unknown_table", 17, "sovler", "unknown table 'sovler' (did you mean 'solver'?)"},
+  {"unknown_table_case", 6, "Domain", "(did you mean 'domain'?)"},
+  {"wrong_type", 11, "fluid.spacing", "expected a number, got a string (\"abc\")"},
+  {"negative_spacing", 11, "fluid.spacing", "expected a number > 0, got -0.01"},
+  {"nan_value", 12, "fluid.viscosity", "expected a finite number, got nan"},
+  {"inf_in_vector", 7, "domain.min[2]", "expected a finite number, got -inf"},
+  {"domain_max_le_min", 8, "domain.max", "expected every component > domain.min [0, 0, 0], got [1, 0, 1]"},
+  {"block_outside_domain", 15, "fluid.block[0].max", "expected a point inside the domain"},
+  {"missing_required", 6, "domain", "table 'domain': missing required key 'max'"},
+  {"missing_simulation", 1, "simulation", "table 'simulation': missing required key 'end_time'"},
+  {"unknown_module", 4, "simulation.modules[2]", "expected one of \"fluid\", \"boundary\", got \"knit\""},
+  {"duplicate_module", 4, "simulation.modules[2]", "at most once"},
+  {"fluid_without_boundary", 4, "simulation.modules", "module \"fluid\" requires module \"boundary\""},
+  {"blocks_without_fluid", 13, "fluid.block", "module \"fluid\" is not in simulation.modules"},
+  {"fluid_without_blocks", 10, "fluid.block", "expected at least one [[fluid.block]]"},
+  {"obstacle_key_for_other_shape", 21, "obstacle[0]", "key 'radius' does not apply to shape 'box'"},
+  {"obstacle_missing_shape", 17, "obstacle[0]", "missing required key 'shape'"},
+  {"sphere_radius_zero", 20, "obstacle[0].radius", "expected a number > 0, got 0"},
+  {"plane_zero_normal", 20, "obstacle[0].normal", "expected a non-zero vector"},
+  {"dt_min_ge_dt_max", 19, "solver.dt_min", "expected a number < solver.dt_max"},
+  {"bad_kernel", 18, "solver.kernel", "expected one of \"spiky\", \"cubic\", \"wendland\", got \"gaussian\""},
+  {"kernel_typo", 18, "solver.kernel", "got \"cubc\" (did you mean 'cubic'?)"},
+  {"stiffness_and_sound", 14, "fluid.stiffness", "either stiffness or speed_of_sound, not both"},
+  {"stiffness_with_tait", 13, "fluid.stiffness", "no stiffness with eos = \"tait\""},
+  {"gravity_two_components", 5, "simulation.gravity", "expected an array of 3 numbers"},
+  {"bad_wall", 9, "domain.walls[1]", "got \"bottom\""},
+  {"support_out_of_range", 12, "fluid.support", "expected a number in [1, 4], got 5"},
+  {"cfl_zero", 18, "solver.cfl", "expected a number in (0, 1], got 0"},
+  {"max_steps_float", 18, "solver.max_steps", "expected an integer >= 0, got a number (1.5)"},
+  {"end_time_negative", 3, "simulation.end_time", "expected a number > 0, got -1"},
+  {"output_dir_empty", 18, "output.dir", "expected a non-empty string"},
+  {"block_not_array", 13, "fluid.block", "expected an array of tables ([[fluid.block]])"},
+};
+// clang-format on
+
+class BrokenScene : public ::testing::TestWithParam<Broken> {};
+
+TEST_P(BrokenScene, FailsNamingFileLineAndKey) {
+  const Broken& b = GetParam();
+  const std::string file = std::string(b.file) + ".toml";
+  const std::string path = scene_file("broken/" + file);
+  EXPECT_THROW(load_scene(path), SceneError);
+  const std::string msg = load_error(path);
+  EXPECT_EQ(msg.rfind(path + ":" + std::to_string(b.line) + ":", 0), 0u) << msg;
+  if (*b.key) {
+    EXPECT_NE(msg.find("'" + std::string(b.key)), std::string::npos) << msg;
+  }
+  EXPECT_NE(msg.find(b.says), std::string::npos) << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << "not one line: " << msg;
+}
+
+INSTANTIATE_TEST_SUITE_P(Files, BrokenScene, ::testing::ValuesIn(kBroken),
+                         [](const auto& info) { return std::string(info.param.file); });
+
+// An override that is malformed or names something that is not there; what the message must say.
+struct BadOverride {
+  const char* set;
+  const char* says;
+};
+
+// clang-format off
+const BadOverride kBadOverrides[] = {
+  {"fluid.spaceing=0.02", "--set fluid.spaceing=0.02: unknown key 'fluid.spaceing' (did you mean 'spacing'?)"},
+  {"fluidd.spacing=0.02", "--set fluidd.spacing=0.02: unknown table 'fluidd' (did you mean 'fluid'?)"},
+  {"fluid.spacing", "--set fluid.spacing: malformed override: expected KEY=VALUE"},
+  {"=0.02", "--set =0.02: malformed override: expected a key"},
+  {"fluid.spacing=", "--set fluid.spacing=: malformed override: expected a value"},
+  {"fluid..spacing=1", "--set fluid..spacing=1: malformed override"},
+  {"fluid.spacing=-1", "--set fluid.spacing=-1: key 'fluid.spacing': expected a number > 0, got -1"},
+  {"fluid.spacing=abc", "--set fluid.spacing=abc: key 'fluid.spacing': expected a number, got a string (\"abc\")"},
+  {"fluid.block.3.velocity=[1,0,0]", "--set fluid.block.3.velocity=[1,0,0]: key 'fluid.block': expected an element index 0..0, got '3'"},
+  {"fluid.block.x.velocity=[1,0,0]", "key 'fluid.block': expected an element index"},
+  {"solver.kernel=gaussian", "--set solver.kernel=gaussian: key 'solver.kernel': expected one of"},
+};
+// clang-format on
+
+class BadOverrideTest : public ::testing::TestWithParam<BadOverride> {};
+
+TEST_P(BadOverrideTest, Fails) {
+  const std::string msg = load_error(scene_file("minimal.toml"), {GetParam().set});
+  EXPECT_NE(msg.find(GetParam().says), std::string::npos) << msg;
+}
+
+INSTANTIATE_TEST_SUITE_P(Overrides, BadOverrideTest, ::testing::ValuesIn(kBadOverrides));
+
+TEST(Scene, OverrideErrorNamesTheOverrideNotTheFile) {
+  // The file is valid; the value the override puts there is not.
+  const std::string msg = load_error(scene_file("full.toml"), {"obstacle.1.radius=0.1"});
+  EXPECT_EQ(msg.rfind("--set obstacle.1.radius=0.1: table 'obstacle[1]': key 'radius' does not "
+                      "apply to shape 'box'",
+                      0),
+            0u)
+      << msg;
+}
+
+} // namespace
+} // namespace kf
