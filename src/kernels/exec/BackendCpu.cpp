@@ -145,12 +145,13 @@ static void cpu_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::siz
     std::fill(hist.begin(), hist.end(), 0);
 #pragma omp parallel num_threads(nt)
     {
+      // The team may be smaller than asked for: split the work by the team actually running.
 #if defined(_OPENMP)
-      const int t = omp_get_thread_num();
+      const int t = omp_get_thread_num(), team = omp_get_num_threads();
 #else
-      const int t = 0;
+      const int t = 0, team = 1;
 #endif
-      const std::size_t lo = n * t / nt, hi = n * (t + 1) / nt;
+      const std::size_t lo = n * t / team, hi = n * (t + 1) / team;
       std::size_t* h = &hist[static_cast<std::size_t>(t) * 256];
       for (std::size_t i = lo; i < hi; ++i) ++h[(ks[i] >> shift) & 0xFF];
 #pragma omp barrier
@@ -158,7 +159,7 @@ static void cpu_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::siz
       {
         std::size_t sum = 0; // digit-major, thread-minor order keeps the sort stable
         for (int d = 0; d < 256; ++d)
-          for (int tt = 0; tt < nt; ++tt) {
+          for (int tt = 0; tt < team; ++tt) {
             std::size_t c = hist[static_cast<std::size_t>(tt) * 256 + d];
             hist[static_cast<std::size_t>(tt) * 256 + d] = sum;
             sum += c;

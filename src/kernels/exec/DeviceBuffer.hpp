@@ -1,6 +1,7 @@
 #pragma once
 #include "kernels/exec/Backend.hpp"
 
+#include <algorithm>
 #include <cstring>
 #include <utility>
 #include <vector>
