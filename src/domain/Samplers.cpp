@@ -30,13 +30,27 @@ std::vector<Vec3d> sample_fluid_block(const FluidBlock& block, double dp) {
   return x;
 }
 
-std::vector<Vec3d> sample_fluid(const Scene& scene) {
-  std::vector<Vec3d> x;
-  for (const auto& b : scene.fluid.blocks) {
-    auto p = sample_fluid_block(b, scene.fluid.spacing);
-    x.insert(x.end(), p.begin(), p.end());
-  }
-  return x;
+FluidSamples sample_fluid(const Scene& scene) {
+  // Blocks are carved by the solids at t = 0 (a pool around a submerged sphere is one block):
+  // a lattice point closer than dp/4 to a solid or inside it is left out. Walls aligned with the
+  // lattice keep their first layer (dp/2 from the wall); the boundary shell starts inside the
+  // solid.
+  const auto shapes = scene.has(Module::Boundary) ? make_rigid_shapes<double>(scene)
+                                                  : std::vector<RigidShape<double>>{};
+  const double keep = 0.25 * scene.fluid.spacing;
+  FluidSamples out;
+  for (const auto& b : scene.fluid.blocks)
+    for (const Vec3d& p : sample_fluid_block(b, scene.fluid.spacing)) {
+      bool free = true;
+      Vec3d n;
+      for (const auto& s : shapes)
+        free = free && s.distance(p, n) >= keep;
+      if (!free)
+        continue;
+      out.x.push_back(p);
+      out.v.push_back(b.velocity);
+    }
+  return out;
 }
 
 double lattice_particle_mass(KernelType kernel, double support, double dp, double rho0) {
@@ -46,37 +60,69 @@ double lattice_particle_mass(KernelType kernel, double support, double dp, doubl
   with_kernel<double>(kernel, h, [&](auto k) {
     for (int i = -r; i <= r; ++i)
       for (int j = -r; j <= r; ++j)
-        for (int l = -r; l <= r; ++l) sum += k.W(dp * std::sqrt(double(i * i + j * j + l * l)));
+        for (int l = -r; l <= r; ++l)
+          sum += k.W(dp * std::sqrt(double(i * i + j * j + l * l)));
     return 0;
   });
   return rho0 / sum;
 }
 
+namespace {
+
+/// Boundary lattice coordinates along one axis of the domain [lo, hi], with the spacing each
+/// point stands for. Inside, n = round((hi - lo) / dp) points evenly over the domain (spacing
+/// (hi - lo) / n, which is dp when the domain is a multiple of dp); outside each face, layers at
+/// (k + 1/2) dp from that face. So every wall has its first layer half a spacing behind it and no
+/// hole, whatever the domain's size (a gap there lets fluid sink through the floor).
+struct AxisLattice {
+  std::vector<double> x, spacing;
+};
+
+AxisLattice axis_lattice(double lo, double hi, double dp, double depth) {
+  AxisLattice a;
+  const int layers = static_cast<int>(std::ceil(depth / dp - 1e-9));
+  const int n = std::max(1, static_cast<int>(std::lround((hi - lo) / dp)));
+  const double s = (hi - lo) / n;
+  auto add = [&](double x, double w) {
+    a.x.push_back(x);
+    a.spacing.push_back(w);
+  };
+  for (int k = layers - 1; k >= 0; --k)
+    add(lo - (k + 0.5) * dp, dp);
+  for (int i = 0; i < n; ++i)
+    add(lo + (i + 0.5) * s, s);
+  for (int k = 0; k < layers; ++k)
+    add(hi + (k + 0.5) * dp, dp);
+  return a;
+}
+
+} // namespace
+
 BoundarySamples sample_boundaries(const Scene& scene, double dp, double depth) {
   // The lattice of the fluid (aligned with the domain) continued into every solid, one shell of
   // thickness `depth` deep: at rest a flat wall is then an exact mirror of the fluid, and one
-  // rule samples walls, boxes, spheres and planes alike.
+  // rule samples walls, boxes, spheres and planes alike. When the domain is not a multiple of dp
+  // the lattice is stretched to fit it (axis_lattice) and each particle's volume scales with it.
   const auto shapes = make_rigid_shapes<double>(scene);
   const std::size_t container = scene.obstacles.size(); // index of the walls, if any are closed
-  const Vec3d lo = scene.domain.min - Vec3d{depth, depth, depth};
-  const Vec3d hi = scene.domain.max + Vec3d{depth, depth, depth};
-  const int i0 = static_cast<int>(std::floor((lo.x - scene.domain.min.x) / dp));
-  const int j0 = static_cast<int>(std::floor((lo.y - scene.domain.min.y) / dp));
-  const int k0 = static_cast<int>(std::floor((lo.z - scene.domain.min.z) / dp));
-  const int i1 = static_cast<int>(std::ceil((hi.x - scene.domain.min.x) / dp));
-  const int j1 = static_cast<int>(std::ceil((hi.y - scene.domain.min.y) / dp));
-  const int k1 = static_cast<int>(std::ceil((hi.z - scene.domain.min.z) / dp));
+  const Vec3d& lo = scene.domain.min;
+  const Vec3d& hi = scene.domain.max;
+  const AxisLattice ax = axis_lattice(lo.x, hi.x, dp, depth);
+  const AxisLattice ay = axis_lattice(lo.y, hi.y, dp, depth);
+  const AxisLattice az = axis_lattice(lo.z, hi.z, dp, depth);
   BoundarySamples out;
-  for (int k = k0; k <= k1; ++k)
-    for (int j = j0; j <= j1; ++j)
-      for (int i = i0; i <= i1; ++i) {
-        const Vec3d x = scene.domain.min + Vec3d{(i + 0.5) * dp, (j + 0.5) * dp, (k + 0.5) * dp};
+  for (std::size_t k = 0; k < az.x.size(); ++k)
+    for (std::size_t j = 0; j < ay.x.size(); ++j)
+      for (std::size_t i = 0; i < ax.x.size(); ++i) {
+        const Vec3d p{ax.x[i], ay.x[j], az.x[k]};
         for (std::size_t s = 0; s < shapes.size(); ++s) {
           Vec3d n;
-          const double d = shapes[s].distance(x, n);
+          const double d = shapes[s].distance(p, n);
           if (d < 0 && d >= -depth) {
-            out.x.push_back(x);
+            out.x.push_back(p);
             out.obstacle.push_back(s == container ? kWallObstacle : static_cast<std::uint32_t>(s));
+            out.volume_scale.push_back(ax.spacing[i] * ay.spacing[j] * az.spacing[k] /
+                                       (dp * dp * dp));
             break;
           }
         }

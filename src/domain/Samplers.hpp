@@ -14,8 +14,13 @@ namespace kf {
 /// Cubic lattice filling [min, max) at spacing dp, particles at cell centres.
 std::vector<Vec3d> sample_fluid_block(const FluidBlock& block, double dp);
 
-/// All fluid particles of the scene, blocks in order.
-std::vector<Vec3d> sample_fluid(const Scene& scene);
+struct FluidSamples {
+  std::vector<Vec3d> x, v; // position and initial velocity
+  std::size_t size() const { return x.size(); }
+};
+
+/// All fluid particles of the scene, blocks in order, less the lattice points in or at a solid.
+FluidSamples sample_fluid(const Scene& scene);
 
 /// Particle mass that makes an interior particle of a perfect lattice sit at rest density with
 /// the chosen kernel (so a fluid at rest starts without a pressure jolt).
@@ -24,6 +29,7 @@ double lattice_particle_mass(KernelType kernel, double support, double dp, doubl
 struct BoundarySamples {
   std::vector<Vec3d> x;
   std::vector<std::uint32_t> obstacle; // index into scene.obstacles, kWallObstacle for walls
+  std::vector<double> volume_scale;    // volume / dp^3 (1 unless the lattice is stretched)
 };
 
 /// Boundary particles filling a shell `depth` thick (the kernel support) inside every solid: the

@@ -64,22 +64,23 @@ struct Scene {
     double force_factor = 0.25;  // dt <= force_factor * sqrt(h / a_max)
     double viscous_factor = 0.1; // dt <= viscous_factor * h^2 rho0 / mu
     double dt_max = 1e-3;
-    double dt_min = 1e-9; // a step below this is reported as an instability
-    long max_steps = 0;   // 0: no limit
+    double dt_min = 1e-9;     // a step below this is reported as an instability
+    long max_steps = 0;       // 0: no limit
     double damping = 0;       // global velocity damping rate zeta [1/s] (settling a rest state)
     double damping_until = 0; // damping acts while t < damping_until
   } solver;
 
   // [fluid]
   struct Fluid {
-    double spacing = 0.01;         // initial particle spacing dp [m]
-    double support = 2.0;          // kernel support radius h in units of dp
-    double rest_density = 1000.0;  // rho0 [kg/m^3]
+    double spacing = 0.01;        // initial particle spacing dp [m]
+    double support = 2.0;         // kernel support radius h in units of dp
+    double rest_density = 1000.0; // rho0 [kg/m^3]
     EosType eos = EosType::Tait;
-    double speed_of_sound = 20.0;  // c [m/s]; the linear EOS uses k = c^2
-    double tait_exponent = 7.0;    // gamma
-    double viscosity = 1e-3;       // dynamic viscosity mu [Pa s], Eq. 4
+    double speed_of_sound = 20.0; // c [m/s]; the linear EOS uses k = c^2
+    double tait_exponent = 7.0;   // gamma
+    double viscosity = 1e-3;      // dynamic viscosity mu [Pa s], Eq. 4
     bool clamp_negative_pressure = true;
+    bool no_slip = true; // walls and obstacles hold the fluid by viscosity (else free slip)
     std::vector<FluidBlock> blocks;
   } fluid;
 
@@ -87,14 +88,16 @@ struct Scene {
 
   bool has(Module m) const {
     for (Module x : modules)
-      if (x == m) return true;
+      if (x == m)
+        return true;
     return false;
   }
   double support_radius() const { return fluid.spacing * fluid.support; }
 };
 
 /// Reads, validates and returns a scene. overrides are "dotted.key=value" strings (--set),
-/// the value written in TOML syntax. Throws SceneError("FILE:LINE: key 'K': expected ..., got ...").
+/// the value written in TOML syntax. Throws SceneError("FILE:LINE: key 'K': expected ..., got
+/// ...").
 Scene load_scene(const std::string& path, const std::vector<std::string>& overrides = {});
 /// Same, from text; source_name stands in for the file name in messages.
 Scene parse_scene(const std::string& text, const std::string& source_name,

@@ -96,9 +96,8 @@ void read_output(const TableReader& t, Scene& s) {
 }
 
 void read_solver(const TableReader& t, Scene::Solver& sv) {
-  t.allow_only(
-      {"kernel", "cfl", "force_factor", "viscous_factor", "dt_max", "dt_min", "max_steps",
-       "damping", "damping_until"});
+  t.allow_only({"kernel", "cfl", "force_factor", "viscous_factor", "dt_max", "dt_min", "max_steps",
+                "damping", "damping_until"});
   t.read("kernel", sv.kernel, kKernels);
   t.read("cfl", sv.cfl, Range::above_up_to(0, 1));
   t.read("force_factor", sv.force_factor, Range::above_up_to(0, 1));
@@ -157,7 +156,7 @@ FluidBlock read_block(const TableReader& t, const Scene::Domain& d) {
 
 void read_fluid(const TableReader& t, Scene& s) {
   t.allow_only({"spacing", "support", "rest_density", "eos", "speed_of_sound", "stiffness",
-                "tait_exponent", "viscosity", "clamp_negative_pressure", "block"});
+                "tait_exponent", "viscosity", "clamp_negative_pressure", "no_slip", "block"});
   Scene::Fluid& f = s.fluid;
   t.read("spacing", f.spacing, Range::positive());
   t.read("support", f.support, Range::closed(1.0, 4.0));
@@ -167,6 +166,7 @@ void read_fluid(const TableReader& t, Scene& s) {
   t.read("tait_exponent", f.tait_exponent, Range::at_least(1));
   t.read("viscosity", f.viscosity, Range::at_least(0));
   t.read("clamp_negative_pressure", f.clamp_negative_pressure);
+  t.read("no_slip", f.no_slip);
   for (const TableReader& b : t.array_of_tables("block"))
     f.blocks.push_back(read_block(b, s.domain));
 }

@@ -34,13 +34,15 @@ std::vector<T> flatten(const std::vector<Vec3<T>>& v) {
 template <typename T>
 std::vector<Vec3<T>> unflatten(const std::vector<T>& v) {
   std::vector<Vec3<T>> out(v.size() / 3);
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = {v[3 * i], v[3 * i + 1], v[3 * i + 2]};
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out[i] = {v[3 * i], v[3 * i + 1], v[3 * i + 2]};
   return out;
 }
 
 const io::Field& require(const io::Phase& p, const std::string& name) {
   const io::Field* f = p.find(name);
-  if (!f) throw Error("snapshot phase '" + p.name + "' has no field '" + name + "'");
+  if (!f)
+    throw Error("snapshot phase '" + p.name + "' has no field '" + name + "'");
   return *f;
 }
 
@@ -77,8 +79,9 @@ private:
   /// Velocity factor of one half kick: exp(-zeta dt / 2) while settling, else 1.
   T damping_keep() const {
     const auto& s = scene_.solver;
-    return (s.damping > 0 && time_ < s.damping_until) ? static_cast<T>(std::exp(-0.5 * s.damping * dt_))
-                                                      : T(1);
+    return (s.damping > 0 && time_ < s.damping_until)
+               ? static_cast<T>(std::exp(-0.5 * s.damping * dt_))
+               : T(1);
   }
   [[noreturn]] void report_instability(const std::string& why);
 
@@ -109,7 +112,8 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   // particles may touch the wall, which is physical.
   margin_ = 0.01 * scene.fluid.spacing;
   for (const auto& o : scene.obstacles)
-    if (o.velocity.x != 0 || o.velocity.y != 0 || o.velocity.z != 0) moving_ = true;
+    if (o.velocity.x != 0 || o.velocity.y != 0 || o.velocity.z != 0)
+      moving_ = true;
 
   sph_.kernel = scene.solver.kernel;
   sph_.h = static_cast<T>(h_);
@@ -119,14 +123,17 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   sph_.eos.gamma = static_cast<T>(scene.fluid.tait_exponent);
   sph_.eos.clamp_negative = scene.fluid.clamp_negative_pressure;
   sph_.viscosity = static_cast<T>(scene.fluid.viscosity);
+  sph_.no_slip = scene.fluid.no_slip;
   sph_.gravity = vec_cast<T>(scene.gravity);
 
   init_shapes();
   build_pipeline();
-  if (plan_only) return; // the stage list is all `plan` needs
+  if (plan_only)
+    return; // the stage list is all `plan` needs
   init_particles();
   update_shapes(0.0);
-  if (boundary_on_) sort_boundary();
+  if (boundary_on_)
+    sort_boundary();
   if (fluid_on_) {
     sort_fluid();
     compute_forces(); // a(t = 0), which the first half kick needs
@@ -142,19 +149,16 @@ template <typename T>
 void SimulationT<T>::init_particles() {
   const auto& d = scene_.domain;
   if (fluid_on_) {
-    const auto x = sample_fluid(scene_);
+    const FluidSamples fs = sample_fluid(scene_);
+    const auto& x = fs.x;
     const double m = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support,
                                            scene_.fluid.spacing, scene_.fluid.rest_density);
     std::vector<Vec3<T>> xs(x.size()), vs(x.size());
     std::vector<std::uint64_t> ids(x.size());
-    std::size_t i = 0;
-    for (const auto& b : scene_.fluid.blocks) {
-      const std::size_t n = sample_fluid_block(b, scene_.fluid.spacing).size();
-      for (std::size_t k = 0; k < n; ++k, ++i) {
-        xs[i] = vec_cast<T>(x[i]);
-        vs[i] = vec_cast<T>(b.velocity);
-        ids[i] = i;
-      }
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      xs[i] = vec_cast<T>(x[i]);
+      vs[i] = vec_cast<T>(fs.v[i]);
+      ids[i] = i;
     }
     fluid_.emplace(ex_.backend);
     fluid_->resize(x.size());
@@ -168,12 +172,14 @@ void SimulationT<T>::init_particles() {
   if (boundary_on_) {
     const auto s = sample_boundaries(scene_, scene_.fluid.spacing, h_);
     // Lattice particles: each stands for the volume of one lattice site, 1 / sum W.
-    const T volume = static_cast<T>(lattice_particle_mass(
-        scene_.solver.kernel, scene_.fluid.support, scene_.fluid.spacing, 1.0));
+    const double volume = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support,
+                                                scene_.fluid.spacing, 1.0);
     std::vector<Vec3<T>> xs(s.x.size());
+    std::vector<T> vol(s.x.size());
     std::vector<std::uint64_t> ids(s.x.size());
     for (std::size_t i = 0; i < s.x.size(); ++i) {
       xs[i] = vec_cast<T>(s.x[i]);
+      vol[i] = static_cast<T>(volume * s.volume_scale[i]);
       ids[i] = i;
     }
     boundary_.emplace(ex_.backend);
@@ -181,7 +187,7 @@ void SimulationT<T>::init_particles() {
     boundary_->x.assign(xs);
     boundary_->x0.assign(xs);
     boundary_->obstacle.assign(s.obstacle);
-    boundary_->volume.assign(std::vector<T>(xs.size(), volume));
+    boundary_->volume.assign(vol);
     boundary_->id.assign(ids);
     boundary_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_));
   }
@@ -204,12 +210,12 @@ void SimulationT<T>::build_pipeline() {
                   [this] { sort_boundary(); });
   }
   if (fluid_on_ && !shapes_host_.empty())
-    pipeline_.add("boundary.guard", "boundary", "put back particles crossing into a solid (counted)",
-                  [this] {
+    pipeline_.add("boundary.guard", "boundary",
+                  "put back particles crossing into a solid (counted)", [this] {
                     auto f = fluid_->view();
-                    guard_corrections_ += enforce_rigid_shapes(
-                        ex_, f.x, f.v, f.n, shapes_.data(), shapes_.size(),
-                        static_cast<T>(margin_), "boundary.guard");
+                    guard_corrections_ +=
+                        enforce_rigid_shapes(ex_, f.x, f.v, f.n, shapes_.data(), shapes_.size(),
+                                             static_cast<T>(margin_), "boundary.guard");
                   });
   if (fluid_on_) {
     pipeline_.add("grid.fluid", "fluid", "sort fluid by cell (Morton order), cell ranges",
@@ -252,29 +258,39 @@ void SimulationT<T>::sort_boundary() {
 
 template <typename T>
 BoundaryNeighbours<T> SimulationT<T>::boundary_neighbours() {
-  if (!boundary_on_ || boundary_->size() == 0) return {};
-  return {boundary_->x.data(), boundary_->volume.data(), boundary_->p.data(),
-          boundary_->rho.data(), boundary_grid_->view(), boundary_->size()};
+  if (!boundary_on_ || boundary_->size() == 0)
+    return {};
+  return {boundary_->x.data(),
+          boundary_->volume.data(),
+          boundary_->p.data(),
+          boundary_->rho.data(),
+          sph_.no_slip ? boundary_->v.data() : nullptr,
+          boundary_grid_->view(),
+          boundary_->size()};
 }
 
 template <typename T>
 void SimulationT<T>::compute_forces() {
   sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours());
-  if (boundary_on_) extrapolate_boundary_pressure();
+  if (boundary_on_)
+    extrapolate_boundary_pressure();
   sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours());
 }
 
 template <typename T>
 void SimulationT<T>::extrapolate_boundary_pressure() {
-  if (boundary_->size() == 0) return;
-  boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view());
+  if (boundary_->size() == 0)
+    return;
+  boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
+                    shapes_.data());
 }
 
 template <typename T>
 double SimulationT<T>::stable_dt() {
   const auto& s = scene_.solver;
   double dt = s.dt_max;
-  if (!fluid_on_) return dt;
+  if (!fluid_on_)
+    return dt;
   auto f = fluid_->view();
   const MotionBounds<T> mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
   const double vmax = std::sqrt(static_cast<double>(mb.v2));
@@ -282,9 +298,11 @@ double SimulationT<T>::stable_dt() {
   if (!std::isfinite(vmax) || !std::isfinite(amax))
     report_instability("a fluid velocity or acceleration is not finite");
   dt = std::min(dt, s.cfl * h_ / (scene_.fluid.speed_of_sound + vmax));
-  if (amax > 0) dt = std::min(dt, s.force_factor * std::sqrt(h_ / amax));
+  if (amax > 0)
+    dt = std::min(dt, s.force_factor * std::sqrt(h_ / amax));
   if (scene_.fluid.viscosity > 0)
-    dt = std::min(dt, s.viscous_factor * h_ * h_ * scene_.fluid.rest_density / scene_.fluid.viscosity);
+    dt = std::min(dt,
+                  s.viscous_factor * h_ * h_ * scene_.fluid.rest_density / scene_.fluid.viscosity);
   return dt;
 }
 
@@ -335,7 +353,8 @@ void SimulationT<T>::report_instability(const std::string& why) {
     }
     if (!v.empty())
       msg << "; worst fluid particle id " << id[worst] << " at (" << x[worst].x << ", "
-          << x[worst].y << ", " << x[worst].z << ") with |v| = " << std::sqrt(double(norm2(v[worst])))
+          << x[worst].y << ", " << x[worst].z
+          << ") with |v| = " << std::sqrt(double(norm2(v[worst])))
           << " m/s, |a| = " << std::sqrt(double(norm2(a[worst]))) << " m/s^2";
   }
   throw InstabilityError(msg.str());
@@ -381,11 +400,13 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   time_ = fr.time;
   steps_ = fr.step;
   for (const auto& [k, v] : fr.scalars)
-    if (k == "guard_corrections") guard_corrections_ = static_cast<std::uint64_t>(v);
+    if (k == "guard_corrections")
+      guard_corrections_ = static_cast<std::uint64_t>(v);
   update_shapes(time_);
   if (fluid_on_) {
     const io::Phase* p = fr.find("fluid");
-    if (!p) throw Error("restart: the snapshot has no fluid phase but the scene has fluid");
+    if (!p)
+      throw Error("restart: the snapshot has no fluid phase but the scene has fluid");
     const auto x = unflatten(require(*p, "position").as<T>());
     fluid_->resize(x.size());
     fluid_->x.assign(x);
@@ -398,7 +419,8 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   }
   if (boundary_on_) {
     const io::Phase* p = fr.find("boundary");
-    if (!p) throw Error("restart: the snapshot has no boundary phase but the scene has one");
+    if (!p)
+      throw Error("restart: the snapshot has no boundary phase but the scene has one");
     const auto x = unflatten(require(*p, "position").as<T>());
     boundary_->resize(x.size());
     boundary_->x.assign(x);
@@ -417,8 +439,10 @@ template <typename T>
 Diagnostics SimulationT<T>::diagnostics() const {
   Diagnostics d;
   d.guard_corrections = guard_corrections_;
-  if (boundary_on_) d.boundary = boundary_->size();
-  if (!fluid_on_) return d;
+  if (boundary_on_)
+    d.boundary = boundary_->size();
+  if (!fluid_on_)
+    return d;
   d.fluid = fluid_->size();
   const auto v = fluid_->v.to_host();
   const auto m = fluid_->m.to_host();
@@ -433,7 +457,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.max_density_error = std::max(d.max_density_error, e);
     sum_err += e;
   }
-  if (!v.empty()) d.mean_density_error = sum_err / v.size();
+  if (!v.empty())
+    d.mean_density_error = sum_err / v.size();
   d.min_rigid_distance =
       shapes_host_.empty()
           ? std::numeric_limits<double>::infinity()
@@ -445,8 +470,10 @@ Diagnostics SimulationT<T>::diagnostics() const {
 template <typename T>
 std::size_t SimulationT<T>::memory_bytes() const {
   std::size_t b = shapes_.capacity_bytes();
-  if (fluid_) b += fluid_->size() * FluidSet<T>::bytes_per_particle() + fluid_grid_->bytes();
-  if (boundary_) b += boundary_->size() * BoundarySet<T>::bytes_per_particle() + boundary_grid_->bytes();
+  if (fluid_)
+    b += fluid_->size() * FluidSet<T>::bytes_per_particle() + fluid_grid_->bytes();
+  if (boundary_)
+    b += boundary_->size() * BoundarySet<T>::bytes_per_particle() + boundary_grid_->bytes();
   return b;
 }
 
@@ -454,8 +481,10 @@ PlanReport Simulation::plan(const Scene& scene) {
   PlanReport r;
   const bool dbl = scene.precision == Precision::Double;
   std::unique_ptr<Simulation> shell;
-  if (dbl) shell.reset(new SimulationT<double>(scene, exec::Backend::Cpu, true));
-  else shell.reset(new SimulationT<float>(scene, exec::Backend::Cpu, true));
+  if (dbl)
+    shell.reset(new SimulationT<double>(scene, exec::Backend::Cpu, true));
+  else
+    shell.reset(new SimulationT<float>(scene, exec::Backend::Cpu, true));
   for (const auto& s : shell->pipeline().stages())
     r.stages.push_back({s.name + " [" + s.module + "]", s.what});
   r.support_radius = scene.support_radius();
@@ -480,7 +509,8 @@ PlanReport Simulation::plan(const Scene& scene) {
   // Initial dt from the initial velocities and gravity (the first forces are not evaluated).
   const auto& s = scene.solver;
   double vmax = 0;
-  for (const auto& b : scene.fluid.blocks) vmax = std::max(vmax, norm(b.velocity));
+  for (const auto& b : scene.fluid.blocks)
+    vmax = std::max(vmax, norm(b.velocity));
   r.initial_dt = s.dt_max;
   r.dt_limit = "dt_max";
   auto limit = [&](double dt, const char* why) {
@@ -492,9 +522,11 @@ PlanReport Simulation::plan(const Scene& scene) {
   if (scene.has(Module::Fluid)) {
     limit(s.cfl * h / (scene.fluid.speed_of_sound + vmax), "CFL (sound speed + velocity)");
     const double g = norm(scene.gravity);
-    if (g > 0) limit(s.force_factor * std::sqrt(h / g), "force (gravity)");
+    if (g > 0)
+      limit(s.force_factor * std::sqrt(h / g), "force (gravity)");
     if (scene.fluid.viscosity > 0)
-      limit(s.viscous_factor * h * h * scene.fluid.rest_density / scene.fluid.viscosity, "viscosity");
+      limit(s.viscous_factor * h * h * scene.fluid.rest_density / scene.fluid.viscosity,
+            "viscosity");
   }
   return r;
 }

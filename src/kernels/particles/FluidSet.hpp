@@ -27,7 +27,8 @@ public:
 
   std::size_t size() const { return x.size(); }
   void resize(std::size_t n);
-  /// Reorders the state carried across steps (x, v, a, m, id); rho and p are recomputed after a sort.
+  /// Reorders the state carried across steps (x, v, a, m, id); rho and p are recomputed after a
+  /// sort.
   void reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm);
   FluidView<T> view();
   /// Bytes each particle costs, scratch included (for `plan` and the memory report).
@@ -47,18 +48,19 @@ private:
 template <typename T>
 struct BoundaryView {
   Vec3<T>* x;
-  const Vec3<T>* x0;            // position at t = 0 (moving obstacles translate it)
+  const Vec3<T>* x0;             // position at t = 0 (moving obstacles translate it)
   const std::uint32_t* obstacle; // index into the scene's obstacle list; walls use kWallObstacle
-  T* volume;                    // volume the particle stands for (psi_b = rho0 volume)
-  T* p;                         // pressure extrapolated from the fluid (Adami et al. 2012)
-  T* rho;                       // density matching p through the EOS
+  T* volume;                     // volume the particle stands for (psi_b = rho0 volume)
+  T* p;                          // pressure extrapolated from the fluid (Adami et al. 2012)
+  T* rho;                        // density matching p through the EOS
+  Vec3<T>* v; // no-slip: 2 v_wall - (fluid velocity around it) (Adami et al. 2012)
   std::size_t n;
 };
 
 inline constexpr std::uint32_t kWallObstacle = 0xFFFFFFFFu;
 
-/// Particles filling a shell of each rigid solid (domain walls and obstacles). They add psi = rho0 V
-/// to the fluid's density and enter the pressure force like fluid particles whose pressure is
+/// Particles filling a shell of each rigid solid (domain walls and obstacles). They add psi = rho0
+/// V to the fluid's density and enter the pressure force like fluid particles whose pressure is
 /// extrapolated from the fluid next to them (Adami et al. 2012), which holds a column at rest.
 template <typename T>
 class BoundarySet {
@@ -74,6 +76,7 @@ public:
   exec::DeviceBuffer<Vec3<T>> x, x0;
   exec::DeviceBuffer<std::uint32_t> obstacle;
   exec::DeviceBuffer<T> volume, p, rho;
+  exec::DeviceBuffer<Vec3<T>> v; // recomputed every step with p; not reordered
   exec::DeviceBuffer<std::uint64_t> id;
 
 private:

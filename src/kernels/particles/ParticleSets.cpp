@@ -38,16 +38,16 @@ FluidView<T> FluidSet<T>::view() {
 template <typename T>
 std::size_t FluidSet<T>::bytes_per_particle() {
   // x v a + scratch (Vec3), m rho p + scratch (T), id + scratch, grid keys + permutation.
-  return 4 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint64_t) + 2 * sizeof(std::uint32_t);
+  return 4 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint64_t) +
+         2 * sizeof(std::uint32_t);
 }
 
 template <typename T>
 BoundarySet<T>::BoundarySet(exec::Backend b)
     : x(b, 0, "boundary.x"), x0(b, 0, "boundary.x0"), obstacle(b, 0, "boundary.obstacle"),
       volume(b, 0, "boundary.volume"), p(b, 0, "boundary.p"), rho(b, 0, "boundary.rho"),
-      id(b, 0, "boundary.id"),
-      scratch_v3_(b, 0, "boundary.scratch"), scratch_u32_(b, 0, "boundary.scratch"),
-      scratch_t_(b, 0, "boundary.scratch"),
+      v(b, 0, "boundary.v"), id(b, 0, "boundary.id"), scratch_v3_(b, 0, "boundary.scratch"),
+      scratch_u32_(b, 0, "boundary.scratch"), scratch_t_(b, 0, "boundary.scratch"),
       scratch_id_(b, 0, "boundary.scratch") {}
 
 template <typename T>
@@ -58,6 +58,7 @@ void BoundarySet<T>::resize(std::size_t n) {
   volume.resize(n);
   p.resize(n);
   rho.resize(n);
+  v.resize(n);
   id.resize(n);
 }
 
@@ -72,12 +73,13 @@ void BoundarySet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std:
 
 template <typename T>
 BoundaryView<T> BoundarySet<T>::view() {
-  return {x.data(), x0.data(), obstacle.data(), volume.data(), p.data(), rho.data(), size()};
+  return {x.data(), x0.data(),  obstacle.data(), volume.data(),
+          p.data(), rho.data(), v.data(),        size()};
 }
 
 template <typename T>
 std::size_t BoundarySet<T>::bytes_per_particle() {
-  return 3 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint32_t) +
+  return 4 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint32_t) +
          2 * sizeof(std::uint64_t) + 2 * sizeof(std::uint32_t);
 }
 

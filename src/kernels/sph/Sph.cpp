@@ -16,10 +16,11 @@ void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, 
 
 template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
-                       const FluidView<T>& f, CellView<T> fluid_cells) {
+                       const FluidView<T>& f, CellView<T> fluid_cells,
+                       const RigidShape<T>* shapes) {
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
     using K = decltype(k);
-    exec::for_each(ex, b.n, BoundaryPressureEvaluator<T, K>{k, prm, b, f, fluid_cells},
+    exec::for_each(ex, b.n, BoundaryPressureEvaluator<T, K>{k, prm, b, f, fluid_cells, shapes},
                    "boundary.pressure");
   });
 }
@@ -36,8 +37,8 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
 #define KF_INSTANTIATE(T)                                                                          \
   template void sph_density<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,  \
                                const BoundaryNeighbours<T>&);                                      \
-  template void boundary_pressure<T>(const exec::Exec&, const SphParams<T>&, BoundaryView<T>,    \
-                                     const FluidView<T>&, CellView<T>);                            \
+  template void boundary_pressure<T>(const exec::Exec&, const SphParams<T>&, BoundaryView<T>,      \
+                                     const FluidView<T>&, CellView<T>, const RigidShape<T>*);      \
   template void sph_forces<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,   \
                               const BoundaryNeighbours<T>&);
 KF_INSTANTIATE(float)

@@ -2,6 +2,7 @@
 // SPH fluid stages (paper §4): density (Eq. 2) with the EOS, and accelerations from pressure
 // (Eq. 3), viscosity (Eq. 4) and gravity, with Akinci et al. 2012 boundary particles.
 #include "core/SolverOptions.hpp"
+#include "kernels/boundary/RigidShape.hpp"
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/GridGeometry.hpp"
 #include "kernels/particles/FluidSet.hpp"
@@ -15,6 +16,7 @@ struct SphParams {
   T h = T(0.02); // support radius
   Eos<T> eos;
   T viscosity = T(1e-3); // dynamic viscosity mu
+  bool no_slip = true;   // walls carry viscous stress (Eq. 4 with the wall particles' velocity)
   Vec3<T> gravity{T(0), T(0), T(-9.81)};
 };
 
@@ -25,6 +27,7 @@ struct BoundaryNeighbours {
   const T* volume = nullptr;
   const T* p = nullptr;
   const T* rho = nullptr;
+  const Vec3<T>* v = nullptr; // no-slip velocity; nullptr: free slip (no viscous wall term)
   CellView<T> cells{};
   std::size_t n = 0;
 };
@@ -36,10 +39,12 @@ void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, 
 
 /// Boundary pressure from the fluid around each boundary particle (Adami et al. 2012):
 /// P_b = (sum_f P_f W + (g - a_b) . sum_f rho_f (x_b - x_f) W) / sum_f W, and rho_b from the EOS.
-/// Static and constant-velocity solids have a_b = 0.
+/// Static and constant-velocity solids have a_b = 0. With prm.no_slip it also sets the velocity
+/// the viscous term sees, v_b = 2 v_wall - sum_f v_f W / sum_f W, so the fluid's velocity
+/// extrapolates to the wall's at the wall surface. shapes[obstacle] gives v_wall (walls: 0).
 template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
-                       const FluidView<T>& f, CellView<T> fluid_cells);
+                       const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes);
 
 /// a_i = g + pressure (Eq. 3) + viscosity (Eq. 4) + boundary pressure, for every fluid particle.
 template <typename T>

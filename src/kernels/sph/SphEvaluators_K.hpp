@@ -20,13 +20,15 @@ struct DensityEvaluator {
     T rho = T(0);
     cells.for_each_candidate(xi, [&](std::uint32_t j) {
       const T r2 = norm2(xi - f.x[j]);
-      if (r2 < h2) rho += f.m[j] * kernel.W(ksqrt(r2));
+      if (r2 < h2)
+        rho += f.m[j] * kernel.W(ksqrt(r2));
     });
     if (b.n) {
       T vol = T(0);
       b.cells.for_each_candidate(xi, [&](std::uint32_t k) {
         const T r2 = norm2(xi - b.x[k]);
-        if (r2 < h2) vol += b.volume[k] * kernel.W(ksqrt(r2));
+        if (r2 < h2)
+          vol += b.volume[k] * kernel.W(ksqrt(r2));
       });
       rho += eos.rho0 * vol; // psi_b = rho0 V_b
     }
@@ -42,26 +44,36 @@ struct BoundaryPressureEvaluator {
   BoundaryView<T> b;
   FluidView<T> f;
   CellView<T> cells;
+  const RigidShape<T>* shapes;
 
   KF_HD void operator()(std::size_t k) const {
     const Vec3<T> xb = b.x[k];
     const T h2 = kernel.h * kernel.h;
     T sum_w = T(0), sum_p = T(0);
-    Vec3<T> sum_rho_r{T(0), T(0), T(0)};
+    Vec3<T> sum_rho_r{T(0), T(0), T(0)}, sum_v{T(0), T(0), T(0)};
     cells.for_each_candidate(xb, [&](std::uint32_t j) {
       const Vec3<T> r = xb - f.x[j];
       const T r2 = norm2(r);
-      if (r2 >= h2) return;
+      if (r2 >= h2)
+        return;
       const T w = kernel.W(ksqrt(r2));
       sum_w += w;
       sum_p += f.p[j] * w;
       sum_rho_r += r * (f.rho[j] * w);
+      sum_v += f.v[j] * w;
     });
     T p = T(0);
-    if (sum_w > T(0)) p = (sum_p + dot(prm.gravity, sum_rho_r)) / sum_w;
-    if (p < T(0)) p = T(0); // a wall never pulls the fluid
+    if (sum_w > T(0))
+      p = (sum_p + dot(prm.gravity, sum_rho_r)) / sum_w;
+    if (p < T(0))
+      p = T(0); // a wall never pulls the fluid
     b.p[k] = p;
     b.rho[k] = prm.eos.density(p);
+    if (prm.no_slip) {
+      const std::uint32_t o = b.obstacle[k];
+      const Vec3<T> vw = o == kWallObstacle ? Vec3<T>{T(0), T(0), T(0)} : shapes[o].velocity;
+      b.v[k] = sum_w > T(0) ? vw * T(2) - sum_v * (T(1) / sum_w) : vw;
+    }
   }
 };
 
@@ -83,10 +95,12 @@ struct ForceEvaluator {
     const T mu2 = T(2) * prm.viscosity;
     Vec3<T> acc = prm.gravity;
     cells.for_each_candidate(xi, [&](std::uint32_t j) {
-      if (j == i) return;
+      if (j == i)
+        return;
       const Vec3<T> rij = xi - f.x[j];
       const T r2 = norm2(rij);
-      if (r2 >= h2) return;
+      if (r2 >= h2)
+        return;
       const T r = ksqrt(r2);
       const Vec3<T> gw = kernel.grad(rij, r);
       const T rho_j = f.rho[j];
@@ -103,9 +117,14 @@ struct ForceEvaluator {
       b.cells.for_each_candidate(xi, [&](std::uint32_t k) {
         const Vec3<T> rik = xi - b.x[k];
         const T r2 = norm2(rik);
-        if (r2 >= h2) return;
+        if (r2 >= h2)
+          return;
         const T rho_k = b.rho[k];
-        acc -= kernel.grad(rik, ksqrt(r2)) * (rho0 * b.volume[k] * (pi + b.p[k] / (rho_k * rho_k)));
+        const Vec3<T> gw = kernel.grad(rik, ksqrt(r2));
+        const T mk = rho0 * b.volume[k];
+        acc -= gw * (mk * (pi + b.p[k] / (rho_k * rho_k)));
+        if (b.v)
+          acc += (vi - b.v[k]) * (mk * mu2 / (rho_i * rho_k) * dot(rik, gw) / (r2 + eta2));
       });
     }
     f.a[i] = acc;
