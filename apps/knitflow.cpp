@@ -39,8 +39,10 @@ void add_scene_options(CLI::App* cmd, Args& a) {
 }
 
 kf::exec::Backend choose_backend(const std::string& device) {
-  if (device == "cpu") return kf::exec::Backend::Cpu;
-  if (device == "cuda") return kf::exec::Backend::Cuda;
+  if (device == "cpu")
+    return kf::exec::Backend::Cpu;
+  if (device == "cuda")
+    return kf::exec::Backend::Cuda;
   return kf::exec::cuda_available() ? kf::exec::Backend::Cuda : kf::exec::Backend::Cpu;
 }
 
@@ -59,19 +61,23 @@ std::string human_bytes(double b) {
 int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   const kf::Scene scene = kf::load_scene(a.scene, a.overrides);
   const kf::PlanReport r = kf::Simulation::plan(scene);
-  if (!mpi.root()) return 0;
+  if (!mpi.root())
+    return 0;
   std::string mods;
-  for (auto m : scene.modules) mods += (mods.empty() ? "" : ", ") + kf::to_string(m);
+  for (auto m : scene.modules)
+    mods += (mods.empty() ? "" : ", ") + kf::to_string(m);
   std::printf("scene      %s (%s)\n", scene.name.c_str(), scene.path.c_str());
   std::printf("modules    %s\n", mods.c_str());
   std::printf("precision  %s\n", std::string(kf::to_string(scene.precision)).c_str());
-  std::printf("particles  fluid %zu, boundary %zu\n", r.fluid, r.boundary);
+  std::printf("particles  fluid %zu, boundary %zu, knit %zu (%zu springs)\n", r.fluid, r.boundary,
+              r.knit, r.springs);
   std::printf("radius     h = %.6g m (kernel support; %.3g x spacing), grid %d x %d x %d cells\n",
               r.support_radius, scene.fluid.support, r.grid[0], r.grid[1], r.grid[2]);
-  const double total = double(r.bytes_fluid + r.bytes_boundary + r.bytes_grid);
-  std::printf("memory     %s per rank on %d rank(s) (fluid %s, boundary %s, grids %s)\n",
-              human_bytes(total / mpi.size()).c_str(), mpi.size(), human_bytes(r.bytes_fluid).c_str(),
-              human_bytes(r.bytes_boundary).c_str(), human_bytes(r.bytes_grid).c_str());
+  const double total = double(r.bytes_fluid + r.bytes_boundary + r.bytes_grid + r.bytes_knit);
+  std::printf("memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s)\n",
+              human_bytes(total / mpi.size()).c_str(), mpi.size(),
+              human_bytes(r.bytes_fluid).c_str(), human_bytes(r.bytes_boundary).c_str(),
+              human_bytes(r.bytes_knit).c_str(), human_bytes(r.bytes_grid).c_str());
   std::printf("halo       %.6g m (one interaction radius; single rank: none exchanged)\n",
               r.support_radius);
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
@@ -87,14 +93,17 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
 
 int cmd_run(const Args& a, const kf::comm::MpiContext& mpi) {
   std::vector<std::string> overrides = a.overrides;
-  if (!a.output.empty()) overrides.push_back("output.dir=\"" + a.output + "\"");
+  if (!a.output.empty())
+    overrides.push_back("output.dir=\"" + a.output + "\"");
   const kf::Scene scene = kf::load_scene(a.scene, overrides);
 #if defined(_OPENMP)
-  if (a.threads > 0) omp_set_num_threads(a.threads);
+  if (a.threads > 0)
+    omp_set_num_threads(a.threads);
 #endif
   kf::RunOptions opt;
   opt.backend = choose_backend(a.device);
-  if (opt.backend == kf::exec::Backend::Cuda) kf::exec::cuda_select_device(mpi.local_rank());
+  if (opt.backend == kf::exec::Backend::Cuda)
+    kf::exec::cuda_select_device(mpi.local_rank());
   opt.restart = a.restart;
   opt.progress = !a.quiet;
   opt.profile = a.profile;
@@ -102,7 +111,8 @@ int cmd_run(const Args& a, const kf::comm::MpiContext& mpi) {
     std::cerr << "knitflow: " << scene.name << " on " << kf::exec::describe(opt.backend) << ", "
               << mpi.size() << " rank(s), " << kf::to_string(scene.precision) << "\n";
   const kf::RunSummary s = kf::run_scene(scene, opt, mpi, std::cerr);
-  if (mpi.root() && !a.quiet) std::cerr << kf::format_summary(s);
+  if (mpi.root() && !a.quiet)
+    std::cerr << kf::format_summary(s);
   return 0;
 }
 
@@ -125,23 +135,28 @@ int main(int argc, char** argv) {
     run->add_option("--threads", a.threads, "OpenMP threads for the CPU backend");
     run->add_flag("--quiet,-q", a.quiet, "no progress line or summary");
     run->add_flag("--profile", a.profile, "time every stage (synchronises the device)");
-    auto* plan = app.add_subcommand("plan", "print stages, particle counts, memory and dt; run nothing");
+    auto* plan =
+        app.add_subcommand("plan", "print stages, particle counts, memory and dt; run nothing");
     add_scene_options(plan, a);
     try {
       app.parse(argc, argv);
       rc = run->parsed() ? cmd_run(a, mpi) : cmd_plan(a, mpi);
     } catch (const CLI::ParseError& e) {
       rc = app.exit(e);
-      if (rc != 0) rc = 2;
+      if (rc != 0)
+        rc = 2;
     } catch (const kf::SceneError& e) {
-      if (mpi.root()) std::cerr << "knitflow: error: " << e.what() << "\n";
+      if (mpi.root())
+        std::cerr << "knitflow: error: " << e.what() << "\n";
       rc = 2;
     } catch (const std::exception& e) {
-      if (mpi.root()) std::cerr << "knitflow: error: " << e.what() << "\n";
+      if (mpi.root())
+        std::cerr << "knitflow: error: " << e.what() << "\n";
       rc = 1;
     }
   }
-  if (rc == 1) MPI_Abort(MPI_COMM_WORLD, 1); // another rank may be waiting in a collective
+  if (rc == 1)
+    MPI_Abort(MPI_COMM_WORLD, 1); // another rank may be waiting in a collective
   MPI_Finalize();
   return rc;
 }

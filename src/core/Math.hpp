@@ -50,6 +50,17 @@ KF_HD KF_INLINE double kpow(double x, double y) {
 #endif
 }
 template <typename T>
-KF_HD KF_INLINE T kabs(T x) { return x < T(0) ? -x : x; }
+KF_HD KF_INLINE T kabs(T x) {
+  return x < T(0) ? -x : x;
+}
+
+template <typename T>
+KF_HD KF_INLINE T kmax(T a, T b) {
+  return a < b ? b : a;
+}
+template <typename T>
+KF_HD KF_INLINE T kmin(T a, T b) {
+  return b < a ? b : a;
+}
 
 } // namespace kf

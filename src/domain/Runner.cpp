@@ -38,12 +38,15 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
   };
   if (output) {
     writer = std::make_unique<io::SnapshotWriter>(mpi.comm(), scene.output.dir);
-    if (opt.restart.empty()) write_frame(0);
+    if (opt.restart.empty())
+      write_frame(0);
   }
 
   io::Progress progress(log, end, opt.progress_interval_s, opt.progress && mpi.root());
   const std::uint64_t start_steps = sim->steps();
-  const std::uint64_t particles = sim->diagnostics().fluid;
+  // Moving particles (fluid + knit): boundary particles only follow their solids.
+  const Diagnostics d0 = sim->diagnostics();
+  const std::uint64_t particles = d0.fluid + d0.knit;
   double next_out = (frame_index + 1) * interval;
   const double eps = 1e-12 * std::max(1.0, end);
   try {
@@ -56,15 +59,17 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
       progress.update(sim->steps(), sim->time(), dt, particles);
       if (sim->time() >= next_out - eps) {
         ++frame_index;
-        if (output) write_frame(frame_index);
+        if (output)
+          write_frame(frame_index);
         next_out = (frame_index + 1) * interval;
       }
     }
   } catch (const InstabilityError& e) {
     progress.finish();
-    throw InstabilityError(std::string(e.what()) + (sum.last_snapshot.empty()
-                                                        ? "; no snapshot was written"
-                                                        : "; last good snapshot: " + sum.last_snapshot));
+    throw InstabilityError(std::string(e.what()) +
+                           (sum.last_snapshot.empty()
+                                ? "; no snapshot was written"
+                                : "; last good snapshot: " + sum.last_snapshot));
   }
   progress.update(sim->steps(), sim->time(), 0, 0, true);
   progress.finish();
@@ -85,22 +90,34 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
 std::string format_summary(const RunSummary& s) {
   std::ostringstream o;
   char buf[256];
-  std::snprintf(buf, sizeof buf,
-                "done: %llu steps to t = %.6g s in %.2f s wall, %.3e fluid particle-steps/s\n",
-                static_cast<unsigned long long>(s.steps), s.sim_time, s.wall_seconds,
-                s.particle_steps_per_s);
+  std::snprintf(
+      buf, sizeof buf,
+      "done: %llu steps to t = %.6g s in %.2f s wall, %.3e particle-steps/s (fluid + knit)\n",
+      static_cast<unsigned long long>(s.steps), s.sim_time, s.wall_seconds, s.particle_steps_per_s);
   o << buf;
   const auto& d = s.diagnostics;
-  std::snprintf(buf, sizeof buf,
-                "particles: fluid %zu, boundary %zu | max speed %.4g m/s | density error max "
-                "%.3g%%, mean %.3g%% | closest approach to a solid %.3g m | guard corrections %llu\n",
-                d.fluid, d.boundary, d.max_speed, 100 * d.max_density_error,
-                100 * d.mean_density_error, d.min_rigid_distance,
-                static_cast<unsigned long long>(d.guard_corrections));
-  o << buf;
-  if (s.frames) o << "snapshots: " << s.frames << " written, last " << s.last_snapshot << "\n";
+  if (d.fluid || d.boundary || !d.knit) {
+    std::snprintf(
+        buf, sizeof buf,
+        "particles: fluid %zu, boundary %zu | max speed %.4g m/s | density error max "
+        "%.3g%%, mean %.3g%% | closest approach to a solid %.3g m | guard corrections %llu\n",
+        d.fluid, d.boundary, d.max_speed, 100 * d.max_density_error, 100 * d.mean_density_error,
+        d.min_rigid_distance, static_cast<unsigned long long>(d.guard_corrections));
+    o << buf;
+  }
+  if (d.knit) {
+    std::snprintf(buf, sizeof buf,
+                  "knit: %zu points | energy kinetic %.4g J, elastic %.4g J, gravity %.4g J | "
+                  "closest approach to a solid %.3g m | contact point-substeps %llu\n",
+                  d.knit, d.knit_kinetic_energy, d.knit_elastic_energy, d.knit_potential_energy,
+                  d.knit_min_rigid_distance, static_cast<unsigned long long>(d.knit_contacts));
+    o << buf;
+  }
+  if (s.frames)
+    o << "snapshots: " << s.frames << " written, last " << s.last_snapshot << "\n";
   double total = 0;
-  for (const auto& st : s.stages) total += st.seconds;
+  for (const auto& st : s.stages)
+    total += st.seconds;
   if (total > 0) {
     o << "stages (time, share):\n";
     for (const auto& st : s.stages) {

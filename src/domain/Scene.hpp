@@ -12,8 +12,8 @@
 
 namespace kf {
 
-/// Physics modules a scene may ask for (DESIGN §5). P1 implements fluid and boundary.
-enum class Module { Fluid, Boundary };
+/// Physics modules a scene may ask for (DESIGN §5).
+enum class Module { Fluid, Boundary, Knit };
 /// Rigid obstacle shapes; all are solid (fluid stays outside).
 enum class ObstacleShape { Plane, Box, Sphere };
 
@@ -31,6 +31,34 @@ struct Obstacle {
   Vec3d center{0, 0, 0};   // sphere
   double radius = 0;       // sphere
   Vec3d velocity{0, 0, 0}; // prescribed translation velocity (0: static)
+};
+
+/// Rest shapes of a knitted piece.
+enum class KnitShape { Patch, Tube };
+
+/// One knitted piece: its rest mesh is a grid of wales (along u) and courses (along v) stitches,
+/// three layers thick.
+struct KnitPiece {
+  KnitShape shape = KnitShape::Patch;
+  std::string name;      // "knit.piece[0]" unless given
+  Vec3d center{0, 0, 0}; // patch: centre of the middle layer; tube: centre of its axis
+  Vec3d normal{0, 0, 1}; // patch: the front side (layer 1); tube: the axis
+  Vec3d u_axis{1, 0, 0}; // patch: wale direction (made orthogonal to normal); tube: seam side
+  double width = 0.2;    // patch: extent along u [m]
+  double height = 0.2;   // patch: extent along v = normal x u [m]
+  double circumference = 0.2, length = 0.3; // tube [m]
+  int wales = 20, courses = 20;             // stitches along u and v
+  Vec3d velocity{0, 0, 0};                  // initial velocity
+};
+
+/// Points of the knit whose rest position lies in [min, max] move with `velocity` until
+/// `move_until`, then hold still (velocity 0: pinned).
+struct KnitPin {
+  std::string name;
+  Vec3d min{}, max{};
+  Vec3d velocity{0, 0, 0};
+  double move_until = 1e300; // [s]
+  Vec3d velocity_at(double t) const { return t < move_until ? velocity : Vec3d{0, 0, 0}; }
 };
 
 struct Scene {
@@ -86,6 +114,25 @@ struct Scene {
 
   std::vector<Obstacle> obstacles;
 
+  // [knit]: material (whole fabric, split over the three layers) and its time stepping.
+  struct Knit {
+    double thickness = 0.002;    // distance between layer 1 and layer 3 [m]
+    double mass_per_area = 0.25; // [kg/m^2]
+    double stretch = 100.0;      // in-plane tensile modulus [N/m] (force per width per strain)
+    double shear = 10.0;         // in-plane shear modulus [N/m]
+    double bend = 1.0;           // modulus of the skip-one bend springs [N/m]
+    double compression = 5000.0; // through-thickness compression modulus [Pa]
+    double layer_shear = 2000.0; // through-thickness shear modulus [Pa] (diagonal springs)
+    double damping_ratio = 0.1;  // of every spring, relative to critical
+    double contact_radius = 0;   // distance kept from solids [m]; 0: thickness / 2
+    double friction = 0.4;       // Coulomb coefficient against solids
+    int substeps = 1;            // knit steps per fluid step
+    double spring_factor = 0.5;  // dt_knit <= spring_factor * sqrt(m / sum k)
+    std::vector<KnitPiece> pieces;
+    std::vector<KnitPin> pins;
+    double radius() const { return contact_radius > 0 ? contact_radius : 0.5 * thickness; }
+  } knit;
+
   bool has(Module m) const {
     for (Module x : modules)
       if (x == m)
@@ -107,5 +154,6 @@ std::string to_string(KernelType k);
 std::string to_string(EosType e);
 std::string to_string(Module m);
 std::string to_string(ObstacleShape s);
+std::string to_string(KnitShape s);
 
 } // namespace kf

@@ -26,7 +26,10 @@ using scene::TableReader;
 
 // The spellings in scene files; to_string uses the same tables.
 constexpr std::array kModules{Choice<Module>{"fluid", Module::Fluid},
-                              Choice<Module>{"boundary", Module::Boundary}};
+                              Choice<Module>{"boundary", Module::Boundary},
+                              Choice<Module>{"knit", Module::Knit}};
+constexpr std::array kKnitShapes{Choice<KnitShape>{"patch", KnitShape::Patch},
+                                 Choice<KnitShape>{"tube", KnitShape::Tube}};
 constexpr std::array kPrecisions{Choice<Precision>{"float", Precision::Float},
                                  Choice<Precision>{"double", Precision::Double}};
 constexpr std::array kKernels{Choice<KernelType>{"spiky", KernelType::Spiky},
@@ -68,7 +71,8 @@ void read_simulation(const TableReader& t, Scene& s) {
     t.fail_missing("modules");
   const toml::node& modules = *t.node("modules");
   if (s.modules.empty())
-    t.fail_key(modules, "modules", "at least one module (\"fluid\", \"boundary\")", "none");
+    t.fail_key(modules, "modules", "at least one module (\"fluid\", \"boundary\", \"knit\")",
+               "none");
   if (s.has(Module::Fluid) && !s.has(Module::Boundary))
     t.fail_key(modules, "modules",
                "\"boundary\" as well (module \"fluid\" requires module \"boundary\")",
@@ -254,8 +258,97 @@ Obstacle read_obstacle(const TableReader& t, std::size_t index) {
   return o;
 }
 
+int read_count(const TableReader& t, std::string_view key, int value, long min, long max) {
+  long v = value;
+  if (t.read_integer(key, v, min) && v > max)
+    t.fail_key(*t.node(key), key, "an integer <= " + std::to_string(max), repr(*t.node(key)));
+  return static_cast<int>(v);
+}
+
+KnitPiece read_knit_piece(const TableReader& t, std::size_t index, const Scene::Domain& d) {
+  KnitPiece k;
+  k.shape = t.require("shape", kKnitShapes);
+  if (k.shape == KnitShape::Patch)
+    t.allow_only({"shape", "name", "center", "normal", "u_axis", "width", "height", "wales",
+                  "courses", "velocity"});
+  else
+    t.allow_only({"shape", "name", "center", "normal", "u_axis", "circumference", "length", "wales",
+                  "courses", "velocity"});
+  k.name = "knit.piece[" + std::to_string(index) + "]";
+  t.read("name", k.name);
+  k.center = t.require_vec3("center");
+  if (!all_less_equal(d.min, k.center) || !all_less_equal(k.center, d.max))
+    t.fail_key(*t.node("center"), "center",
+               "a point inside the domain " + format_vec3(d.min) + ".." + format_vec3(d.max),
+               repr(*t.node("center")));
+  if (t.node("normal"))
+    k.normal = read_unit_normal(t);
+  if (t.read("u_axis", k.u_axis)) {
+    const Vec3d u = k.u_axis - k.normal * dot(k.u_axis, k.normal);
+    if (norm(u) < 1e-6 * norm(k.u_axis) || norm(k.u_axis) == 0)
+      t.fail_key(*t.node("u_axis"), "u_axis", "a vector not parallel to normal",
+                 repr(*t.node("u_axis")));
+  }
+  if (k.shape == KnitShape::Patch) {
+    t.read("width", k.width, Range::positive());
+    t.read("height", k.height, Range::positive());
+  } else {
+    t.read("circumference", k.circumference, Range::positive());
+    t.read("length", k.length, Range::positive());
+  }
+  k.wales = read_count(t, "wales", k.wales, k.shape == KnitShape::Tube ? 3 : 1, 100000);
+  k.courses = read_count(t, "courses", k.courses, 1, 100000);
+  t.read("velocity", k.velocity);
+  return k;
+}
+
+KnitPin read_knit_pin(const TableReader& t, std::size_t index) {
+  t.allow_only({"name", "min", "max", "velocity", "move_until"});
+  KnitPin p;
+  p.name = "knit.pin[" + std::to_string(index) + "]";
+  t.read("name", p.name);
+  std::tie(p.min, p.max) = read_box(t);
+  t.read("velocity", p.velocity);
+  t.read("move_until", p.move_until, Range::at_least(0));
+  return p;
+}
+
+void read_knit(const TableReader& sim, const TableReader& t, Scene& s) {
+  t.allow_only({"thickness", "mass_per_area", "stretch", "shear", "bend", "compression",
+                "layer_shear", "damping_ratio", "contact_radius", "friction", "substeps",
+                "spring_factor", "piece", "pin"});
+  auto& k = s.knit;
+  t.read("thickness", k.thickness, Range::positive());
+  t.read("mass_per_area", k.mass_per_area, Range::positive());
+  t.read("stretch", k.stretch, Range::positive());
+  t.read("shear", k.shear, Range::at_least(0));
+  t.read("bend", k.bend, Range::at_least(0));
+  t.read("compression", k.compression, Range::positive());
+  t.read("layer_shear", k.layer_shear, Range::at_least(0));
+  t.read("damping_ratio", k.damping_ratio, Range::closed(0, 10));
+  t.read("contact_radius", k.contact_radius, Range::at_least(0));
+  t.read("friction", k.friction, Range::at_least(0));
+  k.substeps = read_count(t, "substeps", k.substeps, 1, 10000);
+  t.read("spring_factor", k.spring_factor, Range::above_up_to(0, 1.4));
+  const auto pieces = t.array_of_tables("piece");
+  for (std::size_t i = 0; i < pieces.size(); ++i)
+    k.pieces.push_back(read_knit_piece(pieces[i], i, s.domain));
+  const auto pins = t.array_of_tables("pin");
+  for (std::size_t i = 0; i < pins.size(); ++i)
+    k.pins.push_back(read_knit_pin(pins[i], i));
+  const bool on = s.has(Module::Knit);
+  if (on && k.pieces.empty())
+    t.fail(t.present() ? nullptr : sim.node("modules"),
+           "key 'knit.piece': expected at least one [[knit.piece]] (module \"knit\" is in "
+           "simulation.modules), got none");
+  if (!on && !k.pieces.empty())
+    t.fail_key(*t.node("piece"), "piece",
+               "no [[knit.piece]] (module \"knit\" is not in simulation.modules)",
+               std::to_string(k.pieces.size()) + " piece(s)");
+}
+
 Scene build_scene(const TableReader& root) {
-  root.allow_only({"simulation", "domain", "output", "solver", "fluid", "obstacle"});
+  root.allow_only({"simulation", "domain", "output", "solver", "fluid", "obstacle", "knit"});
   Scene s;
   const TableReader sim = root.table("simulation");
   read_simulation(sim, s);
@@ -268,6 +361,7 @@ Scene build_scene(const TableReader& root) {
   const auto obstacles = root.array_of_tables("obstacle");
   for (std::size_t i = 0; i < obstacles.size(); ++i)
     s.obstacles.push_back(read_obstacle(obstacles[i], i));
+  read_knit(sim, root.table("knit"), s);
   return s;
 }
 
@@ -326,6 +420,9 @@ Scene load_scene(const std::string& path, const std::vector<std::string>& overri
 
 std::string to_string(KernelType k) {
   return std::string(scene::choice_name(kKernels, k));
+}
+std::string to_string(KnitShape k) {
+  return std::string(scene::choice_name(kKnitShapes, k));
 }
 std::string to_string(EosType e) {
   return std::string(scene::choice_name(kEos, e));

@@ -18,21 +18,26 @@ namespace kf {
 /// Whole-system figures for progress lines, snapshots and tests (host values).
 struct Diagnostics {
   std::size_t fluid = 0, boundary = 0;
-  double kinetic_energy = 0;     // sum 1/2 m v^2 of fluid
+  double kinetic_energy = 0; // sum 1/2 m v^2 of fluid
   double max_speed = 0;
-  double max_density_error = 0;  // max (rho - rho0) / rho0 over fluid
+  double max_density_error = 0; // max (rho - rho0) / rho0 over fluid
   double mean_density_error = 0;
-  double min_rigid_distance = 0; // smallest signed distance of a fluid particle to any solid
+  double min_rigid_distance = 0;       // smallest signed distance of a fluid particle to any solid
   std::uint64_t guard_corrections = 0; // particles put back by the boundary guard, whole run
+  // Knit (zero when the scene has none).
+  std::size_t knit = 0;
+  double knit_kinetic_energy = 0, knit_elastic_energy = 0, knit_potential_energy = 0; // [J]
+  std::uint64_t knit_contacts = 0;    // point-substeps in contact with a solid, whole run
+  double knit_min_rigid_distance = 0; // smallest signed distance of a knit point to a solid
 };
 
 /// What `knitflow plan` prints: computed from the scene alone, nothing allocated or run.
 struct PlanReport {
   std::vector<std::pair<std::string, std::string>> stages; // (name [module], what)
-  std::size_t fluid = 0, boundary = 0;
+  std::size_t fluid = 0, boundary = 0, knit = 0, springs = 0;
   double support_radius = 0;
   int grid[3] = {0, 0, 0};
-  std::size_t bytes_fluid = 0, bytes_boundary = 0, bytes_grid = 0;
+  std::size_t bytes_fluid = 0, bytes_boundary = 0, bytes_grid = 0, bytes_knit = 0;
   double initial_dt = 0;
   std::string dt_limit; // which condition sets the initial dt
 };

@@ -1,5 +1,7 @@
 // SimulationT<T>: the fluid + boundary pipeline of P1 in precision T on one backend.
 #include "core/Error.hpp"
+#include "domain/FrameFields.hpp"
+#include "domain/KnitSystem.hpp"
 #include "domain/RigidShapes.hpp"
 #include "domain/Samplers.hpp"
 #include "domain/Simulation.hpp"
@@ -17,36 +19,6 @@
 #include <sstream>
 
 namespace kf {
-
-namespace {
-
-template <typename T>
-std::vector<T> flatten(const std::vector<Vec3<T>>& v) {
-  std::vector<T> out(3 * v.size());
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    out[3 * i] = v[i].x;
-    out[3 * i + 1] = v[i].y;
-    out[3 * i + 2] = v[i].z;
-  }
-  return out;
-}
-
-template <typename T>
-std::vector<Vec3<T>> unflatten(const std::vector<T>& v) {
-  std::vector<Vec3<T>> out(v.size() / 3);
-  for (std::size_t i = 0; i < out.size(); ++i)
-    out[i] = {v[3 * i], v[3 * i + 1], v[3 * i + 2]};
-  return out;
-}
-
-const io::Field& require(const io::Phase& p, const std::string& name) {
-  const io::Field* f = p.find(name);
-  if (!f)
-    throw Error("snapshot phase '" + p.name + "' has no field '" + name + "'");
-  return *f;
-}
-
-} // namespace
 
 template <typename T>
 class SimulationT final : public Simulation {
@@ -87,13 +59,14 @@ private:
 
   Scene scene_;
   exec::Exec ex_;
-  bool fluid_on_ = false, boundary_on_ = false, moving_ = false;
+  bool fluid_on_ = false, boundary_on_ = false, knit_on_ = false, moving_ = false;
   SphParams<T> sph_;
   double h_ = 0, margin_ = 0;
   double time_ = 0, dt_ = 0;
   std::uint64_t steps_ = 0, guard_corrections_ = 0;
   bool profiling_ = false;
 
+  std::optional<KnitSystem<T>> knit_;
   std::optional<FluidSet<T>> fluid_;
   std::optional<BoundarySet<T>> boundary_;
   std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
@@ -107,6 +80,7 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     : scene_(scene), ex_{backend}, shapes_(backend, 0, "rigid.shapes") {
   fluid_on_ = scene.has(Module::Fluid);
   boundary_on_ = scene.has(Module::Boundary);
+  knit_on_ = scene.has(Module::Knit);
   h_ = scene.support_radius();
   // Only a true crossing is corrected: near a wall at the free surface the pressure is zero and
   // particles may touch the wall, which is physical.
@@ -134,6 +108,8 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   update_shapes(0.0);
   if (boundary_on_)
     sort_boundary();
+  if (knit_on_)
+    knit_->compute_forces();
   if (fluid_on_) {
     sort_fluid();
     compute_forces(); // a(t = 0), which the first half kick needs
@@ -148,6 +124,8 @@ void SimulationT<T>::init_shapes() {
 template <typename T>
 void SimulationT<T>::init_particles() {
   const auto& d = scene_.domain;
+  if (knit_on_)
+    knit_.emplace(scene_, ex_);
   if (fluid_on_) {
     const FluidSamples fs = sample_fluid(scene_);
     const auto& x = fs.x;
@@ -195,6 +173,23 @@ void SimulationT<T>::init_particles() {
 
 template <typename T>
 void SimulationT<T>::build_pipeline() {
+  if (knit_on_)
+    pipeline_.add("knit.step", "knit",
+                  std::to_string(scene_.knit.substeps) +
+                      " velocity Verlet substep(s): springs, gravity, contact with solids",
+                  [this] {
+                    const auto& s = scene_.solver;
+                    const double h = dt_ / scene_.knit.substeps;
+                    const T keep = (s.damping > 0 && time_ < s.damping_until)
+                                       ? static_cast<T>(std::exp(-0.5 * s.damping * h))
+                                       : T(1);
+                    std::function<void(double)> move;
+                    if (moving_)
+                      move = [this](double t) { update_shapes(t); };
+                    knit_->advance(time_, dt_, keep, move, shapes_.data(), shapes_.size());
+                    if (moving_)
+                      update_shapes(time_); // the fluid stages move the solids themselves
+                  });
   if (fluid_on_)
     pipeline_.add("integrate.kick_drift", "fluid", "velocity Verlet: half kick, drift", [this] {
       auto f = fluid_->view();
@@ -289,6 +284,8 @@ template <typename T>
 double SimulationT<T>::stable_dt() {
   const auto& s = scene_.solver;
   double dt = s.dt_max;
+  if (knit_on_)
+    dt = std::min(dt, knit_->stable_dt());
   if (!fluid_on_)
     return dt;
   auto f = fluid_->view();
@@ -389,6 +386,8 @@ io::Frame SimulationT<T>::frame() const {
     p.fields.push_back(io::Field::from("id", boundary_->id.to_host(), 1));
     fr.phases.push_back(std::move(p));
   }
+  if (knit_on_)
+    fr.phases.push_back(knit_->phase());
   return fr;
 }
 
@@ -431,6 +430,12 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     // Same order as when written, so the grid comes out identical.
     sort_boundary();
   }
+  if (knit_on_) {
+    const io::Phase* p = fr.find("knit");
+    if (!p)
+      throw Error("restart: the snapshot has no knit phase but the scene has knit");
+    knit_->restore(*p);
+  }
   // The fluid order is kept as written; the next step's sort starts from it as the
   // uninterrupted run did. The grid tables are rebuilt by that sort.
 }
@@ -441,6 +446,18 @@ Diagnostics SimulationT<T>::diagnostics() const {
   d.guard_corrections = guard_corrections_;
   if (boundary_on_)
     d.boundary = boundary_->size();
+  if (knit_on_) {
+    auto& k = const_cast<KnitSystem<T>&>(*knit_);
+    d.knit = k.size();
+    const KnitEnergy e = k.energy();
+    d.knit_kinetic_energy = e.kinetic;
+    d.knit_elastic_energy = e.elastic;
+    d.knit_potential_energy = e.potential;
+    d.knit_contacts = k.collisions();
+    d.knit_min_rigid_distance = shapes_host_.empty()
+                                    ? std::numeric_limits<double>::infinity()
+                                    : k.min_rigid_distance(shapes_.data(), shapes_.size());
+  }
   if (!fluid_on_)
     return d;
   d.fluid = fluid_->size();
@@ -474,6 +491,8 @@ std::size_t SimulationT<T>::memory_bytes() const {
     b += fluid_->size() * FluidSet<T>::bytes_per_particle() + fluid_grid_->bytes();
   if (boundary_)
     b += boundary_->size() * BoundarySet<T>::bytes_per_particle() + boundary_grid_->bytes();
+  if (knit_)
+    b += knit_->bytes();
   return b;
 }
 
@@ -527,6 +546,17 @@ PlanReport Simulation::plan(const Scene& scene) {
     if (scene.fluid.viscosity > 0)
       limit(s.viscous_factor * h * h * scene.fluid.rest_density / scene.fluid.viscosity,
             "viscosity");
+  }
+  if (scene.has(Module::Knit)) {
+    // Built on the host (the CPU backend): plan never touches a device.
+    KnitSystem<double> knit(scene, exec::Exec{exec::Backend::Cpu});
+    r.knit = knit.size();
+    r.springs = knit.springs().springs();
+    const std::size_t real = dbl ? sizeof(double) : sizeof(float);
+    r.bytes_knit = r.knit * (dbl ? KnitSet<double>::bytes_per_particle()
+                                 : KnitSet<float>::bytes_per_particle()) +
+                   (r.knit + 1) * 4 + 2 * r.springs * (4 + 3 * real);
+    limit(knit.stable_dt(), "knit springs / contact radius (all substeps)");
   }
   return r;
 }

@@ -1,0 +1,154 @@
+#include "domain/KnitSystem.hpp"
+
+#include "domain/FrameFields.hpp"
+#include "kernels/boundary/Boundary.hpp"
+#include "kernels/integrate/Verlet.hpp"
+#include "kernels/knit/Knit.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace kf {
+
+template <typename T>
+KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex)
+    : scene_(scene), ex_(ex), set_(ex.backend), springs_(ex.backend),
+      handle_v_(ex.backend, 0, "knit.handle_velocity"), gravity_(vec_cast<T>(scene.gravity)) {
+  const KnitMesh mesh = build_knit(scene);
+  const std::size_t n = mesh.x.size();
+  std::vector<Vec3<T>> x(n), v(n);
+  std::vector<T> m(n);
+  std::vector<std::uint64_t> id(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    x[i] = vec_cast<T>(mesh.x[i]);
+    v[i] = vec_cast<T>(mesh.v[i]);
+    m[i] = static_cast<T>(mesh.m[i]);
+    id[i] = i;
+  }
+  set_.resize(n);
+  set_.x.assign(x);
+  set_.x_rest.assign(x);
+  set_.v.assign(v);
+  set_.a.assign(std::vector<Vec3<T>>(n, Vec3<T>{}));
+  set_.m.assign(m);
+  set_.handle.assign(mesh.handle);
+  set_.layer.assign(mesh.layer);
+  set_.id.assign(id);
+  springs_.build(mesh.springs, n);
+  pieces_ = mesh.pieces;
+  set_handle_velocities(0.0);
+  T spring = 0, damping = 0;
+  knit_spring_limits(ex_, set_.view(), springs_.view(), spring, damping);
+  spring_limit_ = std::min(double(spring) * scene.knit.spring_factor, double(damping));
+}
+
+template <typename T>
+void KnitSystem<T>::set_handle_velocities(double t) {
+  std::vector<Vec3<T>> hv;
+  for (const auto& pin : scene_.knit.pins)
+    hv.push_back(vec_cast<T>(pin.velocity_at(t)));
+  if (hv.empty())
+    hv.push_back({}); // never read; keeps the pointer valid
+  auto same = [](const Vec3<T>& a, const Vec3<T>& b) {
+    return a.x == b.x && a.y == b.y && a.z == b.z;
+  };
+  if (hv.size() == handle_v_host_.size() &&
+      std::equal(hv.begin(), hv.end(), handle_v_host_.begin(), same))
+    return; // copied to the device only when a handle starts or stops
+  handle_v_host_ = hv;
+  handle_v_.assign(hv);
+}
+
+template <typename T>
+void KnitSystem<T>::compute_forces() {
+  knit_forces(ex_, set_.view(), springs_.view(), gravity_);
+}
+
+template <typename T>
+void KnitSystem<T>::advance(double t, double dt, T keep,
+                            const std::function<void(double)>& set_shapes,
+                            const RigidShape<T>* shapes, std::size_t n_shapes) {
+  const int n = scene_.knit.substeps;
+  const double h = dt / n;
+  const T radius = static_cast<T>(scene_.knit.radius());
+  const T friction = static_cast<T>(scene_.knit.friction);
+  for (int s = 0; s < n; ++s) {
+    auto p = set_.view();
+    set_handle_velocities(t + s * h);
+    knit_kick_drift(ex_, p, handle_v_.data(), static_cast<T>(h), keep);
+    if (n_shapes) {
+      if (set_shapes)
+        set_shapes(t + (s + 1) * h);
+      collisions_ += knit_collide_rigid(ex_, p, shapes, n_shapes, radius, friction);
+    }
+    knit_forces(ex_, p, springs_.view(), gravity_);
+    knit_kick(ex_, p, handle_v_.data(), static_cast<T>(h), keep);
+  }
+}
+
+template <typename T>
+double KnitSystem<T>::stable_dt() {
+  auto p = set_.view();
+  const MotionBounds<T> mb = motion_bounds(ex_, p.v, p.a, p.n, "knit.dt");
+  const double vmax = std::sqrt(double(mb.v2));
+  if (!std::isfinite(vmax) || !std::isfinite(double(mb.a2)))
+    throw InstabilityError("a knit velocity or acceleration is not finite");
+  double sub = spring_limit_;
+  // A substep moves no point more than half its contact radius, so collisions are not skipped.
+  if (vmax > 0)
+    sub = std::min(sub, 0.5 * scene_.knit.radius() / vmax);
+  return sub * scene_.knit.substeps;
+}
+
+template <typename T>
+KnitEnergy KnitSystem<T>::energy() {
+  auto p = set_.view();
+  KnitEnergy e;
+  e.kinetic = knit_kinetic_energy(ex_, p);
+  e.elastic = knit_spring_energy(ex_, p, springs_.view());
+  e.potential = knit_potential_energy(ex_, p, gravity_);
+  return e;
+}
+
+template <typename T>
+double KnitSystem<T>::min_rigid_distance(const RigidShape<T>* shapes, std::size_t n_shapes) {
+  return double(kf::min_rigid_distance(ex_, set_.x.data(), set_.size(), shapes, n_shapes));
+}
+
+template <typename T>
+io::Phase KnitSystem<T>::phase() const {
+  io::Phase p{"knit", {}};
+  p.fields.push_back(io::Field::from("position", flatten(set_.x.to_host()), 3));
+  p.fields.push_back(io::Field::from("velocity", flatten(set_.v.to_host()), 3));
+  p.fields.push_back(io::Field::from("acceleration", flatten(set_.a.to_host()), 3));
+  p.fields.push_back(io::Field::from("rest_position", flatten(set_.x_rest.to_host()), 3));
+  p.fields.push_back(io::Field::from("mass", set_.m.to_host(), 1));
+  const auto layer = set_.layer.to_host();
+  p.fields.push_back(
+      io::Field::from("layer", std::vector<std::uint32_t>(layer.begin(), layer.end()), 1));
+  p.fields.push_back(io::Field::from("handle", set_.handle.to_host(), 1));
+  p.fields.push_back(io::Field::from("id", set_.id.to_host(), 1));
+  return p;
+}
+
+template <typename T>
+void KnitSystem<T>::restore(const io::Phase& p) {
+  const auto x = unflatten(require(p, "position").as<T>());
+  if (x.size() != set_.size())
+    throw Error("restart: the snapshot has " + std::to_string(x.size()) +
+                " knit points but the scene builds " + std::to_string(set_.size()));
+  set_.x.assign(x);
+  set_.v.assign(unflatten(require(p, "velocity").as<T>()));
+  set_.a.assign(unflatten(require(p, "acceleration").as<T>()));
+  set_.m.assign(require(p, "mass").as<T>());
+}
+
+template <typename T>
+std::size_t KnitSystem<T>::bytes() const {
+  return set_.size() * KnitSet<T>::bytes_per_particle() + springs_.bytes();
+}
+
+template class KnitSystem<float>;
+template class KnitSystem<double>;
+
+} // namespace kf

@@ -1,0 +1,62 @@
+#pragma once
+// The knit phase of a simulation: its points and springs, the substeps it runs inside one
+// simulation step, its step limit, and its snapshot phase. Owned by SimulationT when the scene
+// has the knit module; nothing of it exists otherwise.
+#include "domain/KnitBuilder.hpp"
+#include "domain/Scene.hpp"
+#include "io/Frame.hpp"
+#include "kernels/boundary/RigidShape.hpp"
+#include "kernels/knit/SpringTopology.hpp"
+#include "kernels/particles/KnitSet.hpp"
+
+#include <functional>
+
+namespace kf {
+
+struct KnitEnergy {
+  double kinetic = 0, elastic = 0, potential = 0;
+  double total() const { return kinetic + elastic + potential; }
+};
+
+template <typename T>
+class KnitSystem {
+public:
+  KnitSystem(const Scene& scene, exec::Exec ex);
+
+  /// Advances the knit by dt from time t in scene.knit.substeps velocity Verlet substeps.
+  /// set_shapes(t) moves the solids to time t (called before each substep's collisions when
+  /// solids move); shapes and n_shapes are the device array it updates.
+  void advance(double t, double dt, T keep, const std::function<void(double)>& set_shapes,
+               const RigidShape<T>* shapes, std::size_t n_shapes);
+  /// Largest step (all substeps together) the springs and the contact radius allow now.
+  double stable_dt();
+  /// a(t) from the springs and gravity (the first half kick needs it).
+  void compute_forces();
+
+  io::Phase phase() const;
+  void restore(const io::Phase& p);
+
+  std::size_t size() const { return set_.size(); }
+  std::size_t bytes() const;
+  std::uint64_t collisions() const { return collisions_; }
+  KnitEnergy energy();
+  const SpringTopology<T>& springs() const { return springs_; }
+  KnitSet<T>& set() { return set_; }
+  double min_rigid_distance(const RigidShape<T>* shapes, std::size_t n_shapes);
+  const std::vector<KnitPieceLayout>& pieces() const { return pieces_; }
+
+private:
+  const Scene& scene_;
+  exec::Exec ex_;
+  KnitSet<T> set_;
+  SpringTopology<T> springs_;
+  void set_handle_velocities(double t);
+  exec::DeviceBuffer<Vec3<T>> handle_v_;
+  std::vector<Vec3<T>> handle_v_host_;
+  std::vector<KnitPieceLayout> pieces_;
+  Vec3<T> gravity_;
+  double spring_limit_ = 0; // min sqrt(m / sum k), m / sum c over free points (cached: fixed)
+  std::uint64_t collisions_ = 0;
+};
+
+} // namespace kf

@@ -1,0 +1,87 @@
+#pragma once
+// Knit evaluators as host-device functors: each point gathers the forces of its own springs.
+#include "core/Math.hpp"
+#include "kernels/knit/SpringTopology.hpp"
+#include "kernels/particles/KnitSet.hpp"
+
+namespace kf {
+
+/// Force of one damped spring on point i, with j at the other end:
+/// k (|d| - L) d^ + c ((v_j - v_i) . d^) d^, d = x_j - x_i. Equal and opposite for j.
+template <typename T>
+KF_HD KF_INLINE Vec3<T> spring_force(const Vec3<T>& d, const Vec3<T>& dv, T rest, T k, T c) {
+  const T len = norm(d);
+  if (len <= T(0))
+    return {T(0), T(0), T(0)};
+  const Vec3<T> u = d * (T(1) / len);
+  return u * (k * (len - rest) + c * dot(dv, u));
+}
+
+/// a_i = (sum of spring forces) / m_i + g for every free point; points on a handle get a = 0
+/// (their motion is prescribed).
+template <typename T>
+struct SpringForceEvaluator {
+  KnitView<T> p;
+  SpringView<T> s;
+  Vec3<T> gravity;
+
+  KF_HD void operator()(std::size_t i) const {
+    if (p.handle[i] != kFreePoint) {
+      p.a[i] = {T(0), T(0), T(0)};
+      return;
+    }
+    const Vec3<T> xi = p.x[i], vi = p.v[i];
+    Vec3<T> f{T(0), T(0), T(0)};
+    for (std::uint32_t e = s.start[i]; e < s.start[i + 1]; ++e) {
+      const std::uint32_t j = s.other[e];
+      f += spring_force(p.x[j] - xi, p.v[j] - vi, s.rest[e], s.k[e], s.c[e]);
+    }
+    p.a[i] = f * (T(1) / p.m[i]) + gravity;
+  }
+};
+
+/// Point i's share of the elastic energy: half of each of its springs' 1/2 k (|d| - L)^2.
+template <typename T>
+struct SpringEnergyEvaluator {
+  KnitView<T> p;
+  SpringView<T> s;
+
+  KF_HD double operator()(std::size_t i) const {
+    double e = 0;
+    for (std::uint32_t k = s.start[i]; k < s.start[i + 1]; ++k) {
+      const double stretch = double(norm(p.x[s.other[k]] - p.x[i])) - double(s.rest[k]);
+      e += 0.25 * double(s.k[k]) * stretch * stretch;
+    }
+    return e;
+  }
+};
+
+/// Point i's explicit-integration limits: sqrt(m / sum k) (spring) and m / sum c (damping).
+template <typename T>
+struct SpringLimits {
+  T spring = T(1e30), damping = T(1e30);
+};
+
+template <typename T>
+struct SpringLimitEvaluator {
+  KnitView<T> p;
+  SpringView<T> s;
+
+  KF_HD SpringLimits<T> operator()(std::size_t i) const {
+    T ks = T(0), cs = T(0);
+    for (std::uint32_t e = s.start[i]; e < s.start[i + 1]; ++e) {
+      ks += s.k[e];
+      cs += s.c[e];
+    }
+    SpringLimits<T> l;
+    if (p.handle[i] != kFreePoint)
+      return l; // prescribed points do not integrate springs
+    if (ks > T(0))
+      l.spring = ksqrt(p.m[i] / ks);
+    if (cs > T(0))
+      l.damping = p.m[i] / cs;
+    return l;
+  }
+};
+
+} // namespace kf

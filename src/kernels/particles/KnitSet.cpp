@@ -1,0 +1,37 @@
+#include "kernels/particles/KnitSet.hpp"
+
+namespace kf {
+
+template <typename T>
+KnitSet<T>::KnitSet(exec::Backend b)
+    : x(b, 0, "knit.x"), v(b, 0, "knit.v"), a(b, 0, "knit.a"), x_rest(b, 0, "knit.x_rest"),
+      m(b, 0, "knit.m"), handle(b, 0, "knit.handle"), layer(b, 0, "knit.layer"),
+      id(b, 0, "knit.id") {}
+
+template <typename T>
+void KnitSet<T>::resize(std::size_t n) {
+  x.resize(n);
+  v.resize(n);
+  a.resize(n);
+  x_rest.resize(n);
+  m.resize(n);
+  handle.resize(n);
+  layer.resize(n);
+  id.resize(n);
+}
+
+template <typename T>
+KnitView<T> KnitSet<T>::view() {
+  return {x.data(), v.data(), a.data(), m.data(), handle.data(), size()};
+}
+
+template <typename T>
+std::size_t KnitSet<T>::bytes_per_particle() {
+  return 4 * sizeof(Vec3<T>) + sizeof(T) + sizeof(std::uint32_t) + sizeof(std::uint8_t) +
+         sizeof(std::uint64_t);
+}
+
+template class KnitSet<float>;
+template class KnitSet<double>;
+
+} // namespace kf

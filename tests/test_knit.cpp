@@ -1,0 +1,292 @@
+// Knit mass-spring model (paper §3, Fig. 1a): spring forces against their energy, momentum, the
+// rest mesh's mass and equilibrium, a hanging strip against the catenary, and a knit-only
+// pipeline.
+#include "domain/KnitBuilder.hpp"
+#include "domain/Simulation.hpp"
+#include "kernels/knit/Knit.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+using namespace kf;
+
+namespace {
+
+/// A random spring network: points in a unit box, each joined to a few random others, with
+/// rest lengths off their current lengths (so every spring is loaded), masses and velocities.
+struct Network {
+  exec::Exec ex{exec::Backend::Cpu};
+  KnitSet<double> set{exec::Backend::Cpu};
+  SpringTopology<double> springs{exec::Backend::Cpu};
+  std::vector<std::uint32_t> handle_free;
+
+  explicit Network(std::size_t n, double damping, unsigned seed = 7) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::vector<Vec3d> x(n), v(n);
+    std::vector<double> m(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      x[i] = {u(rng), u(rng), u(rng)};
+      v[i] = {u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5};
+      m[i] = 0.5 + u(rng);
+    }
+    std::vector<Spring> list;
+    for (std::uint32_t i = 0; i < n; ++i)
+      for (int k = 0; k < 4; ++k) {
+        const auto j = static_cast<std::uint32_t>(rng() % n);
+        if (j == i)
+          continue;
+        Spring s;
+        s.i = i;
+        s.j = j;
+        s.rest = norm(x[j] - x[i]) * (0.7 + 0.6 * u(rng));
+        s.k = 10 + 90 * u(rng);
+        s.c = damping * u(rng);
+        list.push_back(s);
+      }
+    set.resize(n);
+    set.x.assign(x);
+    set.v.assign(v);
+    set.a.assign(std::vector<Vec3d>(n));
+    set.m.assign(m);
+    set.handle.assign(std::vector<std::uint32_t>(n, kFreePoint));
+    springs.build(list, n);
+  }
+};
+
+Scene knit_scene() {
+  Scene s;
+  s.name = "knit";
+  s.modules = {Module::Knit};
+  s.domain.min = {-2, -2, -2};
+  s.domain.max = {2, 2, 2};
+  s.output.enabled = false;
+  s.precision = Precision::Double;
+  return s;
+}
+
+} // namespace
+
+TEST(KnitSprings, ForceIsMinusTheEnergyGradient) {
+  Network net(40, 0.0);
+  const Vec3d g0{0, 0, 0};
+  knit_forces(net.ex, net.set.view(), net.springs.view(), g0);
+  const auto a = net.set.a.to_host();
+  const auto m = net.set.m.to_host();
+  auto x = net.set.x.to_host();
+  const double eps = 1e-6;
+  double worst = 0;
+  for (std::size_t i = 0; i < x.size(); i += 3)
+    for (int c = 0; c < 3; ++c) {
+      auto energy_at = [&](double delta) {
+        auto y = x;
+        (&y[i].x)[c] += delta;
+        net.set.x.assign(y);
+        return knit_spring_energy(net.ex, net.set.view(), net.springs.view());
+      };
+      const double grad = (energy_at(eps) - energy_at(-eps)) / (2 * eps);
+      const double force = (&a[i].x)[c] * m[i];
+      worst = std::max(worst, std::fabs(force + grad) / (1 + std::fabs(grad)));
+    }
+  EXPECT_LT(worst, 1e-7) << "F = -dE/dx fails by " << worst;
+}
+
+TEST(KnitSprings, PairForcesCancelAndAFreeSystemKeepsItsMomentum) {
+  Network net(60, 2.0); // damped springs too: damping is along the spring, equal and opposite
+  const Vec3d g0{0, 0, 0};
+  auto momentum = [&] {
+    const auto v = net.set.v.to_host();
+    const auto m = net.set.m.to_host();
+    Vec3d p{0, 0, 0};
+    for (std::size_t i = 0; i < v.size(); ++i)
+      p += v[i] * m[i];
+    return p;
+  };
+  knit_forces(net.ex, net.set.view(), net.springs.view(), g0);
+  {
+    const auto a = net.set.a.to_host();
+    const auto m = net.set.m.to_host();
+    Vec3d f{0, 0, 0};
+    double scale = 0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      f += a[i] * m[i];
+      scale += norm(a[i]) * m[i];
+    }
+    EXPECT_LT(norm(f), 1e-12 * scale) << "net internal force " << norm(f) << " of " << scale;
+  }
+  const Vec3d p0 = momentum();
+  std::vector<Vec3d> hv(1);
+  exec::DeviceBuffer<Vec3d> handles(exec::Backend::Cpu);
+  handles.assign(hv);
+  for (int s = 0; s < 2000; ++s) {
+    knit_kick_drift(net.ex, net.set.view(), handles.data(), 1e-4, 1.0);
+    knit_forces(net.ex, net.set.view(), net.springs.view(), g0);
+    knit_kick(net.ex, net.set.view(), handles.data(), 1e-4, 1.0);
+  }
+  const Vec3d p1 = momentum();
+  EXPECT_LT(norm(p1 - p0), 1e-12 * (1 + norm(p0))) << "momentum drifted by " << norm(p1 - p0);
+}
+
+TEST(KnitMesh, PatchHasTheFabricsMassAndIsAtRestWhenUndeformed) {
+  Scene s = knit_scene();
+  KnitPiece p;
+  p.center = {0, 0, 0};
+  p.width = 0.3;
+  p.height = 0.2;
+  p.wales = 15;
+  p.courses = 10;
+  s.knit.pieces = {p};
+  const KnitMesh mesh = build_knit(s);
+  ASSERT_EQ(mesh.x.size(), 3u * 16 * 11);
+  double mass = 0;
+  for (double m : mesh.m)
+    mass += m;
+  EXPECT_NEAR(mass, s.knit.mass_per_area * 0.3 * 0.2, 1e-12);
+  // Layers at +t/2, 0, -t/2 along the normal.
+  EXPECT_NEAR(mesh.x[0].z, 0.5 * s.knit.thickness, 1e-15);
+  EXPECT_NEAR(mesh.x[2 * 16 * 11].z, -0.5 * s.knit.thickness, 1e-15);
+  // Undeformed: every spring at its rest length, so free points feel gravity alone.
+  auto sim = Simulation::create(s, exec::Backend::Cpu);
+  const io::Frame fr = sim->frame();
+  const auto a = fr.find("knit")->find("acceleration")->as<double>();
+  for (std::size_t i = 0; i < a.size(); i += 3) {
+    ASSERT_NEAR(a[i], s.gravity.x, 1e-9);
+    ASSERT_NEAR(a[i + 2], s.gravity.z, 1e-9);
+  }
+}
+
+TEST(KnitMesh, TubeClosesOnItself) {
+  Scene s = knit_scene();
+  KnitPiece p;
+  p.shape = KnitShape::Tube;
+  p.center = {0, 0, 0};
+  p.normal = {0, 0, 1};
+  p.circumference = 0.25;
+  p.length = 0.3;
+  p.wales = 24;
+  p.courses = 12;
+  s.knit.pieces = {p};
+  const KnitMesh mesh = build_knit(s);
+  ASSERT_EQ(mesh.x.size(), 3u * 24 * 13);
+  // The middle layer's circumference (a closed polygon of 24 sides) is the tube's.
+  const auto& L = mesh.pieces[0];
+  double c = 0;
+  for (int i = 0; i < 24; ++i)
+    c += norm(mesh.x[L.index(1, (i + 1) % 24, 0)] - mesh.x[L.index(1, i, 0)]);
+  EXPECT_NEAR(c, 0.25, 0.25 * 0.003); // polygon vs circle: 1 - sin(pi/24)/(pi/24) = 0.29%
+  // Every point has the same number of in-layer stretch neighbours (no seam).
+  std::vector<int> stretch(mesh.x.size(), 0);
+  for (const auto& sp : mesh.springs)
+    if (sp.kind == SpringKind::Stretch)
+      ++stretch[sp.i], ++stretch[sp.j];
+  EXPECT_EQ(stretch[L.index(1, 0, 5)], 4);
+  EXPECT_EQ(stretch[L.index(1, 23, 5)], 4);
+}
+
+// A strip hung from both ends sags into a catenary y = a cosh(x / a). The strip starts straight
+// and horizontal, its ends are walked inward to the span, and global damping settles it. The
+// reference catenary has the settled strip's span and arc length (which include its stretch).
+TEST(KnitMesh, HangingStripSettlesToTheCatenary) {
+  Scene s = knit_scene();
+  const double L = 1.0, span = 0.6, width = 0.01;
+  KnitPiece p;
+  p.center = {0, 0, 0};
+  p.normal = {0, 0, 1}; // a horizontal strip (width along y): it bends through its thickness
+  p.u_axis = {1, 0, 0};
+  p.width = L;
+  p.height = width;
+  p.wales = 60;
+  p.courses = 1;
+  s.knit.pieces = {p};
+  s.knit.thickness = 4e-4; // thin: bending (from the layers' separation) stays negligible
+  s.knit.mass_per_area = 2.0;
+  s.knit.stretch = 2000;
+  s.knit.compression = 200;
+  s.knit.layer_shear = 100;
+  s.knit.bend = 0;
+  const double walk = 0.5 * (L - span), v = 0.5;
+  KnitPin left, right;
+  left.min = {-0.5 * L - 1e-6, -1, -1};
+  left.max = {-0.5 * L + 1e-6, 1, 1};
+  left.velocity = {v, 0, 0};
+  left.move_until = walk / v;
+  right.min = {0.5 * L - 1e-6, -1, -1};
+  right.max = {0.5 * L + 1e-6, 1, 1};
+  right.velocity = {-v, 0, 0};
+  right.move_until = walk / v;
+  s.knit.pins = {left, right};
+  s.solver.damping = 8;
+  s.solver.damping_until = 1e9;
+  s.end_time = 4.0;
+  auto sim = Simulation::create(s, exec::Backend::Cpu);
+  while (sim->time() < s.end_time)
+    sim->step(s.end_time);
+
+  const io::Frame fr = sim->frame();
+  const auto x = fr.find("knit")->find("position")->as<double>();
+  const KnitPieceLayout lay = build_knit(s).pieces[0];
+  // The middle layer's centre line: the average of its two rows.
+  std::vector<Vec3d> c(lay.nu);
+  for (int i = 0; i < lay.nu; ++i) {
+    Vec3d sum{0, 0, 0};
+    for (int j = 0; j < lay.nv; ++j) {
+      const std::size_t k = lay.index(1, i, j);
+      sum += Vec3d{x[3 * k], x[3 * k + 1], x[3 * k + 2]};
+    }
+    c[i] = sum * (1.0 / lay.nv);
+  }
+  double arc = 0;
+  for (int i = 0; i + 1 < lay.nu; ++i)
+    arc += norm(c[i + 1] - c[i]);
+  const double S = c.back().x - c.front().x, xm = 0.5 * (c.back().x + c.front().x);
+  ASSERT_NEAR(S, span, 1e-3); // a handle stops at the end of the substep it passes move_until in
+  // Solve arc = 2 a sinh(S / 2a) for a by bisection (the left side falls as a grows).
+  double lo = 1e-3, hi = 100;
+  for (int it = 0; it < 200; ++it) {
+    const double a = 0.5 * (lo + hi);
+    (2 * a * std::sinh(S / (2 * a)) > arc ? lo : hi) = a;
+  }
+  const double a = 0.5 * (lo + hi), z_end = c.front().z;
+  double worst = 0;
+  for (const Vec3d& q : c) {
+    const double z = z_end + a * (std::cosh((q.x - xm) / a) - std::cosh(S / (2 * a)));
+    worst = std::max(worst, std::fabs(q.z - z));
+  }
+  const double sag = z_end - c[lay.nu / 2].z;
+  std::printf("span %.3f m, arc %.4f m (rest %.3f), catenary a = %.4f m, sag %.4f m, worst "
+              "deviation %.2e m = %.2f%% of the span\n",
+              S, arc, L, a, sag, worst, 100 * worst / S);
+  EXPECT_GT(sag, 0.3) << "the strip did not hang";
+  EXPECT_LT(worst, 0.02 * S);
+  const Diagnostics d = sim->diagnostics();
+  EXPECT_LT(d.knit_kinetic_energy, 1e-6 * std::fabs(d.knit_potential_energy)) << "not settled";
+}
+
+TEST(KnitPipeline, AKnitOnlySceneHasNoFluidStageAndNoFluidArrays) {
+  Scene s = knit_scene();
+  KnitPiece p;
+  p.center = {0, 0, 0};
+  s.knit.pieces = {p};
+  auto sim = Simulation::create(s, exec::Backend::Cpu);
+  for (const auto& st : sim->pipeline().stages())
+    EXPECT_EQ(st.module, "knit") << st.name;
+  EXPECT_FALSE(sim->pipeline().has_module("fluid"));
+  EXPECT_FALSE(sim->pipeline().has_module("boundary"));
+  const io::Frame fr = sim->frame();
+  ASSERT_EQ(fr.phases.size(), 1u);
+  EXPECT_EQ(fr.phases[0].name, "knit");
+  const Diagnostics d = sim->diagnostics();
+  EXPECT_EQ(d.fluid, 0u);
+  EXPECT_EQ(d.boundary, 0u);
+  EXPECT_EQ(d.knit, 3u * 21 * 21);
+  // Memory is the knit's alone: its points and springs.
+  const PlanReport r = Simulation::plan(s);
+  EXPECT_EQ(r.fluid, 0u);
+  EXPECT_EQ(r.bytes_fluid + r.bytes_boundary + r.bytes_grid, 0u);
+  EXPECT_EQ(r.knit, d.knit);
+  EXPECT_GE(sim->memory_bytes(), r.bytes_knit);
+  EXPECT_LE(sim->memory_bytes(), r.bytes_knit + 1024) << "beyond the knit and the solids' table";
+}
