@@ -75,14 +75,16 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
   for (int s = 0; s < n; ++s) {
     auto p = set_.view();
     set_handle_velocities(t + s * h);
-    knit_kick_drift(ex_, p, handle_v_.data(), static_cast<T>(h), keep);
+    const Prescribed<T> fixed{p.handle, handle_v_.data()};
+    kick_drift(ex_, p.x, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick_drift", fixed);
     if (n_shapes) {
       if (set_shapes)
         set_shapes(t + (s + 1) * h);
-      collisions_ += knit_collide_rigid(ex_, p, shapes, n_shapes, radius, friction);
+      collisions_ += enforce_rigid_shapes(ex_, p.x, p.v, p.n, shapes, n_shapes, radius, friction,
+                                          p.handle, "knit.contact");
     }
     knit_forces(ex_, p, springs_.view(), gravity_);
-    knit_kick(ex_, p, handle_v_.data(), static_cast<T>(h), keep);
+    kick(ex_, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick", fixed);
   }
 }
 

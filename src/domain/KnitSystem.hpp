@@ -23,7 +23,8 @@ class KnitSystem {
 public:
   KnitSystem(const Scene& scene, exec::Exec ex);
 
-  /// Advances the knit by dt from time t in scene.knit.substeps velocity Verlet substeps.
+  /// Advances the knit by dt from time t in scene.knit.substeps velocity Verlet substeps; keep
+  /// is the velocity factor of one substep's half kick (global damping).
   /// set_shapes(t) moves the solids to time t (called before each substep's collisions when
   /// solids move); shapes and n_shapes are the device array it updates.
   void advance(double t, double dt, T keep, const std::function<void(double)>& set_shapes,

@@ -48,11 +48,11 @@ private:
   void compute_forces();
   BoundaryNeighbours<T> boundary_neighbours();
   void extrapolate_boundary_pressure();
-  /// Velocity factor of one half kick: exp(-zeta dt / 2) while settling, else 1.
-  T damping_keep() const {
+  /// Velocity factor of one half kick of a step h: exp(-zeta h / 2) while settling, else 1.
+  T damping_keep(double h) const {
     const auto& s = scene_.solver;
     return (s.damping > 0 && time_ < s.damping_until)
-               ? static_cast<T>(std::exp(-0.5 * s.damping * dt_))
+               ? static_cast<T>(std::exp(-0.5 * s.damping * h))
                : T(1);
   }
   [[noreturn]] void report_instability(const std::string& why);
@@ -178,11 +178,7 @@ void SimulationT<T>::build_pipeline() {
                   std::to_string(scene_.knit.substeps) +
                       " velocity Verlet substep(s): springs, gravity, contact with solids",
                   [this] {
-                    const auto& s = scene_.solver;
-                    const double h = dt_ / scene_.knit.substeps;
-                    const T keep = (s.damping > 0 && time_ < s.damping_until)
-                                       ? static_cast<T>(std::exp(-0.5 * s.damping * h))
-                                       : T(1);
+                    const T keep = damping_keep(dt_ / scene_.knit.substeps);
                     std::function<void(double)> move;
                     if (moving_)
                       move = [this](double t) { update_shapes(t); };
@@ -193,7 +189,7 @@ void SimulationT<T>::build_pipeline() {
   if (fluid_on_)
     pipeline_.add("integrate.kick_drift", "fluid", "velocity Verlet: half kick, drift", [this] {
       auto f = fluid_->view();
-      kick_drift(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(),
+      kick_drift(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_),
                  "integrate.kick_drift");
     });
   if (boundary_on_ && moving_) {
@@ -205,13 +201,13 @@ void SimulationT<T>::build_pipeline() {
                   [this] { sort_boundary(); });
   }
   if (fluid_on_ && !shapes_host_.empty())
-    pipeline_.add("boundary.guard", "boundary",
-                  "put back particles crossing into a solid (counted)", [this] {
-                    auto f = fluid_->view();
-                    guard_corrections_ +=
-                        enforce_rigid_shapes(ex_, f.x, f.v, f.n, shapes_.data(), shapes_.size(),
-                                             static_cast<T>(margin_), "boundary.guard");
-                  });
+    pipeline_.add(
+        "boundary.guard", "boundary", "put back particles crossing into a solid (counted)", [this] {
+          auto f = fluid_->view();
+          guard_corrections_ +=
+              enforce_rigid_shapes(ex_, f.x, f.v, f.n, shapes_.data(), shapes_.size(),
+                                   static_cast<T>(margin_), T(0), nullptr, "boundary.guard");
+        });
   if (fluid_on_) {
     pipeline_.add("grid.fluid", "fluid", "sort fluid by cell (Morton order), cell ranges",
                   [this] { sort_fluid(); });
@@ -226,7 +222,7 @@ void SimulationT<T>::build_pipeline() {
     });
     pipeline_.add("integrate.kick", "fluid", "velocity Verlet: half kick", [this] {
       auto f = fluid_->view();
-      kick(ex_, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(), "integrate.kick");
+      kick(ex_, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_), "integrate.kick");
     });
   }
 }
@@ -548,15 +544,18 @@ PlanReport Simulation::plan(const Scene& scene) {
             "viscosity");
   }
   if (scene.has(Module::Knit)) {
-    // Built on the host (the CPU backend): plan never touches a device.
-    KnitSystem<double> knit(scene, exec::Exec{exec::Backend::Cpu});
-    r.knit = knit.size();
-    r.springs = knit.springs().springs();
-    const std::size_t real = dbl ? sizeof(double) : sizeof(float);
-    r.bytes_knit = r.knit * (dbl ? KnitSet<double>::bytes_per_particle()
-                                 : KnitSet<float>::bytes_per_particle()) +
-                   (r.knit + 1) * 4 + 2 * r.springs * (4 + 3 * real);
-    limit(knit.stable_dt(), "knit springs / contact radius (all substeps)");
+    // Built in the scene's precision on the host (the CPU backend): plan never touches a device.
+    auto count = [&](auto&& knit) {
+      r.knit = knit.size();
+      r.springs = knit.springs().springs();
+      r.bytes_knit = knit.bytes();
+      limit(knit.stable_dt(), "knit springs / contact radius (all substeps)");
+    };
+    const exec::Exec host{exec::Backend::Cpu};
+    if (dbl)
+      count(KnitSystem<double>(scene, host));
+    else
+      count(KnitSystem<float>(scene, host));
   }
   return r;
 }

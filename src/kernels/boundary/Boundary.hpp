@@ -1,6 +1,7 @@
 #pragma once
 #include "kernels/boundary/RigidShape.hpp"
 #include "kernels/exec/Algorithms.hpp"
+#include "kernels/integrate/Verlet.hpp"
 #include "kernels/particles/FluidSet.hpp"
 
 namespace kf {
@@ -10,14 +11,16 @@ namespace kf {
 template <typename T>
 void move_boundary(const exec::Exec& ex, BoundaryView<T> b, const RigidShape<T>* shapes);
 
-/// Last line of defence against penetration: a particle closer than `margin` to a solid (or inside
-/// it) is put back at distance `margin` and loses its velocity into the solid (relative to the
-/// shape). Returns how many particles were corrected; with working boundary forces this stays 0
-/// or rare, and the run reports it.
+/// Keeps points at least `margin` outside every solid: a point closer (or inside) is put back at
+/// distance `margin`, loses its velocity into the solid (relative to the solid) and, by Coulomb
+/// friction, up to `friction` times that lost normal speed of its tangential speed. For the fluid
+/// this is the last line of defence (friction 0; with working boundary forces it stays rare);
+/// for the knit it is the contact with solids. Points with fixed[i] != kNoHandle (prescribed
+/// motion) are left alone; fixed may be null. Returns how many points were corrected.
 template <typename T>
 std::size_t enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
                                  const RigidShape<T>* shapes, std::size_t n_shapes, T margin,
-                                 const char* label);
+                                 T friction, const std::uint32_t* fixed, const char* label);
 
 /// Smallest signed distance of any of the n points to any shape (negative: inside a solid),
 /// used by tests and diagnostics.

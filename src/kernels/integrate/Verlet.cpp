@@ -2,14 +2,27 @@
 
 namespace kf {
 
+namespace {
+
+/// The half-kicked velocity of point i: prescribed, or keep (v + a dt/2).
 template <typename T>
-void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, std::size_t n,
-                T dt, T keep, const char* label) {
+KF_HD KF_INLINE Vec3<T> half_kick(std::size_t i, const Vec3<T>* v, const Vec3<T>* a, T half, T keep,
+                                  const Prescribed<T>& fixed) {
+  if (fixed.handle && fixed.handle[i] != kNoHandle)
+    return fixed.velocity[fixed.handle[i]];
+  return (v[i] + a[i] * half) * keep;
+}
+
+} // namespace
+
+template <typename T>
+void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt,
+                T keep, const char* label, Prescribed<T> fixed) {
   const T half = T(0.5) * dt;
   exec::for_each(
       ex, n,
       [=] KF_HD(std::size_t i) {
-        const Vec3<T> vh = (v[i] + a[i] * half) * keep;
+        const Vec3<T> vh = half_kick(i, v, a, half, keep, fixed);
         v[i] = vh;
         x[i] += vh * dt;
       },
@@ -18,15 +31,17 @@ void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, 
 
 template <typename T>
 void kick(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt, T keep,
-          const char* label) {
+          const char* label, Prescribed<T> fixed) {
   const T half = T(0.5) * dt;
-  exec::for_each(ex, n, [=] KF_HD(std::size_t i) { v[i] = (v[i] + a[i] * half) * keep; }, label);
+  exec::for_each(
+      ex, n, [=] KF_HD(std::size_t i) { v[i] = half_kick(i, v, a, half, keep, fixed); }, label);
 }
 
 // Max that lets NaN win, so a blown-up particle cannot hide from the step-size control.
 struct NanMaxOp {
   template <typename T>
-  KF_HD KF_INLINE MotionBounds<T> operator()(const MotionBounds<T>& p, const MotionBounds<T>& q) const {
+  KF_HD KF_INLINE MotionBounds<T> operator()(const MotionBounds<T>& p,
+                                             const MotionBounds<T>& q) const {
     auto m = [](T s, T t) { return (s != s || t != t) ? (s != s ? s : t) : (s < t ? t : s); };
     return {m(p.v2, q.v2), m(p.a2, q.a2)};
   }
@@ -37,14 +52,17 @@ MotionBounds<T> motion_bounds(const exec::Exec& ex, const Vec3<T>* v, const Vec3
                               std::size_t n, const char* label) {
   return exec::transform_reduce(
       ex, n, MotionBounds<T>{}, NanMaxOp{},
-      [=] KF_HD(std::size_t i) { return MotionBounds<T>{norm2(v[i]), norm2(a[i])}; }, label);
+      [=] KF_HD(std::size_t i) {
+        return MotionBounds<T>{norm2(v[i]), norm2(a[i])};
+      },
+      label);
 }
 
 #define KF_INSTANTIATE(T)                                                                          \
   template void kick_drift<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, const Vec3<T>*, std::size_t,  \
-                              T, T, const char*);                                                  \
+                              T, T, const char*, Prescribed<T>);                                   \
   template void kick<T>(const exec::Exec&, Vec3<T>*, const Vec3<T>*, std::size_t, T, T,            \
-                        const char*);                                                              \
+                        const char*, Prescribed<T>);                                               \
   template MotionBounds<T> motion_bounds<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,     \
                                             std::size_t, const char*);
 KF_INSTANTIATE(float)

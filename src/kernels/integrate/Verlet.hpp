@@ -3,16 +3,27 @@
 #include "core/Vec3.hpp"
 #include "kernels/exec/Algorithms.hpp"
 
+#include <cstdint>
+
 namespace kf {
+
+/// Points whose motion is prescribed (knit pins and handles): point i with handle[i] != kNoHandle
+/// moves with velocity[handle[i]] and ignores its acceleration. Empty (the default): none.
+inline constexpr std::uint32_t kNoHandle = 0xFFFFFFFFu;
+template <typename T>
+struct Prescribed {
+  const std::uint32_t* handle = nullptr;
+  const Vec3<T>* velocity = nullptr;
+};
 
 /// v = keep (v + a dt/2), then x += v dt. keep = exp(-zeta dt/2) < 1 damps (settling); 1 does not.
 template <typename T>
-void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, std::size_t n,
-                T dt, T keep, const char* label);
+void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt,
+                T keep, const char* label, Prescribed<T> fixed = {});
 /// v = keep (v + a dt/2).
 template <typename T>
 void kick(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt, T keep,
-          const char* label);
+          const char* label, Prescribed<T> fixed = {});
 
 /// max |v|^2 and max |a|^2 over n particles, in one pass. NaN anywhere yields NaN.
 template <typename T>

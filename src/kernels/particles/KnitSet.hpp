@@ -3,13 +3,14 @@
 // only when a scene has the knit module.
 #include "core/Vec3.hpp"
 #include "kernels/exec/Algorithms.hpp"
+#include "kernels/integrate/Verlet.hpp"
 
 #include <cstdint>
 
 namespace kf {
 
-/// Sentinel of KnitView::handle: the point moves freely.
-inline constexpr std::uint32_t kFreePoint = 0xFFFFFFFFu;
+/// Sentinel of KnitView::handle: the point moves freely (the integrator's "no handle").
+inline constexpr std::uint32_t kFreePoint = kNoHandle;
 
 /// Raw pointers into a KnitSet, passed by value into kernels.
 template <typename T>
