@@ -44,8 +44,14 @@ void check_against_brute_force(exec::Backend backend) {
   const std::size_t n = host.size();
   NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(lo, hi, h));
   exec::DeviceBuffer<Vec3<T>> x(backend);
-  x.assign(host);
   exec::Exec ex{backend};
+  // A first build with other points (more of them, elsewhere): the second build must leave none
+  // of their cells behind (it clears only the cells the first one filled).
+  auto other = test_points<T>(4000, h, lo, hi, 7);
+  for (auto& p : other) p.z = static_cast<T>(0.5 * p.z);
+  x.assign(other);
+  grid.build(ex, x.data(), other.size());
+  x.assign(host);
   grid.build(ex, x.data(), n);
 
   // The permutation is a permutation, and positions sorted by it are what the tables describe.

@@ -31,7 +31,8 @@ std::uint64_t morton(int x, int y, int z) {
 
 template <typename T>
 GridGeometry<T> NeighbourGrid<T>::cover(const Vec3d& lo, const Vec3d& hi, double cell) {
-  if (!(cell > 0)) throw Error("neighbour grid: cell size must be > 0");
+  if (!(cell > 0))
+    throw Error("neighbour grid: cell size must be > 0");
   GridGeometry<T> g;
   g.cell = static_cast<T>(cell);
   g.inv_cell = static_cast<T>(1.0 / cell);
@@ -43,7 +44,8 @@ GridGeometry<T> NeighbourGrid<T>::cover(const Vec3d& lo, const Vec3d& hi, double
   const double total = double(g.nx) * g.ny * g.nz;
   if (total > 2.0e9)
     throw Error("neighbour grid of " + std::to_string(g.nx) + " x " + std::to_string(g.ny) + " x " +
-                std::to_string(g.nz) + " cells is too large: enlarge the cell or shrink the domain");
+                std::to_string(g.nz) +
+                " cells is too large: enlarge the cell or shrink the domain");
   return g;
 }
 
@@ -59,19 +61,36 @@ NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo)
   std::vector<std::uint64_t> code(n);
   for (int z = 0; z < geo.nz; ++z)
     for (int y = 0; y < geo.ny; ++y)
-      for (int x = 0; x < geo.nx; ++x) code[geo.linear(x, y, z)] = morton(x, y, z);
+      for (int x = 0; x < geo.nx; ++x)
+        code[geo.linear(x, y, z)] = morton(x, y, z);
   std::sort(order.begin(), order.end(),
             [&](std::uint32_t a, std::uint32_t b) { return code[a] < code[b]; });
   std::vector<std::uint32_t> rank(n);
-  for (std::uint32_t r = 0; r < n; ++r) rank[order[r]] = r;
+  for (std::uint32_t r = 0; r < n; ++r)
+    rank[order[r]] = r;
   rank_.assign(rank);
   start_.resize(n);
   end_.resize(n);
-  while (key_bits_ < 32 && (std::uint64_t(1) << key_bits_) < n) ++key_bits_;
+  while (key_bits_ < 32 && (std::uint64_t(1) << key_bits_) < n)
+    ++key_bits_;
 }
 
 template <typename T>
 void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n) {
+  // Empty cells must read start = end = 0. Clearing the whole table costs O(cells) per build,
+  // which dominates when the particles occupy few cells (a cloth in a room); after the first
+  // build only the cells the previous build filled (its keys) are cleared.
+  if (!cleared_) {
+    exec::fill(ex, start_, 0u, "grid.clear");
+    exec::fill(ex, end_, 0u, "grid.clear");
+    cleared_ = true;
+  } else if (keys_.size() > 0) {
+    const std::uint32_t* old = keys_.data();
+    std::uint32_t* st = start_.data();
+    std::uint32_t* en = end_.data();
+    exec::for_each(
+        ex, keys_.size(), [=] KF_HD(std::size_t i) { st[old[i]] = en[old[i]] = 0u; }, "grid.clear");
+  }
   keys_.resize(n);
   perm_.resize(n);
   const GridGeometry<T> geo = geo_;
@@ -88,16 +107,16 @@ void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
       },
       "grid.keys");
   exec::sort_by_key(ex, keys_, perm_, key_bits_, "grid.sort");
-  exec::fill(ex, start_, 0u, "grid.clear");
-  exec::fill(ex, end_, 0u, "grid.clear");
   std::uint32_t* start = start_.data();
   std::uint32_t* end = end_.data();
   exec::for_each(
       ex, n,
       [=] KF_HD(std::size_t i) {
         const std::uint32_t k = keys[i];
-        if (i == 0 || keys[i - 1] != k) start[k] = static_cast<std::uint32_t>(i);
-        if (i + 1 == n || keys[i + 1] != k) end[k] = static_cast<std::uint32_t>(i + 1);
+        if (i == 0 || keys[i - 1] != k)
+          start[k] = static_cast<std::uint32_t>(i);
+        if (i + 1 == n || keys[i + 1] != k)
+          end[k] = static_cast<std::uint32_t>(i + 1);
       },
       "grid.ranges");
 }

@@ -24,6 +24,7 @@ public:
 private:
   GridGeometry<T> geo_;
   int key_bits_ = 1;
+  bool cleared_ = false; // start/end zeroed once; later builds clear only the cells last used
   exec::DeviceBuffer<std::uint32_t> rank_, start_, end_, keys_, perm_;
 };
 
