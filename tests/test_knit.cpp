@@ -22,6 +22,7 @@ struct Network {
   exec::Exec ex{exec::Backend::Cpu};
   KnitSet<double> set{exec::Backend::Cpu};
   SpringTopology<double> springs{exec::Backend::Cpu};
+  VolumeTopology<double> volumes{exec::Backend::Cpu};
   std::vector<std::uint32_t> handle_free;
 
   explicit Network(std::size_t n, double damping, unsigned seed = 7) {
@@ -55,6 +56,26 @@ struct Network {
     set.m.assign(m);
     set.handle.assign(std::vector<std::uint32_t>(n, kFreePoint));
     springs.build(list, n);
+    // Volume cells on random quadruples, their rest volumes off the current ones (loaded).
+    std::vector<VolumeCell> cells;
+    for (std::size_t c = 0; c < n / 2; ++c) {
+      VolumeCell cell;
+      std::uint32_t q[4];
+      for (int r = 0; r < 4; ++r) {
+        bool repeated = true;
+        while (repeated) {
+          q[r] = static_cast<std::uint32_t>(rng() % n);
+          repeated = false;
+          for (int s2 = 0; s2 < r; ++s2)
+            repeated = repeated || q[s2] == q[r];
+        }
+        cell.point[r] = q[r];
+      }
+      cell.rest_volume = tet_volume(x[q[0]], x[q[1]], x[q[2]], x[q[3]]) * (0.5 + u(rng));
+      cell.k = 1e3 * (0.5 + u(rng));
+      cells.push_back(cell);
+    }
+    volumes.build(cells, n);
   }
 };
 
@@ -71,10 +92,11 @@ Scene knit_scene() {
 
 } // namespace
 
+// Springs and volume cells together.
 TEST(KnitSprings, ForceIsMinusTheEnergyGradient) {
   Network net(40, 0.0);
   const Vec3d g0{0, 0, 0};
-  knit_forces(net.ex, net.set.view(), net.springs.view(), g0);
+  knit_forces(net.ex, net.set.view(), net.springs.view(), g0, net.volumes.view());
   const auto a = net.set.a.to_host();
   const auto m = net.set.m.to_host();
   auto x = net.set.x.to_host();
@@ -86,7 +108,7 @@ TEST(KnitSprings, ForceIsMinusTheEnergyGradient) {
         auto y = x;
         (&y[i].x)[c] += delta;
         net.set.x.assign(y);
-        return knit_spring_energy(net.ex, net.set.view(), net.springs.view());
+        return knit_spring_energy(net.ex, net.set.view(), net.springs.view(), net.volumes.view());
       };
       const double grad = (energy_at(eps) - energy_at(-eps)) / (2 * eps);
       const double force = (&a[i].x)[c] * m[i];
@@ -106,7 +128,7 @@ TEST(KnitSprings, PairForcesCancelAndAFreeSystemKeepsItsMomentum) {
       p += v[i] * m[i];
     return p;
   };
-  knit_forces(net.ex, net.set.view(), net.springs.view(), g0);
+  knit_forces(net.ex, net.set.view(), net.springs.view(), g0, net.volumes.view());
   {
     const auto a = net.set.a.to_host();
     const auto m = net.set.m.to_host();
@@ -126,7 +148,7 @@ TEST(KnitSprings, PairForcesCancelAndAFreeSystemKeepsItsMomentum) {
     auto p = net.set.view();
     const Prescribed<double> fixed{p.handle, handles.data()};
     kick_drift(net.ex, p.x, p.v, p.a, p.n, 1e-4, 1.0, "test.kick_drift", fixed);
-    knit_forces(net.ex, p, net.springs.view(), g0);
+    knit_forces(net.ex, p, net.springs.view(), g0, net.volumes.view());
     kick(net.ex, p.v, p.a, p.n, 1e-4, 1.0, "test.kick", fixed);
   }
   const Vec3d p1 = momentum();

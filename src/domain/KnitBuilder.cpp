@@ -2,6 +2,7 @@
 
 #include "kernels/particles/KnitSet.hpp"
 
+#include <array>
 #include <cmath>
 
 namespace kf {
@@ -9,6 +10,9 @@ namespace kf {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// Share of the through-thickness compression stiffness carried by the volume cells (the rest by
+// the straight volume springs): enough for the cells to hold the layers' order under a crush.
+constexpr double kVolumeCellShare = 0.5;
 
 struct Frame3 {
   Vec3d n, u, w; // normal (or axis), u, w = n x u
@@ -44,7 +48,8 @@ KnitMesh build_knit(const Scene& scene) {
   const auto& mat = scene.knit;
   const double t = mat.thickness, half_t = 0.5 * t;
   KnitMesh mesh;
-  for (const KnitPiece& p : scene.knit.pieces) {
+  for (std::size_t pi = 0; pi < scene.knit.pieces.size(); ++pi) {
+    const KnitPiece& p = scene.knit.pieces[pi];
     const Frame3 f = frame_of(p);
     KnitPieceLayout L;
     L.first = static_cast<std::uint32_t>(mesh.x.size());
@@ -65,6 +70,7 @@ KnitMesh build_knit(const Scene& scene) {
           mesh.v.push_back(p.velocity);
           mesh.m.push_back(mat.mass_per_area * area(i, j) / 3.0);
           mesh.layer.push_back(static_cast<std::uint8_t>(layer));
+          mesh.piece.push_back(static_cast<std::uint16_t>(pi));
         }
 
     auto spring = [&](std::uint32_t i, std::uint32_t j, double k, SpringKind kind) {
@@ -118,8 +124,8 @@ KnitMesh build_knit(const Scene& scene) {
         for (int i = 0; i < L.nu; ++i) {
           const double A = area(i, j);
           const std::uint32_t p0 = L.index(layer, i, j);
-          spring(p0, L.index(layer + 1, i, j), mat.compression * A / half_t,
-                 SpringKind::VolumeStraight);
+          spring(p0, L.index(layer + 1, i, j),
+                 (1 - kVolumeCellShare) * mat.compression * A / half_t, SpringKind::VolumeStraight);
           if (mat.layer_shear <= 0)
             continue;
           const int di[4] = {1, -1, 0, 0}, dj[4] = {0, 0, 1, -1};
@@ -130,6 +136,31 @@ KnitMesh build_knit(const Scene& scene) {
             const double s = d < 2 ? a : b, l2 = s * s + half_t * half_t;
             spring(p0, L.index(layer + 1, i1, j1), mat.layer_shear * A * l2 / (2 * s * s * half_t),
                    SpringKind::VolumeDiagonal);
+          }
+        }
+    // Volume cells: each front and back point over the corner triangles of its middle-layer twin
+    // (one per quadrant that exists). Together they carry kVolumeCellShare of the compression
+    // stiffness: a thickness change dh changes V by |(a - o) x (b - o)| / 6 dh, so
+    // k_V = k_h / |dV/dp|^2 gives the quadrant its share k_h of compression * A / (t/2).
+    for (int layer = 0; layer < 3; layer += 2)
+      for (int j = 0; j < L.nv; ++j)
+        for (int i = 0; i < L.nu; ++i) {
+          std::vector<std::array<int, 2>> quads;
+          for (int di = -1; di <= 1; di += 2)
+            for (int dj = -1; dj <= 1; dj += 2)
+              if (iu(i, di) >= 0 && j + dj >= 0 && j + dj < L.nv)
+                quads.push_back({di, dj});
+          const double kh = kVolumeCellShare * mat.compression * area(i, j) / half_t / quads.size();
+          for (const auto& q : quads) {
+            VolumeCell c;
+            c.point = {L.index(layer, i, j), L.index(1, i, j), L.index(1, iu(i, q[0]), j),
+                       L.index(1, i, j + q[1])};
+            const Vec3d &xp = mesh.x[c.point[0]], &xo = mesh.x[c.point[1]],
+                        &xa = mesh.x[c.point[2]], &xb = mesh.x[c.point[3]];
+            c.rest_volume = tet_volume(xp, xo, xa, xb);
+            const double g2 = norm2(tet_volume_gradient(xp, xo, xa, xb, 0));
+            c.k = kh / g2;
+            mesh.volumes.push_back(c);
           }
         }
     mesh.pieces.push_back(L);

@@ -4,6 +4,7 @@
 // the same fabric behaves the same. Host-only and deterministic.
 #include "domain/Scene.hpp"
 #include "kernels/knit/SpringTopology.hpp"
+#include "kernels/knit/VolumeTopology.hpp"
 
 #include <cstdint>
 #include <vector>
@@ -25,8 +26,10 @@ struct KnitMesh {
   std::vector<Vec3d> x, v;           // rest position, initial velocity
   std::vector<double> m;             // dry mass [kg]
   std::vector<std::uint8_t> layer;   // 0 front, 1 middle, 2 back
+  std::vector<std::uint16_t> piece;  // index into scene.knit.pieces
   std::vector<std::uint32_t> handle; // kFreePoint or the index of the pin holding the point
   std::vector<Spring> springs;
+  std::vector<VolumeCell> volumes;
   std::vector<KnitPieceLayout> pieces;
 };
 

@@ -12,7 +12,7 @@ namespace kf {
 
 template <typename T>
 KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex)
-    : scene_(scene), ex_(ex), set_(ex.backend), springs_(ex.backend),
+    : scene_(scene), ex_(ex), set_(ex.backend), springs_(ex.backend), volumes_(ex.backend),
       handle_v_(ex.backend, 0, "knit.handle_velocity"), gravity_(vec_cast<T>(scene.gravity)) {
   const KnitMesh mesh = build_knit(scene);
   const std::size_t n = mesh.x.size();
@@ -33,13 +33,73 @@ KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex)
   set_.m.assign(m);
   set_.handle.assign(mesh.handle);
   set_.layer.assign(mesh.layer);
+  set_.piece.assign(mesh.piece);
   set_.id.assign(id);
   springs_.build(mesh.springs, n);
+  volumes_.build(mesh.volumes, n);
   pieces_ = mesh.pieces;
   set_handle_velocities(0.0);
   T spring = 0, damping = 0;
-  knit_spring_limits(ex_, set_.view(), springs_.view(), spring, damping);
+  knit_spring_limits(ex_, set_.view(), springs_.view(), volumes_.view(), spring, damping);
   spring_limit_ = std::min(double(spring) * scene.knit.spring_factor, double(damping));
+  if (scene.knit.self_collision && n > 0)
+    setup_self_contact(mesh);
+}
+
+template <typename T>
+void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh) {
+  const auto& mat = scene_.knit;
+  // Defaults: R half the longest in-plane spacing, so a point cannot slip through the gap between
+  // four points of another sheet (that needs 2R > spacing / sqrt 2); k the stiffest spring, so
+  // contact resists like the fabric does and the step limit hardly moves.
+  double longest = 0, stiffest = 0;
+  for (const Spring& sp : mesh.springs) {
+    if (sp.kind == SpringKind::Stretch)
+      longest = std::max(longest, sp.rest);
+    stiffest = std::max(stiffest, sp.k);
+  }
+  SelfContactParams<T> p;
+  const double radius = mat.self_radius > 0 ? mat.self_radius : 0.5 * longest;
+  const double k = mat.self_stiffness > 0 ? mat.self_stiffness : stiffest;
+  if (!(radius > 0) || !(k > 0))
+    return; // a single point: nothing to collide
+  p.radius = static_cast<T>(radius);
+  // Points closer than 3R at rest never collide: 3R > 2R keeps the rest state free of contact
+  // with margin for in-plane compression.
+  p.exclusion2 = static_cast<T>(9 * radius * radius);
+  p.k = static_cast<T>(k);
+  p.zeta = static_cast<T>(mat.damping_ratio);
+  p.friction = static_cast<T>(mat.self_friction >= 0 ? mat.self_friction : mat.friction);
+  // Grid over the domain with cells of at least 2R, coarsened so it holds at most kMaxCells.
+  const Vec3d lo = scene_.domain.min, hi = scene_.domain.max, ext = hi - lo;
+  constexpr double kMaxCells = 4e6;
+  const double cell = std::max(2 * radius, std::cbrt(ext.x * ext.y * ext.z / kMaxCells));
+  self_.emplace(ex_.backend, NeighbourGrid<T>::cover(lo, hi, cell), p);
+  self_->update(ex_, set_); // allocates everything now, so plan's memory figure is the run's
+  double m_min = 1e300;
+  for (std::size_t i = 0; i < mesh.m.size(); ++i)
+    if (mesh.handle[i] == kFreePoint)
+      m_min = std::min(m_min, mesh.m[i]);
+  // A point in a fold may touch several points at once; the limit allows kMaxContacts.
+  constexpr double kMaxContacts = 6;
+  contact_limit_ = mat.spring_factor * std::sqrt(m_min / (kMaxContacts * k));
+}
+
+template <typename T>
+void KnitSystem<T>::internal_forces() {
+  knit_forces(ex_, set_.view(), springs_.view(), gravity_, volumes_.view());
+  if (self_) {
+    self_->update(ex_, set_);
+    self_->add_forces(ex_, set_);
+  }
+}
+
+template <typename T>
+SelfContactStats KnitSystem<T>::self_contact_stats() {
+  if (!self_)
+    return {};
+  self_->update(ex_, set_);
+  return self_->stats(ex_, set_);
 }
 
 template <typename T>
@@ -61,7 +121,7 @@ void KnitSystem<T>::set_handle_velocities(double t) {
 
 template <typename T>
 void KnitSystem<T>::compute_forces() {
-  knit_forces(ex_, set_.view(), springs_.view(), gravity_);
+  internal_forces();
 }
 
 template <typename T>
@@ -83,7 +143,7 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
       collisions_ += enforce_rigid_shapes(ex_, p.x, p.v, p.n, shapes, n_shapes, radius, friction,
                                           p.handle, "knit.contact");
     }
-    knit_forces(ex_, p, springs_.view(), gravity_);
+    internal_forces();
     kick(ex_, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick", fixed);
   }
 }
@@ -95,7 +155,7 @@ double KnitSystem<T>::stable_dt() {
   const double vmax = std::sqrt(double(mb.v2));
   if (!std::isfinite(vmax) || !std::isfinite(double(mb.a2)))
     throw InstabilityError("a knit velocity or acceleration is not finite");
-  double sub = spring_limit_;
+  double sub = std::min(spring_limit_, contact_limit_);
   // A substep moves no point more than half its contact radius, so collisions are not skipped.
   if (vmax > 0)
     sub = std::min(sub, 0.5 * scene_.knit.radius() / vmax);
@@ -107,8 +167,9 @@ KnitEnergy KnitSystem<T>::energy() {
   auto p = set_.view();
   KnitEnergy e;
   e.kinetic = knit_kinetic_energy(ex_, p);
-  e.elastic = knit_spring_energy(ex_, p, springs_.view());
+  e.elastic = knit_spring_energy(ex_, p, springs_.view(), volumes_.view());
   e.potential = knit_potential_energy(ex_, p, gravity_);
+  e.contact = self_contact_stats().energy;
   return e;
 }
 
@@ -147,7 +208,8 @@ void KnitSystem<T>::restore(const io::Phase& p) {
 
 template <typename T>
 std::size_t KnitSystem<T>::bytes() const {
-  return set_.size() * KnitSet<T>::bytes_per_particle() + springs_.bytes();
+  return set_.size() * KnitSet<T>::bytes_per_particle() + springs_.bytes() + volumes_.bytes() +
+         (self_ ? self_->bytes() : 0);
 }
 
 template class KnitSystem<float>;

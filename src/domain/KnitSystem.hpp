@@ -6,16 +6,19 @@
 #include "domain/Scene.hpp"
 #include "io/Frame.hpp"
 #include "kernels/boundary/RigidShape.hpp"
+#include "kernels/knit/SelfContact.hpp"
 #include "kernels/knit/SpringTopology.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
 #include <functional>
+#include <optional>
 
 namespace kf {
 
 struct KnitEnergy {
   double kinetic = 0, elastic = 0, potential = 0;
-  double total() const { return kinetic + elastic + potential; }
+  double contact = 0; // self-contact penalty energy
+  double total() const { return kinetic + elastic + potential + contact; }
 };
 
 template <typename T>
@@ -31,7 +34,7 @@ public:
                const RigidShape<T>* shapes, std::size_t n_shapes);
   /// Largest step (all substeps together) the springs and the contact radius allow now.
   double stable_dt();
-  /// a(t) from the springs and gravity (the first half kick needs it).
+  /// a(t) from the springs, self-contact and gravity (the first half kick needs it).
   void compute_forces();
 
   io::Phase phase() const;
@@ -45,18 +48,29 @@ public:
   KnitSet<T>& set() { return set_; }
   double min_rigid_distance(const RigidShape<T>* shapes, std::size_t n_shapes);
   const std::vector<KnitPieceLayout>& pieces() const { return pieces_; }
+  /// Self-collision: off when the scene turns it off; stats are those of the latest forces.
+  bool self_collision() const { return self_.has_value(); }
+  SelfContactStats self_contact_stats();
+  const SelfContactParams<T>* self_contact_params() const {
+    return self_ ? &self_->params() : nullptr;
+  }
 
 private:
   const Scene& scene_;
   exec::Exec ex_;
   KnitSet<T> set_;
   SpringTopology<T> springs_;
+  VolumeTopology<T> volumes_;
   void set_handle_velocities(double t);
   exec::DeviceBuffer<Vec3<T>> handle_v_;
   std::vector<Vec3<T>> handle_v_host_;
   std::vector<KnitPieceLayout> pieces_;
   Vec3<T> gravity_;
-  double spring_limit_ = 0; // min sqrt(m / sum k), m / sum c over free points (cached: fixed)
+  void internal_forces();
+  void setup_self_contact(const KnitMesh& mesh);
+  double spring_limit_ = 0;     // min sqrt(m / sum k), m / sum c over free points (cached: fixed)
+  double contact_limit_ = 1e30; // spring_factor sqrt(m_min / (kMaxContacts k_self))
+  std::optional<KnitSelfContact<T>> self_;
   std::uint64_t collisions_ = 0;
 };
 

@@ -112,6 +112,12 @@ std::string format_summary(const RunSummary& s) {
                   d.knit, d.knit_kinetic_energy, d.knit_elastic_energy, d.knit_potential_energy,
                   d.knit_min_rigid_distance, static_cast<unsigned long long>(d.knit_contacts));
     o << buf;
+    std::snprintf(
+        buf, sizeof buf,
+        "knit self-contact: %llu pairs now, penalty energy %.4g J, closest pair %.3g x 2R\n",
+        static_cast<unsigned long long>(d.knit_self_contacts), d.knit_self_energy,
+        d.knit_self_min_gap);
+    o << buf;
   }
   if (s.frames)
     o << "snapshots: " << s.frames << " written, last " << s.last_snapshot << "\n";

@@ -128,6 +128,11 @@ struct Scene {
     double friction = 0.4;       // Coulomb coefficient against solids
     int substeps = 1;            // knit steps per fluid step
     double spring_factor = 0.5;  // dt_knit <= spring_factor * sqrt(m / sum k)
+    // Self-collision (DEM between knit points far apart on the rest mesh, Eq. 7 and 8).
+    bool self_collision = true;
+    double self_radius = 0;    // R [m]; 0: half the longest in-plane spacing (no gaps in a sheet)
+    double self_stiffness = 0; // k [N/m]; 0: the stiffest spring of the mesh
+    double self_friction = -1; // mu; < 0: the same as `friction`
     std::vector<KnitPiece> pieces;
     std::vector<KnitPin> pins;
     double radius() const { return contact_radius > 0 ? contact_radius : 0.5 * thickness; }

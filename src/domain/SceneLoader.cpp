@@ -316,7 +316,8 @@ KnitPin read_knit_pin(const TableReader& t, std::size_t index) {
 void read_knit(const TableReader& sim, const TableReader& t, Scene& s) {
   t.allow_only({"thickness", "mass_per_area", "stretch", "shear", "bend", "compression",
                 "layer_shear", "damping_ratio", "contact_radius", "friction", "substeps",
-                "spring_factor", "piece", "pin"});
+                "spring_factor", "self_collision", "self_radius", "self_stiffness", "self_friction",
+                "piece", "pin"});
   auto& k = s.knit;
   t.read("thickness", k.thickness, Range::positive());
   t.read("mass_per_area", k.mass_per_area, Range::positive());
@@ -330,7 +331,13 @@ void read_knit(const TableReader& sim, const TableReader& t, Scene& s) {
   t.read("friction", k.friction, Range::at_least(0));
   k.substeps = read_count(t, "substeps", k.substeps, 1, 10000);
   t.read("spring_factor", k.spring_factor, Range::above_up_to(0, 1.4));
+  t.read("self_collision", k.self_collision);
+  t.read("self_radius", k.self_radius, Range::at_least(0));
+  t.read("self_stiffness", k.self_stiffness, Range::at_least(0));
+  t.read("self_friction", k.self_friction, Range::at_least(0));
   const auto pieces = t.array_of_tables("piece");
+  if (pieces.size() > 65535)
+    t.fail_key(*t.node("piece"), "piece", "at most 65535 pieces", std::to_string(pieces.size()));
   for (std::size_t i = 0; i < pieces.size(); ++i)
     k.pieces.push_back(read_knit_piece(pieces[i], i, s.domain));
   const auto pins = t.array_of_tables("pin");

@@ -29,6 +29,9 @@ struct Diagnostics {
   double knit_kinetic_energy = 0, knit_elastic_energy = 0, knit_potential_energy = 0; // [J]
   std::uint64_t knit_contacts = 0;    // point-substeps in contact with a solid, whole run
   double knit_min_rigid_distance = 0; // smallest signed distance of a knit point to a solid
+  std::uint64_t knit_self_contacts = 0; // overlapping point pairs now (self-collision)
+  double knit_self_energy = 0;          // their penalty energy [J]
+  double knit_self_min_gap = 0;         // closest pair distance / 2R (1e30 when none in reach)
 };
 
 /// What `knitflow plan` prints: computed from the scene alone, nothing allocated or run.

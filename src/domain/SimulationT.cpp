@@ -176,7 +176,8 @@ void SimulationT<T>::build_pipeline() {
   if (knit_on_)
     pipeline_.add("knit.step", "knit",
                   std::to_string(scene_.knit.substeps) +
-                      " velocity Verlet substep(s): springs, gravity, contact with solids",
+                      " velocity Verlet substep(s): springs, gravity, contact with solids" +
+                      (scene_.knit.self_collision ? ", self-collision (DEM on a grid)" : ""),
                   [this] {
                     const T keep = damping_keep(dt_ / scene_.knit.substeps);
                     std::function<void(double)> move;
@@ -450,6 +451,10 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.knit_elastic_energy = e.elastic;
     d.knit_potential_energy = e.potential;
     d.knit_contacts = k.collisions();
+    const SelfContactStats sc = k.self_contact_stats();
+    d.knit_self_contacts = sc.contacts;
+    d.knit_self_energy = sc.energy;
+    d.knit_self_min_gap = sc.min_gap_ratio;
     d.knit_min_rigid_distance = shapes_host_.empty()
                                     ? std::numeric_limits<double>::infinity()
                                     : k.min_rigid_distance(shapes_.data(), shapes_.size());
@@ -549,7 +554,7 @@ PlanReport Simulation::plan(const Scene& scene) {
       r.knit = knit.size();
       r.springs = knit.springs().springs();
       r.bytes_knit = knit.bytes();
-      limit(knit.stable_dt(), "knit springs / contact radius (all substeps)");
+      limit(knit.stable_dt(), "knit springs / contact stiffness / contact radius (all substeps)");
     };
     const exec::Exec host{exec::Backend::Cpu};
     if (dbl)

@@ -5,13 +5,15 @@
 namespace kf {
 
 template <typename T>
-void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Vec3<T> gravity) {
-  exec::for_each(ex, p.n, SpringForceEvaluator<T>{p, s, gravity}, "knit.springs");
+void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Vec3<T> gravity,
+                 const VolumeView<T>& vol) {
+  exec::for_each(ex, p.n, SpringForceEvaluator<T>{p, s, vol, gravity}, "knit.springs");
 }
 
 template <typename T>
-double knit_spring_energy(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s) {
-  return exec::transform_reduce(ex, p.n, 0.0, exec::SumOp{}, SpringEnergyEvaluator<T>{p, s},
+double knit_spring_energy(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s,
+                          const VolumeView<T>& vol) {
+  return exec::transform_reduce(ex, p.n, 0.0, exec::SumOp{}, SpringEnergyEvaluator<T>{p, s, vol},
                                 "knit.energy");
 }
 
@@ -41,20 +43,23 @@ struct LimitsMinOp {
 };
 
 template <typename T>
-void knit_spring_limits(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, T& spring,
-                        T& damping) {
-  const SpringLimits<T> l = exec::transform_reduce(ex, p.n, SpringLimits<T>{}, LimitsMinOp{},
-                                                   SpringLimitEvaluator<T>{p, s}, "knit.limits");
+void knit_spring_limits(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s,
+                        const VolumeView<T>& vol, T& spring, T& damping) {
+  const SpringLimits<T> l = exec::transform_reduce(
+      ex, p.n, SpringLimits<T>{}, LimitsMinOp{}, SpringLimitEvaluator<T>{p, s, vol}, "knit.limits");
   spring = l.spring;
   damping = l.damping;
 }
 
 #define KF_INSTANTIATE(T)                                                                          \
-  template void knit_forces<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&, Vec3<T>);     \
-  template double knit_spring_energy<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&);     \
+  template void knit_forces<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&, Vec3<T>,      \
+                               const VolumeView<T>&);                                              \
+  template double knit_spring_energy<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&,      \
+                                        const VolumeView<T>&);                                     \
   template double knit_kinetic_energy<T>(const exec::Exec&, KnitView<T>);                          \
   template double knit_potential_energy<T>(const exec::Exec&, KnitView<T>, Vec3<T>);               \
-  template void knit_spring_limits<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&, T&, T&);
+  template void knit_spring_limits<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&,        \
+                                      const VolumeView<T>&, T&, T&);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

@@ -3,17 +3,20 @@
 // and the tests need. Integration (kick_drift/kick with Prescribed points) and contact with
 // solids (enforce_rigid_shapes) are the shared kernels.
 #include "kernels/knit/SpringTopology.hpp"
+#include "kernels/knit/VolumeTopology.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
 namespace kf {
 
-/// a = spring forces / m + g for free points, 0 for points on a handle.
+/// a = (spring + volume forces) / m + g for free points, 0 for points on a handle.
 template <typename T>
-void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Vec3<T> gravity);
+void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Vec3<T> gravity,
+                 const VolumeView<T>& vol = {});
 
-/// Elastic energy of all springs [J] (double accumulation).
+/// Elastic energy of all springs and volume cells [J] (double accumulation).
 template <typename T>
-double knit_spring_energy(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s);
+double knit_spring_energy(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s,
+                          const VolumeView<T>& vol = {});
 /// Kinetic energy sum 1/2 m v^2 and gravitational potential -sum m g.x [J].
 template <typename T>
 double knit_kinetic_energy(const exec::Exec& ex, KnitView<T> p);
@@ -22,7 +25,7 @@ double knit_potential_energy(const exec::Exec& ex, KnitView<T> p, Vec3<T> gravit
 
 /// Smallest sqrt(m / sum k) and m / sum c over the free points (the explicit step limits).
 template <typename T>
-void knit_spring_limits(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, T& spring,
-                        T& damping);
+void knit_spring_limits(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s,
+                        const VolumeView<T>& vol, T& spring, T& damping);
 
 } // namespace kf

@@ -2,6 +2,7 @@
 // Knit evaluators as host-device functors: each point gathers the forces of its own springs.
 #include "core/Math.hpp"
 #include "kernels/knit/SpringTopology.hpp"
+#include "kernels/knit/VolumeTopology.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
 namespace kf {
@@ -17,12 +18,29 @@ KF_HD KF_INLINE Vec3<T> spring_force(const Vec3<T>& d, const Vec3<T>& dv, T rest
   return u * (k * (len - rest) + c * dot(dv, u));
 }
 
-/// a_i = (sum of spring forces) / m_i + g for every free point; points on a handle get a = 0
-/// (their motion is prescribed).
+/// Calls f(V - V0, k, gradient of V with respect to point i) for every volume cell of point i.
+template <typename T, typename F>
+KF_HD KF_INLINE void for_each_volume_cell(const VolumeView<T>& vol, const Vec3<T>* x, std::size_t i,
+                                          F&& f) {
+  if (vol.empty())
+    return;
+  for (std::uint32_t e = vol.start[i]; e < vol.start[i + 1]; ++e) {
+    const std::uint32_t c = vol.cell[e];
+    const std::uint32_t* q = vol.point + 4 * std::size_t(c);
+    const Vec3<T> xp = x[q[0]], xo = x[q[1]], xa = x[q[2]], xb = x[q[3]];
+    const int role = q[0] == i ? 0 : q[1] == i ? 1 : q[2] == i ? 2 : 3;
+    f(tet_volume(xp, xo, xa, xb) - vol.rest[c], vol.k[c],
+      tet_volume_gradient(xp, xo, xa, xb, role));
+  }
+}
+
+/// a_i = (sum of spring and volume forces) / m_i + g for every free point; points on a handle get
+/// a = 0 (their motion is prescribed).
 template <typename T>
 struct SpringForceEvaluator {
   KnitView<T> p;
   SpringView<T> s;
+  VolumeView<T> vol;
   Vec3<T> gravity;
 
   KF_HD void operator()(std::size_t i) const {
@@ -36,15 +54,19 @@ struct SpringForceEvaluator {
       const std::uint32_t j = s.other[e];
       f += spring_force(p.x[j] - xi, p.v[j] - vi, s.rest[e], s.k[e], s.c[e]);
     }
+    for_each_volume_cell(vol, p.x, i,
+                         [&](T dv, T k, const Vec3<T>& grad) { f -= grad * (k * dv); });
     p.a[i] = f * (T(1) / p.m[i]) + gravity;
   }
 };
 
-/// Point i's share of the elastic energy: half of each of its springs' 1/2 k (|d| - L)^2.
+/// Point i's share of the elastic energy: half of each of its springs' 1/2 k (|d| - L)^2 and a
+/// quarter of each of its volume cells' 1/2 k (V - V0)^2.
 template <typename T>
 struct SpringEnergyEvaluator {
   KnitView<T> p;
   SpringView<T> s;
+  VolumeView<T> vol;
 
   KF_HD double operator()(std::size_t i) const {
     double e = 0;
@@ -52,11 +74,15 @@ struct SpringEnergyEvaluator {
       const double stretch = double(norm(p.x[s.other[k]] - p.x[i])) - double(s.rest[k]);
       e += 0.25 * double(s.k[k]) * stretch * stretch;
     }
+    for_each_volume_cell(vol, p.x, i, [&](T dv, T k, const Vec3<T>&) {
+      e += 0.125 * double(k) * double(dv) * double(dv);
+    });
     return e;
   }
 };
 
-/// Point i's explicit-integration limits: sqrt(m / sum k) (spring) and m / sum c (damping).
+/// Point i's explicit-integration limits: sqrt(m / sum k) (spring) and m / sum c (damping); a
+/// volume cell counts as a spring of stiffness k |dV/dx_i|^2.
 template <typename T>
 struct SpringLimits {
   T spring = T(1e30), damping = T(1e30);
@@ -66,6 +92,7 @@ template <typename T>
 struct SpringLimitEvaluator {
   KnitView<T> p;
   SpringView<T> s;
+  VolumeView<T> vol;
 
   KF_HD SpringLimits<T> operator()(std::size_t i) const {
     T ks = T(0), cs = T(0);
@@ -73,6 +100,7 @@ struct SpringLimitEvaluator {
       ks += s.k[e];
       cs += s.c[e];
     }
+    for_each_volume_cell(vol, p.x, i, [&](T, T k, const Vec3<T>& grad) { ks += k * norm2(grad); });
     SpringLimits<T> l;
     if (p.handle[i] != kFreePoint)
       return l; // prescribed points do not integrate springs

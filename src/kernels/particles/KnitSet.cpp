@@ -6,7 +6,7 @@ template <typename T>
 KnitSet<T>::KnitSet(exec::Backend b)
     : x(b, 0, "knit.x"), v(b, 0, "knit.v"), a(b, 0, "knit.a"), x_rest(b, 0, "knit.x_rest"),
       m(b, 0, "knit.m"), handle(b, 0, "knit.handle"), layer(b, 0, "knit.layer"),
-      id(b, 0, "knit.id") {}
+      piece(b, 0, "knit.piece"), id(b, 0, "knit.id") {}
 
 template <typename T>
 void KnitSet<T>::resize(std::size_t n) {
@@ -17,6 +17,7 @@ void KnitSet<T>::resize(std::size_t n) {
   m.resize(n);
   handle.resize(n);
   layer.resize(n);
+  piece.resize(n);
   id.resize(n);
 }
 
@@ -28,7 +29,7 @@ KnitView<T> KnitSet<T>::view() {
 template <typename T>
 std::size_t KnitSet<T>::bytes_per_particle() {
   return 4 * sizeof(Vec3<T>) + sizeof(T) + sizeof(std::uint32_t) + sizeof(std::uint8_t) +
-         sizeof(std::uint64_t);
+         sizeof(std::uint16_t) + sizeof(std::uint64_t);
 }
 
 template class KnitSet<float>;

@@ -39,7 +39,8 @@ public:
   exec::DeviceBuffer<Vec3<T>> x, v, a, x_rest;
   exec::DeviceBuffer<T> m;
   exec::DeviceBuffer<std::uint32_t> handle;
-  exec::DeviceBuffer<std::uint8_t> layer; // 0 front (paper's layer 1), 1 middle, 2 back
+  exec::DeviceBuffer<std::uint8_t> layer;  // 0 front (paper's layer 1), 1 middle, 2 back
+  exec::DeviceBuffer<std::uint16_t> piece; // index of the scene's [[knit.piece]]
   exec::DeviceBuffer<std::uint64_t> id;
 };
 

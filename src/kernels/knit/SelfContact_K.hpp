@@ -1,0 +1,151 @@
+#pragma once
+// Knit self-collision (paper §3 and §5.1, Eq. 7 and 8 as corrected in DESIGN §10): DEM penalty
+// forces between knit points of radius R that overlap and are not close on the rest mesh.
+// Gather form: each point sums the forces its neighbours exert on it (no atomics; the pair force
+// is antisymmetric, so momentum is conserved to rounding).
+#include "core/Math.hpp"
+#include "kernels/grid/GridGeometry.hpp"
+#include "kernels/particles/KnitSet.hpp"
+
+#include <cstdint>
+
+namespace kf {
+
+template <typename T>
+struct SelfContactParams {
+  T radius = T(0);     // R: two points touch at |r| = 2R
+  T exclusion2 = T(0); // squared rest distance below which points of one piece never collide
+  T k = T(0);          // normal stiffness [N/m]
+  T zeta = T(0);       // normal damping ratio (of critical, per pair)
+  T friction = T(0);   // Coulomb coefficient mu
+};
+
+/// The knit points in grid (cell) order: copies gathered through the grid's permutation, so the
+/// candidate loop reads contiguous memory; the knit set itself keeps its rest-mesh order.
+template <typename T>
+struct SortedKnitView {
+  const Vec3<T>* x;
+  const Vec3<T>* v;
+  const Vec3<T>* rest;
+  const T* m;
+  const std::uint16_t* piece;
+};
+
+/// Force on i from j (d = x_i - x_j, dv = v_i - v_j), zero unless they overlap:
+/// normal  F_n = max(0, k u - c v_n) r^ with u = 2R - |d| > 0 the overlap (Eq. 7, repulsive),
+///         c = 2 zeta sqrt(k m_red);
+/// tangent F_t = -min(mu F_n, gamma |v_t|) v_t^ (Eq. 8, opposing the sliding, and regularised:
+///         below the Coulomb cap it is viscous with gamma = 2 sqrt(k m_red), so it fades to zero
+///         with v_t instead of chattering).
+template <typename T>
+KF_HD KF_INLINE bool self_contact_force(const Vec3<T>& d, const Vec3<T>& dv, T mi, T mj,
+                                        const SelfContactParams<T>& p, Vec3<T>& f) {
+  const T r2 = norm2(d), reach = T(2) * p.radius;
+  if (r2 >= reach * reach || r2 <= T(0))
+    return false;
+  const T r = ksqrt(r2);
+  const Vec3<T> n = d * (T(1) / r);
+  const T overlap = reach - r;
+  const T mred = mi * mj / (mi + mj);
+  const T crit = T(2) * ksqrt(p.k * mred);
+  const T vn = dot(dv, n);
+  T fn = p.k * overlap - p.zeta * crit * vn;
+  if (fn < T(0))
+    fn = T(0); // damping may slow a separation but never pulls the points together
+  f = n * fn;
+  const Vec3<T> vt = dv - n * vn;
+  const T vt_len = norm(vt);
+  if (vt_len > T(0)) {
+    const T viscous = crit * vt_len, coulomb = p.friction * fn;
+    f -= vt * ((viscous < coulomb ? viscous : coulomb) / vt_len);
+  }
+  return true;
+}
+
+/// True when i and j may collide: different pieces, or far enough apart on the rest mesh (springs
+/// and the rest thickness keep close points apart; a contact there would fight the springs).
+template <typename T>
+KF_HD KF_INLINE bool self_contact_allowed(std::uint16_t piece_i, std::uint16_t piece_j,
+                                          const Vec3<T>& rest_i, const Vec3<T>& rest_j,
+                                          T exclusion2) {
+  return piece_i != piece_j || norm2(rest_i - rest_j) >= exclusion2;
+}
+
+/// a_i += (sum of self-contact forces on i) / m_i for every free point.
+template <typename T>
+struct SelfContactEvaluator {
+  KnitView<T> p;
+  const Vec3<T>* rest;
+  const std::uint16_t* piece;
+  SortedKnitView<T> s;
+  CellView<T> cells;
+  SelfContactParams<T> params;
+
+  KF_HD void operator()(std::size_t i) const {
+    if (p.handle[i] != kFreePoint)
+      return;
+    const Vec3<T> xi = p.x[i], vi = p.v[i], ri = rest[i];
+    const T mi = p.m[i];
+    const std::uint16_t pi = piece[i];
+    Vec3<T> f{T(0), T(0), T(0)};
+    cells.for_each_candidate(xi, [&](std::uint32_t j) {
+      if (!self_contact_allowed(pi, s.piece[j], ri, s.rest[j], params.exclusion2))
+        return;
+      Vec3<T> fij;
+      if (self_contact_force(xi - s.x[j], vi - s.v[j], mi, s.m[j], params, fij))
+        f += fij;
+    });
+    p.a[i] += f * (T(1) / mi);
+  }
+};
+
+/// Per-point contact diagnostics: contacts counted once per pair, the penalty energy
+/// 1/2 k u^2 (half per side) and the smallest centre distance over 2R.
+struct SelfContactStats {
+  std::uint64_t contacts = 0;
+  double energy = 0;
+  double min_gap_ratio = 1e30;
+};
+
+struct SelfContactStatsOp {
+  KF_HD KF_INLINE SelfContactStats operator()(const SelfContactStats& a,
+                                              const SelfContactStats& b) const {
+    return {a.contacts + b.contacts, a.energy + b.energy,
+            a.min_gap_ratio < b.min_gap_ratio ? a.min_gap_ratio : b.min_gap_ratio};
+  }
+};
+
+template <typename T>
+struct SelfContactStatsEvaluator {
+  const Vec3<T>* x;
+  const Vec3<T>* rest;
+  const std::uint16_t* piece;
+  const std::uint64_t* id;
+  SortedKnitView<T> s;
+  const std::uint64_t* sorted_id;
+  CellView<T> cells;
+  SelfContactParams<T> params;
+
+  KF_HD SelfContactStats operator()(std::size_t i) const {
+    SelfContactStats st;
+    const Vec3<T> xi = x[i], ri = rest[i];
+    const T reach = T(2) * params.radius;
+    cells.for_each_candidate(xi, [&](std::uint32_t j) {
+      if (!self_contact_allowed(piece[i], s.piece[j], ri, s.rest[j], params.exclusion2))
+        return;
+      const T r = norm(xi - s.x[j]);
+      if (r >= reach)
+        return;
+      const double u = double(reach - r);
+      st.energy += 0.25 * double(params.k) * u * u;
+      if (id[i] < sorted_id[j])
+        ++st.contacts;
+      const double ratio = double(r / reach);
+      if (ratio < st.min_gap_ratio)
+        st.min_gap_ratio = ratio;
+    });
+    return st;
+  }
+};
+
+} // namespace kf

@@ -1,0 +1,78 @@
+#pragma once
+// Signed-volume terms of the knit (paper §3: "volume-preserving" between the layers). Springs
+// only see lengths, so a front layer pushed through the middle one (a mirror image) costs them
+// nothing, and a crushed fold or an edge squashed on the floor can turn the fabric inside out.
+// Each cell is a tetrahedron: a front or back point (the apex) over a corner triangle of the
+// middle layer; its energy 1/2 k (V - V0)^2 grows as the apex crosses the middle layer, so the
+// layers keep their order. Stored per point like the springs (gather, no atomics).
+#include "core/Vec3.hpp"
+#include "kernels/exec/Algorithms.hpp"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace kf {
+
+/// One tetrahedron: point[0] the apex (layer 0 or 2), point[1] the middle-layer node under it,
+/// point[2], point[3] two of that node's neighbours along u and v (host side, built once).
+struct VolumeCell {
+  std::array<std::uint32_t, 4> point{};
+  double rest_volume = 0; // signed V0 [m^3]
+  double k = 0;           // [N/m^5]
+};
+
+/// Signed volume V = (a - o) x (b - o) . (p - o) / 6 of (p, o, a, b) and its gradient with
+/// respect to point r of the four.
+template <typename T>
+KF_HD KF_INLINE T tet_volume(const Vec3<T>& p, const Vec3<T>& o, const Vec3<T>& a,
+                             const Vec3<T>& b) {
+  return dot(cross(a - o, b - o), p - o) * (T(1) / T(6));
+}
+
+template <typename T>
+KF_HD KF_INLINE Vec3<T> tet_volume_gradient(const Vec3<T>& p, const Vec3<T>& o, const Vec3<T>& a,
+                                            const Vec3<T>& b, int r) {
+  const T s = T(1) / T(6);
+  const Vec3<T> gp = cross(a - o, b - o) * s, ga = cross(b - o, p - o) * s,
+                gb = cross(p - o, a - o) * s;
+  switch (r) {
+  case 0:
+    return gp;
+  case 2:
+    return ga;
+  case 3:
+    return gb;
+  default:
+    return -(gp + ga + gb);
+  }
+}
+
+template <typename T>
+struct VolumeView {
+  const std::uint32_t* start = nullptr; // row i lists the cells point i belongs to
+  const std::uint32_t* cell = nullptr;
+  const std::uint32_t* point = nullptr; // 4 per cell
+  const T* rest = nullptr;
+  const T* k = nullptr;
+  std::size_t n_points = 0;
+
+  KF_HD KF_INLINE bool empty() const { return start == nullptr; }
+};
+
+template <typename T>
+class VolumeTopology {
+public:
+  explicit VolumeTopology(exec::Backend b);
+  void build(const std::vector<VolumeCell>& cells, std::size_t n_points);
+  VolumeView<T> view() const;
+  std::size_t cells() const { return cells_; }
+  std::size_t bytes() const;
+
+private:
+  exec::DeviceBuffer<std::uint32_t> start_, cell_, point_;
+  exec::DeviceBuffer<T> rest_, k_;
+  std::size_t cells_ = 0;
+};
+
+} // namespace kf
