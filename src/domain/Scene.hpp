@@ -7,15 +7,18 @@
 #include "core/Vec3.hpp"
 
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace kf {
 
+struct MeshObstacle; // domain/MeshObstacle.hpp
+
 /// Physics modules a scene may ask for (DESIGN §5).
 enum class Module { Fluid, Boundary, Knit };
 /// Rigid obstacle shapes; all are solid (fluid stays outside).
-enum class ObstacleShape { Plane, Box, Sphere };
+enum class ObstacleShape { Plane, Box, Sphere, Mesh };
 
 struct FluidBlock {
   Vec3d min{}, max{};
@@ -24,13 +27,17 @@ struct FluidBlock {
 
 struct Obstacle {
   ObstacleShape shape = ObstacleShape::Box;
-  std::string name;        // "obstacle[2]" unless given
-  Vec3d point{0, 0, 0};    // plane: a point on it
-  Vec3d normal{0, 0, 1};   // plane: unit normal pointing into the fluid side
-  Vec3d min{}, max{};      // box
-  Vec3d center{0, 0, 0};   // sphere
-  double radius = 0;       // sphere
-  Vec3d velocity{0, 0, 0}; // prescribed translation velocity (0: static)
+  std::string name;      // "obstacle[2]" unless given
+  Vec3d point{0, 0, 0};  // plane: a point on it
+  Vec3d normal{0, 0, 1}; // plane: unit normal pointing into the fluid side
+  Vec3d min{}, max{};    // box
+  Vec3d center{0, 0, 0}; // sphere
+  double radius = 0;     // sphere
+  std::string file;      // mesh: the OBJ file (relative paths resolved against the scene's dir)
+  double scale = 1;      // mesh: vertex x is placed at scale * x + translate
+  Vec3d translate{0, 0, 0};
+  std::shared_ptr<const MeshObstacle> mesh; // mesh: checked geometry and sampled distance
+  Vec3d velocity{0, 0, 0};                  // prescribed translation velocity (0: static)
 };
 
 /// Rest shapes of a knitted piece.
