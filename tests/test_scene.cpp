@@ -166,7 +166,8 @@ TEST(Scene, ExampleScenesLoad) {
   EXPECT_EQ(dam.fluid.eos, EosType::Tait);
   EXPECT_EQ(dam.output.dir, "out/dambreak");
   expect_vec(dam.fluid.blocks.at(0).max, 0.2, 0.2, 0.4);
-  for (const char* name : {"hydrostatic.toml", "obstacles.toml"})
+  for (const char* name :
+       {"hydrostatic.toml", "obstacles.toml", "drape.toml", "mesh_obstacle.toml"})
     EXPECT_NO_THROW(load_scene((test::source_dir() / "scenes" / name).string())) << name;
 }
 
