@@ -27,17 +27,20 @@ struct FluidBlock {
 
 struct Obstacle {
   ObstacleShape shape = ObstacleShape::Box;
-  std::string name;      // "obstacle[2]" unless given
-  Vec3d point{0, 0, 0};  // plane: a point on it
-  Vec3d normal{0, 0, 1}; // plane: unit normal pointing into the fluid side
-  Vec3d min{}, max{};    // box
-  Vec3d center{0, 0, 0}; // sphere
-  double radius = 0;     // sphere
-  std::string file;      // mesh: the OBJ file (relative paths resolved against the scene's dir)
-  double scale = 1;      // mesh: vertex x is placed at scale * x + translate
+  std::string name;        // "obstacle[2]" unless given
+  Vec3d point{0, 0, 0};    // plane: a point on it
+  Vec3d normal{0, 0, 1};   // plane: unit normal pointing into the fluid side
+  Vec3d min{}, max{};      // box
+  Vec3d center{0, 0, 0};   // sphere
+  double radius = 0;       // sphere
+  Vec3d velocity{0, 0, 0}; // prescribed translation velocity (0: static)
+
+  // mesh: the OBJ file (a relative path is resolved against the scene file's directory), each
+  // vertex x placed at scale * x + translate; the loader checks it and samples its distance.
+  std::string file;
+  double scale = 1;
   Vec3d translate{0, 0, 0};
-  std::shared_ptr<const MeshObstacle> mesh; // mesh: checked geometry and sampled distance
-  Vec3d velocity{0, 0, 0};                  // prescribed translation velocity (0: static)
+  std::shared_ptr<const MeshObstacle> mesh;
 };
 
 /// Rest shapes of a knitted piece.

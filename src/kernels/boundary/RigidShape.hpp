@@ -24,10 +24,11 @@ struct RigidShape {
   Vec3<T> b{};     // plane: unit normal, box/container: max, mesh: last grid node
   T radius = T(0); // sphere
   std::uint32_t walls = 0x3F; // container: bit k set = wall k closed (x-, x+, y-, y+, z-, z+)
-  Vec3<T> velocity{};         // prescribed translation
-  Vec3<T> offset{};           // translation at the current time (velocity * t)
-  const T* sdf = nullptr;     // mesh: signed distance at the grid nodes, x fastest
-  T cell = T(0);              // mesh: grid spacing
+  Vec3<T> velocity{}; // prescribed translation
+  Vec3<T> offset{};   // translation at the current time (velocity * t)
+
+  const T* sdf = nullptr;            // mesh: signed distance at the grid nodes, x fastest
+  T cell = T(0);                     // mesh: grid spacing
   std::uint32_t dims[3] = {0, 0, 0}; // mesh: grid nodes along x, y, z (>= 2 each)
 
   KF_HD KF_INLINE T distance(const Vec3<T>& x_world, Vec3<T>& normal) const {
@@ -42,12 +43,9 @@ struct RigidShape {
       normal = r > T(0) ? d * (T(1) / r) : Vec3<T>{T(0), T(0), T(1)};
       return r - radius;
     }
-    case ShapeKind::Box:
-      return box_distance(x, normal);
-    case ShapeKind::Container:
-      return container_distance(x, normal);
-    case ShapeKind::Mesh:
-      return grid_distance(x, normal);
+    case ShapeKind::Box: return box_distance(x, normal);
+    case ShapeKind::Container: return container_distance(x, normal);
+    case ShapeKind::Mesh: return grid_distance(x, normal);
     }
     normal = {T(0), T(0), T(1)};
     return T(1);
