@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
+#include <string_view>
 
 namespace kf {
 
@@ -18,28 +20,36 @@ struct EdgeUse {
   bool forward;
 };
 
+/// The parts concatenated (appended one by one: GCC 12 warns, -Wrestrict, on chains of +).
+std::string cat(std::initializer_list<std::string_view> parts) {
+  std::string out;
+  for (std::string_view p : parts)
+    out += p;
+  return out;
+}
+
 std::string vertex_pair(std::uint64_t key) {
   // OBJ numbers vertices from 1.
-  return "(" + std::to_string((key >> 32) + 1) + ", " + std::to_string((key & 0xFFFFFFFFu) + 1) +
-         ")";
+  return cat(
+      {"(", std::to_string((key >> 32) + 1), ", ", std::to_string((key & 0xFFFFFFFFu) + 1), ")"});
 }
 
 } // namespace
 
 MeshSolid make_mesh_solid(const io::ObjMesh& obj, double scale, const Vec3d& translate) {
-  const std::string name = "mesh '" + obj.source + "'";
+  const std::string name = cat({"mesh '", obj.source, "'"});
   auto line_of = [&](std::size_t face) {
-    return obj.source + ":" + std::to_string(obj.face_line[face]);
+    return cat({obj.source, ":", std::to_string(obj.face_line[face])});
   };
   if (obj.faces() == 0)
-    throw Error(name + " has no faces (f records)");
+    throw Error(cat({name, " has no faces (f records)"}));
   for (std::size_t f = 0; f < obj.faces(); ++f) {
     const auto v = obj.face(f);
     for (std::size_t i = 0; i < v.size(); ++i)
       for (std::size_t j = i + 1; j < v.size(); ++j)
         if (v[i] == v[j])
-          throw Error(name + ": the face on " + line_of(f) + " uses vertex " +
-                      std::to_string(v[i] + 1) + " twice");
+          throw Error(cat({name, ": the face on ", line_of(f), " uses vertex ",
+                           std::to_string(v[i] + 1), " twice"}));
   }
 
   const std::vector<io::ObjTriangle> tris = io::fan_triangles(obj);
@@ -57,23 +67,23 @@ MeshSolid make_mesh_solid(const io::ObjMesh& obj, double scale, const Vec3d& tra
     std::size_t j = i;
     while (j < uses.size() && uses[j].key == uses[i].key)
       ++j;
-    const std::string edge = "edge " + vertex_pair(uses[i].key);
+    const std::string edge = cat({"edge ", vertex_pair(uses[i].key)});
     const std::size_t count = j - i;
     if (count == 1)
-      throw Error(name + " is not closed: " + edge + " belongs to 1 face (" +
-                  line_of(tris[uses[i].triangle].face) + ")");
+      throw Error(cat({name, " is not closed: ", edge, " belongs to 1 face (",
+                       line_of(tris[uses[i].triangle].face), ")"}));
     if (count > 2) {
       std::string lines;
       for (std::size_t k = i; k < j; ++k)
-        lines += (k == i ? "" : ", ") + line_of(tris[uses[k].triangle].face);
-      throw Error(name + " is not a manifold: " + edge + " belongs to " + std::to_string(count) +
-                  " faces (" + lines + ")");
+        lines += cat({k == i ? "" : ", ", line_of(tris[uses[k].triangle].face)});
+      throw Error(cat({name, " is not a manifold: ", edge, " belongs to ", std::to_string(count),
+                       " faces (", lines, ")"}));
     }
     if (uses[i].forward == uses[i + 1].forward)
-      throw Error(name + " is not consistently oriented: " + edge +
-                  " runs the same way in its faces on " + line_of(tris[uses[i].triangle].face) +
-                  " and " + line_of(tris[uses[i + 1].triangle].face) +
-                  " (faces sharing an edge must list it in opposite orders)");
+      throw Error(cat({name, " is not consistently oriented: ", edge,
+                       " runs the same way in its faces on ", line_of(tris[uses[i].triangle].face),
+                       " and ", line_of(tris[uses[i + 1].triangle].face),
+                       " (faces sharing an edge must list it in opposite orders)"}));
     i = j;
   }
 
@@ -102,7 +112,7 @@ MeshSolid make_mesh_solid(const io::ObjMesh& obj, double scale, const Vec3d& tra
   const Vec3d e = m.hi - m.lo;
   const double box = e.x * e.y * e.z;
   if (!(std::fabs(six_v) / 6 > 1e-9 * box))
-    throw Error(name + " encloses no volume (its faces are flat or cancel out)");
+    throw Error(cat({name, " encloses no volume (its faces are flat or cancel out)"}));
   if (six_v < 0) // wound inward throughout: turn it outward
     for (auto& t : m.triangles)
       std::swap(t[1], t[2]);
