@@ -73,11 +73,16 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
               r.knit, r.springs);
   std::printf("radius     h = %.6g m (kernel support; %.3g x spacing), grid %d x %d x %d cells\n",
               r.support_radius, scene.fluid.support, r.grid[0], r.grid[1], r.grid[2]);
+  for (const std::string& o : r.obstacles)
+    std::printf("obstacle   %s\n", o.c_str());
+  // The solids' sampled distances are held whole by every rank.
   const double total = double(r.bytes_fluid + r.bytes_boundary + r.bytes_grid + r.bytes_knit);
-  std::printf("memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s)\n",
-              human_bytes(total / mpi.size()).c_str(), mpi.size(),
+  std::printf("memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s, "
+              "solids %s)\n",
+              human_bytes(total / mpi.size() + double(r.bytes_solids)).c_str(), mpi.size(),
               human_bytes(r.bytes_fluid).c_str(), human_bytes(r.bytes_boundary).c_str(),
-              human_bytes(r.bytes_knit).c_str(), human_bytes(r.bytes_grid).c_str());
+              human_bytes(r.bytes_knit).c_str(), human_bytes(r.bytes_grid).c_str(),
+              human_bytes(r.bytes_solids).c_str());
   std::printf("halo       %.6g m (one interaction radius; single rank: none exchanged)\n",
               r.support_radius);
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());

@@ -65,6 +65,14 @@ TEST(Cli, PlanPrintsStagesWithoutRunning) {
     EXPECT_NE(r.output.find(s), std::string::npos) << s << " missing from:\n" << r.output;
 }
 
+TEST(Cli, PlanDescribesAMeshObstacle) {
+  const Result r = run("plan " + (test::source_dir() / "scenes/mesh_obstacle.toml").string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  for (const char* s : {"obstacle   blob: mesh ", "meshes/blob.obj, 1280 triangles",
+                        "distance sampled on", "solids "})
+    EXPECT_NE(r.output.find(s), std::string::npos) << s << " missing from:\n" << r.output;
+}
+
 TEST(Cli, RunWritesSnapshotsAndIndex) {
   const auto out = test::scratch_dir("cli_run") / "out";
   const Result r = run("run " + (test::source_dir() / "scenes/hydrostatic.toml").string() +

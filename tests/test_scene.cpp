@@ -1,12 +1,14 @@
 // Scene loading and validation: a full scene and defaults, --set overrides, and one broken scene
 // file per rule, each checked for a SceneError naming file, line and key.
 #include "core/Error.hpp"
+#include "domain/MeshObstacle.hpp"
 #include "domain/Scene.hpp"
 #include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -164,8 +166,53 @@ TEST(Scene, ExampleScenesLoad) {
   EXPECT_EQ(dam.fluid.eos, EosType::Tait);
   EXPECT_EQ(dam.output.dir, "out/dambreak");
   expect_vec(dam.fluid.blocks.at(0).max, 0.2, 0.2, 0.4);
-  for (const char* name : {"hydrostatic.toml", "obstacles.toml"})
+  for (const char* name :
+       {"hydrostatic.toml", "obstacles.toml", "drape.toml", "mesh_obstacle.toml"})
     EXPECT_NO_THROW(load_scene((test::source_dir() / "scenes" / name).string())) << name;
+}
+
+TEST(Scene, MeshObstacleReadsItsKeysAndLoadsTheMesh) {
+  const Scene s = load_scene(scene_file("mesh.toml"));
+  ASSERT_EQ(s.obstacles.size(), 2u);
+  const Obstacle& crate = s.obstacles[0];
+  EXPECT_EQ(crate.shape, ObstacleShape::Mesh);
+  EXPECT_EQ(crate.name, "crate");
+  // Relative to the scene file's directory.
+  EXPECT_EQ(crate.file, (test::data_dir() / "meshes" / "cube.obj").lexically_normal().string());
+  EXPECT_DOUBLE_EQ(crate.scale, 0.25);
+  expect_vec(crate.translate, 0.5, 0.25, 0);
+  expect_vec(crate.velocity, 0, 0, 0.1);
+  ASSERT_TRUE(crate.mesh);
+  EXPECT_EQ(crate.mesh->solid.triangles.size(), 12u); // six quads, fan-triangulated
+  EXPECT_NEAR(crate.mesh->solid.volume, 0.25 * 0.25 * 0.25, 1e-15);
+  expect_vec(crate.mesh->solid.lo, 0.5, 0.25, 0);
+  EXPECT_FALSE(crate.mesh->sdf.values.empty());
+  const Obstacle& plain = s.obstacles[1];
+  EXPECT_EQ(plain.name, "obstacle[1]");
+  EXPECT_DOUBLE_EQ(plain.scale, 1);
+  expect_vec(plain.translate, 0, 0, 0);
+  EXPECT_NEAR(plain.mesh->solid.volume, 1, 1e-15);
+}
+
+TEST(Scene, MeshFileOfATextSceneIsRelativeToTheWorkingDirectory) {
+  const auto dir = test::scratch_dir("scene_mesh_cwd");
+  std::filesystem::copy_file(test::data_dir() / "meshes" / "cube.obj", dir / "box.obj");
+  const auto cwd = std::filesystem::current_path();
+  std::filesystem::current_path(dir);
+  const std::string text = "[simulation]\nend_time = 1\nmodules = [\"boundary\"]\n"
+                           "[domain]\nmin = [0, 0, 0]\nmax = [2, 2, 2]\n"
+                           "[[obstacle]]\nshape = \"mesh\"\nfile = \"box.obj\"\n";
+  std::string error;
+  Scene s;
+  try {
+    s = parse_scene(text, "<string>");
+  } catch (const Error& e) {
+    error = e.what();
+  }
+  std::filesystem::current_path(cwd);
+  ASSERT_EQ(error, "");
+  EXPECT_EQ(s.obstacles.at(0).file, "box.obj");
+  EXPECT_NEAR(s.obstacles[0].mesh->solid.volume, 1, 1e-15);
 }
 
 TEST(Scene, ToStringUsesSceneSpelling) {
@@ -173,6 +220,7 @@ TEST(Scene, ToStringUsesSceneSpelling) {
   EXPECT_EQ(to_string(EosType::Linear), "linear");
   EXPECT_EQ(to_string(Module::Boundary), "boundary");
   EXPECT_EQ(to_string(ObstacleShape::Sphere), "sphere");
+  EXPECT_EQ(to_string(ObstacleShape::Mesh), "mesh");
 }
 
 TEST(Scene, MissingFileNamesPath) {
@@ -241,6 +289,13 @@ const Broken kBroken[] = {
   {"end_time_negative", 3, "simulation.end_time", "expected a number > 0, got -1"},
   {"output_dir_empty", 18, "output.dir", "expected a non-empty string"},
   {"block_not_array", 13, "fluid.block", "expected an array of tables ([[fluid.block]])"},
+  {"mesh_not_closed", 19, "obstacle[0].file", "meshes/open_cube.obj' is not closed: edge (5, 6) belongs to 1 face (" },
+  {"mesh_not_oriented", 19, "obstacle[0].file", "meshes/flipped_cube.obj' is not consistently oriented: edge (5, 6) runs the same way in its faces on "},
+  {"mesh_bad_obj", 19, "obstacle[0].file", "meshes/bad_number.obj:4: vertex: expected a number, got 'O'"},
+  {"mesh_missing_file", 19, "obstacle[0].file", "meshes/no_such_mesh.obj: cannot open OBJ file (No such file or directory)"},
+  {"mesh_scale_zero", 20, "obstacle[0].scale", "expected a number > 0, got 0"},
+  {"mesh_without_file", 17, "obstacle[0]", "table 'obstacle[0]': missing required key 'file'"},
+  {"mesh_with_radius", 20, "obstacle[0]", "key 'radius' does not apply to shape 'mesh' (a mesh takes file, scale, translate)"},
 };
 // clang-format on
 

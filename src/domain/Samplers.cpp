@@ -35,16 +35,18 @@ FluidSamples sample_fluid(const Scene& scene) {
   // a lattice point closer than dp/4 to a solid or inside it is left out. Walls aligned with the
   // lattice keep their first layer (dp/2 from the wall); the boundary shell starts inside the
   // solid.
-  const auto shapes = scene.has(Module::Boundary) ? make_rigid_shapes<double>(scene)
-                                                  : std::vector<RigidShape<double>>{};
+  const RigidShapes<double> solids(scene);
+  const auto& shapes = solids.table();
+  const bool carve = scene.has(Module::Boundary);
   const double keep = 0.25 * scene.fluid.spacing;
   FluidSamples out;
   for (const auto& b : scene.fluid.blocks)
     for (const Vec3d& p : sample_fluid_block(b, scene.fluid.spacing)) {
       bool free = true;
       Vec3d n;
-      for (const auto& s : shapes)
-        free = free && s.distance(p, n) >= keep;
+      if (carve)
+        for (const auto& s : shapes)
+          free = free && s.distance(p, n) >= keep;
       if (!free)
         continue;
       out.x.push_back(p);
@@ -101,9 +103,11 @@ AxisLattice axis_lattice(double lo, double hi, double dp, double depth) {
 BoundarySamples sample_boundaries(const Scene& scene, double dp, double depth) {
   // The lattice of the fluid (aligned with the domain) continued into every solid, one shell of
   // thickness `depth` deep: at rest a flat wall is then an exact mirror of the fluid, and one
-  // rule samples walls, boxes, spheres and planes alike. When the domain is not a multiple of dp
-  // the lattice is stretched to fit it (axis_lattice) and each particle's volume scales with it.
-  const auto shapes = make_rigid_shapes<double>(scene);
+  // rule samples walls, boxes, spheres, planes and meshes (their sampled distance) alike. When the
+  // domain is not a multiple of dp the lattice is stretched to fit it (axis_lattice) and each
+  // particle's volume scales with it.
+  const RigidShapes<double> solids(scene);
+  const auto& shapes = solids.table();
   const std::size_t container = scene.obstacles.size(); // index of the walls, if any are closed
   const Vec3d& lo = scene.domain.min;
   const Vec3d& hi = scene.domain.max;

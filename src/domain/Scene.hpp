@@ -7,15 +7,18 @@
 #include "core/Vec3.hpp"
 
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace kf {
 
+struct MeshObstacle; // domain/MeshObstacle.hpp
+
 /// Physics modules a scene may ask for (DESIGN §5).
 enum class Module { Fluid, Boundary, Knit };
 /// Rigid obstacle shapes; all are solid (fluid stays outside).
-enum class ObstacleShape { Plane, Box, Sphere };
+enum class ObstacleShape { Plane, Box, Sphere, Mesh };
 
 struct FluidBlock {
   Vec3d min{}, max{};
@@ -31,6 +34,13 @@ struct Obstacle {
   Vec3d center{0, 0, 0};   // sphere
   double radius = 0;       // sphere
   Vec3d velocity{0, 0, 0}; // prescribed translation velocity (0: static)
+
+  // mesh: the OBJ file (a relative path is resolved against the scene file's directory), each
+  // vertex x placed at scale * x + translate; the loader checks it and samples its distance.
+  std::string file;
+  double scale = 1;
+  Vec3d translate{0, 0, 0};
+  std::shared_ptr<const MeshObstacle> mesh;
 };
 
 /// Rest shapes of a knitted piece.

@@ -2,6 +2,7 @@
 // The schema lives here, one read_* function per table; typed, range-checked access and the
 // error wording live in SceneReader, the --set merging in SceneOverrides.
 #include "core/Error.hpp"
+#include "domain/MeshObstacle.hpp"
 #include "domain/Scene.hpp"
 #include "domain/SceneOverrides.hpp"
 #include "domain/SceneReader.hpp"
@@ -11,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <sstream>
 #include <utility>
 
@@ -39,7 +41,8 @@ constexpr std::array kEos{Choice<EosType>{"linear", EosType::Linear},
                           Choice<EosType>{"tait", EosType::Tait}};
 constexpr std::array kShapes{Choice<ObstacleShape>{"plane", ObstacleShape::Plane},
                              Choice<ObstacleShape>{"box", ObstacleShape::Box},
-                             Choice<ObstacleShape>{"sphere", ObstacleShape::Sphere}};
+                             Choice<ObstacleShape>{"sphere", ObstacleShape::Sphere},
+                             Choice<ObstacleShape>{"mesh", ObstacleShape::Mesh}};
 // Index into Scene::Domain::walls.
 constexpr std::array kWalls{Choice<int>{"x-", 0}, Choice<int>{"x+", 1}, Choice<int>{"y-", 2},
                             Choice<int>{"y+", 3}, Choice<int>{"z-", 4}, Choice<int>{"z+", 5}};
@@ -191,14 +194,19 @@ void check_fluid_blocks(const TableReader& sim, const TableReader& fluid, const 
 constexpr std::array<std::string_view, 3> kCommonObstacleKeys{"shape", "name", "velocity"};
 
 /// The keys of each shape beyond the common ones.
-std::array<std::string_view, 2> shape_keys(ObstacleShape shape) {
+std::span<const std::string_view> shape_keys(ObstacleShape shape) {
+  static constexpr std::string_view plane[] = {"point", "normal"}, box[] = {"min", "max"},
+                                    sphere[] = {"center", "radius"},
+                                    mesh[] = {"file", "scale", "translate"};
   switch (shape) {
   case ObstacleShape::Plane:
-    return {"point", "normal"};
+    return plane;
   case ObstacleShape::Box:
-    return {"min", "max"};
+    return box;
   case ObstacleShape::Sphere:
-    return {"center", "radius"};
+    return sphere;
+  case ObstacleShape::Mesh:
+    return mesh;
   }
   return {};
 }
@@ -219,10 +227,12 @@ void check_shape_keys(const TableReader& t, ObstacleShape shape) {
   if (!bad)
     return;
   const std::string name(scene::choice_name(kShapes, shape));
-  const auto own = shape_keys(shape);
+  std::string own;
+  for (std::string_view k : shape_keys(shape))
+    own += (own.empty() ? "" : ", ") + std::string(k);
   t.fail(t.node(*bad), "table '" + t.path() + "': key '" + std::string(*bad) +
-                           "' does not apply to shape '" + name + "' (a " + name + " takes " +
-                           std::string(own[0]) + ", " + std::string(own[1]) + ")");
+                           "' does not apply to shape '" + name + "' (a " + name + " takes " + own +
+                           ")");
 }
 
 Vec3d read_unit_normal(const TableReader& t) {
@@ -233,9 +243,27 @@ Vec3d read_unit_normal(const TableReader& t) {
   return n * (1.0 / len);
 }
 
-Obstacle read_obstacle(const TableReader& t, std::size_t index) {
-  t.allow_only(
-      obstacle_keys(std::array{ObstacleShape::Plane, ObstacleShape::Box, ObstacleShape::Sphere}));
+/// A mesh obstacle: its OBJ file (relative to the scene file's directory) read, checked to bound
+/// a solid and its signed distance sampled now, so a broken mesh fails with the scene's line.
+void read_mesh(const TableReader& t, Obstacle& o, const std::filesystem::path& scene_dir) {
+  if (!t.read("file", o.file))
+    t.fail_missing("file");
+  t.read("scale", o.scale, Range::positive());
+  t.read("translate", o.translate);
+  o.file = (scene_dir / o.file).lexically_normal().string();
+  try {
+    o.mesh = load_mesh_obstacle(o.file, o.scale, o.translate);
+  } catch (const SceneError&) {
+    throw;
+  } catch (const Error& e) {
+    t.fail(t.node("file"), "key '" + t.key_path("file") + "': " + e.what());
+  }
+}
+
+Obstacle read_obstacle(const TableReader& t, std::size_t index,
+                       const std::filesystem::path& scene_dir) {
+  t.allow_only(obstacle_keys(std::array{ObstacleShape::Plane, ObstacleShape::Box,
+                                        ObstacleShape::Sphere, ObstacleShape::Mesh}));
   Obstacle o;
   o.shape = t.require("shape", kShapes);
   check_shape_keys(t, o.shape);
@@ -253,6 +281,9 @@ Obstacle read_obstacle(const TableReader& t, std::size_t index) {
   case ObstacleShape::Sphere:
     o.center = t.require_vec3("center");
     o.radius = t.require("radius", Range::positive());
+    break;
+  case ObstacleShape::Mesh:
+    read_mesh(t, o, scene_dir);
     break;
   }
   return o;
@@ -354,7 +385,7 @@ void read_knit(const TableReader& sim, const TableReader& t, Scene& s) {
                std::to_string(k.pieces.size()) + " piece(s)");
 }
 
-Scene build_scene(const TableReader& root) {
+Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {
   root.allow_only({"simulation", "domain", "output", "solver", "fluid", "obstacle", "knit"});
   Scene s;
   const TableReader sim = root.table("simulation");
@@ -367,7 +398,7 @@ Scene build_scene(const TableReader& root) {
   check_fluid_blocks(sim, fluid, s);
   const auto obstacles = root.array_of_tables("obstacle");
   for (std::size_t i = 0; i < obstacles.size(); ++i)
-    s.obstacles.push_back(read_obstacle(obstacles[i], i));
+    s.obstacles.push_back(read_obstacle(obstacles[i], i, scene_dir));
   read_knit(sim, root.table("knit"), s);
   return s;
 }
@@ -415,7 +446,9 @@ Scene parse_scene(const std::string& text, const std::string& source_name,
                   const std::vector<std::string>& overrides) {
   toml::table root = parse_toml(text, source_name);
   scene::apply_overrides(root, overrides);
-  Scene s = build_scene(TableReader(source_name, &root, ""));
+  // Files a scene names are relative to its directory; "<string>" has none: the working one.
+  Scene s = build_scene(TableReader(source_name, &root, ""),
+                        std::filesystem::path(source_name).parent_path());
   s.path = source_name;
   s.text = text_with_overrides(text, overrides);
   return s;

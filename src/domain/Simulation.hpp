@@ -41,6 +41,8 @@ struct PlanReport {
   double support_radius = 0;
   int grid[3] = {0, 0, 0};
   std::size_t bytes_fluid = 0, bytes_boundary = 0, bytes_grid = 0, bytes_knit = 0;
+  std::size_t bytes_solids = 0;       // sampled signed distances of mesh obstacles
+  std::vector<std::string> obstacles; // one line per obstacle: name, shape, mesh details
   double initial_dt = 0;
   std::string dt_limit; // which condition sets the initial dt
 };

@@ -2,6 +2,7 @@
 #include "core/Error.hpp"
 #include "domain/FrameFields.hpp"
 #include "domain/KnitSystem.hpp"
+#include "domain/MeshObstacle.hpp"
 #include "domain/RigidShapes.hpp"
 #include "domain/Samplers.hpp"
 #include "domain/Simulation.hpp"
@@ -40,7 +41,6 @@ public:
 
 private:
   void build_pipeline();
-  void init_shapes();
   void init_particles();
   void update_shapes(double t);
   void sort_fluid();
@@ -70,14 +70,14 @@ private:
   std::optional<FluidSet<T>> fluid_;
   std::optional<BoundarySet<T>> boundary_;
   std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
-  std::vector<RigidShape<T>> shapes_host_;
+  RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
   exec::DeviceBuffer<RigidShape<T>> shapes_;
   Pipeline pipeline_;
 };
 
 template <typename T>
 SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only)
-    : scene_(scene), ex_{backend}, shapes_(backend, 0, "rigid.shapes") {
+    : scene_(scene), ex_{backend}, solids_(scene, backend), shapes_(backend, 0, "rigid.shapes") {
   fluid_on_ = scene.has(Module::Fluid);
   boundary_on_ = scene.has(Module::Boundary);
   knit_on_ = scene.has(Module::Knit);
@@ -100,7 +100,6 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   sph_.no_slip = scene.fluid.no_slip;
   sph_.gravity = vec_cast<T>(scene.gravity);
 
-  init_shapes();
   build_pipeline();
   if (plan_only)
     return; // the stage list is all `plan` needs
@@ -114,11 +113,6 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     sort_fluid();
     compute_forces(); // a(t = 0), which the first half kick needs
   }
-}
-
-template <typename T>
-void SimulationT<T>::init_shapes() {
-  shapes_host_ = make_rigid_shapes<T>(scene_);
 }
 
 template <typename T>
@@ -201,7 +195,7 @@ void SimulationT<T>::build_pipeline() {
     pipeline_.add("grid.boundary", "boundary", "sort boundary particles by cell",
                   [this] { sort_boundary(); });
   }
-  if (fluid_on_ && !shapes_host_.empty())
+  if (fluid_on_ && !solids_.empty())
     pipeline_.add(
         "boundary.guard", "boundary", "put back particles crossing into a solid (counted)", [this] {
           auto f = fluid_->view();
@@ -230,10 +224,10 @@ void SimulationT<T>::build_pipeline() {
 
 template <typename T>
 void SimulationT<T>::update_shapes(double t) {
-  for (auto& s : shapes_host_)
+  for (auto& s : solids_.table())
     s.offset = {static_cast<T>(s.velocity.x * t), static_cast<T>(s.velocity.y * t),
                 static_cast<T>(s.velocity.z * t)};
-  shapes_.assign(shapes_host_);
+  shapes_.assign(solids_.table());
 }
 
 template <typename T>
@@ -455,7 +449,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.knit_self_contacts = sc.contacts;
     d.knit_self_energy = sc.energy;
     d.knit_self_min_gap = sc.min_gap_ratio;
-    d.knit_min_rigid_distance = shapes_host_.empty()
+    d.knit_min_rigid_distance = solids_.empty()
                                     ? std::numeric_limits<double>::infinity()
                                     : k.min_rigid_distance(shapes_.data(), shapes_.size());
   }
@@ -478,7 +472,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
   if (!v.empty())
     d.mean_density_error = sum_err / v.size();
   d.min_rigid_distance =
-      shapes_host_.empty()
+      solids_.empty()
           ? std::numeric_limits<double>::infinity()
           : static_cast<double>(min_rigid_distance(ex_, fluid_->x.data(), fluid_->size(),
                                                    shapes_.data(), shapes_.size()));
@@ -487,7 +481,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
 
 template <typename T>
 std::size_t SimulationT<T>::memory_bytes() const {
-  std::size_t b = shapes_.capacity_bytes();
+  std::size_t b = shapes_.capacity_bytes() + solids_.bytes();
   if (fluid_)
     b += fluid_->size() * FluidSet<T>::bytes_per_particle() + fluid_grid_->bytes();
   if (boundary_)
@@ -496,6 +490,24 @@ std::size_t SimulationT<T>::memory_bytes() const {
     b += knit_->bytes();
   return b;
 }
+
+namespace {
+
+std::string describe_obstacle(const Obstacle& o) {
+  std::string line = o.name + ": " + to_string(o.shape);
+  if (o.shape != ObstacleShape::Mesh || !o.mesh)
+    return line;
+  const MeshObstacle& m = *o.mesh;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                " %s, %zu triangles, volume %.4g m^3, distance sampled on %u x %u x %u nodes "
+                "(cell %.3g m) in %.2f s",
+                o.file.c_str(), m.solid.triangles.size(), m.solid.volume, m.sdf.dims[0],
+                m.sdf.dims[1], m.sdf.dims[2], m.sdf.cell, m.build_seconds);
+  return line + buf;
+}
+
+} // namespace
 
 PlanReport Simulation::plan(const Scene& scene) {
   PlanReport r;
@@ -508,6 +520,9 @@ PlanReport Simulation::plan(const Scene& scene) {
   for (const auto& s : shell->pipeline().stages())
     r.stages.push_back({s.name + " [" + s.module + "]", s.what});
   r.support_radius = scene.support_radius();
+  for (const auto& o : scene.obstacles)
+    r.obstacles.push_back(describe_obstacle(o));
+  r.bytes_solids = dbl ? RigidShapes<double>(scene).bytes() : RigidShapes<float>(scene).bytes();
   const double h = r.support_radius;
   const auto geo = NeighbourGrid<double>::cover(scene.domain.min, scene.domain.max, h);
   r.grid[0] = geo.nx;
