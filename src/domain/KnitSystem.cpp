@@ -1,6 +1,7 @@
 #include "domain/KnitSystem.hpp"
 
 #include "domain/FrameFields.hpp"
+#include "domain/Yarns.hpp"
 #include "kernels/boundary/Boundary.hpp"
 #include "kernels/integrate/Verlet.hpp"
 #include "kernels/knit/Knit.hpp"
@@ -191,6 +192,35 @@ io::Phase KnitSystem<T>::phase() const {
       io::Field::from("layer", std::vector<std::uint32_t>(layer.begin(), layer.end()), 1));
   p.fields.push_back(io::Field::from("handle", set_.handle.to_host(), 1));
   p.fields.push_back(io::Field::from("id", set_.id.to_host(), 1));
+  return p;
+}
+
+template <typename T>
+io::Phase KnitSystem<T>::yarn_phase() const {
+  io::Phase p{"yarn", {}};
+  if (scene_.knit.yarn_samples < 1)
+    return p;
+  const auto xt = set_.x.to_host();
+  std::vector<Vec3d> x(xt.size());
+  for (std::size_t i = 0; i < x.size(); ++i)
+    x[i] = vec_cast<double>(xt[i]);
+  std::vector<std::vector<Vec3d>> yarns;
+  for (std::size_t k = 0; k < pieces_.size(); ++k)
+    for (auto& y : yarn_bonding_points(x, pieces_[k], scene_.knit.pieces[k].chart))
+      yarns.push_back(std::move(y));
+  const YarnLines lines = yarn_lines(yarns, scene_.knit.yarn_samples);
+  std::vector<Vec3<T>> pos(lines.x.size());
+  for (std::size_t i = 0; i < pos.size(); ++i)
+    pos[i] = vec_cast<T>(lines.x[i]);
+  std::vector<std::uint32_t> seg;
+  seg.reserve(2 * lines.segment.size());
+  for (const auto& s : lines.segment) {
+    seg.push_back(s[0]);
+    seg.push_back(s[1]);
+  }
+  p.fields.push_back(io::Field::from("position", flatten(pos), 3));
+  p.fields.push_back(io::Field::from("yarn", lines.yarn, 1));
+  p.fields.push_back(io::Field::from("segment", seg, 2));
   return p;
 }
 

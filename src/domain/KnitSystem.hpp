@@ -38,6 +38,10 @@ public:
   void compute_forces();
 
   io::Phase phase() const;
+  /// The yarn curves through the stitches' bonding points (snapshot phase "yarn"): position,
+  /// yarn index, and segment (point pairs, ParaView draws them as lines); empty when
+  /// knit.yarn_samples is 0.
+  io::Phase yarn_phase() const;
   void restore(const io::Phase& p);
 
   std::size_t size() const { return set_.size(); }

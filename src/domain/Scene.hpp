@@ -59,6 +59,9 @@ struct KnitPiece {
   double circumference = 0.2, length = 0.3; // tube [m]
   int wales = 20, courses = 20;             // stitches along u and v
   Vec3d velocity{0, 0, 0};                  // initial velocity
+  // Stitch chart: rows of 'K' (knit) and 'P' (purl), row r for courses j with j % rows == r,
+  // column c for wales i with i % columns == c. Default stockinette (the paper's).
+  std::vector<std::string> chart{"K"};
 };
 
 /// Points of the knit whose rest position lies in [min, max] move with `velocity` until
@@ -143,6 +146,7 @@ struct Scene {
     double self_radius = 0;    // R [m]; 0: half the longest in-plane spacing (no gaps in a sheet)
     double self_stiffness = 0; // k [N/m]; 0: the stiffest spring of the mesh
     double self_friction = -1; // mu; < 0: the same as `friction`
+    int yarn_samples = 4;      // Catmull-Rom points per bonding-point span in snapshots; 0: none
     std::vector<KnitPiece> pieces;
     std::vector<KnitPin> pins;
     double radius() const { return contact_radius > 0 ? contact_radius : 0.5 * thickness; }

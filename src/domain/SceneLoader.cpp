@@ -296,15 +296,48 @@ int read_count(const TableReader& t, std::string_view key, int value, long min, 
   return static_cast<int>(v);
 }
 
+/// `pattern` (a named chart) or `chart` (rows of K and P), not both.
+void read_stitch_chart(const TableReader& t, KnitPiece& k) {
+  const toml::node* pattern = t.node("pattern");
+  const toml::node* chart = t.node("chart");
+  if (pattern && chart)
+    t.fail_key(*chart, "chart", "either 'pattern' or 'chart', not both", repr(*chart));
+  if (pattern) {
+    constexpr std::array<Choice<int>, 4> kPatterns{Choice<int>{"stockinette", 0},
+                                                   Choice<int>{"garter", 1}, Choice<int>{"rib", 2},
+                                                   Choice<int>{"seed", 3}};
+    int which = 0;
+    t.read("pattern", which, kPatterns);
+    static const std::vector<std::string> charts[4] = {{"K"}, {"K", "P"}, {"KP"}, {"KP", "PK"}};
+    k.chart = charts[which];
+  }
+  if (!chart)
+    return;
+  const std::string expected = "a non-empty array of equally long strings of 'K' and 'P'";
+  const toml::array* rows = chart->as_array();
+  if (!rows || rows->empty())
+    t.fail_key(*chart, "chart", expected, repr(*chart));
+  k.chart.clear();
+  for (std::size_t r = 0; r < rows->size(); ++r) {
+    const toml::node& row = *rows->get(r);
+    const auto* text = row.as_string();
+    const std::string key = "chart[" + std::to_string(r) + "]";
+    if (!text || text->get().empty() || text->get().find_first_not_of("KP") != std::string::npos ||
+        (r > 0 && text->get().size() != k.chart[0].size()))
+      t.fail_key(row, key, expected, repr(row));
+    k.chart.push_back(text->get());
+  }
+}
+
 KnitPiece read_knit_piece(const TableReader& t, std::size_t index, const Scene::Domain& d) {
   KnitPiece k;
   k.shape = t.require("shape", kKnitShapes);
   if (k.shape == KnitShape::Patch)
     t.allow_only({"shape", "name", "center", "normal", "u_axis", "width", "height", "wales",
-                  "courses", "velocity"});
+                  "courses", "velocity", "pattern", "chart"});
   else
     t.allow_only({"shape", "name", "center", "normal", "u_axis", "circumference", "length", "wales",
-                  "courses", "velocity"});
+                  "courses", "velocity", "pattern", "chart"});
   k.name = "knit.piece[" + std::to_string(index) + "]";
   t.read("name", k.name);
   k.center = t.require_vec3("center");
@@ -330,6 +363,7 @@ KnitPiece read_knit_piece(const TableReader& t, std::size_t index, const Scene::
   k.wales = read_count(t, "wales", k.wales, k.shape == KnitShape::Tube ? 3 : 1, 100000);
   k.courses = read_count(t, "courses", k.courses, 1, 100000);
   t.read("velocity", k.velocity);
+  read_stitch_chart(t, k);
   return k;
 }
 
@@ -348,7 +382,7 @@ void read_knit(const TableReader& sim, const TableReader& t, Scene& s) {
   t.allow_only({"thickness", "mass_per_area", "stretch", "shear", "bend", "compression",
                 "layer_shear", "damping_ratio", "contact_radius", "friction", "substeps",
                 "spring_factor", "self_collision", "self_radius", "self_stiffness", "self_friction",
-                "piece", "pin"});
+                "yarn_samples", "piece", "pin"});
   auto& k = s.knit;
   t.read("thickness", k.thickness, Range::positive());
   t.read("mass_per_area", k.mass_per_area, Range::positive());
@@ -366,6 +400,7 @@ void read_knit(const TableReader& sim, const TableReader& t, Scene& s) {
   t.read("self_radius", k.self_radius, Range::at_least(0));
   t.read("self_stiffness", k.self_stiffness, Range::at_least(0));
   t.read("self_friction", k.self_friction, Range::at_least(0));
+  k.yarn_samples = read_count(t, "yarn_samples", k.yarn_samples, 0, 64);
   const auto pieces = t.array_of_tables("piece");
   if (pieces.size() > 65535)
     t.fail_key(*t.node("piece"), "piece", "at most 65535 pieces", std::to_string(pieces.size()));

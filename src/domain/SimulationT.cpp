@@ -377,8 +377,11 @@ io::Frame SimulationT<T>::frame() const {
     p.fields.push_back(io::Field::from("id", boundary_->id.to_host(), 1));
     fr.phases.push_back(std::move(p));
   }
-  if (knit_on_)
+  if (knit_on_) {
     fr.phases.push_back(knit_->phase());
+    if (scene_.knit.yarn_samples > 0)
+      fr.phases.push_back(knit_->yarn_phase());
+  }
   return fr;
 }
 

@@ -64,15 +64,29 @@ bool is_position(const FieldLayout& f) {
          (f.type == DType::F32 || f.type == DType::F64);
 }
 
+bool is_segment(const FieldLayout& f) {
+  return f.name == "segment" && f.components == 2 && (f.type == DType::U32 || f.type == DType::U64);
+}
+
 void phase_grid(std::ostream& out, const SnapshotInfo& frame, const PhaseLayout& phase) {
   const auto position = std::find_if(phase.fields.begin(), phase.fields.end(), is_position);
   // ParaView rejects empty data items, and a grid without positions cannot be placed.
   if (phase.count == 0 || position == phase.fields.end())
     return;
-  out << "        <Grid Name=\"" << escape(phase.name) << "\" GridType=\"Uniform\">\n"
-      << "          <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << phase.count
-      << "\" NodesPerElement=\"1\"/>\n"
-      << "          <Geometry GeometryType=\"XYZ\">";
+  // A phase with a 2-component "segment" field (point pairs, as the yarns have) is drawn as
+  // lines; any other as points.
+  const auto segment = std::find_if(phase.fields.begin(), phase.fields.end(), is_segment);
+  out << "        <Grid Name=\"" << escape(phase.name) << "\" GridType=\"Uniform\">\n";
+  if (segment != phase.fields.end()) {
+    out << "          <Topology TopologyType=\"Polyline\" NumberOfElements=\"" << phase.count
+        << "\" NodesPerElement=\"2\">";
+    data_item(out, frame, phase, *segment);
+    out << "</Topology>\n";
+  } else {
+    out << "          <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << phase.count
+        << "\" NodesPerElement=\"1\"/>\n";
+  }
+  out << "          <Geometry GeometryType=\"XYZ\">";
   data_item(out, frame, phase, *position);
   out << "</Geometry>\n";
   for (const FieldLayout& field : phase.fields) {

@@ -1,0 +1,35 @@
+#pragma once
+// Yarns of the knitted pieces (paper §3 and §6.1): the bonding points of every stitch (Eq. 1,
+// kernels/knit/Stitch_K.hpp) strung into one yarn per course, and Catmull-Rom curves through
+// them. Derived from the mass points for snapshots and rendering; never fed back.
+#include "core/Vec3.hpp"
+#include "domain/KnitBuilder.hpp"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace kf {
+
+/// Whether stitch (i, j) is purl in a chart of K/P rows repeating over wales and courses.
+bool is_purl(const std::vector<std::string>& chart, int i, int j);
+
+/// The bonding points of every yarn of a grid piece, in yarn order: yarn j (0..cells_v) runs along
+/// course j through the legs of the stitches of cell row j and the head arcs of row j - 1 (the
+/// first yarn has no arcs below it, the last no legs above). x: all knit points.
+std::vector<std::vector<Vec3d>> yarn_bonding_points(const std::vector<Vec3d>& x,
+                                                    const KnitPieceLayout& piece,
+                                                    const std::vector<std::string>& chart);
+
+/// Polylines through all yarns: `samples` Catmull-Rom points per span between bonding points.
+struct YarnLines {
+  std::vector<Vec3d> x;
+  std::vector<std::uint32_t> yarn; // yarn index of each point
+  std::vector<std::array<std::uint32_t, 2>>
+      segment; // per point: (i, i + 1), or (i, i) at a yarn's end
+};
+
+YarnLines yarn_lines(const std::vector<std::vector<Vec3d>>& yarns, int samples);
+
+} // namespace kf
