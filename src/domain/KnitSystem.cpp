@@ -71,10 +71,11 @@ void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh) {
   p.k = static_cast<T>(k);
   p.zeta = static_cast<T>(mat.damping_ratio);
   p.friction = static_cast<T>(mat.self_friction >= 0 ? mat.self_friction : mat.friction);
-  // Grid over the domain with cells of at least 2R, coarsened so it holds at most kMaxCells.
+  // Grid over the domain with cells of 2R plus a skin of 0.4R (the grid is sorted again only
+  // when a point moved farther than the skin), coarsened so it holds at most kMaxCells.
   const Vec3d lo = scene_.domain.min, hi = scene_.domain.max, ext = hi - lo;
   constexpr double kMaxCells = 4e6;
-  const double cell = std::max(2 * radius, std::cbrt(ext.x * ext.y * ext.z / kMaxCells));
+  const double cell = std::max(2.4 * radius, std::cbrt(ext.x * ext.y * ext.z / kMaxCells));
   self_.emplace(ex_.backend, NeighbourGrid<T>::cover(lo, hi, cell), p);
   self_->update(ex_, set_); // allocates everything now, so plan's memory figure is the run's
   double m_min = 1e300;

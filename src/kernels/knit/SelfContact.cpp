@@ -7,30 +7,45 @@ KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
                                     const SelfContactParams<T>& params)
     : params_(params), grid_(b, geo), x_(b, 0, "knit.self.x"), v_(b, 0, "knit.self.v"),
       rest_(b, 0, "knit.self.rest"), m_(b, 0, "knit.self.m"), piece_(b, 0, "knit.self.piece"),
-      id_(b, 0, "knit.self.id") {
-  if (!(geo.cell >= T(2) * params.radius))
+      id_(b, 0, "knit.self.id"), x_sorted_at_(b, 0, "knit.self.x_sorted_at"),
+      skin2_((geo.cell - T(2) * params.radius) * (geo.cell - T(2) * params.radius)) {
+  if (!(geo.cell > T(2) * params.radius))
     throw Error("knit self-collision: grid cell " + std::to_string(double(geo.cell)) +
-                " m is smaller than the contact reach 2R = " +
+                " m is not larger than the contact reach 2R = " +
                 std::to_string(2.0 * double(params.radius)) + " m");
 }
 
 template <typename T>
 void KnitSelfContact<T>::update(const exec::Exec& ex, KnitSet<T>& set) {
   const std::size_t n = set.size();
-  grid_.build(ex, set.x.data(), n);
-  x_.resize(n);
-  v_.resize(n);
-  rest_.resize(n);
-  m_.resize(n);
-  piece_.resize(n);
-  id_.resize(n);
+  bool sort = x_sorted_at_.size() != n;
+  if (!sort) {
+    const Vec3<T>* x = set.x.data();
+    const Vec3<T>* x0 = x_sorted_at_.data();
+    const T moved2 = exec::transform_reduce(
+        ex, n, T(0), exec::MaxOp{}, [=] KF_HD(std::size_t i) { return norm2(x[i] - x0[i]); },
+        "knit.self.moved");
+    sort = !(moved2 <= skin2_); // a NaN sorts too (and is caught by the step-size check)
+  }
   const auto& perm = grid_.permutation();
+  if (sort) {
+    grid_.build(ex, set.x.data(), n);
+    ++sorts_;
+    x_.resize(n);
+    v_.resize(n);
+    rest_.resize(n);
+    m_.resize(n);
+    piece_.resize(n);
+    id_.resize(n);
+    x_sorted_at_.resize(n);
+    x_sorted_at_.copy_from(set.x, n);
+    exec::gather(ex, perm, set.x_rest, rest_, "knit.self.gather");
+    exec::gather(ex, perm, set.m, m_, "knit.self.gather");
+    exec::gather(ex, perm, set.piece, piece_, "knit.self.gather");
+    exec::gather(ex, perm, set.id, id_, "knit.self.gather");
+  }
   exec::gather(ex, perm, set.x, x_, "knit.self.gather");
   exec::gather(ex, perm, set.v, v_, "knit.self.gather");
-  exec::gather(ex, perm, set.x_rest, rest_, "knit.self.gather");
-  exec::gather(ex, perm, set.m, m_, "knit.self.gather");
-  exec::gather(ex, perm, set.piece, piece_, "knit.self.gather");
-  exec::gather(ex, perm, set.id, id_, "knit.self.gather");
 }
 
 template <typename T>
@@ -58,7 +73,8 @@ SelfContactStats KnitSelfContact<T>::stats(const exec::Exec& ex, KnitSet<T>& set
 template <typename T>
 std::size_t KnitSelfContact<T>::bytes() const {
   return grid_.bytes() + x_.capacity_bytes() + v_.capacity_bytes() + rest_.capacity_bytes() +
-         m_.capacity_bytes() + piece_.capacity_bytes() + id_.capacity_bytes();
+         m_.capacity_bytes() + piece_.capacity_bytes() + id_.capacity_bytes() +
+         x_sorted_at_.capacity_bytes();
 }
 
 template class KnitSelfContact<float>;

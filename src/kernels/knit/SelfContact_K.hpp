@@ -88,11 +88,15 @@ struct SelfContactEvaluator {
     const T mi = p.m[i];
     const std::uint16_t pi = piece[i];
     Vec3<T> f{T(0), T(0), T(0)};
+    const T reach2 = T(4) * params.radius * params.radius;
     cells.for_each_candidate(xi, [&](std::uint32_t j) {
-      if (!self_contact_allowed(pi, s.piece[j], ri, s.rest[j], params.exclusion2))
+      const Vec3<T> d = xi - s.x[j];
+      // Distance first: most candidates are out of reach, and it reads one array, not three.
+      if (norm2(d) >= reach2 ||
+          !self_contact_allowed(pi, s.piece[j], ri, s.rest[j], params.exclusion2))
         return;
       Vec3<T> fij;
-      if (self_contact_force(xi - s.x[j], vi - s.v[j], mi, s.m[j], params, fij))
+      if (self_contact_force(d, vi - s.v[j], mi, s.m[j], params, fij))
         f += fij;
     });
     p.a[i] += f * (T(1) / mi);

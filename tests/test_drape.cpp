@@ -1,0 +1,68 @@
+// The paper's drape scene (Fig. 6, scenes/drape.toml: 49,923 knit points dropped onto a sphere
+// on the floor), 10,000 steps: nothing becomes NaN, no point ends inside the sphere or the floor,
+// the three layers keep their order through the thickness, and the total energy (kinetic,
+// elastic, gravity, self-contact) never rises by more than 1% of the initial energy: nothing
+// does work on the cloth, so the springs' and contacts' damping and friction can only take
+// energy out.
+#include "domain/KnitBuilder.hpp"
+#include "domain/Scene.hpp"
+#include "domain/Simulation.hpp"
+#include "support/KnitChecks.hpp"
+#include "support/TestPaths.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+using namespace kf;
+
+TEST(Drape, TenThousandStepsStayFiniteOutsideTheSolidsLayeredAndWithoutEnergyGain) {
+  const Scene s =
+      load_scene((test::source_dir() / "scenes" / "drape.toml").string(), {"output.enabled=false"});
+  const KnitMesh mesh = build_knit(s);
+  ASSERT_GT(mesh.x.size(), 45000u) << "the paper's scale";
+  auto sim = Simulation::create(s, exec::Backend::Cpu);
+  auto energy = [](const Diagnostics& d) {
+    return d.knit_kinetic_energy + d.knit_elastic_energy + d.knit_potential_energy +
+           d.knit_self_energy;
+  };
+  const Diagnostics d0 = sim->diagnostics();
+  const double e0 = energy(d0);
+  ASSERT_GT(e0, 0.0);
+  double lowest = e0, worst_rise = 0, closest = 1e30;
+  std::size_t worst_swaps = 0;
+  std::uint64_t most_contacts = 0;
+  const int steps = 10000, every = 500;
+  for (int step = 1; step <= steps; ++step) {
+    sim->step(s.end_time);
+    if (step % every != 0)
+      continue;
+    const Diagnostics d = sim->diagnostics();
+    const double e = energy(d);
+    ASSERT_TRUE(std::isfinite(e)) << "step " << step;
+    worst_rise = std::max(worst_rise, e - lowest);
+    lowest = std::min(lowest, e);
+    closest = std::min(closest, d.knit_min_rigid_distance);
+    most_contacts = std::max(most_contacts, d.knit_contacts);
+    const io::Frame fr = sim->frame();
+    const auto x = test::as_points(fr.find("knit")->find("position")->as<float>());
+    for (const Vec3d& q : x)
+      ASSERT_TRUE(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z))
+          << "step " << step;
+    for (const auto& piece : mesh.pieces)
+      worst_swaps = std::max(worst_swaps, test::layer_order_violations(x, mesh.x, piece));
+  }
+  const Diagnostics d = sim->diagnostics();
+  std::printf("drape: %d steps to t = %.4f s; energy %.5g J -> %.5g J (kinetic %.3g), largest "
+              "rise %.3g J = %.2e of the initial; closest approach to a solid %.3g m (contact "
+              "radius %.3g m); %llu solid-contact point-substeps; layer swaps %zu\n",
+              steps, sim->time(), e0, energy(d), d.knit_kinetic_energy, worst_rise, worst_rise / e0,
+              closest, s.knit.radius(), static_cast<unsigned long long>(most_contacts),
+              worst_swaps);
+  EXPECT_GT(most_contacts, 0u) << "the cloth never reached the sphere: the test tests little";
+  EXPECT_GE(closest, 0.0) << "a knit point inside the sphere or the floor";
+  EXPECT_EQ(worst_swaps, 0u) << "a layer passed through another";
+  EXPECT_LE(worst_rise, 0.01 * e0) << "the energy rose with no work done";
+  EXPECT_LT(energy(d), e0) << "no energy left the system: no contact, no damping?";
+}
