@@ -7,6 +7,7 @@
 #include "domain/Simulation.hpp"
 #include "kernels/exec/Backend.hpp"
 
+#include <algorithm>
 #include <CLI/CLI.hpp>
 #include <mpi.h>
 
@@ -69,10 +70,17 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   std::printf("scene      %s (%s)\n", scene.name.c_str(), scene.path.c_str());
   std::printf("modules    %s\n", mods.c_str());
   std::printf("precision  %s\n", std::string(kf::to_string(scene.precision)).c_str());
-  std::printf("particles  fluid %zu, boundary %zu, knit %zu (%zu springs)\n", r.fluid, r.boundary,
-              r.knit, r.springs);
-  std::printf("radius     h = %.6g m (kernel support; %.3g x spacing), grid %d x %d x %d cells\n",
-              r.support_radius, scene.fluid.support, r.grid[0], r.grid[1], r.grid[2]);
+  std::printf("particles  fluid %zu, boundary %zu, knit %zu (%zu springs, %zu volume cells)\n",
+              r.fluid, r.boundary, r.knit, r.springs, r.volume_cells);
+  if (scene.has(kf::Module::Fluid))
+    std::printf("radius     h = %.6g m (kernel support; %.3g x spacing), grid %d x %d x %d cells\n",
+                r.support_radius, scene.fluid.support, r.grid[0], r.grid[1], r.grid[2]);
+  if (r.knit)
+    std::printf("knit       contact radius %.3g m against solids; self-collision %s\n",
+                scene.knit.radius(),
+                r.knit_self_radius > 0
+                    ? ("R = " + std::to_string(r.knit_self_radius) + " m").c_str()
+                    : "off");
   for (const std::string& o : r.obstacles)
     std::printf("obstacle   %s\n", o.c_str());
   // The solids' sampled distances are held whole by every rank.
@@ -83,8 +91,9 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
               human_bytes(r.bytes_fluid).c_str(), human_bytes(r.bytes_boundary).c_str(),
               human_bytes(r.bytes_knit).c_str(), human_bytes(r.bytes_grid).c_str(),
               human_bytes(r.bytes_solids).c_str());
-  std::printf("halo       %.6g m (one interaction radius; single rank: none exchanged)\n",
-              r.support_radius);
+  const double halo = std::max(scene.has(kf::Module::Fluid) ? r.support_radius : 0.0,
+                               2 * r.knit_self_radius);
+  std::printf("halo       %.6g m (one interaction radius; single rank: none exchanged)\n", halo);
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
   std::printf("output     %s every %.4g s to t = %.4g s\n",
               scene.output.enabled ? scene.output.dir.c_str() : "(disabled)", scene.output.interval,

@@ -49,6 +49,7 @@ public:
   std::uint64_t collisions() const { return collisions_; }
   KnitEnergy energy();
   const SpringTopology<T>& springs() const { return springs_; }
+  std::size_t volume_cells() const { return volumes_.cells(); }
   KnitSet<T>& set() { return set_; }
   double min_rigid_distance(const RigidShape<T>* shapes, std::size_t n_shapes);
   const std::vector<KnitPieceLayout>& pieces() const { return pieces_; }

@@ -37,7 +37,8 @@ struct Diagnostics {
 /// What `knitflow plan` prints: computed from the scene alone, nothing allocated or run.
 struct PlanReport {
   std::vector<std::pair<std::string, std::string>> stages; // (name [module], what)
-  std::size_t fluid = 0, boundary = 0, knit = 0, springs = 0;
+  std::size_t fluid = 0, boundary = 0, knit = 0, springs = 0, volume_cells = 0;
+  double knit_self_radius = 0; // R of knit self-collision (0: off)
   double support_radius = 0;
   int grid[3] = {0, 0, 0};
   std::size_t bytes_fluid = 0, bytes_boundary = 0, bytes_grid = 0, bytes_knit = 0;

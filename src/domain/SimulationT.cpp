@@ -571,6 +571,9 @@ PlanReport Simulation::plan(const Scene& scene) {
     auto count = [&](auto&& knit) {
       r.knit = knit.size();
       r.springs = knit.springs().springs();
+      r.volume_cells = knit.volume_cells();
+      if (const auto* sc = knit.self_contact_params())
+        r.knit_self_radius = double(sc->radius);
       r.bytes_knit = knit.bytes();
       limit(knit.stable_dt(), "knit springs / contact stiffness / contact radius (all substeps)");
     };
