@@ -135,7 +135,9 @@ TEST_P(KernelTest, LatticeMassGivesRestDensityInTheInterior) {
     EXPECT_NEAR(rho, rho0, 1e-9 * rho0);
     // With a wide support the lattice sum approximates the integral, so m -> rho0 dp^3. (With a
     // narrow one the peaked spiky kernel is dominated by W(0): m is 0.58 rho0 dp^3 at 1.5 dp.)
-    if (support >= 3.0) EXPECT_NEAR(m / (rho0 * dp * dp * dp), 1.0, 0.1) << "support " << support;
+    if (support >= 3.0) {
+      EXPECT_NEAR(m / (rho0 * dp * dp * dp), 1.0, 0.1) << "support " << support;
+    }
   }
 }
 

@@ -31,9 +31,11 @@ std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
                                   DeviceBuffer<std::uint32_t>& out, const char* label);
 #endif
 
+#if !defined(KF_WITH_CUDA)
 [[noreturn]] static void no_cuda(const char* what) {
   throw Error(std::string(what) + ": this knitflow was built without CUDA (use the 'cuda' preset)");
 }
+#endif
 
 void throw_not_compiled_for_cuda(const char* label) {
   throw Error(std::string(label) +
