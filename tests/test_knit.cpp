@@ -301,8 +301,10 @@ TEST(KnitPipeline, AKnitOnlySceneHasNoFluidStageAndNoFluidArrays) {
   EXPECT_FALSE(sim->pipeline().has_module("fluid"));
   EXPECT_FALSE(sim->pipeline().has_module("boundary"));
   const io::Frame fr = sim->frame();
-  ASSERT_EQ(fr.phases.size(), 1u);
+  // The knit's mass points and its yarn polylines (yarn_samples > 0 by default); nothing else.
+  ASSERT_EQ(fr.phases.size(), 2u);
   EXPECT_EQ(fr.phases[0].name, "knit");
+  EXPECT_EQ(fr.phases[1].name, "yarn");
   const Diagnostics d = sim->diagnostics();
   EXPECT_EQ(d.fluid, 0u);
   EXPECT_EQ(d.boundary, 0u);
