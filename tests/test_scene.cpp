@@ -1,6 +1,7 @@
 // Scene loading and validation: a full scene and defaults, --set overrides, and one broken scene
 // file per rule, each checked for a SceneError naming file, line and key.
 #include "core/Error.hpp"
+#include "domain/KnitMeshPiece.hpp"
 #include "domain/MeshObstacle.hpp"
 #include "domain/Scene.hpp"
 #include "support/TestPaths.hpp"
@@ -167,7 +168,7 @@ TEST(Scene, ExampleScenesLoad) {
   EXPECT_EQ(dam.output.dir, "out/dambreak");
   expect_vec(dam.fluid.blocks.at(0).max, 0.2, 0.2, 0.4);
   for (const char* name :
-       {"hydrostatic.toml", "obstacles.toml", "drape.toml", "mesh_obstacle.toml"})
+       {"hydrostatic.toml", "obstacles.toml", "drape.toml", "mesh_obstacle.toml", "garment.toml"})
     EXPECT_NO_THROW(load_scene((test::source_dir() / "scenes" / name).string())) << name;
 }
 
@@ -192,6 +193,30 @@ TEST(Scene, MeshObstacleReadsItsKeysAndLoadsTheMesh) {
   EXPECT_DOUBLE_EQ(plain.scale, 1);
   expect_vec(plain.translate, 0, 0, 0);
   EXPECT_NEAR(plain.mesh->solid.volume, 1, 1e-15);
+}
+
+TEST(Scene, KnitMeshPieceReadsItsKeysAndLoadsTheQuads) {
+  const Scene s = load_scene(scene_file("knit_mesh.toml"));
+  ASSERT_EQ(s.knit.pieces.size(), 2u);
+  const KnitPiece& sheet = s.knit.pieces[0];
+  EXPECT_EQ(sheet.shape, KnitShape::Mesh);
+  EXPECT_EQ(sheet.name, "sheet");
+  // Relative to the scene file's directory.
+  EXPECT_EQ(sheet.file,
+            (test::data_dir() / "meshes" / "knit_sheet.obj").lexically_normal().string());
+  EXPECT_DOUBLE_EQ(sheet.scale, 0.1);
+  expect_vec(sheet.translate, 0.1, 0.2, 0.3);
+  expect_vec(sheet.velocity, 0, 0, -1);
+  ASSERT_TRUE(sheet.mesh);
+  EXPECT_EQ(sheet.mesh->quads.size(), 2u);
+  ASSERT_EQ(sheet.mesh->vertices.size(), 6u);
+  expect_vec(sheet.mesh->vertices[5], 0.1 + 0.2, 0.2 + 0.1, 0.3); // (2, 1, 0) * 0.1 + translate
+  expect_vec(sheet.mesh->normals[0], 0, 0, 1);                    // counter-clockwise seen from +z
+  const KnitPiece& plain = s.knit.pieces[1];
+  EXPECT_EQ(plain.name, "knit.piece[1]");
+  EXPECT_DOUBLE_EQ(plain.scale, 1);
+  expect_vec(plain.translate, 0, 0, 0);
+  EXPECT_EQ(to_string(KnitShape::Mesh), "mesh");
 }
 
 TEST(Scene, MeshFileOfATextSceneIsRelativeToTheWorkingDirectory) {
@@ -296,6 +321,14 @@ const Broken kBroken[] = {
   {"mesh_scale_zero", 20, "obstacle[0].scale", "expected a number > 0, got 0"},
   {"mesh_without_file", 17, "obstacle[0]", "table 'obstacle[0]': missing required key 'file'"},
   {"mesh_with_radius", 20, "obstacle[0]", "key 'radius' does not apply to shape 'mesh' (a mesh takes file, scale, translate)"},
+  {"knit_mesh_triangle", 12, "knit.piece[0].file", "meshes/knit_with_triangle.obj' is not a quad mesh: the face on "},
+  {"knit_mesh_not_manifold", 12, "knit.piece[0].file", "meshes/knit_fin.obj' is not a manifold: edge (2, 5) belongs to 3 faces ("},
+  {"knit_mesh_not_oriented", 12, "knit.piece[0].file", "meshes/knit_flipped.obj' is not consistently oriented: edge (2, 5) runs the same way in its faces on "},
+  {"knit_mesh_missing_file", 12, "knit.piece[0].file", "meshes/no_such_sleeve.obj: cannot open OBJ file (No such file or directory)"},
+  {"knit_mesh_with_wales", 13, "knit.piece[0]", "key 'wales' does not apply to shape 'mesh' (a mesh takes file, scale, translate, besides name and velocity)"},
+  {"knit_mesh_without_file", 10, "knit.piece[0]", "table 'knit.piece[0]': missing required key 'file'"},
+  {"knit_mesh_outside_domain", 12, "knit.piece[0].file", "expected a mesh inside the domain [-1, -1, -1]..[1, 1, 1] (after scale and translate), got one spanning [0, 0, 5]..[2, 1, 5]"},
+  {"knit_mesh_key_typo", 13, "knit.piece[0].scael", "unknown key 'knit.piece[0].scael' (did you mean 'scale'?)"},
 };
 // clang-format on
 

@@ -109,8 +109,9 @@ TEST(Stitch, YarnsAreContinuousAndDoNotCutThroughEachOther) {
       }
     }
     // Interior yarns: 9 bonding points per stitch and the last t9.
-    if (c == 0)
+    if (c == 0) {
       EXPECT_EQ(yarns[1].size(), 4u * 9 + 1);
+    }
     double closest = 1e30;
     for (std::size_t a = 0; a < yarns.size(); ++a)
       for (std::size_t b = a + 1; b < yarns.size(); ++b)

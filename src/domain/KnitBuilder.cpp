@@ -1,5 +1,6 @@
 #include "domain/KnitBuilder.hpp"
 
+#include "domain/KnitMeshPiece.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
 #include <array>
@@ -10,9 +11,7 @@ namespace kf {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-// Share of the through-thickness compression stiffness carried by the volume cells (the rest by
-// the straight volume springs): enough for the cells to hold the layers' order under a crush.
-constexpr double kVolumeCellShare = 0.5;
+using knit_build::kVolumeCellShare;
 
 struct Frame3 {
   Vec3d n, u, w; // normal (or axis), u, w = n x u
@@ -44,12 +43,43 @@ Vec3d node_position(const KnitPiece& p, const Frame3& f, double thickness, int l
 
 } // namespace
 
+namespace knit_build {
+
+void add_spring(KnitMesh& mesh, std::uint32_t i, std::uint32_t j, double k, SpringKind kind,
+                double damping_ratio) {
+  const double mi = mesh.m[i], mj = mesh.m[j];
+  Spring s;
+  s.i = i;
+  s.j = j;
+  s.rest = norm(mesh.x[j] - mesh.x[i]);
+  s.k = k;
+  s.c = damping_ratio * 2.0 * std::sqrt(k * mi * mj / (mi + mj));
+  s.kind = kind;
+  mesh.springs.push_back(s);
+}
+
+void add_volume_cell(KnitMesh& mesh, const std::array<std::uint32_t, 4>& point, double kh) {
+  VolumeCell c;
+  c.point = point;
+  const Vec3d &xp = mesh.x[point[0]], &xo = mesh.x[point[1]], &xa = mesh.x[point[2]],
+              &xb = mesh.x[point[3]];
+  c.rest_volume = tet_volume(xp, xo, xa, xb);
+  c.k = kh / norm2(tet_volume_gradient(xp, xo, xa, xb, 0));
+  mesh.volumes.push_back(c);
+}
+
+} // namespace knit_build
+
 KnitMesh build_knit(const Scene& scene) {
   const auto& mat = scene.knit;
   const double t = mat.thickness, half_t = 0.5 * t;
   KnitMesh mesh;
   for (std::size_t pi = 0; pi < scene.knit.pieces.size(); ++pi) {
     const KnitPiece& p = scene.knit.pieces[pi];
+    if (p.shape == KnitShape::Mesh) {
+      mesh.pieces.push_back(append_mesh_piece(p, mat, static_cast<std::uint16_t>(pi), mesh));
+      continue;
+    }
     const Frame3 f = frame_of(p);
     KnitPieceLayout L;
     L.first = static_cast<std::uint32_t>(mesh.x.size());
@@ -74,15 +104,7 @@ KnitMesh build_knit(const Scene& scene) {
         }
 
     auto spring = [&](std::uint32_t i, std::uint32_t j, double k, SpringKind kind) {
-      const double mi = mesh.m[i], mj = mesh.m[j];
-      Spring s;
-      s.i = i;
-      s.j = j;
-      s.rest = norm(mesh.x[j] - mesh.x[i]);
-      s.k = k;
-      s.c = mat.damping_ratio * 2.0 * std::sqrt(k * mi * mj / (mi + mj));
-      s.kind = kind;
-      mesh.springs.push_back(s);
+      knit_build::add_spring(mesh, i, j, k, kind, mat.damping_ratio);
     };
     // Neighbour along u, wrapping on a tube; -1 past an open edge.
     auto iu = [&](int i, int di) {
@@ -151,17 +173,11 @@ KnitMesh build_knit(const Scene& scene) {
               if (iu(i, di) >= 0 && j + dj >= 0 && j + dj < L.nv)
                 quads.push_back({di, dj});
           const double kh = kVolumeCellShare * mat.compression * area(i, j) / half_t / quads.size();
-          for (const auto& q : quads) {
-            VolumeCell c;
-            c.point = {L.index(layer, i, j), L.index(1, i, j), L.index(1, iu(i, q[0]), j),
-                       L.index(1, i, j + q[1])};
-            const Vec3d &xp = mesh.x[c.point[0]], &xo = mesh.x[c.point[1]],
-                        &xa = mesh.x[c.point[2]], &xb = mesh.x[c.point[3]];
-            c.rest_volume = tet_volume(xp, xo, xa, xb);
-            const double g2 = norm2(tet_volume_gradient(xp, xo, xa, xb, 0));
-            c.k = kh / g2;
-            mesh.volumes.push_back(c);
-          }
+          for (const auto& q : quads)
+            knit_build::add_volume_cell(mesh,
+                                        {L.index(layer, i, j), L.index(1, i, j),
+                                         L.index(1, iu(i, q[0]), j), L.index(1, i, j + q[1])},
+                                        kh);
         }
     mesh.pieces.push_back(L);
   }

@@ -6,17 +6,23 @@
 #include "kernels/knit/SpringTopology.hpp"
 #include "kernels/knit/VolumeTopology.hpp"
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
 namespace kf {
 
 /// Where a piece's points are: point (layer, i, j) = first + layer * nu * nv + j * nu + i, with
-/// i along u (wales; periodic for a tube) and j along v (courses).
+/// i along u (wales; periodic for a tube) and j along v (courses). A mesh piece (grid = false) is
+/// no grid: nu is its vertex count, nv = 1, point (layer, v) = index(layer, v, 0), and `quads`
+/// holds its faces (vertex indices within one layer, in the OBJ's winding). Code that walks rows
+/// and columns must skip pieces that are not grids.
 struct KnitPieceLayout {
   std::uint32_t first = 0;
   int nu = 0, nv = 0;
   bool periodic_u = false;
+  bool grid = true;
+  std::vector<std::array<std::uint32_t, 4>> quads; // mesh pieces only
   std::uint32_t index(int layer, int i, int j) const {
     return first + static_cast<std::uint32_t>((layer * nv + j) * nu + i);
   }
@@ -34,5 +40,19 @@ struct KnitMesh {
 };
 
 KnitMesh build_knit(const Scene& scene);
+
+/// Pieces shared by the grid builder and the mesh-piece builder (domain/KnitMeshPiece).
+namespace knit_build {
+/// Share of the through-thickness compression stiffness carried by the volume cells (the rest by
+/// the straight volume springs): enough for the cells to hold the layers' order under a crush.
+inline constexpr double kVolumeCellShare = 0.5;
+/// Appends a spring between points i and j at their current distance (no prestress), damped at
+/// `damping_ratio` of critical for the pair's reduced mass.
+void add_spring(KnitMesh& mesh, std::uint32_t i, std::uint32_t j, double k, SpringKind kind,
+                double damping_ratio);
+/// Appends the volume cell (apex, o, a, b) at its current signed volume; `kh` is the thickness
+/// stiffness [N/m] it should add at the apex, turned into k_V = kh / |dV/d apex|^2.
+void add_volume_cell(KnitMesh& mesh, const std::array<std::uint32_t, 4>& point, double kh);
+} // namespace knit_build
 
 } // namespace kf

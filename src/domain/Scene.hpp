@@ -14,6 +14,7 @@
 namespace kf {
 
 struct MeshObstacle; // domain/MeshObstacle.hpp
+struct KnitQuadMesh; // domain/KnitMeshPiece.hpp
 
 /// Physics modules a scene may ask for (DESIGN §5).
 enum class Module { Fluid, Boundary, Knit };
@@ -44,10 +45,10 @@ struct Obstacle {
 };
 
 /// Rest shapes of a knitted piece.
-enum class KnitShape { Patch, Tube };
+enum class KnitShape { Patch, Tube, Mesh };
 
-/// One knitted piece: its rest mesh is a grid of wales (along u) and courses (along v) stitches,
-/// three layers thick.
+/// One knitted piece: its rest mesh is a grid of wales (along u) and courses (along v) stitches
+/// (patch, tube) or the quads of an OBJ file (mesh), three layers thick.
 struct KnitPiece {
   KnitShape shape = KnitShape::Patch;
   std::string name;      // "knit.piece[0]" unless given
@@ -62,6 +63,13 @@ struct KnitPiece {
   // Stitch chart: rows of 'K' (knit) and 'P' (purl), row r for courses j with j % rows == r,
   // column c for wales i with i % columns == c. Default stockinette (the paper's).
   std::vector<std::string> chart{"K"};
+
+  // mesh: the OBJ quad mesh (a relative path is resolved against the scene file's directory),
+  // each vertex x placed at scale * x + translate; read and checked by the loader.
+  std::string file;
+  double scale = 1;
+  Vec3d translate{0, 0, 0};
+  std::shared_ptr<const KnitQuadMesh> mesh;
 };
 
 /// Points of the knit whose rest position lies in [min, max] move with `velocity` until

@@ -2,6 +2,7 @@
 // The schema lives here, one read_* function per table; typed, range-checked access and the
 // error wording live in SceneReader, the --set merging in SceneOverrides.
 #include "core/Error.hpp"
+#include "domain/KnitMeshPiece.hpp"
 #include "domain/MeshObstacle.hpp"
 #include "domain/Scene.hpp"
 #include "domain/SceneOverrides.hpp"
@@ -31,7 +32,8 @@ constexpr std::array kModules{Choice<Module>{"fluid", Module::Fluid},
                               Choice<Module>{"boundary", Module::Boundary},
                               Choice<Module>{"knit", Module::Knit}};
 constexpr std::array kKnitShapes{Choice<KnitShape>{"patch", KnitShape::Patch},
-                                 Choice<KnitShape>{"tube", KnitShape::Tube}};
+                                 Choice<KnitShape>{"tube", KnitShape::Tube},
+                                 Choice<KnitShape>{"mesh", KnitShape::Mesh}};
 constexpr std::array kPrecisions{Choice<Precision>{"float", Precision::Float},
                                  Choice<Precision>{"double", Precision::Double}};
 constexpr std::array kKernels{Choice<KernelType>{"spiky", KernelType::Spiky},
@@ -329,9 +331,50 @@ void read_stitch_chart(const TableReader& t, KnitPiece& k) {
   }
 }
 
-KnitPiece read_knit_piece(const TableReader& t, std::size_t index, const Scene::Domain& d) {
+/// A knit piece of shape "mesh": its OBJ quad mesh (relative to the scene file's directory, placed
+/// by scale and translate as a mesh obstacle is) read and checked now, so a broken mesh fails
+/// with the scene's line. Keys of the grid shapes are an error of their own, not unknown keys.
+KnitPiece read_knit_mesh_piece(const TableReader& t, std::size_t index, const Scene::Domain& d,
+                               const std::filesystem::path& scene_dir) {
+  static constexpr std::string_view mesh_keys[] = {"shape", "name",      "file",
+                                                   "scale", "translate", "velocity"};
+  t.allow_only({"shape", "name", "center", "normal", "u_axis", "width", "height", "circumference",
+                "length", "wales", "courses", "velocity", "file", "scale", "translate"});
+  if (const auto bad = t.first_key_not_in(mesh_keys))
+    t.fail(t.node(*bad), "table '" + t.path() + "': key '" + std::string(*bad) +
+                             "' does not apply to shape 'mesh' (a mesh takes file, scale, "
+                             "translate, besides name and velocity)");
+  KnitPiece k;
+  k.shape = KnitShape::Mesh;
+  k.name = "knit.piece[" + std::to_string(index) + "]";
+  t.read("name", k.name);
+  if (!t.read("file", k.file))
+    t.fail_missing("file");
+  t.read("scale", k.scale, Range::positive());
+  t.read("translate", k.translate);
+  t.read("velocity", k.velocity);
+  k.file = (scene_dir / k.file).lexically_normal().string();
+  try {
+    k.mesh = load_knit_quad_mesh(k.file, k.scale, k.translate);
+  } catch (const SceneError&) {
+    throw;
+  } catch (const Error& e) {
+    t.fail(t.node("file"), "key '" + t.key_path("file") + "': " + e.what());
+  }
+  if (!all_less_equal(d.min, k.mesh->lo) || !all_less_equal(k.mesh->hi, d.max))
+    t.fail_key(*t.node("file"), "file",
+               "a mesh inside the domain " + format_vec3(d.min) + ".." + format_vec3(d.max) +
+                   " (after scale and translate)",
+               "one spanning " + format_vec3(k.mesh->lo) + ".." + format_vec3(k.mesh->hi));
+  return k;
+}
+
+KnitPiece read_knit_piece(const TableReader& t, std::size_t index, const Scene::Domain& d,
+                          const std::filesystem::path& scene_dir) {
   KnitPiece k;
   k.shape = t.require("shape", kKnitShapes);
+  if (k.shape == KnitShape::Mesh)
+    return read_knit_mesh_piece(t, index, d, scene_dir);
   if (k.shape == KnitShape::Patch)
     t.allow_only({"shape", "name", "center", "normal", "u_axis", "width", "height", "wales",
                   "courses", "velocity", "pattern", "chart"});
@@ -378,7 +421,8 @@ KnitPin read_knit_pin(const TableReader& t, std::size_t index) {
   return p;
 }
 
-void read_knit(const TableReader& sim, const TableReader& t, Scene& s) {
+void read_knit(const TableReader& sim, const TableReader& t, Scene& s,
+               const std::filesystem::path& scene_dir) {
   t.allow_only({"thickness", "mass_per_area", "stretch", "shear", "bend", "compression",
                 "layer_shear", "damping_ratio", "contact_radius", "friction", "substeps",
                 "spring_factor", "self_collision", "self_radius", "self_stiffness", "self_friction",
@@ -405,7 +449,7 @@ void read_knit(const TableReader& sim, const TableReader& t, Scene& s) {
   if (pieces.size() > 65535)
     t.fail_key(*t.node("piece"), "piece", "at most 65535 pieces", std::to_string(pieces.size()));
   for (std::size_t i = 0; i < pieces.size(); ++i)
-    k.pieces.push_back(read_knit_piece(pieces[i], i, s.domain));
+    k.pieces.push_back(read_knit_piece(pieces[i], i, s.domain, scene_dir));
   const auto pins = t.array_of_tables("pin");
   for (std::size_t i = 0; i < pins.size(); ++i)
     k.pins.push_back(read_knit_pin(pins[i], i));
@@ -434,7 +478,7 @@ Scene build_scene(const TableReader& root, const std::filesystem::path& scene_di
   const auto obstacles = root.array_of_tables("obstacle");
   for (std::size_t i = 0; i < obstacles.size(); ++i)
     s.obstacles.push_back(read_obstacle(obstacles[i], i, scene_dir));
-  read_knit(sim, root.table("knit"), s);
+  read_knit(sim, root.table("knit"), s, scene_dir);
   return s;
 }
 

@@ -3,6 +3,9 @@
 #include "kernels/knit/Stitch_K.hpp"
 
 #include <algorithm>
+#include <cstdint>
+#include <map>
+#include <utility>
 
 namespace kf {
 
@@ -20,15 +23,39 @@ Side side_of(bool purl) {
   return purl ? Side::Purl : Side::Knit;
 }
 
-/// Bonding point t_{k+1} (k = 0..11) of cell (i, j); Middle is halfway between the knit and the
-/// purl point (on the middle layer of a flat patch).
-Vec3d bonding(const std::vector<Vec3d>& x, const KnitPieceLayout& L, int i, int j, Side side,
-              int k) {
+/// A stitch cell's corner points on the front (layer 0) and back (layer 2) layers, in the order of
+/// Stitch_K's m: (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1).
+struct StitchCell {
+  std::array<std::uint32_t, 4> front, back;
+};
+
+StitchCell grid_cell(const KnitPieceLayout& L, int i, int j) {
   const int i1 = L.periodic_u ? (i + 1) % L.nu : i + 1;
-  const Vec3d m[4] = {x[L.index(0, i, j)], x[L.index(0, i1, j)], x[L.index(0, i, j + 1)],
-                      x[L.index(0, i1, j + 1)]};
-  const Vec3d mb[4] = {x[L.index(2, i, j)], x[L.index(2, i1, j)], x[L.index(2, i, j + 1)],
-                       x[L.index(2, i1, j + 1)]};
+  StitchCell c;
+  for (int l : {0, 2}) {
+    auto& p = l == 0 ? c.front : c.back;
+    p = {L.index(l, i, j), L.index(l, i1, j), L.index(l, i, j + 1), L.index(l, i1, j + 1)};
+  }
+  return c;
+}
+
+/// A mesh quad (v0 v1 v2 v3 counter-clockwise seen from the front): v0 -> v1 is the course (u),
+/// v0 -> v3 the wale (v) direction, as for a grid cell.
+StitchCell quad_cell(const KnitPieceLayout& L, const std::array<std::uint32_t, 4>& q) {
+  StitchCell c;
+  for (int l : {0, 2}) {
+    auto& p = l == 0 ? c.front : c.back;
+    auto at = [&](std::uint32_t v) { return L.index(l, static_cast<int>(v), 0); };
+    p = {at(q[0]), at(q[1]), at(q[3]), at(q[2])};
+  }
+  return c;
+}
+
+/// Bonding point t_{k+1} (k = 0..11) of a cell; Middle is halfway between the knit and the purl
+/// point (on the middle layer of a flat patch).
+Vec3d bonding(const std::vector<Vec3d>& x, const StitchCell& c, Side side, int k) {
+  const Vec3d m[4] = {x[c.front[0]], x[c.front[1]], x[c.front[2]], x[c.front[3]]};
+  const Vec3d mb[4] = {x[c.back[0]], x[c.back[1]], x[c.back[2]], x[c.back[3]]};
   if (side == Side::Middle)
     return (bonding_point(k, m, mb, false) + bonding_point(k, m, mb, true)) * 0.5;
   return bonding_point(k, m, mb, side == Side::Purl);
@@ -39,11 +66,9 @@ void push_unique(std::vector<Vec3d>& y, const Vec3d& p) {
     y.push_back(p);
 }
 
-} // namespace
-
-std::vector<std::vector<Vec3d>> yarn_bonding_points(const std::vector<Vec3d>& x,
-                                                    const KnitPieceLayout& L,
-                                                    const std::vector<std::string>& chart) {
+/// Grid pieces: one yarn per course, stitches K or P from the chart.
+std::vector<std::vector<Vec3d>> grid_yarns(const std::vector<Vec3d>& x, const KnitPieceLayout& L,
+                                           const std::vector<std::string>& chart) {
   const int cu = L.periodic_u ? L.nu : L.nu - 1, cv = L.nv - 1;
   std::vector<std::vector<Vec3d>> yarns;
   if (cu < 1 || cv < 1)
@@ -60,17 +85,17 @@ std::vector<std::vector<Vec3d>> yarn_bonding_points(const std::vector<Vec3d>& x,
       const Side own = side_of(is_purl(chart, i, j)), above = side_of(is_purl(chart, i, j + 1));
       if (j < cv) { // left leg down: head t5 t6, then t7 (t8 is the arc's t1, or the cast-on edge)
         for (int k : {4, 5})
-          push_unique(y, bonding(x, L, i, j, above, k));
+          push_unique(y, bonding(x, grid_cell(L, i, j), above, k));
         for (int k : {6, 7})
-          push_unique(y, bonding(x, L, i, j, own, k));
+          push_unique(y, bonding(x, grid_cell(L, i, j), own, k));
       }
       if (j > 0) { // the head arc of the cell below: t1 t2 t3 t4
         const Side below = side_of(is_purl(chart, i, j - 1));
         const Side dip = below == own ? own : Side::Middle;
-        push_unique(y, bonding(x, L, i, j - 1, own, 0));
-        push_unique(y, bonding(x, L, i, j - 1, dip, 1));
-        push_unique(y, bonding(x, L, i, j - 1, dip, 2));
-        push_unique(y, bonding(x, L, i, j - 1, own, 3));
+        push_unique(y, bonding(x, grid_cell(L, i, j - 1), own, 0));
+        push_unique(y, bonding(x, grid_cell(L, i, j - 1), dip, 1));
+        push_unique(y, bonding(x, grid_cell(L, i, j - 1), dip, 2));
+        push_unique(y, bonding(x, grid_cell(L, i, j - 1), own, 3));
         const int next = L.periodic_u ? (i + 1) % cu : i + 1;
         if (j == cv && next < cu && is_purl(chart, next, j) != is_purl(chart, i, j)) {
           // Bind-off between a knit and a purl stitch: the yarn below crosses the thickness at
@@ -84,9 +109,9 @@ std::vector<std::vector<Vec3d>> yarn_bonding_points(const std::vector<Vec3d>& x,
       }
       if (j < cv) { // right leg up: t12 t11, then the head t10 t9
         for (int k : {11, 10})
-          push_unique(y, bonding(x, L, i, j, own, k));
+          push_unique(y, bonding(x, grid_cell(L, i, j), own, k));
         for (int k : {9, 8})
-          push_unique(y, bonding(x, L, i, j, above, k));
+          push_unique(y, bonding(x, grid_cell(L, i, j), above, k));
       }
     }
     if (L.periodic_u && !y.empty())
@@ -94,6 +119,83 @@ std::vector<std::vector<Vec3d>> yarn_bonding_points(const std::vector<Vec3d>& x,
     yarns.push_back(std::move(y));
   }
   return yarns;
+}
+
+/// Mesh pieces, all stockinette: a course is a strip of quads joined across their right edges
+/// (v1 v2 of one is v0 v3 of the next, in the same frame); the quad above shares its bottom edge
+/// with this one's top. Each quad's legs go into its strip's yarn with the head arc of the quad
+/// below; arcs with no quad above form the strips' last yarns. A strip ends where the next quad's
+/// frame is turned (an irregular vertex or a rotated face).
+std::vector<std::vector<Vec3d>> mesh_yarns(const std::vector<Vec3d>& x, const KnitPieceLayout& L) {
+  const auto& Q = L.quads;
+  const std::size_t n = Q.size();
+  constexpr std::int64_t kNone = -1;
+  // Directed edge (a, b) of quad q's side e (0 bottom v0 v1, 1 right, 2 top, 3 left v3 v0).
+  std::map<std::pair<std::uint32_t, std::uint32_t>, std::pair<std::int64_t, int>> owner;
+  for (std::size_t q = 0; q < n; ++q)
+    for (int e = 0; e < 4; ++e)
+      owner[{Q[q][e], Q[q][(e + 1) % 4]}] = {std::int64_t(q), e};
+  // The quad across side e of q if it continues q's frame (its side (e + 2) % 4 is the same edge).
+  auto across = [&](std::size_t q, int e) {
+    const auto it = owner.find({Q[q][(e + 1) % 4], Q[q][e]});
+    return it != owner.end() && it->second.second == (e + 2) % 4 ? it->second.first : kNone;
+  };
+  std::vector<std::int64_t> right(n), left(n), below(n), above(n);
+  for (std::size_t q = 0; q < n; ++q) {
+    below[q] = across(q, 0);
+    right[q] = across(q, 1);
+    above[q] = across(q, 2);
+    left[q] = across(q, 3);
+  }
+  const Side K = Side::Knit;
+  std::vector<std::vector<Vec3d>> yarns;
+  // Strips through the quads for which `member` holds, from those whose left neighbour is not one
+  // (open strips) and then around what is left (closed strips, which end where they began).
+  auto strips = [&](auto member, auto add) {
+    std::vector<char> done(n, 0);
+    auto walk = [&](std::size_t start, bool closed) {
+      std::vector<Vec3d> y;
+      std::int64_t q = std::int64_t(start);
+      do {
+        done[q] = 1;
+        add(y, std::size_t(q));
+        q = right[q];
+      } while (q != kNone && member(std::size_t(q)) && !done[q]);
+      if (closed && !y.empty())
+        push_unique(y, y.front());
+      yarns.push_back(std::move(y));
+    };
+    for (std::size_t q = 0; q < n; ++q)
+      if (member(q) && !done[q] && (left[q] == kNone || !member(std::size_t(left[q]))))
+        walk(q, false);
+    for (std::size_t q = 0; q < n; ++q)
+      if (member(q) && !done[q])
+        walk(q, true);
+  };
+  auto arc = [&](std::vector<Vec3d>& y, std::size_t q) {
+    for (int k : {0, 1, 2, 3})
+      push_unique(y, bonding(x, quad_cell(L, Q[q]), K, k));
+  };
+  strips([](std::size_t) { return true; },
+         [&](std::vector<Vec3d>& y, std::size_t q) {
+           const StitchCell c = quad_cell(L, Q[q]);
+           for (int k : {4, 5, 6, 7})
+             push_unique(y, bonding(x, c, K, k));
+           if (below[q] != kNone)
+             arc(y, std::size_t(below[q]));
+           for (int k : {11, 10, 9, 8})
+             push_unique(y, bonding(x, c, K, k));
+         });
+  strips([&](std::size_t q) { return above[q] == kNone; }, arc);
+  return yarns;
+}
+
+} // namespace
+
+std::vector<std::vector<Vec3d>> yarn_bonding_points(const std::vector<Vec3d>& x,
+                                                    const KnitPieceLayout& L,
+                                                    const std::vector<std::string>& chart) {
+  return L.grid ? grid_yarns(x, L, chart) : mesh_yarns(x, L);
 }
 
 YarnLines yarn_lines(const std::vector<std::vector<Vec3d>>& yarns, int samples) {

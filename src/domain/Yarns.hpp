@@ -17,7 +17,10 @@ bool is_purl(const std::vector<std::string>& chart, int i, int j);
 
 /// The bonding points of every yarn of a grid piece, in yarn order: yarn j (0..cells_v) runs along
 /// course j through the legs of the stitches of cell row j and the head arcs of row j - 1 (the
-/// first yarn has no arcs below it, the last no legs above). x: all knit points.
+/// first yarn has no arcs below it, the last no legs above). A mesh piece is stockinette (chart
+/// unused) with yarns along strips of quads (v0 -> v1 of each quad is the course direction): one
+/// per strip with the arcs of the quads below, then the arcs that have no quad above. x: all knit
+/// points.
 std::vector<std::vector<Vec3d>> yarn_bonding_points(const std::vector<Vec3d>& x,
                                                     const KnitPieceLayout& piece,
                                                     const std::vector<std::string>& chart);

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cstdlib>
+#include <stdexcept>
 
 namespace kf::test {
 
@@ -10,6 +11,12 @@ namespace {
 struct P2 {
   double u, v;
 };
+
+/// Both checks walk rows and columns: a mesh piece has none, and a silent 0 would pass a test.
+void require_grid(const KnitPieceLayout& L) {
+  if (!L.grid)
+    throw std::invalid_argument("knit check on a mesh piece: it needs a patch or tube grid");
+}
 
 double orient(P2 p, P2 q, P2 r) {
   return (q.u - p.u) * (r.v - p.v) - (q.v - p.v) * (r.u - p.u);
@@ -25,6 +32,7 @@ bool proper_crossing(P2 a, P2 b, P2 c, P2 d) {
 
 std::size_t profile_crossings(const std::vector<Vec3d>& x, const KnitPieceLayout& L, Vec3d a,
                               Vec3d b, int min_course_gap) {
+  require_grid(L);
   std::size_t count = 0;
   for (int i = 0; i < L.nu; ++i) {
     // Segments (layer, j) from node j to j + 1 of column i.
@@ -48,6 +56,7 @@ std::size_t profile_crossings(const std::vector<Vec3d>& x, const KnitPieceLayout
 
 std::size_t layer_order_violations(const std::vector<Vec3d>& x, const std::vector<Vec3d>& rest,
                                    const KnitPieceLayout& L) {
+  require_grid(L);
   auto side = [&](const std::vector<Vec3d>& p, int i, int j) {
     auto at = [&](int layer, int ii, int jj) {
       if (L.periodic_u)

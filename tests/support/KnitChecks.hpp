@@ -1,7 +1,7 @@
 #pragma once
 // Geometric checks on a knit's positions, independent of the solver: do sheets pass through each
 // other (crossings of a strip's profile), do the three layers keep their order through the
-// thickness.
+// thickness. Grid pieces (patch, tube) only: both throw std::invalid_argument on a mesh piece.
 #include "core/Vec3.hpp"
 #include "domain/KnitBuilder.hpp"
 
