@@ -288,7 +288,7 @@ const Broken kBroken[] = {
   {"block_outside_domain", 15, "fluid.block[0].max", "expected a point inside the domain"},
   {"missing_required", 6, "domain", "table 'domain': missing required key 'max'"},
   {"missing_simulation", 1, "simulation", "table 'simulation': missing required key 'end_time'"},
-  {"unknown_module", 4, "simulation.modules[2]", "expected one of \"fluid\", \"boundary\", \"knit\", got \"capillary\""},
+  {"unknown_module", 4, "simulation.modules[2]", "expected one of \"fluid\", \"boundary\", \"knit\", \"contact\", \"capillary\", got \"rendering\""},
   {"knit_without_pieces", 10, "knit.piece", "expected at least one [[knit.piece]]"},
   {"knit_tube_with_width", 14, "knit.piece[0]", "unknown key 'knit.piece[0].width'"},
   {"knit_zero_wales", 13, "knit.piece[0].wales", "expected an integer >= 1, got 0"},

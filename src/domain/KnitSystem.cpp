@@ -39,6 +39,9 @@ KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex)
   springs_.build(mesh.springs, n);
   volumes_.build(mesh.volumes, n);
   pieces_ = mesh.pieces;
+  for (const Spring& sp : mesh.springs)
+    if (sp.kind == SpringKind::Stretch)
+      longest_spacing_ = std::max(longest_spacing_, sp.rest);
   set_handle_velocities(0.0);
   T spring = 0, damping = 0;
   knit_spring_limits(ex_, set_.view(), springs_.view(), volumes_.view(), spring, damping);
@@ -129,9 +132,14 @@ void KnitSystem<T>::compute_forces() {
 template <typename T>
 void KnitSystem<T>::advance(double t, double dt, T keep,
                             const std::function<void(double)>& set_shapes,
-                            const RigidShape<T>* shapes, std::size_t n_shapes) {
+                            const RigidShape<T>* shapes, std::size_t n_shapes,
+                            const std::function<void(T)>& couple) {
   const int n = scene_.knit.substeps;
   const double h = dt / n;
+  if (couple) {
+    internal_forces();
+    couple(static_cast<T>(0.5 * h));
+  }
   const T radius = static_cast<T>(scene_.knit.radius());
   const T friction = static_cast<T>(scene_.knit.friction);
   for (int s = 0; s < n; ++s) {
@@ -146,6 +154,8 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
                                           p.handle, "knit.contact");
     }
     internal_forces();
+    if (couple)
+      couple(static_cast<T>(s + 1 < n ? h : 0.5 * h));
     kick(ex_, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick", fixed);
   }
 }
@@ -157,7 +167,7 @@ double KnitSystem<T>::stable_dt() {
   const double vmax = std::sqrt(double(mb.v2));
   if (!std::isfinite(vmax) || !std::isfinite(double(mb.a2)))
     throw InstabilityError("a knit velocity or acceleration is not finite");
-  double sub = std::min(spring_limit_, contact_limit_);
+  double sub = std::min({spring_limit_, contact_limit_, extra_limit_});
   // A substep moves no point more than half its contact radius, so collisions are not skipped.
   if (vmax > 0)
     sub = std::min(sub, 0.5 * scene_.knit.radius() / vmax);

@@ -30,8 +30,15 @@ public:
   /// is the velocity factor of one substep's half kick (global damping).
   /// set_shapes(t) moves the solids to time t (called before each substep's collisions when
   /// solids move); shapes and n_shapes are the device array it updates.
+  /// couple(weight), when set, adds forces from outside (the fluid) to a after each force
+  /// evaluation; weight is the time over which that a acts (h/2 at the step's ends, h between),
+  /// so the partner can take the opposite impulse. With couple set the step starts by
+  /// evaluating the forces afresh (the partner has moved since the last).
   void advance(double t, double dt, T keep, const std::function<void(double)>& set_shapes,
-               const RigidShape<T>* shapes, std::size_t n_shapes);
+               const RigidShape<T>* shapes, std::size_t n_shapes,
+               const std::function<void(T)>& couple = {});
+  /// A further bound on the substep (the knit-fluid contact's), applied by stable_dt.
+  void set_substep_limit(double sub) { extra_limit_ = sub; }
   /// Largest step (all substeps together) the springs and the contact radius allow now.
   double stable_dt();
   /// a(t) from the springs, self-contact and gravity (the first half kick needs it).
@@ -53,6 +60,8 @@ public:
   KnitSet<T>& set() { return set_; }
   double min_rigid_distance(const RigidShape<T>* shapes, std::size_t n_shapes);
   const std::vector<KnitPieceLayout>& pieces() const { return pieces_; }
+  /// The longest rest length of a stretch spring: the widest gap between points of a sheet.
+  double longest_spacing() const { return longest_spacing_; }
   /// Self-collision: off when the scene turns it off; stats are those of the latest forces.
   bool self_collision() const { return self_.has_value(); }
   SelfContactStats self_contact_stats();
@@ -75,6 +84,8 @@ private:
   void setup_self_contact(const KnitMesh& mesh);
   double spring_limit_ = 0;     // min sqrt(m / sum k), m / sum c over free points (cached: fixed)
   double contact_limit_ = 1e30; // spring_factor sqrt(m_min / (kMaxContacts k_self))
+  double extra_limit_ = 1e30;
+  double longest_spacing_ = 0;
   std::optional<KnitSelfContact<T>> self_;
   std::uint64_t collisions_ = 0;
 };

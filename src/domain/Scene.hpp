@@ -17,7 +17,8 @@ struct MeshObstacle; // domain/MeshObstacle.hpp
 struct KnitQuadMesh; // domain/KnitMeshPiece.hpp
 
 /// Physics modules a scene may ask for (DESIGN §5).
-enum class Module { Fluid, Boundary, Knit };
+/// Contact and Capillary couple the fluid and the knit (both required).
+enum class Module { Fluid, Boundary, Knit, Contact, Capillary };
 /// Rigid obstacle shapes; all are solid (fluid stays outside).
 enum class ObstacleShape { Plane, Box, Sphere, Mesh };
 
@@ -159,6 +160,22 @@ struct Scene {
     std::vector<KnitPin> pins;
     double radius() const { return contact_radius > 0 ? contact_radius : 0.5 * thickness; }
   } knit;
+
+  /// Knit-fluid contact (module "contact": DEM, Eq. 7 and 8).
+  struct Coupling {
+    double fluid_radius = 0; // R_fluid [m]; 0: half the fluid spacing
+    double knit_radius = 0;  // R_knit [m]; 0: the knit's contact radius
+    double stiffness = 0;    // k [N/m]; 0: stops a fluid particle at c/10 within half the reach
+    double damping_ratio = 0.5;
+    double friction = 0.3;
+  } coupling;
+
+  /// The porous knit (module "capillary": Eq. 9-12).
+  struct Capillary {
+    double porosity = 0.8;      // phi: void fraction of the knit's volume
+    double permeability = 1e-9; // kappa [m^2]
+    double sigma = 0.072;       // sigma [N/m] (water's surface tension)
+  } capillary;
 
   bool has(Module m) const {
     for (Module x : modules)

@@ -28,9 +28,10 @@ using scene::repr;
 using scene::TableReader;
 
 // The spellings in scene files; to_string uses the same tables.
-constexpr std::array kModules{Choice<Module>{"fluid", Module::Fluid},
-                              Choice<Module>{"boundary", Module::Boundary},
-                              Choice<Module>{"knit", Module::Knit}};
+constexpr std::array kModules{
+    Choice<Module>{"fluid", Module::Fluid}, Choice<Module>{"boundary", Module::Boundary},
+    Choice<Module>{"knit", Module::Knit}, Choice<Module>{"contact", Module::Contact},
+    Choice<Module>{"capillary", Module::Capillary}};
 constexpr std::array kKnitShapes{Choice<KnitShape>{"patch", KnitShape::Patch},
                                  Choice<KnitShape>{"tube", KnitShape::Tube},
                                  Choice<KnitShape>{"mesh", KnitShape::Mesh}};
@@ -82,7 +83,37 @@ void read_simulation(const TableReader& t, Scene& s) {
     t.fail_key(modules, "modules",
                "\"boundary\" as well (module \"fluid\" requires module \"boundary\")",
                repr(modules));
+  for (Module m : {Module::Contact, Module::Capillary})
+    if (s.has(m) && !(s.has(Module::Fluid) && s.has(Module::Knit)))
+      t.fail_key(modules, "modules",
+                 "\"fluid\" and \"knit\" as well (module \"" + to_string(m) + "\" couples them)",
+                 repr(modules));
   t.read("precision", s.precision, kPrecisions);
+}
+
+void read_coupling(const TableReader& t, Scene& s) {
+  t.allow_only({"fluid_radius", "knit_radius", "stiffness", "damping_ratio", "friction"});
+  auto& c = s.coupling;
+  t.read("fluid_radius", c.fluid_radius, Range::at_least(0));
+  t.read("knit_radius", c.knit_radius, Range::at_least(0));
+  t.read("stiffness", c.stiffness, Range::at_least(0));
+  t.read("damping_ratio", c.damping_ratio, Range::at_least(0));
+  t.read("friction", c.friction, Range::at_least(0));
+  if (t.present() && !s.has(Module::Contact))
+    t.fail(nullptr, "table '" + t.path() +
+                        "': module \"contact\" is not in simulation.modules, so nothing reads it");
+}
+
+void read_capillary(const TableReader& t, Scene& s) {
+  t.allow_only({"porosity", "permeability", "sigma"});
+  auto& c = s.capillary;
+  t.read("porosity", c.porosity, Range::above_up_to(0, 1));
+  t.read("permeability", c.permeability, Range::positive());
+  t.read("sigma", c.sigma, Range::at_least(0));
+  if (t.present() && !s.has(Module::Capillary))
+    t.fail(nullptr,
+           "table '" + t.path() +
+               "': module \"capillary\" is not in simulation.modules, so nothing reads it");
 }
 
 void read_domain(const TableReader& t, Scene::Domain& d) {
@@ -465,7 +496,8 @@ void read_knit(const TableReader& sim, const TableReader& t, Scene& s,
 }
 
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {
-  root.allow_only({"simulation", "domain", "output", "solver", "fluid", "obstacle", "knit"});
+  root.allow_only({"simulation", "domain", "output", "solver", "fluid", "obstacle", "knit",
+                   "coupling", "capillary"});
   Scene s;
   const TableReader sim = root.table("simulation");
   read_simulation(sim, s);
@@ -479,6 +511,8 @@ Scene build_scene(const TableReader& root, const std::filesystem::path& scene_di
   for (std::size_t i = 0; i < obstacles.size(); ++i)
     s.obstacles.push_back(read_obstacle(obstacles[i], i, scene_dir));
   read_knit(sim, root.table("knit"), s, scene_dir);
+  read_coupling(root.table("coupling"), s);
+  read_capillary(root.table("capillary"), s);
   return s;
 }
 

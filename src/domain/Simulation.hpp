@@ -27,11 +27,17 @@ struct Diagnostics {
   // Knit (zero when the scene has none).
   std::size_t knit = 0;
   double knit_kinetic_energy = 0, knit_elastic_energy = 0, knit_potential_energy = 0; // [J]
-  std::uint64_t knit_contacts = 0;    // point-substeps in contact with a solid, whole run
-  double knit_min_rigid_distance = 0; // smallest signed distance of a knit point to a solid
+  std::uint64_t knit_contacts = 0;      // point-substeps in contact with a solid, whole run
+  double knit_min_rigid_distance = 0;   // smallest signed distance of a knit point to a solid
   std::uint64_t knit_self_contacts = 0; // overlapping point pairs now (self-collision)
   double knit_self_energy = 0;          // their penalty energy [J]
   double knit_self_min_gap = 0;         // closest pair distance / 2R (1e30 when none in reach)
+  // Knit-fluid coupling (zero without modules contact / capillary).
+  std::uint64_t coupling_contacts = 0; // fluid-knit pairs within the contact reach now
+  double coupling_energy = 0;          // their penalty energy [J]
+  double absorbed_mass = 0;            // sum of the knit points' m_fluid [kg]
+  double max_saturation = 0, mean_saturation = 0;
+  std::uint64_t wet_points = 0; // knit points with s > 0.01
 };
 
 /// What `knitflow plan` prints: computed from the scene alone, nothing allocated or run.

@@ -7,6 +7,7 @@
 #include "domain/Samplers.hpp"
 #include "domain/Simulation.hpp"
 #include "kernels/boundary/Boundary.hpp"
+#include "kernels/coupling/KnitFluidCoupling.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/integrate/Verlet.hpp"
 #include "kernels/particles/FluidSet.hpp"
@@ -20,6 +21,38 @@
 #include <sstream>
 
 namespace kf {
+
+/// The coupling's parameters from the scene (docs/PHYSICS.md "Coupling"): contact reach
+/// R_fluid + R_knit, stiffness that stops a fluid particle arriving at a tenth of the sound
+/// speed within half the reach, and the capillary pressure scale sigma / sqrt(kappa / phi).
+/// knit_spacing: the knit's widest point spacing; the default R_knit makes the reach 0.8 of it,
+/// so no fluid particle fits through the gap between four points of a sheet (0.71 of it).
+template <typename T>
+CouplingParams<T> coupling_params(const Scene& s, double knit_spacing) {
+  CouplingParams<T> p;
+  p.contact = s.has(Module::Contact);
+  p.capillary = s.has(Module::Capillary);
+  const double rf = s.coupling.fluid_radius > 0 ? s.coupling.fluid_radius : 0.5 * s.fluid.spacing;
+  const double rk = s.coupling.knit_radius > 0 ? s.coupling.knit_radius
+                                               : std::max(s.knit.radius(), 0.8 * knit_spacing - rf);
+  const double reach = rf + rk;
+  const double mf = lattice_particle_mass(s.solver.kernel, s.fluid.support, s.fluid.spacing,
+                                          s.fluid.rest_density);
+  const double c = s.fluid.speed_of_sound;
+  const double k = s.coupling.stiffness > 0 ? s.coupling.stiffness
+                                            : mf * (0.1 * c) * (0.1 * c) / (0.25 * reach * reach);
+  p.reach = static_cast<T>(reach);
+  p.dem = {static_cast<T>(k), static_cast<T>(s.coupling.damping_ratio),
+           static_cast<T>(s.coupling.friction)};
+  p.h = static_cast<T>(s.support_radius());
+  p.porosity = static_cast<T>(s.capillary.porosity);
+  p.rho0 = static_cast<T>(s.fluid.rest_density);
+  p.pressure_scale = static_cast<T>(s.capillary.sigma /
+                                    std::sqrt(s.capillary.permeability / s.capillary.porosity));
+  p.volume_per_mass = static_cast<T>(s.knit.thickness / s.knit.mass_per_area);
+  p.gravity = vec_cast<T>(s.gravity);
+  return p;
+}
 
 template <typename T>
 class SimulationT final : public Simulation {
@@ -42,6 +75,7 @@ public:
 private:
   void build_pipeline();
   void init_particles();
+  void init_coupling();
   void update_shapes(double t);
   void sort_fluid();
   void sort_boundary();
@@ -60,6 +94,9 @@ private:
   Scene scene_;
   exec::Exec ex_;
   bool fluid_on_ = false, boundary_on_ = false, knit_on_ = false, moving_ = false;
+  bool coupling_on_ = false;
+  double coupling_fluid_limit_ = 1e30; // fluid step bound from the knit-fluid contact
+  FluidSide<T> fluid_side() { return {fluid_->view(), fluid_grid_->view()}; }
   SphParams<T> sph_;
   double h_ = 0, margin_ = 0;
   double time_ = 0, dt_ = 0;
@@ -67,6 +104,7 @@ private:
   bool profiling_ = false;
 
   std::optional<KnitSystem<T>> knit_;
+  std::optional<KnitFluidCoupling<T>> coupling_;
   std::optional<FluidSet<T>> fluid_;
   std::optional<BoundarySet<T>> boundary_;
   std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
@@ -81,6 +119,8 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   fluid_on_ = scene.has(Module::Fluid);
   boundary_on_ = scene.has(Module::Boundary);
   knit_on_ = scene.has(Module::Knit);
+  coupling_on_ =
+      fluid_on_ && knit_on_ && (scene.has(Module::Contact) || scene.has(Module::Capillary));
   h_ = scene.support_radius();
   // Only a true crossing is corrected: near a wall at the free surface the pressure is zero and
   // particles may touch the wall, which is physical.
@@ -163,24 +203,73 @@ void SimulationT<T>::init_particles() {
     boundary_->id.assign(ids);
     boundary_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_));
   }
+  if (coupling_on_)
+    init_coupling();
+}
+
+template <typename T>
+void SimulationT<T>::init_coupling() {
+  const CouplingParams<T> p = coupling_params<T>(scene_, knit_->longest_spacing());
+  const double reach = std::max(double(p.reach), p.capillary ? h_ : 0.0);
+  // Cells 20% over the reach: the knit grid is sorted again only when a point moved that far.
+  coupling_.emplace(ex_.backend, scene_.solver.kernel, p,
+                    NeighbourGrid<T>::cover(scene_.domain.min, scene_.domain.max, 1.2 * reach));
+  if (!p.contact)
+    return;
+  // Explicit contact: the knit's substep and the fluid's step each resolve the contact's
+  // oscillation for their own mass (up to kMaxContacts partners at once).
+  constexpr double kMaxContacts = 6;
+  const auto m = knit_->set().m.to_host();
+  const auto handle = knit_->set().handle.to_host();
+  double m_min = 1e300;
+  for (std::size_t i = 0; i < m.size(); ++i)
+    if (handle[i] == kFreePoint)
+      m_min = std::min(m_min, double(m[i]));
+  const double factor = scene_.knit.spring_factor, k = double(p.dem.k);
+  knit_->set_substep_limit(factor * std::sqrt(m_min / (kMaxContacts * k)));
+  const double mf = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support,
+                                          scene_.fluid.spacing, scene_.fluid.rest_density);
+  coupling_fluid_limit_ = factor * std::sqrt(mf / (kMaxContacts * k));
 }
 
 template <typename T>
 void SimulationT<T>::build_pipeline() {
+  const bool contact = coupling_on_ && scene_.has(Module::Contact);
+  const bool capillary = coupling_on_ && scene_.has(Module::Capillary);
+  const char* coupling_module = capillary ? "capillary" : "contact";
+  if (coupling_on_)
+    pipeline_.add("coupling.begin", coupling_module,
+                  capillary ? "knit saturation (Eq. 9), Leverett J (Eq. 11), capillary pressure "
+                              "(Eq. 10) from the fluid around each knit point; fluid impulses "
+                              "cleared"
+                            : "knit grid for the contact; fluid impulses cleared",
+                  [this] { coupling_->begin_step(ex_, knit_->set(), fluid_side()); });
   if (knit_on_)
-    pipeline_.add("knit.step", "knit",
-                  std::to_string(scene_.knit.substeps) +
-                      " velocity Verlet substep(s): springs, gravity, contact with solids" +
-                      (scene_.knit.self_collision ? ", self-collision (DEM on a grid)" : ""),
-                  [this] {
-                    const T keep = damping_keep(dt_ / scene_.knit.substeps);
-                    std::function<void(double)> move;
-                    if (moving_)
-                      move = [this](double t) { update_shapes(t); };
-                    knit_->advance(time_, dt_, keep, move, shapes_.data(), shapes_.size());
-                    if (moving_)
-                      update_shapes(time_); // the fluid stages move the solids themselves
-                  });
+    pipeline_.add(
+        "knit.step", "knit",
+        std::to_string(scene_.knit.substeps) +
+            " velocity Verlet substep(s): springs, gravity, contact with solids" +
+            (scene_.knit.self_collision ? ", self-collision (DEM on a grid)" : "") +
+            (contact ? ", fluid contact (DEM, Eq. 7, 8)" : "") +
+            (capillary ? ", capillary force (Eq. 12) and the absorbed fluid's weight" : ""),
+        [this] {
+          const T keep = damping_keep(dt_ / scene_.knit.substeps);
+          std::function<void(double)> move;
+          if (moving_)
+            move = [this](double t) { update_shapes(t); };
+          std::function<void(T)> couple;
+          if (coupling_on_)
+            couple = [this](T weight) {
+              coupling_->add_forces(ex_, knit_->set(), fluid_side(), weight);
+            };
+          knit_->advance(time_, dt_, keep, move, shapes_.data(), shapes_.size(), couple);
+          if (moving_)
+            update_shapes(time_); // the fluid stages move the solids themselves
+        });
+  if (coupling_on_)
+    pipeline_.add("coupling.impulse", coupling_module,
+                  "the fluid takes the opposite of the knit's coupling impulse (two-way)",
+                  [this] { coupling_->apply_impulses(ex_, fluid_->view()); });
   if (fluid_on_)
     pipeline_.add("integrate.kick_drift", "fluid", "velocity Verlet: half kick, drift", [this] {
       auto f = fluid_->view();
@@ -279,6 +368,7 @@ double SimulationT<T>::stable_dt() {
     dt = std::min(dt, knit_->stable_dt());
   if (!fluid_on_)
     return dt;
+  dt = std::min(dt, coupling_fluid_limit_);
   auto f = fluid_->view();
   const MotionBounds<T> mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
   const double vmax = std::sqrt(static_cast<double>(mb.v2));
@@ -378,7 +468,16 @@ io::Frame SimulationT<T>::frame() const {
     fr.phases.push_back(std::move(p));
   }
   if (knit_on_) {
-    fr.phases.push_back(knit_->phase());
+    io::Phase kp = knit_->phase();
+    if (coupling_ && scene_.has(Module::Capillary)) {
+      auto& c = const_cast<KnitFluidCoupling<T>&>(*coupling_);
+      auto& self = const_cast<SimulationT<T>&>(*this);
+      if (c.saturation().size() != knit_->size())
+        c.begin_step(ex_, self.knit_->set(), self.fluid_side());
+      kp.fields.push_back(io::Field::from("saturation", c.saturation().to_host(), 1));
+      kp.fields.push_back(io::Field::from("fluid_mass", c.fluid_mass().to_host(), 1));
+    }
+    fr.phases.push_back(std::move(kp));
     if (scene_.knit.yarn_samples > 0)
       fr.phases.push_back(knit_->yarn_phase());
   }
@@ -452,6 +551,16 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.knit_self_contacts = sc.contacts;
     d.knit_self_energy = sc.energy;
     d.knit_self_min_gap = sc.min_gap_ratio;
+    if (coupling_) {
+      auto& self = const_cast<SimulationT<T>&>(*this);
+      const CouplingStats cs = self.coupling_->stats(ex_, self.knit_->set(), self.fluid_side());
+      d.coupling_contacts = cs.contacts;
+      d.coupling_energy = cs.energy;
+      d.absorbed_mass = cs.absorbed_mass;
+      d.max_saturation = cs.max_saturation;
+      d.mean_saturation = cs.mean_saturation;
+      d.wet_points = cs.wet_points;
+    }
     d.knit_min_rigid_distance = solids_.empty()
                                     ? std::numeric_limits<double>::infinity()
                                     : k.min_rigid_distance(shapes_.data(), shapes_.size());
@@ -475,10 +584,9 @@ Diagnostics SimulationT<T>::diagnostics() const {
   if (!v.empty())
     d.mean_density_error = sum_err / v.size();
   d.min_rigid_distance =
-      solids_.empty()
-          ? std::numeric_limits<double>::infinity()
-          : static_cast<double>(min_rigid_distance(ex_, fluid_->x.data(), fluid_->size(),
-                                                   shapes_.data(), shapes_.size()));
+      solids_.empty() ? std::numeric_limits<double>::infinity()
+                      : static_cast<double>(min_rigid_distance(
+                            ex_, fluid_->x.data(), fluid_->size(), shapes_.data(), shapes_.size()));
   return d;
 }
 

@@ -4,6 +4,7 @@
 // Gather form: each point sums the forces its neighbours exert on it (no atomics; the pair force
 // is antisymmetric, so momentum is conserved to rounding).
 #include "core/Math.hpp"
+#include "kernels/contact/DemContact_K.hpp"
 #include "kernels/grid/GridGeometry.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
@@ -31,35 +32,11 @@ struct SortedKnitView {
   const std::uint16_t* piece;
 };
 
-/// Force on i from j (d = x_i - x_j, dv = v_i - v_j), zero unless they overlap:
-/// normal  F_n = max(0, k u - c v_n) r^ with u = 2R - |d| > 0 the overlap (Eq. 7, repulsive),
-///         c = 2 zeta sqrt(k m_red);
-/// tangent F_t = -min(mu F_n, gamma |v_t|) v_t^ (Eq. 8, opposing the sliding, and regularised:
-///         below the Coulomb cap it is viscous with gamma = 2 sqrt(k m_red), so it fades to zero
-///         with v_t instead of chattering).
+/// Force on i from j (d = x_i - x_j, dv = v_i - v_j): the DEM pair force with reach 2R.
 template <typename T>
 KF_HD KF_INLINE bool self_contact_force(const Vec3<T>& d, const Vec3<T>& dv, T mi, T mj,
                                         const SelfContactParams<T>& p, Vec3<T>& f) {
-  const T r2 = norm2(d), reach = T(2) * p.radius;
-  if (r2 >= reach * reach || r2 <= T(0))
-    return false;
-  const T r = ksqrt(r2);
-  const Vec3<T> n = d * (T(1) / r);
-  const T overlap = reach - r;
-  const T mred = mi * mj / (mi + mj);
-  const T crit = T(2) * ksqrt(p.k * mred);
-  const T vn = dot(dv, n);
-  T fn = p.k * overlap - p.zeta * crit * vn;
-  if (fn < T(0))
-    fn = T(0); // damping may slow a separation but never pulls the points together
-  f = n * fn;
-  const Vec3<T> vt = dv - n * vn;
-  const T vt_len = norm(vt);
-  if (vt_len > T(0)) {
-    const T viscous = crit * vt_len, coulomb = p.friction * fn;
-    f -= vt * ((viscous < coulomb ? viscous : coulomb) / vt_len);
-  }
-  return true;
+  return dem_pair_force(d, dv, mi, mj, T(2) * p.radius, DemMaterial<T>{p.k, p.zeta, p.friction}, f);
 }
 
 /// True when i and j may collide: different pieces, or far enough apart on the rest mesh (springs

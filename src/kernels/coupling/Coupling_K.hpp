@@ -1,0 +1,173 @@
+#pragma once
+// Knit-fluid coupling (paper §5): DEM contact (Eq. 7, 8) and the capillary pressure of the
+// porous knit (Eq. 9-12), as gather evaluators used by both backends. One pair function gives
+// the force on a fluid particle from a knit point; the fluid side adds it, the knit side
+// subtracts it, so the pair forces cancel bit for bit and momentum is conserved to rounding.
+#include "core/Math.hpp"
+#include "kernels/contact/DemContact_K.hpp"
+#include "kernels/grid/GridGeometry.hpp"
+#include "kernels/particles/FluidSet.hpp"
+#include "kernels/particles/KnitSet.hpp"
+
+#include <cstdint>
+
+namespace kf {
+
+template <typename T>
+struct CouplingParams {
+  bool contact = false;   // DEM between fluid and knit (module "contact")
+  bool capillary = false; // Eq. 9-12 (module "capillary")
+  T reach = T(0);         // R_fluid + R_knit: contact distance
+  DemMaterial<T> dem;
+  T h = T(0);               // kernel support of the capillary terms (the fluid's)
+  T porosity = T(1);        // phi
+  T rho0 = T(1000);         // fluid rest density
+  T pressure_scale = T(0);  // sigma / sqrt(kappa / phi) [Pa]: P = scale J(s) (Eq. 10)
+  T volume_per_mass = T(0); // V_i = m_i * volume_per_mass (thickness / mass per area)
+  Vec3<T> gravity{T(0), T(0), T(0)};
+};
+
+/// Leverett J for a hydrophilic medium (Eq. 11): positive below saturation, zero at s = 1,
+/// negative above (oversaturated knit pushes fluid out).
+template <typename T>
+KF_HD KF_INLINE T leverett_j(T s) {
+  const T u = T(1) - s;
+  return u * (T(1.417) + u * (T(-2.120) + u * T(1.263)));
+}
+
+/// Per knit point: the fluid density the kernel sees there, rho~ = sum_j m_j W, gives the fluid
+/// mass in its volume m_fluid = V rho~, the saturation s = m_fluid / (phi V rho0) (Eq. 9) and
+/// the capillary pressure P = sigma J(s) / sqrt(kappa / phi) (Eq. 10).
+template <typename T, typename K>
+struct SaturationEvaluator {
+  K kernel;
+  CouplingParams<T> prm;
+  const Vec3<T>* knit_x;
+  const T* knit_m;
+  const Vec3<T>* fluid_x;
+  const T* fluid_m;
+  CellView<T> fluid_cells;
+  T* saturation;
+  T* pressure;
+  T* fluid_mass;
+
+  KF_HD void operator()(std::size_t i) const {
+    const Vec3<T> xi = knit_x[i];
+    const T h2 = kernel.h * kernel.h;
+    T rho = T(0);
+    fluid_cells.for_each_candidate(xi, [&](std::uint32_t j) {
+      const T r2 = norm2(xi - fluid_x[j]);
+      if (r2 < h2)
+        rho += fluid_m[j] * kernel.W(ksqrt(r2));
+    });
+    const T s = rho / (prm.porosity * prm.rho0);
+    saturation[i] = s;
+    pressure[i] = prm.pressure_scale * leverett_j(s);
+    fluid_mass[i] = knit_m[i] * prm.volume_per_mass * rho;
+  }
+};
+
+/// What a knit point brings to a pair: position, velocity, mass, capillary pressure.
+template <typename T>
+struct KnitPairSide {
+  Vec3<T> x, v;
+  T m, p;
+};
+
+/// Force on fluid particle j (x, v, m, rho) from knit point i: the DEM contact and the capillary
+/// force V_j V_i P_i grad_{x_j} W(x_j - x_i) (Eq. 12 with the volumes that make it a force; it
+/// points toward a knit point with P > 0, i.e. a drier one).
+template <typename T, typename K>
+KF_HD KF_INLINE bool coupling_pair_force(const K& kernel, const CouplingParams<T>& prm,
+                                         const Vec3<T>& xj, const Vec3<T>& vj, T mj, T rhoj,
+                                         const KnitPairSide<T>& i, Vec3<T>& f) {
+  const Vec3<T> d = xj - i.x;
+  const T r2 = norm2(d);
+  const T reach = prm.capillary && kernel.h > prm.reach ? kernel.h : prm.reach;
+  if (r2 >= reach * reach || r2 <= T(0))
+    return false;
+  f = Vec3<T>{T(0), T(0), T(0)};
+  bool any = false;
+  if (prm.contact) {
+    Vec3<T> fc;
+    if (dem_pair_force(d, vj - i.v, mj, i.m, prm.reach, prm.dem, fc)) {
+      f += fc;
+      any = true;
+    }
+  }
+  if (prm.capillary && r2 < kernel.h * kernel.h && i.p != T(0)) {
+    const T vol_i = i.m * prm.volume_per_mass, vol_j = mj / rhoj;
+    f += kernel.grad(d, ksqrt(r2)) * (vol_j * vol_i * i.p);
+    any = true;
+  }
+  return any;
+}
+
+/// The knit points in the coupling grid's order (copies gathered through its permutation).
+template <typename T>
+struct SortedKnitSide {
+  const Vec3<T>* x;
+  const Vec3<T>* v;
+  const T* m;
+  const T* p;
+};
+
+/// Fluid side: impulse_j += weight * (sum over knit points of the pair force on j).
+template <typename T, typename K>
+struct FluidCouplingEvaluator {
+  K kernel;
+  CouplingParams<T> prm;
+  FluidView<T> f;
+  SortedKnitSide<T> knit;
+  CellView<T> knit_cells;
+  T weight;
+  Vec3<T>* impulse;
+
+  KF_HD void operator()(std::size_t j) const {
+    const Vec3<T> xj = f.x[j], vj = f.v[j];
+    const T mj = f.m[j], rhoj = f.rho[j];
+    Vec3<T> sum{T(0), T(0), T(0)};
+    knit_cells.for_each_candidate(xj, [&](std::uint32_t i) {
+      Vec3<T> fij;
+      if (coupling_pair_force(kernel, prm, xj, vj, mj, rhoj,
+                              KnitPairSide<T>{knit.x[i], knit.v[i], knit.m[i], knit.p[i]}, fij))
+        sum += fij;
+    });
+    impulse[j] += sum * weight;
+  }
+};
+
+/// Knit side: a_i += (weight of its absorbed fluid - sum over fluid particles of the pair force
+/// on them) / m_i, for free points.
+template <typename T, typename K>
+struct KnitCouplingEvaluator {
+  K kernel;
+  CouplingParams<T> prm;
+  KnitView<T> p;
+  const T* pressure;
+  const T* fluid_mass; // nullptr: no weight of absorbed fluid
+  const Vec3<T>* fluid_x;
+  const Vec3<T>* fluid_v;
+  const T* fluid_m;
+  const T* fluid_rho;
+  CellView<T> fluid_cells;
+
+  KF_HD void operator()(std::size_t i) const {
+    if (p.handle[i] != kFreePoint)
+      return;
+    const KnitPairSide<T> side{p.x[i], p.v[i], p.m[i], pressure[i]};
+    Vec3<T> sum{T(0), T(0), T(0)};
+    fluid_cells.for_each_candidate(side.x, [&](std::uint32_t j) {
+      Vec3<T> fji;
+      if (coupling_pair_force(kernel, prm, fluid_x[j], fluid_v[j], fluid_m[j], fluid_rho[j], side,
+                              fji))
+        sum += fji;
+    });
+    Vec3<T> force = sum * T(-1);
+    if (fluid_mass)
+      force += prm.gravity * fluid_mass[i];
+    p.a[i] += force * (T(1) / side.m);
+  }
+};
+
+} // namespace kf

@@ -1,0 +1,169 @@
+#include "kernels/coupling/KnitFluidCoupling.hpp"
+
+#include "kernels/sph/SmoothingKernels.hpp"
+
+#include <string>
+
+namespace kf {
+
+template <typename T>
+KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
+                                        const CouplingParams<T>& params,
+                                        const GridGeometry<T>& grid)
+    : kernel_(kernel), params_(params), grid_(b, grid), saturation_(b, 0, "coupling.saturation"),
+      pressure_(b, 0, "coupling.pressure"), fluid_mass_(b, 0, "coupling.fluid_mass"),
+      x_(b, 0, "coupling.knit_x"), v_(b, 0, "coupling.knit_v"), m_(b, 0, "coupling.knit_m"),
+      p_(b, 0, "coupling.knit_p"), x_sorted_at_(b, 0, "coupling.x_sorted_at"),
+      impulse_(b, 0, "coupling.impulse") {
+  const T reach = params.capillary && params.h > params.reach ? params.h : params.reach;
+  if (!(grid.cell > reach))
+    throw Error("knit-fluid coupling: grid cell " + std::to_string(double(grid.cell)) +
+                " m is not larger than the coupling's reach " + std::to_string(double(reach)) +
+                " m");
+  skin2_ = (grid.cell - reach) * (grid.cell - reach);
+}
+
+template <typename T>
+void KnitFluidCoupling<T>::sort_knit(const exec::Exec& ex, KnitSet<T>& knit) {
+  const std::size_t n = knit.size();
+  bool sort = x_sorted_at_.size() != n;
+  if (!sort) {
+    const Vec3<T>* x = knit.x.data();
+    const Vec3<T>* x0 = x_sorted_at_.data();
+    const T moved2 = exec::transform_reduce(
+        ex, n, T(0), exec::MaxOp{}, [=] KF_HD(std::size_t i) { return norm2(x[i] - x0[i]); },
+        "coupling.moved");
+    sort = !(moved2 <= skin2_);
+  }
+  if (!sort)
+    return;
+  grid_.build(ex, knit.x.data(), n);
+  x_sorted_at_.resize(n);
+  x_sorted_at_.copy_from(knit.x, n);
+  x_.resize(n);
+  v_.resize(n);
+  m_.resize(n);
+  p_.resize(n);
+  exec::gather(ex, grid_.permutation(), knit.m, m_, "coupling.gather");
+}
+
+template <typename T>
+void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
+                                      const FluidSide<T>& fluid) {
+  const std::size_t n = knit.size();
+  saturation_.resize(n);
+  pressure_.resize(n);
+  fluid_mass_.resize(n);
+  if (params_.capillary) {
+    with_kernel<T>(kernel_, params_.h, [&](auto k) {
+      using K = decltype(k);
+      exec::for_each(ex, n,
+                     SaturationEvaluator<T, K>{k, params_, knit.x.data(), knit.m.data(), fluid.f.x,
+                                               fluid.f.m, fluid.cells, saturation_.data(),
+                                               pressure_.data(), fluid_mass_.data()},
+                     "coupling.saturation");
+    });
+  } else {
+    exec::fill(ex, saturation_, T(0), "coupling.saturation");
+    exec::fill(ex, pressure_, T(0), "coupling.saturation");
+    exec::fill(ex, fluid_mass_, T(0), "coupling.saturation");
+  }
+  sort_knit(ex, knit);
+  exec::gather(ex, grid_.permutation(), pressure_, p_, "coupling.gather");
+  impulse_.resize(fluid.f.n);
+  exec::fill(ex, impulse_, Vec3<T>{T(0), T(0), T(0)}, "coupling.impulse");
+}
+
+template <typename T>
+void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
+                                      const FluidSide<T>& fluid, T weight) {
+  const auto& perm = grid_.permutation();
+  exec::gather(ex, perm, knit.x, x_, "coupling.gather");
+  exec::gather(ex, perm, knit.v, v_, "coupling.gather");
+  with_kernel<T>(kernel_, params_.h, [&](auto k) {
+    using K = decltype(k);
+    exec::for_each(
+        ex, fluid.f.n,
+        FluidCouplingEvaluator<T, K>{k, params_, fluid.f,
+                                     SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()},
+                                     grid_.view(), weight, impulse_.data()},
+        "coupling.fluid");
+    exec::for_each(ex, knit.size(),
+                   KnitCouplingEvaluator<T, K>{k, params_, knit.view(), pressure_.data(),
+                                               params_.capillary ? fluid_mass_.data() : nullptr,
+                                               fluid.f.x, fluid.f.v, fluid.f.m, fluid.f.rho,
+                                               fluid.cells},
+                   "coupling.knit");
+  });
+}
+
+template <typename T>
+void KnitFluidCoupling<T>::apply_impulses(const exec::Exec& ex, FluidView<T> f) {
+  const Vec3<T>* J = impulse_.data();
+  exec::for_each(
+      ex, f.n, [=] KF_HD(std::size_t j) { f.v[j] += J[j] * (T(1) / f.m[j]); }, "coupling.impulse");
+}
+
+namespace {
+struct CouplingStatsOp {
+  KF_HD KF_INLINE CouplingStats operator()(const CouplingStats& a, const CouplingStats& b) const {
+    return {a.contacts + b.contacts,
+            a.energy + b.energy,
+            a.absorbed_mass + b.absorbed_mass,
+            a.max_saturation > b.max_saturation ? a.max_saturation : b.max_saturation,
+            a.mean_saturation + b.mean_saturation,
+            a.wet_points + b.wet_points};
+  }
+};
+} // namespace
+
+template <typename T>
+CouplingStats KnitFluidCoupling<T>::stats(const exec::Exec& ex, KnitSet<T>& knit,
+                                          const FluidSide<T>& fluid) {
+  const std::size_t n = knit.size();
+  if (saturation_.size() != n)
+    begin_step(ex, knit, fluid);
+  const T* s = saturation_.data();
+  const T* mf = fluid_mass_.data();
+  const Vec3<T>* kx = knit.x.data();
+  const FluidView<T> f = fluid.f;
+  const CellView<T> cells = fluid.cells;
+  const T reach = params_.contact ? params_.reach : T(0), reach2 = reach * reach;
+  const double k = double(params_.dem.k);
+  CouplingStats st = exec::transform_reduce(
+      ex, n, CouplingStats{}, CouplingStatsOp{},
+      [=] KF_HD(std::size_t i) {
+        CouplingStats c;
+        c.absorbed_mass = double(mf[i]);
+        c.max_saturation = double(s[i]);
+        c.mean_saturation = double(s[i]);
+        c.wet_points = s[i] > T(0.01) ? 1 : 0;
+        if (reach2 > T(0))
+          cells.for_each_candidate(kx[i], [&](std::uint32_t j) {
+            const T r2 = norm2(kx[i] - f.x[j]);
+            if (r2 < reach2) {
+              ++c.contacts;
+              const double u = double(reach - ksqrt(r2));
+              c.energy += 0.5 * k * u * u;
+            }
+          });
+        return c;
+      },
+      "coupling.stats");
+  if (n)
+    st.mean_saturation /= double(n);
+  return st;
+}
+
+template <typename T>
+std::size_t KnitFluidCoupling<T>::bytes() const {
+  return grid_.bytes() + saturation_.capacity_bytes() + pressure_.capacity_bytes() +
+         fluid_mass_.capacity_bytes() + x_.capacity_bytes() + v_.capacity_bytes() +
+         m_.capacity_bytes() + p_.capacity_bytes() + x_sorted_at_.capacity_bytes() +
+         impulse_.capacity_bytes();
+}
+
+template class KnitFluidCoupling<float>;
+template class KnitFluidCoupling<double>;
+
+} // namespace kf

@@ -1,0 +1,68 @@
+#pragma once
+// Knit-fluid coupling state and stages (paper §5; docs/PHYSICS.md "Coupling"). Per fluid step:
+// begin_step() takes the knit's saturation and capillary pressure from the fluid there (Eq.
+// 9-11) and clears the fluid's impulses; inside every knit substep add_forces() adds the pair
+// forces to the knit's accelerations and the same forces, times their share of the step, to
+// the fluid's impulses; after the knit's step apply_impulses() hands them to the fluid. The knit
+// feels the contact at its substep, the fluid its exact opposite, summed over the same substeps.
+#include "kernels/coupling/Coupling_K.hpp"
+#include "kernels/exec/Algorithms.hpp"
+#include "kernels/grid/NeighbourGrid.hpp"
+#include "kernels/particles/FluidSet.hpp"
+#include "kernels/particles/KnitSet.hpp"
+
+#include "core/SolverOptions.hpp"
+
+namespace kf {
+
+/// The fluid as the coupling reads it: positions, velocities, masses, densities in the fluid
+/// grid's order, and that grid.
+template <typename T>
+struct FluidSide {
+  FluidView<T> f;
+  CellView<T> cells;
+};
+
+struct CouplingStats {
+  std::uint64_t contacts = 0; // fluid-knit pairs in contact
+  double energy = 0;          // their penalty energy 1/2 k u^2 [J]
+  double absorbed_mass = 0;   // sum over knit points of m_fluid [kg]
+  double max_saturation = 0, mean_saturation = 0;
+  std::uint64_t wet_points = 0; // knit points with s > 0.01
+};
+
+template <typename T>
+class KnitFluidCoupling {
+public:
+  /// grid: a geometry covering the domain with cells no smaller than the coupling's reach.
+  KnitFluidCoupling(exec::Backend b, KernelType kernel, const CouplingParams<T>& params,
+                    const GridGeometry<T>& grid);
+
+  /// Saturation, capillary pressure and absorbed mass of every knit point (when capillary), the
+  /// knit grid sorted again if a point moved farther than its skin, fluid impulses zeroed.
+  void begin_step(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid);
+  /// Knit a += coupling / m; fluid impulse += weight * (the opposite forces).
+  void add_forces(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid, T weight);
+  /// Fluid v += impulse / m.
+  void apply_impulses(const exec::Exec& ex, FluidView<T> f);
+
+  CouplingStats stats(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid);
+  const CouplingParams<T>& params() const { return params_; }
+  const exec::DeviceBuffer<T>& saturation() const { return saturation_; }
+  const exec::DeviceBuffer<T>& fluid_mass() const { return fluid_mass_; }
+  std::size_t bytes() const;
+
+private:
+  void sort_knit(const exec::Exec& ex, KnitSet<T>& knit);
+  KernelType kernel_;
+  CouplingParams<T> params_;
+  NeighbourGrid<T> grid_;
+  T skin2_;
+  exec::DeviceBuffer<T> saturation_, pressure_, fluid_mass_; // knit order
+  exec::DeviceBuffer<Vec3<T>> x_, v_;                        // knit, grid order
+  exec::DeviceBuffer<T> m_, p_;                              // knit, grid order
+  exec::DeviceBuffer<Vec3<T>> x_sorted_at_;                  // knit order, at the last sort
+  exec::DeviceBuffer<Vec3<T>> impulse_;                      // fluid order
+};
+
+} // namespace kf
