@@ -7,8 +7,8 @@
 #include "domain/Simulation.hpp"
 #include "kernels/exec/Backend.hpp"
 
-#include <algorithm>
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <mpi.h>
 
 #include <cstdio>
@@ -76,11 +76,18 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
     std::printf("radius     h = %.6g m (kernel support; %.3g x spacing), grid %d x %d x %d cells\n",
                 r.support_radius, scene.fluid.support, r.grid[0], r.grid[1], r.grid[2]);
   if (r.knit)
-    std::printf("knit       contact radius %.3g m against solids; self-collision %s\n",
-                scene.knit.radius(),
-                r.knit_self_radius > 0
-                    ? ("R = " + std::to_string(r.knit_self_radius) + " m").c_str()
-                    : "off");
+    std::printf(
+        "knit       contact radius %.3g m against solids; self-collision %s\n", scene.knit.radius(),
+        r.knit_self_radius > 0 ? ("R = " + std::to_string(r.knit_self_radius) + " m").c_str()
+                               : "off");
+  if (r.coupling_reach > 0) {
+    std::printf("coupling   fluid-knit contact reach %.3g m, stiffness %.4g N/m", r.coupling_reach,
+                r.coupling_stiffness);
+    if (scene.has(kf::Module::Capillary))
+      std::printf("; capillary phi %.3g, kappa %.3g m^2, sigma %.3g N/m", scene.capillary.porosity,
+                  scene.capillary.permeability, scene.capillary.sigma);
+    std::printf("\n");
+  }
   for (const std::string& o : r.obstacles)
     std::printf("obstacle   %s\n", o.c_str());
   // The solids' sampled distances are held whole by every rank.
@@ -91,8 +98,8 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
               human_bytes(r.bytes_fluid).c_str(), human_bytes(r.bytes_boundary).c_str(),
               human_bytes(r.bytes_knit).c_str(), human_bytes(r.bytes_grid).c_str(),
               human_bytes(r.bytes_solids).c_str());
-  const double halo = std::max(scene.has(kf::Module::Fluid) ? r.support_radius : 0.0,
-                               2 * r.knit_self_radius);
+  const double halo =
+      std::max(scene.has(kf::Module::Fluid) ? r.support_radius : 0.0, 2 * r.knit_self_radius);
   std::printf("halo       %.6g m (one interaction radius; single rank: none exchanged)\n", halo);
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
   std::printf("output     %s every %.4g s to t = %.4g s\n",

@@ -91,6 +91,17 @@ void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh) {
 }
 
 template <typename T>
+double KnitSystem<T>::min_free_mass() const {
+  const auto m = set_.m.to_host();
+  const auto handle = set_.handle.to_host();
+  double m_min = 1e300;
+  for (std::size_t i = 0; i < m.size(); ++i)
+    if (handle[i] == kFreePoint)
+      m_min = std::min(m_min, double(m[i]));
+  return m_min;
+}
+
+template <typename T>
 void KnitSystem<T>::internal_forces() {
   knit_forces(ex_, set_.view(), springs_.view(), gravity_, volumes_.view());
   if (self_) {

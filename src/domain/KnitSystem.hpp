@@ -62,6 +62,8 @@ public:
   const std::vector<KnitPieceLayout>& pieces() const { return pieces_; }
   /// The longest rest length of a stretch spring: the widest gap between points of a sheet.
   double longest_spacing() const { return longest_spacing_; }
+  /// The lightest point that is not pinned or moved by a handle (1e300 when none).
+  double min_free_mass() const;
   /// Self-collision: off when the scene turns it off; stats are those of the latest forces.
   bool self_collision() const { return self_.has_value(); }
   SelfContactStats self_contact_stats();

@@ -104,6 +104,11 @@ std::string format_summary(const RunSummary& s) {
         d.fluid, d.boundary, d.max_speed, 100 * d.max_density_error, 100 * d.mean_density_error,
         d.min_rigid_distance, static_cast<unsigned long long>(d.guard_corrections));
     o << buf;
+    if (d.outflow_particles) {
+      std::snprintf(buf, sizeof buf, "outflow: %llu fluid particles (%.4g kg) left the domain\n",
+                    static_cast<unsigned long long>(d.outflow_particles), d.outflow_mass);
+      o << buf;
+    }
   }
   if (d.knit) {
     std::snprintf(buf, sizeof buf,
@@ -117,6 +122,15 @@ std::string format_summary(const RunSummary& s) {
         "knit self-contact: %llu pairs now, penalty energy %.4g J, closest pair %.3g x 2R\n",
         static_cast<unsigned long long>(d.knit_self_contacts), d.knit_self_energy,
         d.knit_self_min_gap);
+    o << buf;
+  }
+  if (d.knit && d.fluid) {
+    std::snprintf(
+        buf, sizeof buf,
+        "coupling: %llu fluid-knit contacts now (penalty %.4g J) | absorbed fluid %.4g kg "
+        "| saturation max %.3f, mean %.4f, %llu wet points\n",
+        static_cast<unsigned long long>(d.coupling_contacts), d.coupling_energy, d.absorbed_mass,
+        d.max_saturation, d.mean_saturation, static_cast<unsigned long long>(d.wet_points));
     o << buf;
   }
   if (s.frames)

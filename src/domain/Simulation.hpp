@@ -24,6 +24,9 @@ struct Diagnostics {
   double mean_density_error = 0;
   double min_rigid_distance = 0;       // smallest signed distance of a fluid particle to any solid
   std::uint64_t guard_corrections = 0; // particles put back by the boundary guard, whole run
+  std::uint64_t outflow_particles =
+      0;                   // fluid removed after leaving through an open side, whole run
+  double outflow_mass = 0; // their mass [kg]
   // Knit (zero when the scene has none).
   std::size_t knit = 0;
   double knit_kinetic_energy = 0, knit_elastic_energy = 0, knit_potential_energy = 0; // [J]
@@ -44,7 +47,9 @@ struct Diagnostics {
 struct PlanReport {
   std::vector<std::pair<std::string, std::string>> stages; // (name [module], what)
   std::size_t fluid = 0, boundary = 0, knit = 0, springs = 0, volume_cells = 0;
-  double knit_self_radius = 0; // R of knit self-collision (0: off)
+  double knit_self_radius = 0;   // R of knit self-collision (0: off)
+  double coupling_reach = 0;     // fluid-knit contact distance R_f + R_k (0: no coupling)
+  double coupling_stiffness = 0; // its k [N/m] (0: no contact module)
   double support_radius = 0;
   int grid[3] = {0, 0, 0};
   std::size_t bytes_fluid = 0, bytes_boundary = 0, bytes_grid = 0, bytes_knit = 0;

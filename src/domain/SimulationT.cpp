@@ -11,6 +11,7 @@
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/integrate/Verlet.hpp"
 #include "kernels/particles/FluidSet.hpp"
+#include "kernels/particles/Outflow.hpp"
 #include "kernels/sph/Sph.hpp"
 
 #include <algorithm>
@@ -52,6 +53,20 @@ CouplingParams<T> coupling_params(const Scene& s, double knit_spacing) {
   p.volume_per_mass = static_cast<T>(s.knit.thickness / s.knit.mass_per_area);
   p.gravity = vec_cast<T>(s.gravity);
   return p;
+}
+
+/// Explicit contact: the knit's substep and the fluid's step each resolve the contact's
+/// oscillation for their own mass, with up to kMaxContacts partners at once.
+struct CouplingLimits {
+  double knit_substep = 1e30, fluid_step = 1e30;
+};
+CouplingLimits coupling_limits(const Scene& s, double k, double knit_min_mass) {
+  constexpr double kMaxContacts = 6;
+  const double factor = s.knit.spring_factor;
+  const double mf = lattice_particle_mass(s.solver.kernel, s.fluid.support, s.fluid.spacing,
+                                          s.fluid.rest_density);
+  return {factor * std::sqrt(knit_min_mass / (kMaxContacts * k)),
+          factor * std::sqrt(mf / (kMaxContacts * k))};
 }
 
 template <typename T>
@@ -101,6 +116,9 @@ private:
   double h_ = 0, margin_ = 0;
   double time_ = 0, dt_ = 0;
   std::uint64_t steps_ = 0, guard_corrections_ = 0;
+  std::uint64_t outflow_particles_ = 0;
+  double outflow_mass_ = 0;
+  exec::DeviceBuffer<std::uint32_t> flags_{exec::Backend::Cpu, 0, "fluid.flags"};
   bool profiling_ = false;
 
   std::optional<KnitSystem<T>> knit_;
@@ -115,7 +133,8 @@ private:
 
 template <typename T>
 SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only)
-    : scene_(scene), ex_{backend}, solids_(scene, backend), shapes_(backend, 0, "rigid.shapes") {
+    : scene_(scene), ex_{backend}, flags_(backend, 0, "fluid.flags"), solids_(scene, backend),
+      shapes_(backend, 0, "rigid.shapes") {
   fluid_on_ = scene.has(Module::Fluid);
   boundary_on_ = scene.has(Module::Boundary);
   knit_on_ = scene.has(Module::Knit);
@@ -216,20 +235,9 @@ void SimulationT<T>::init_coupling() {
                     NeighbourGrid<T>::cover(scene_.domain.min, scene_.domain.max, 1.2 * reach));
   if (!p.contact)
     return;
-  // Explicit contact: the knit's substep and the fluid's step each resolve the contact's
-  // oscillation for their own mass (up to kMaxContacts partners at once).
-  constexpr double kMaxContacts = 6;
-  const auto m = knit_->set().m.to_host();
-  const auto handle = knit_->set().handle.to_host();
-  double m_min = 1e300;
-  for (std::size_t i = 0; i < m.size(); ++i)
-    if (handle[i] == kFreePoint)
-      m_min = std::min(m_min, double(m[i]));
-  const double factor = scene_.knit.spring_factor, k = double(p.dem.k);
-  knit_->set_substep_limit(factor * std::sqrt(m_min / (kMaxContacts * k)));
-  const double mf = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support,
-                                          scene_.fluid.spacing, scene_.fluid.rest_density);
-  coupling_fluid_limit_ = factor * std::sqrt(mf / (kMaxContacts * k));
+  const CouplingLimits lim = coupling_limits(scene_, double(p.dem.k), knit_->min_free_mass());
+  knit_->set_substep_limit(lim.knit_substep);
+  coupling_fluid_limit_ = lim.fluid_step;
 }
 
 template <typename T>
@@ -292,6 +300,17 @@ void SimulationT<T>::build_pipeline() {
               enforce_rigid_shapes(ex_, f.x, f.v, f.n, shapes_.data(), shapes_.size(),
                                    static_cast<T>(margin_), T(0), nullptr, "boundary.guard");
         });
+  const auto& walls = scene_.domain.walls;
+  if (fluid_on_ && !std::all_of(walls.begin(), walls.end(), [](bool w) { return w; }))
+    pipeline_.add("fluid.outflow", "fluid",
+                  "remove fluid that left the domain through a side without a wall (counted)",
+                  [this] {
+                    const auto& d = scene_.domain;
+                    const OutflowResult r = remove_outside(ex_, *fluid_, flags_, vec_cast<T>(d.min),
+                                                           vec_cast<T>(d.max));
+                    outflow_particles_ += r.particles;
+                    outflow_mass_ += r.mass;
+                  });
   if (fluid_on_) {
     pipeline_.add("grid.fluid", "fluid", "sort fluid by cell (Morton order), cell ranges",
                   [this] { sort_fluid(); });
@@ -446,6 +465,8 @@ io::Frame SimulationT<T>::frame() const {
   fr.scene_text = scene_.text;
   fr.precision = std::string(to_string(scene_.precision));
   fr.scalars.push_back({"guard_corrections", static_cast<double>(guard_corrections_)});
+  fr.scalars.push_back({"outflow_particles", static_cast<double>(outflow_particles_)});
+  fr.scalars.push_back({"outflow_mass", outflow_mass_});
   if (fluid_on_) {
     io::Phase p{"fluid", {}};
     p.fields.push_back(io::Field::from("position", flatten(fluid_->x.to_host()), 3));
@@ -494,6 +515,10 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   for (const auto& [k, v] : fr.scalars)
     if (k == "guard_corrections")
       guard_corrections_ = static_cast<std::uint64_t>(v);
+    else if (k == "outflow_particles")
+      outflow_particles_ = static_cast<std::uint64_t>(v);
+    else if (k == "outflow_mass")
+      outflow_mass_ = v;
   update_shapes(time_);
   if (fluid_on_) {
     const io::Phase* p = fr.find("fluid");
@@ -568,6 +593,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
   if (!fluid_on_)
     return d;
   d.fluid = fluid_->size();
+  d.outflow_particles = outflow_particles_;
+  d.outflow_mass = outflow_mass_;
   const auto v = fluid_->v.to_host();
   const auto m = fluid_->m.to_host();
   const auto rho = fluid_->rho.to_host();
@@ -683,6 +710,16 @@ PlanReport Simulation::plan(const Scene& scene) {
       if (const auto* sc = knit.self_contact_params())
         r.knit_self_radius = double(sc->radius);
       r.bytes_knit = knit.bytes();
+      if (scene.has(Module::Contact) || scene.has(Module::Capillary)) {
+        const auto p = coupling_params<double>(scene, knit.longest_spacing());
+        r.coupling_reach = p.reach;
+        r.coupling_stiffness = p.contact ? p.dem.k : 0;
+        if (p.contact) {
+          const CouplingLimits lim = coupling_limits(scene, p.dem.k, knit.min_free_mass());
+          knit.set_substep_limit(lim.knit_substep);
+          limit(lim.fluid_step, "fluid-knit contact stiffness (fluid side)");
+        }
+      }
       limit(knit.stable_dt(), "knit springs / contact stiffness / contact radius (all substeps)");
     };
     const exec::Exec host{exec::Backend::Cpu};

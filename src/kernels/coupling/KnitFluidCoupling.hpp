@@ -52,8 +52,11 @@ public:
   const exec::DeviceBuffer<T>& fluid_mass() const { return fluid_mass_; }
   std::size_t bytes() const;
 
-private:
+  /// Sorts the knit grid again if a point moved past the skin (public: nvcc's device lambdas
+  /// may not live in private members).
   void sort_knit(const exec::Exec& ex, KnitSet<T>& knit);
+
+private:
   KernelType kernel_;
   CouplingParams<T> params_;
   NeighbourGrid<T> grid_;

@@ -31,6 +31,9 @@ public:
   /// sort.
   void reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm);
   FluidView<T> view();
+  /// Keeps the particles whose flag is nonzero (flags: one per particle), in their order, with
+  /// all fields (rho and p too); returns how many were removed.
+  std::size_t keep_flagged(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& flags);
   /// Bytes each particle costs, scratch included (for `plan` and the memory report).
   static std::size_t bytes_per_particle();
 
@@ -42,6 +45,7 @@ private:
   exec::DeviceBuffer<Vec3<T>> scratch_v3_;
   exec::DeviceBuffer<T> scratch_t_;
   exec::DeviceBuffer<std::uint64_t> scratch_id_;
+  exec::DeviceBuffer<std::uint32_t> offsets_, kept_;
 };
 
 /// Raw pointers into a BoundarySet.

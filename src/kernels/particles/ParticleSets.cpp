@@ -1,5 +1,8 @@
+#include "core/Error.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/particles/Permute.hpp"
+
+#include <string>
 
 namespace kf {
 
@@ -8,7 +11,36 @@ FluidSet<T>::FluidSet(exec::Backend b)
     : x(b, 0, "fluid.x"), v(b, 0, "fluid.v"), a(b, 0, "fluid.a"), m(b, 0, "fluid.m"),
       rho(b, 0, "fluid.rho"), p(b, 0, "fluid.p"), id(b, 0, "fluid.id"),
       scratch_v3_(b, 0, "fluid.scratch"), scratch_t_(b, 0, "fluid.scratch"),
-      scratch_id_(b, 0, "fluid.scratch") {}
+      scratch_id_(b, 0, "fluid.scratch"), offsets_(b, 0, "fluid.keep_offsets"),
+      kept_(b, 0, "fluid.kept") {}
+
+template <typename T>
+std::size_t FluidSet<T>::keep_flagged(const exec::Exec& ex,
+                                      const exec::DeviceBuffer<std::uint32_t>& flags) {
+  const std::size_t n = size();
+  if (flags.size() != n)
+    throw Error("fluid.keep: " + std::to_string(flags.size()) + " flags for " + std::to_string(n) +
+                " particles");
+  offsets_.resize(n);
+  const std::size_t kept = exec::exclusive_scan(ex, flags, offsets_, "fluid.keep");
+  if (kept == n)
+    return 0;
+  kept_.resize(kept);
+  const std::uint32_t* f = flags.data();
+  const std::uint32_t* o = offsets_.data();
+  std::uint32_t* k = kept_.data();
+  exec::for_each(
+      ex, n,
+      [=] KF_HD(std::size_t j) {
+        if (f[j])
+          k[o[j]] = static_cast<std::uint32_t>(j);
+      },
+      "fluid.keep");
+  reorder(ex, kept_);
+  permute(ex, kept_, rho, scratch_t_, "fluid.keep");
+  permute(ex, kept_, p, scratch_t_, "fluid.keep");
+  return n - kept;
+}
 
 template <typename T>
 void FluidSet<T>::resize(std::size_t n) {

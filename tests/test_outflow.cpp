@@ -1,0 +1,95 @@
+// Fluid leaving the domain through a side without a wall is removed and counted: what remains
+// plus what left is the initial mass; nothing leaves through a side with a wall; the remaining
+// particles keep their ids and fields.
+#include "domain/Simulation.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <set>
+
+using namespace kf;
+
+namespace {
+
+Scene jet(const std::string& walls) {
+  return parse_scene(R"(
+[simulation]
+name = "outflow"
+end_time = 1.0
+gravity = [0, 0, 0]
+precision = "double"
+modules = ["fluid", "boundary"]
+[domain]
+min = [0, 0, 0]
+max = [0.2, 0.1, 0.1]
+walls = [)" + walls + R"(]
+[output]
+enabled = false
+[solver]
+kernel = "cubic"
+[fluid]
+spacing = 0.01
+speed_of_sound = 20.0
+[[fluid.block]]
+min = [0.12, 0.03, 0.03]
+max = [0.18, 0.07, 0.07]
+velocity = [2.0, 0, 0]
+)",
+                     "<outflow>");
+}
+
+} // namespace
+
+TEST(Outflow, FluidThroughAnOpenSideIsRemovedAndCounted) {
+  const Scene sc = jet(R"("x-", "y-", "y+", "z-", "z+")");
+  auto sim = Simulation::create(sc, exec::Backend::Cpu);
+  const Diagnostics d0 = sim->diagnostics();
+  const io::Frame f0 = sim->frame();
+  ASSERT_NE(f0.find("fluid"), nullptr);
+  ASSERT_NE(f0.find("fluid")->find("mass"), nullptr);
+  const auto m0 = f0.find("fluid")->find("mass")->as<double>();
+  double mass0 = 0;
+  for (double m : m0)
+    mass0 += m;
+  // 2 m/s for 0.025 s: the block (particles at x = 0.125 .. 0.175) moves 5 cm, half past 0.2.
+  while (sim->time() < 0.025)
+    sim->step(0.025);
+  const Diagnostics d = sim->diagnostics();
+  ASSERT_GT(d.fluid, 0u) << "everything left";
+  const io::Frame fr = sim->frame();
+  const io::Phase* fl = fr.find("fluid");
+  ASSERT_NE(fl, nullptr);
+  for (const char* f : {"mass", "position", "id"})
+    ASSERT_NE(fl->find(f), nullptr) << f;
+  const auto m = fr.find("fluid")->find("mass")->as<double>();
+  const auto x = fr.find("fluid")->find("position")->as<double>();
+  const auto id = fr.find("fluid")->find("id")->as<std::uint64_t>();
+  double mass = 0;
+  for (double q : m)
+    mass += q;
+  std::printf("%zu particles -> %zu, %llu left (%.4g kg); mass %.6g + %.6g = %.6g of %.6g kg\n",
+              d0.fluid, d.fluid, static_cast<unsigned long long>(d.outflow_particles),
+              d.outflow_mass, mass, d.outflow_mass, mass + d.outflow_mass, mass0);
+  EXPECT_GE(d.outflow_particles, d0.fluid / 4) << "the jet did not leave";
+  EXPECT_GT(d.fluid, d0.fluid / 4) << "the rear of the jet left too";
+  EXPECT_EQ(d.fluid + d.outflow_particles, d0.fluid);
+  EXPECT_NEAR(mass + d.outflow_mass, mass0, 1e-12 * mass0);
+  for (std::size_t i = 0; i < m.size(); ++i)
+    EXPECT_LE(x[3 * i], 0.2) << "a particle outside the domain was kept";
+  EXPECT_EQ(std::set<std::uint64_t>(id.begin(), id.end()).size(), id.size()) << "ids repeat";
+  EXPECT_LT(*std::max_element(id.begin(), id.end()), d0.fluid);
+}
+
+TEST(Outflow, NothingLeavesThroughAWall) {
+  auto sim = Simulation::create(jet(R"("x-", "x+", "y-", "y+", "z-", "z+")"), exec::Backend::Cpu);
+  const std::size_t n0 = sim->diagnostics().fluid;
+  while (sim->time() < 0.05)
+    sim->step(0.05);
+  for (const auto& st : sim->pipeline().stages())
+    EXPECT_NE(st.name, "fluid.outflow") << "a closed box has no outflow stage";
+  EXPECT_EQ(sim->diagnostics().fluid, n0);
+  EXPECT_EQ(sim->diagnostics().outflow_particles, 0u);
+}
