@@ -216,3 +216,32 @@ TEST(Stitch, SnapshotsCarryTheYarnsAsLines) {
   s.knit.yarn_samples = 0;
   EXPECT_EQ(Simulation::create(s, exec::Backend::Cpu)->frame().find("yarn"), nullptr);
 }
+
+// Wet yarns: a scalar per knit point (the saturation) rides along the yarns with the same Eq. 1
+// and Catmull-Rom weights. Both sum to one, so a field linear in position is reproduced exactly
+// at every yarn point, for every pattern (mixed-depth points and the bind-off crossing too).
+TEST(Stitch, YarnsCarryAScalarWithTheSameWeights) {
+  for (const std::vector<std::string>& chart :
+       {std::vector<std::string>{"K"}, {"KP", "PK"}, {"K", "P"}}) {
+    const Scene s = patch_scene(4, 3, chart);
+    const KnitMesh mesh = build_knit(s);
+    auto field = [](const Vec3d& q) { return 2.0 + 3.0 * q.x - 1.5 * q.y + 40.0 * q.z; };
+    std::vector<double> scalar;
+    for (const Vec3d& q : mesh.x)
+      scalar.push_back(field(q));
+    const auto yarns = yarn_points(mesh.x, &scalar, mesh.pieces[0], chart);
+    const YarnLines lines = yarn_lines(yarns, 5);
+    ASSERT_EQ(lines.s.size(), lines.x.size());
+    ASSERT_GT(lines.x.size(), 100u);
+    for (std::size_t i = 0; i < lines.x.size(); ++i)
+      ASSERT_NEAR(lines.s[i], field(lines.x[i]), 1e-12) << "yarn point " << i;
+    // Without a scalar, the positions are those of yarn_bonding_points.
+    const auto plain = yarn_bonding_points(mesh.x, mesh.pieces[0], chart);
+    ASSERT_EQ(plain.size(), yarns.size());
+    for (std::size_t y = 0; y < plain.size(); ++y) {
+      ASSERT_EQ(plain[y].size(), yarns[y].size());
+      for (std::size_t k = 0; k < plain[y].size(); ++k)
+        EXPECT_EQ(norm(plain[y][k] - yarns[y][k].x), 0.0);
+    }
+  }
+}

@@ -218,7 +218,7 @@ io::Phase KnitSystem<T>::phase() const {
 }
 
 template <typename T>
-io::Phase KnitSystem<T>::yarn_phase() const {
+io::Phase KnitSystem<T>::yarn_phase(const std::vector<double>* saturation) const {
   io::Phase p{"yarn", {}};
   if (scene_.knit.yarn_samples < 1)
     return p;
@@ -226,9 +226,9 @@ io::Phase KnitSystem<T>::yarn_phase() const {
   std::vector<Vec3d> x(xt.size());
   for (std::size_t i = 0; i < x.size(); ++i)
     x[i] = vec_cast<double>(xt[i]);
-  std::vector<std::vector<Vec3d>> yarns;
+  std::vector<std::vector<YarnPoint>> yarns;
   for (std::size_t k = 0; k < pieces_.size(); ++k)
-    for (auto& y : yarn_bonding_points(x, pieces_[k], scene_.knit.pieces[k].chart))
+    for (auto& y : yarn_points(x, saturation, pieces_[k], scene_.knit.pieces[k].chart))
       yarns.push_back(std::move(y));
   const YarnLines lines = yarn_lines(yarns, scene_.knit.yarn_samples);
   std::vector<Vec3<T>> pos(lines.x.size());
@@ -243,6 +243,10 @@ io::Phase KnitSystem<T>::yarn_phase() const {
   p.fields.push_back(io::Field::from("position", flatten(pos), 3));
   p.fields.push_back(io::Field::from("yarn", lines.yarn, 1));
   p.fields.push_back(io::Field::from("segment", seg, 2));
+  if (saturation) {
+    std::vector<T> sat(lines.s.begin(), lines.s.end());
+    p.fields.push_back(io::Field::from("saturation", sat, 1));
+  }
   return p;
 }
 

@@ -47,8 +47,9 @@ public:
   io::Phase phase() const;
   /// The yarn curves through the stitches' bonding points (snapshot phase "yarn"): position,
   /// yarn index, and segment (point pairs, ParaView draws them as lines); empty when
-  /// knit.yarn_samples is 0.
-  io::Phase yarn_phase() const;
+  /// knit.yarn_samples is 0. With saturation (per knit point) the yarn points carry it too, for
+  /// rendering wet yarn (darker, thicker: paper §6.3).
+  io::Phase yarn_phase(const std::vector<double>* saturation = nullptr) const;
   void restore(const io::Phase& p);
 
   std::size_t size() const { return set_.size(); }

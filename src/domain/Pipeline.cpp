@@ -14,7 +14,8 @@ void Pipeline::run(const std::function<void()>& timer_sync) {
   for (auto& s : stages_) {
     const auto t0 = clock::now();
     s.run();
-    if (timer_sync) timer_sync();
+    if (timer_sync)
+      timer_sync();
     s.seconds += std::chrono::duration<double>(clock::now() - t0).count();
     ++s.calls;
   }
@@ -22,13 +23,15 @@ void Pipeline::run(const std::function<void()>& timer_sync) {
 
 bool Pipeline::has(const std::string& name) const {
   for (const auto& s : stages_)
-    if (s.name == name) return true;
+    if (s.name == name)
+      return true;
   return false;
 }
 
 bool Pipeline::has_module(const std::string& module) const {
   for (const auto& s : stages_)
-    if (s.module == module) return true;
+    if (s.module == module)
+      return true;
   return false;
 }
 

@@ -132,6 +132,16 @@ std::string format_summary(const RunSummary& s) {
         static_cast<unsigned long long>(d.coupling_contacts), d.coupling_energy, d.absorbed_mass,
         d.max_saturation, d.mean_saturation, static_cast<unsigned long long>(d.wet_points));
     o << buf;
+    if (d.absorbed_particles || d.emitted_particles) {
+      std::snprintf(buf, sizeof buf,
+                    "absorption: %llu particles absorbed, %llu drops emitted, %.4g kg moved inside "
+                    "the knit | free fluid %.6g kg + absorbed %.6g kg + gone %.6g kg = %.6g kg\n",
+                    static_cast<unsigned long long>(d.absorbed_particles),
+                    static_cast<unsigned long long>(d.emitted_particles), d.diffused_mass,
+                    d.fluid_mass, d.absorbed_mass, d.outflow_mass,
+                    d.fluid_mass + d.absorbed_mass + d.outflow_mass);
+      o << buf;
+    }
   }
   if (s.frames)
     o << "snapshots: " << s.frames << " written, last " << s.last_snapshot << "\n";

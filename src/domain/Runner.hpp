@@ -15,19 +15,19 @@ namespace kf {
 
 struct RunOptions {
   exec::Backend backend = exec::Backend::Cpu;
-  std::string restart;        // snapshot to continue from ("" = start at t = 0)
+  std::string restart; // snapshot to continue from ("" = start at t = 0)
   bool progress = true;
   double progress_interval_s = 1.0;
-  bool profile = false;       // time each stage (synchronises the device after each)
-  double stop_time = -1;      // stop early at this simulated time (< 0: scene end time)
+  bool profile = false;  // time each stage (synchronises the device after each)
+  double stop_time = -1; // stop early at this simulated time (< 0: scene end time)
 };
 
 struct RunSummary {
-  std::uint64_t steps = 0;    // steps taken by this run (not counting those before a restart)
-  double sim_time = 0;        // simulated time reached
+  std::uint64_t steps = 0; // steps taken by this run (not counting those before a restart)
+  double sim_time = 0;     // simulated time reached
   double wall_seconds = 0;
   double particle_steps_per_s = 0;
-  std::uint64_t frames = 0;   // snapshots written by this run
+  std::uint64_t frames = 0; // snapshots written by this run
   std::string last_snapshot;
   Diagnostics diagnostics;
   std::vector<Pipeline::Stage> stages; // with their times when profiled (run functions dropped)

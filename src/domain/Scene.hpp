@@ -171,7 +171,13 @@ struct Scene {
   } coupling;
 
   /// The porous knit (module "capillary": Eq. 9-12).
+  enum class AbsorptionModel { Paper, Conserving };
   struct Capillary {
+    // paper: saturation from the fluid around each knit point (Eq. 9), fluid stays particles;
+    // conserving: particles touching the fabric are absorbed into it, the absorbed fluid moves
+    // by Darcy's law and drips from points holding more than emit_saturation of their capacity.
+    AbsorptionModel model = AbsorptionModel::Paper;
+    double emit_saturation = 1.0;
     double porosity = 0.8;      // phi: void fraction of the knit's volume
     double permeability = 1e-9; // kappa [m^2]
     double sigma = 0.072;       // sigma [N/m] (water's surface tension)

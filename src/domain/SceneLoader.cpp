@@ -105,8 +105,13 @@ void read_coupling(const TableReader& t, Scene& s) {
 }
 
 void read_capillary(const TableReader& t, Scene& s) {
-  t.allow_only({"porosity", "permeability", "sigma"});
+  t.allow_only({"model", "emit_saturation", "porosity", "permeability", "sigma"});
   auto& c = s.capillary;
+  constexpr std::array kModels{
+      Choice<Scene::AbsorptionModel>{"paper", Scene::AbsorptionModel::Paper},
+      Choice<Scene::AbsorptionModel>{"conserving", Scene::AbsorptionModel::Conserving}};
+  t.read("model", c.model, kModels);
+  t.read("emit_saturation", c.emit_saturation, Range::at_least(1));
   t.read("porosity", c.porosity, Range::above_up_to(0, 1));
   t.read("permeability", c.permeability, Range::positive());
   t.read("sigma", c.sigma, Range::at_least(0));

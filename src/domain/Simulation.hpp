@@ -41,6 +41,10 @@ struct Diagnostics {
   double absorbed_mass = 0;            // sum of the knit points' m_fluid [kg]
   double max_saturation = 0, mean_saturation = 0;
   std::uint64_t wet_points = 0; // knit points with s > 0.01
+  double fluid_mass = 0;        // sum of the free fluid particles' masses [kg]
+  // Mass-conserving absorption (capillary.model = "conserving"), whole run.
+  std::uint64_t absorbed_particles = 0, emitted_particles = 0;
+  double diffused_mass = 0; // moved between knit points [kg]
 };
 
 /// What `knitflow plan` prints: computed from the scene alone, nothing allocated or run.

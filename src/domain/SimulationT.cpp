@@ -1,12 +1,14 @@
 // SimulationT<T>: the fluid + boundary pipeline of P1 in precision T on one backend.
 #include "core/Error.hpp"
 #include "domain/FrameFields.hpp"
+#include "domain/KnitBuilder.hpp"
 #include "domain/KnitSystem.hpp"
 #include "domain/MeshObstacle.hpp"
 #include "domain/RigidShapes.hpp"
 #include "domain/Samplers.hpp"
 #include "domain/Simulation.hpp"
 #include "kernels/boundary/Boundary.hpp"
+#include "kernels/coupling/Absorption.hpp"
 #include "kernels/coupling/KnitFluidCoupling.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/integrate/Verlet.hpp"
@@ -91,6 +93,7 @@ private:
   void build_pipeline();
   void init_particles();
   void init_coupling();
+  void init_absorption(const CouplingParams<T>& cp);
   void update_shapes(double t);
   void sort_fluid();
   void sort_boundary();
@@ -123,6 +126,13 @@ private:
 
   std::optional<KnitSystem<T>> knit_;
   std::optional<KnitFluidCoupling<T>> coupling_;
+  std::optional<ConservingAbsorption<T>> absorption_; // capillary.model = "conserving"
+  std::uint64_t next_fluid_id_ = 0;
+  void begin_coupling() {
+    coupling_->begin_step(ex_, knit_->set(), fluid_side(),
+                          absorption_ ? absorption_->absorbed().data() : nullptr,
+                          absorption_ ? absorption_->capacity().data() : nullptr);
+  }
   std::optional<FluidSet<T>> fluid_;
   std::optional<BoundarySet<T>> boundary_;
   std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
@@ -172,6 +182,8 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     sort_fluid();
     compute_forces(); // a(t = 0), which the first half kick needs
   }
+  if (coupling_on_)
+    begin_coupling(); // saturation at t = 0, for snapshots and diagnostics before a step
 }
 
 template <typename T>
@@ -198,6 +210,7 @@ void SimulationT<T>::init_particles() {
     fluid_->a.assign(std::vector<Vec3<T>>(x.size(), Vec3<T>{}));
     fluid_->m.assign(std::vector<T>(x.size(), static_cast<T>(m)));
     fluid_->id.assign(ids);
+    next_fluid_id_ = ids.size();
     fluid_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_));
   }
   if (boundary_on_) {
@@ -227,12 +240,51 @@ void SimulationT<T>::init_particles() {
 }
 
 template <typename T>
+void SimulationT<T>::init_absorption(const CouplingParams<T>& cp) {
+  // Pore links: in-layer stretch springs and the straight springs between layers. Conductance
+  // rho0 kappa / mu times the link's cross-section over its length, (V_i + V_j) / (2 L^2)
+  // (exact for a grid's u and v links: V / a^2 = b t / (3 a)).
+  const KnitMesh mesh = build_knit(scene_);
+  const double vpm = scene_.knit.thickness / scene_.knit.mass_per_area;
+  const double rho0 = scene_.fluid.rest_density, phi = scene_.capillary.porosity;
+  const double darcy =
+      rho0 * scene_.capillary.permeability / std::max(scene_.fluid.viscosity, 1e-6);
+  std::vector<std::array<std::uint32_t, 2>> links;
+  std::vector<double> conductance;
+  for (const Spring& sp : mesh.springs)
+    if (sp.kind == SpringKind::Stretch || sp.kind == SpringKind::VolumeStraight) {
+      links.push_back({sp.i, sp.j});
+      conductance.push_back(darcy * (mesh.m[sp.i] + mesh.m[sp.j]) * vpm / (2 * sp.rest * sp.rest));
+    }
+  std::vector<T> dry(mesh.m.size()), capacity(mesh.m.size());
+  for (std::size_t i = 0; i < dry.size(); ++i) {
+    dry[i] = static_cast<T>(mesh.m[i]);
+    capacity[i] = static_cast<T>(phi * mesh.m[i] * vpm * rho0);
+  }
+  AbsorptionParams<T> ap;
+  ap.reach = cp.reach;
+  ap.emit_saturation = static_cast<T>(scene_.capillary.emit_saturation);
+  ap.drop_mass = static_cast<T>(lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support,
+                                                      scene_.fluid.spacing, rho0));
+  ap.min_particle_mass = static_cast<T>(0.1 * double(ap.drop_mass));
+  ap.drop_offset = static_cast<T>(double(cp.reach) + scene_.knit.thickness);
+  const double g = norm(scene_.gravity);
+  ap.down = g > 0 ? vec_cast<T>(scene_.gravity * (1 / g)) : Vec3<T>{T(0), T(0), T(-1)};
+  ap.gravity = vec_cast<T>(scene_.gravity);
+  ap.rho0 = static_cast<T>(rho0);
+  ap.pressure_scale = cp.pressure_scale;
+  absorption_.emplace(ex_.backend, ap, dry, capacity, links, conductance);
+}
+
+template <typename T>
 void SimulationT<T>::init_coupling() {
   const CouplingParams<T> p = coupling_params<T>(scene_, knit_->longest_spacing());
   const double reach = std::max(double(p.reach), p.capillary ? h_ : 0.0);
   // Cells 20% over the reach: the knit grid is sorted again only when a point moved that far.
   coupling_.emplace(ex_.backend, scene_.solver.kernel, p,
                     NeighbourGrid<T>::cover(scene_.domain.min, scene_.domain.max, 1.2 * reach));
+  if (p.capillary && scene_.capillary.model == Scene::AbsorptionModel::Conserving)
+    init_absorption(p);
   if (!p.contact)
     return;
   const CouplingLimits lim = coupling_limits(scene_, double(p.dem.k), knit_->min_free_mass());
@@ -245,13 +297,32 @@ void SimulationT<T>::build_pipeline() {
   const bool contact = coupling_on_ && scene_.has(Module::Contact);
   const bool capillary = coupling_on_ && scene_.has(Module::Capillary);
   const char* coupling_module = capillary ? "capillary" : "contact";
+  if (capillary && scene_.capillary.model == Scene::AbsorptionModel::Conserving) {
+    pipeline_.add(
+        "capillary.absorb", "capillary",
+        "fluid particles touching an unsaturated knit point join its absorbed mass "
+        "(mass and momentum kept; the particles are removed)",
+        [this] {
+          if (absorption_->absorb(ex_, knit_->set(), *fluid_, fluid_grid_->view(), *coupling_))
+            sort_fluid();
+        });
+    pipeline_.add("capillary.diffuse", "capillary",
+                  "absorbed fluid moves between neighbouring knit points (Darcy: capillary "
+                  "suction and gravity)",
+                  [this] { absorption_->diffuse(ex_, knit_->set(), dt_); });
+    pipeline_.add("capillary.emit", "capillary",
+                  "oversaturated knit points emit drops (fluid particles)", [this] {
+                    if (absorption_->emit(ex_, knit_->set(), *fluid_, next_fluid_id_))
+                      sort_fluid();
+                  });
+  }
   if (coupling_on_)
     pipeline_.add("coupling.begin", coupling_module,
                   capillary ? "knit saturation (Eq. 9), Leverett J (Eq. 11), capillary pressure "
                               "(Eq. 10) from the fluid around each knit point; fluid impulses "
                               "cleared"
                             : "knit grid for the contact; fluid impulses cleared",
-                  [this] { coupling_->begin_step(ex_, knit_->set(), fluid_side()); });
+                  [this] { begin_coupling(); });
   if (knit_on_)
     pipeline_.add(
         "knit.step", "knit",
@@ -467,6 +538,7 @@ io::Frame SimulationT<T>::frame() const {
   fr.scalars.push_back({"guard_corrections", static_cast<double>(guard_corrections_)});
   fr.scalars.push_back({"outflow_particles", static_cast<double>(outflow_particles_)});
   fr.scalars.push_back({"outflow_mass", outflow_mass_});
+  fr.scalars.push_back({"next_fluid_id", static_cast<double>(next_fluid_id_)});
   if (fluid_on_) {
     io::Phase p{"fluid", {}};
     p.fields.push_back(io::Field::from("position", flatten(fluid_->x.to_host()), 3));
@@ -490,17 +562,26 @@ io::Frame SimulationT<T>::frame() const {
   }
   if (knit_on_) {
     io::Phase kp = knit_->phase();
+    std::vector<double> wet; // the knit's saturation, for the yarns
     if (coupling_ && scene_.has(Module::Capillary)) {
-      auto& c = const_cast<KnitFluidCoupling<T>&>(*coupling_);
-      auto& self = const_cast<SimulationT<T>&>(*this);
-      if (c.saturation().size() != knit_->size())
-        c.begin_step(ex_, self.knit_->set(), self.fluid_side());
-      kp.fields.push_back(io::Field::from("saturation", c.saturation().to_host(), 1));
-      kp.fields.push_back(io::Field::from("fluid_mass", c.fluid_mass().to_host(), 1));
+      std::vector<T> sat, held;
+      if (absorption_) {
+        held = absorption_->absorbed().to_host();
+        const auto cap = absorption_->capacity().to_host();
+        sat.resize(held.size());
+        for (std::size_t i = 0; i < held.size(); ++i)
+          sat[i] = held[i] / cap[i];
+      } else {
+        sat = coupling_->saturation().to_host();
+        held = coupling_->fluid_mass().to_host();
+      }
+      wet.assign(sat.begin(), sat.end());
+      kp.fields.push_back(io::Field::from("saturation", sat, 1));
+      kp.fields.push_back(io::Field::from("fluid_mass", held, 1));
     }
     fr.phases.push_back(std::move(kp));
     if (scene_.knit.yarn_samples > 0)
-      fr.phases.push_back(knit_->yarn_phase());
+      fr.phases.push_back(knit_->yarn_phase(wet.empty() ? nullptr : &wet));
   }
   return fr;
 }
@@ -519,6 +600,8 @@ void SimulationT<T>::restore(const io::Frame& fr) {
       outflow_particles_ = static_cast<std::uint64_t>(v);
     else if (k == "outflow_mass")
       outflow_mass_ = v;
+    else if (k == "next_fluid_id")
+      next_fluid_id_ = static_cast<std::uint64_t>(v);
   update_shapes(time_);
   if (fluid_on_) {
     const io::Phase* p = fr.find("fluid");
@@ -553,6 +636,13 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     if (!p)
       throw Error("restart: the snapshot has no knit phase but the scene has knit");
     knit_->restore(*p);
+    if (absorption_) {
+      const io::Field* a = p->find("fluid_mass");
+      if (!a)
+        throw Error("restart: the snapshot's knit has no fluid_mass but the scene absorbs fluid "
+                    "(capillary.model = \"conserving\")");
+      absorption_->restore(ex_, knit_->set(), a->as<T>());
+    }
   }
   // The fluid order is kept as written; the next step's sort starts from it as the
   // uninterrupted run did. The grid tables are rebuilt by that sort.
@@ -585,6 +675,15 @@ Diagnostics SimulationT<T>::diagnostics() const {
       d.max_saturation = cs.max_saturation;
       d.mean_saturation = cs.mean_saturation;
       d.wet_points = cs.wet_points;
+      if (absorption_) {
+        d.absorbed_particles = absorption_->stats().absorbed_particles;
+        d.emitted_particles = absorption_->stats().emitted_particles;
+        d.diffused_mass = absorption_->stats().diffused_mass;
+        const auto a = absorption_->absorbed().to_host();
+        d.absorbed_mass = 0;
+        for (T q : a)
+          d.absorbed_mass += double(q);
+      }
     }
     d.knit_min_rigid_distance = solids_.empty()
                                     ? std::numeric_limits<double>::infinity()
@@ -603,6 +702,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
   for (std::size_t i = 0; i < v.size(); ++i) {
     const double v2 = norm2(vec_cast<double>(v[i]));
     d.kinetic_energy += 0.5 * m[i] * v2;
+    d.fluid_mass += m[i];
     d.max_speed = std::max(d.max_speed, std::sqrt(v2));
     const double e = (rho[i] - rho0) / rho0;
     d.max_density_error = std::max(d.max_density_error, e);

@@ -51,26 +51,38 @@ StitchCell quad_cell(const KnitPieceLayout& L, const std::array<std::uint32_t, 4
   return c;
 }
 
+/// The knit points' positions and, optionally, a scalar carried along (saturation).
+struct Source {
+  const std::vector<Vec3d>& x;
+  const std::vector<double>* s;
+};
+
 /// Bonding point t_{k+1} (k = 0..11) of a cell; Middle is halfway between the knit and the purl
-/// point (on the middle layer of a flat patch).
-Vec3d bonding(const std::vector<Vec3d>& x, const StitchCell& c, Side side, int k) {
-  const Vec3d m[4] = {x[c.front[0]], x[c.front[1]], x[c.front[2]], x[c.front[3]]};
-  const Vec3d mb[4] = {x[c.back[0]], x[c.back[1]], x[c.back[2]], x[c.back[3]]};
-  if (side == Side::Middle)
-    return (bonding_point(k, m, mb, false) + bonding_point(k, m, mb, true)) * 0.5;
-  return bonding_point(k, m, mb, side == Side::Purl);
+/// point (on the middle layer of a flat patch). The scalar takes the same weights (they sum to 1).
+YarnPoint bonding(const Source& src, const StitchCell& c, Side side, int k) {
+  auto eval = [&](auto value) {
+    const Vec3d m[4] = {value(c.front[0]), value(c.front[1]), value(c.front[2]), value(c.front[3])};
+    const Vec3d mb[4] = {value(c.back[0]), value(c.back[1]), value(c.back[2]), value(c.back[3])};
+    if (side == Side::Middle)
+      return (bonding_point(k, m, mb, false) + bonding_point(k, m, mb, true)) * 0.5;
+    return bonding_point(k, m, mb, side == Side::Purl);
+  };
+  YarnPoint p{eval([&](std::uint32_t i) { return src.x[i]; }), 0};
+  if (src.s)
+    p.s = eval([&](std::uint32_t i) { return Vec3d{(*src.s)[i], 0, 0}; }).x;
+  return p;
 }
 
-void push_unique(std::vector<Vec3d>& y, const Vec3d& p) {
-  if (y.empty() || norm2(y.back() - p) > 0)
+void push_unique(std::vector<YarnPoint>& y, const YarnPoint& p) {
+  if (y.empty() || norm2(y.back().x - p.x) > 0)
     y.push_back(p);
 }
 
 /// Grid pieces: one yarn per course, stitches K or P from the chart.
-std::vector<std::vector<Vec3d>> grid_yarns(const std::vector<Vec3d>& x, const KnitPieceLayout& L,
-                                           const std::vector<std::string>& chart) {
+std::vector<std::vector<YarnPoint>> grid_yarns(const Source& x, const KnitPieceLayout& L,
+                                               const std::vector<std::string>& chart) {
   const int cu = L.periodic_u ? L.nu : L.nu - 1, cv = L.nv - 1;
-  std::vector<std::vector<Vec3d>> yarns;
+  std::vector<std::vector<YarnPoint>> yarns;
   if (cu < 1 || cv < 1)
     return yarns;
   // Eq. 1 gives the stockinette stitch; a purl stitch mirrors it through the thickness. Where a
@@ -80,7 +92,7 @@ std::vector<std::vector<Vec3d>> grid_yarns(const std::vector<Vec3d>& x, const Kn
   // arc's dip (t2 t3) moves to the middle layer: on the back or front layer it would cut through
   // the old legs, which then lie on the same layer.
   for (int j = 0; j <= cv; ++j) {
-    std::vector<Vec3d> y;
+    std::vector<YarnPoint> y;
     for (int i = 0; i < cu; ++i) {
       const Side own = side_of(is_purl(chart, i, j)), above = side_of(is_purl(chart, i, j + 1));
       if (j < cv) { // left leg down: head t5 t6, then t7 (t8 is the arc's t1, or the cast-on edge)
@@ -102,9 +114,12 @@ std::vector<std::vector<Vec3d>> grid_yarns(const std::vector<Vec3d>& x, const Kn
           // this wale's top corner, so this one crosses below it, mid-thickness at v = 5/6.
           const int i1 = L.periodic_u ? (i + 1) % L.nu : i + 1;
           auto at = [&](int layer) {
-            return x[L.index(layer, i1, j - 1)] * (1 / 6.) + x[L.index(layer, i1, j)] * (5 / 6.);
+            const std::uint32_t a = L.index(layer, i1, j - 1), b = L.index(layer, i1, j);
+            return YarnPoint{x.x[a] * (1 / 6.) + x.x[b] * (5 / 6.),
+                             x.s ? (*x.s)[a] / 6. + (*x.s)[b] * (5 / 6.) : 0.0};
           };
-          push_unique(y, (at(0) + at(2)) * 0.5);
+          const YarnPoint lo = at(0), hi = at(2);
+          push_unique(y, YarnPoint{(lo.x + hi.x) * 0.5, 0.5 * (lo.s + hi.s)});
         }
       }
       if (j < cv) { // right leg up: t12 t11, then the head t10 t9
@@ -126,7 +141,7 @@ std::vector<std::vector<Vec3d>> grid_yarns(const std::vector<Vec3d>& x, const Kn
 /// with this one's top. Each quad's legs go into its strip's yarn with the head arc of the quad
 /// below; arcs with no quad above form the strips' last yarns. A strip ends where the next quad's
 /// frame is turned (an irregular vertex or a rotated face).
-std::vector<std::vector<Vec3d>> mesh_yarns(const std::vector<Vec3d>& x, const KnitPieceLayout& L) {
+std::vector<std::vector<YarnPoint>> mesh_yarns(const Source& x, const KnitPieceLayout& L) {
   const auto& Q = L.quads;
   const std::size_t n = Q.size();
   constexpr std::int64_t kNone = -1;
@@ -148,13 +163,13 @@ std::vector<std::vector<Vec3d>> mesh_yarns(const std::vector<Vec3d>& x, const Kn
     left[q] = across(q, 3);
   }
   const Side K = Side::Knit;
-  std::vector<std::vector<Vec3d>> yarns;
+  std::vector<std::vector<YarnPoint>> yarns;
   // Strips through the quads for which `member` holds, from those whose left neighbour is not one
   // (open strips) and then around what is left (closed strips, which end where they began).
   auto strips = [&](auto member, auto add) {
     std::vector<char> done(n, 0);
     auto walk = [&](std::size_t start, bool closed) {
-      std::vector<Vec3d> y;
+      std::vector<YarnPoint> y;
       std::int64_t q = std::int64_t(start);
       do {
         done[q] = 1;
@@ -172,12 +187,12 @@ std::vector<std::vector<Vec3d>> mesh_yarns(const std::vector<Vec3d>& x, const Kn
       if (member(q) && !done[q])
         walk(q, true);
   };
-  auto arc = [&](std::vector<Vec3d>& y, std::size_t q) {
+  auto arc = [&](std::vector<YarnPoint>& y, std::size_t q) {
     for (int k : {0, 1, 2, 3})
       push_unique(y, bonding(x, quad_cell(L, Q[q]), K, k));
   };
   strips([](std::size_t) { return true; },
-         [&](std::vector<Vec3d>& y, std::size_t q) {
+         [&](std::vector<YarnPoint>& y, std::size_t q) {
            const StitchCell c = quad_cell(L, Q[q]);
            for (int k : {4, 5, 6, 7})
              push_unique(y, bonding(x, c, K, k));
@@ -192,10 +207,53 @@ std::vector<std::vector<Vec3d>> mesh_yarns(const std::vector<Vec3d>& x, const Kn
 
 } // namespace
 
+std::vector<std::vector<YarnPoint>> yarn_points(const std::vector<Vec3d>& x,
+                                                const std::vector<double>* scalar,
+                                                const KnitPieceLayout& L,
+                                                const std::vector<std::string>& chart) {
+  const Source src{x, scalar};
+  return L.grid ? grid_yarns(src, L, chart) : mesh_yarns(src, L);
+}
+
 std::vector<std::vector<Vec3d>> yarn_bonding_points(const std::vector<Vec3d>& x,
                                                     const KnitPieceLayout& L,
                                                     const std::vector<std::string>& chart) {
-  return L.grid ? grid_yarns(x, L, chart) : mesh_yarns(x, L);
+  std::vector<std::vector<Vec3d>> out;
+  for (const auto& y : yarn_points(x, nullptr, L, chart)) {
+    std::vector<Vec3d> p;
+    p.reserve(y.size());
+    for (const YarnPoint& q : y)
+      p.push_back(q.x);
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+YarnLines yarn_lines(const std::vector<std::vector<YarnPoint>>& yarns, int samples) {
+  std::vector<std::vector<Vec3d>> pos(yarns.size());
+  for (std::size_t y = 0; y < yarns.size(); ++y)
+    for (const YarnPoint& q : yarns[y])
+      pos[y].push_back(q.x);
+  YarnLines out = yarn_lines(pos, samples);
+  // The scalar along the same Catmull-Rom spans, never below zero (the spline may undershoot).
+  for (std::size_t y = 0; y < yarns.size(); ++y) {
+    const auto& p = yarns[y];
+    const std::size_t n = p.size();
+    if (n == 0)
+      continue;
+    auto at = [&](std::ptrdiff_t k) {
+      return p[static_cast<std::size_t>(std::clamp<std::ptrdiff_t>(k, 0, std::ptrdiff_t(n) - 1))].s;
+    };
+    for (std::size_t s = 0; s + 1 < n; ++s)
+      for (int q = 0; q < samples; ++q) {
+        const Vec3d c = catmull_rom(Vec3d{at(std::ptrdiff_t(s) - 1), 0, 0}, Vec3d{p[s].s, 0, 0},
+                                    Vec3d{p[s + 1].s, 0, 0}, Vec3d{at(std::ptrdiff_t(s) + 2), 0, 0},
+                                    double(q) / samples);
+        out.s.push_back(std::max(0.0, c.x));
+      }
+    out.s.push_back(p.back().s);
+  }
+  return out;
 }
 
 YarnLines yarn_lines(const std::vector<std::vector<Vec3d>>& yarns, int samples) {

@@ -25,14 +25,29 @@ std::vector<std::vector<Vec3d>> yarn_bonding_points(const std::vector<Vec3d>& x,
                                                     const KnitPieceLayout& piece,
                                                     const std::vector<std::string>& chart);
 
+/// A bonding point and a scalar carried with it (the knit's saturation, for wet yarns).
+struct YarnPoint {
+  Vec3d x;
+  double s = 0;
+};
+
+/// yarn_bonding_points with a per-knit-point scalar (nullptr: zero) interpolated with the same
+/// Eq. 1 weights.
+std::vector<std::vector<YarnPoint>> yarn_points(const std::vector<Vec3d>& x,
+                                                const std::vector<double>* scalar,
+                                                const KnitPieceLayout& piece,
+                                                const std::vector<std::string>& chart);
+
 /// Polylines through all yarns: `samples` Catmull-Rom points per span between bonding points.
 struct YarnLines {
   std::vector<Vec3d> x;
+  std::vector<double> s;           // the scalar per point (yarn_lines of YarnPoints only)
   std::vector<std::uint32_t> yarn; // yarn index of each point
   std::vector<std::array<std::uint32_t, 2>>
       segment; // per point: (i, i + 1), or (i, i) at a yarn's end
 };
 
 YarnLines yarn_lines(const std::vector<std::vector<Vec3d>>& yarns, int samples);
+YarnLines yarn_lines(const std::vector<std::vector<YarnPoint>>& yarns, int samples);
 
 } // namespace kf

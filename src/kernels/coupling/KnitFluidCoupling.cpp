@@ -26,16 +26,7 @@ KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
 template <typename T>
 void KnitFluidCoupling<T>::sort_knit(const exec::Exec& ex, KnitSet<T>& knit) {
   const std::size_t n = knit.size();
-  bool sort = x_sorted_at_.size() != n;
-  if (!sort) {
-    const Vec3<T>* x = knit.x.data();
-    const Vec3<T>* x0 = x_sorted_at_.data();
-    const T moved2 = exec::transform_reduce(
-        ex, n, T(0), exec::MaxOp{}, [=] KF_HD(std::size_t i) { return norm2(x[i] - x0[i]); },
-        "coupling.moved");
-    sort = !(moved2 <= skin2_);
-  }
-  if (!sort)
+  if (!moved_past_skin(ex, knit.x, x_sorted_at_, skin2_, "coupling.moved"))
     return;
   grid_.build(ex, knit.x.data(), n);
   x_sorted_at_.resize(n);
@@ -48,13 +39,35 @@ void KnitFluidCoupling<T>::sort_knit(const exec::Exec& ex, KnitSet<T>& knit) {
 }
 
 template <typename T>
+void KnitFluidCoupling<T>::sync_knit(const exec::Exec& ex, KnitSet<T>& knit) {
+  sort_knit(ex, knit);
+  exec::gather(ex, grid_.permutation(), knit.x, x_, "coupling.gather");
+}
+
+template <typename T>
 void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
-                                      const FluidSide<T>& fluid) {
+                                      const FluidSide<T>& fluid, const T* absorbed,
+                                      const T* capacity) {
   const std::size_t n = knit.size();
   saturation_.resize(n);
   pressure_.resize(n);
   fluid_mass_.resize(n);
-  if (params_.capillary) {
+  conserving_ = absorbed != nullptr;
+  if (conserving_) {
+    T* s = saturation_.data();
+    T* P = pressure_.data();
+    T* mf = fluid_mass_.data();
+    const T scale = params_.pressure_scale;
+    exec::for_each(
+        ex, n,
+        [=] KF_HD(std::size_t i) {
+          const T si = absorbed[i] / capacity[i];
+          s[i] = si;
+          P[i] = scale * leverett_j(si > T(1.5) ? T(1.5) : si);
+          mf[i] = absorbed[i];
+        },
+        "coupling.saturation");
+  } else if (params_.capillary) {
     with_kernel<T>(kernel_, params_.h, [&](auto k) {
       using K = decltype(k);
       exec::for_each(ex, n,
@@ -70,6 +83,7 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
   }
   sort_knit(ex, knit);
   exec::gather(ex, grid_.permutation(), pressure_, p_, "coupling.gather");
+  exec::gather(ex, grid_.permutation(), knit.m, m_, "coupling.gather"); // wet mass changes
   impulse_.resize(fluid.f.n);
   exec::fill(ex, impulse_, Vec3<T>{T(0), T(0), T(0)}, "coupling.impulse");
 }
@@ -89,10 +103,10 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
                                      grid_.view(), weight, impulse_.data()},
         "coupling.fluid");
     exec::for_each(ex, knit.size(),
-                   KnitCouplingEvaluator<T, K>{k, params_, knit.view(), pressure_.data(),
-                                               params_.capillary ? fluid_mass_.data() : nullptr,
-                                               fluid.f.x, fluid.f.v, fluid.f.m, fluid.f.rho,
-                                               fluid.cells},
+                   KnitCouplingEvaluator<T, K>{
+                       k, params_, knit.view(), pressure_.data(),
+                       params_.capillary && !conserving_ ? fluid_mass_.data() : nullptr, fluid.f.x,
+                       fluid.f.v, fluid.f.m, fluid.f.rho, fluid.cells},
                    "coupling.knit");
   });
 }

@@ -40,7 +40,10 @@ public:
 
   /// Saturation, capillary pressure and absorbed mass of every knit point (when capillary), the
   /// knit grid sorted again if a point moved farther than its skin, fluid impulses zeroed.
-  void begin_step(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid);
+  /// With absorbed and capacity (the mass-conserving model) s = absorbed / capacity and the
+  /// absorbed fluid's weight is already in the knit's mass; else s comes from the fluid around.
+  void begin_step(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid,
+                  const T* absorbed = nullptr, const T* capacity = nullptr);
   /// Knit a += coupling / m; fluid impulse += weight * (the opposite forces).
   void add_forces(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid, T weight);
   /// Fluid v += impulse / m.
@@ -55,9 +58,14 @@ public:
   /// Sorts the knit grid again if a point moved past the skin (public: nvcc's device lambdas
   /// may not live in private members).
   void sort_knit(const exec::Exec& ex, KnitSet<T>& knit);
+  /// The knit grid sorted for the current positions and the sorted positions gathered.
+  void sync_knit(const exec::Exec& ex, KnitSet<T>& knit);
+  const NeighbourGrid<T>& knit_grid() const { return grid_; }
+  const exec::DeviceBuffer<Vec3<T>>& sorted_x() const { return x_; }
 
 private:
   KernelType kernel_;
+  bool conserving_ = false;
   CouplingParams<T> params_;
   NeighbourGrid<T> grid_;
   T skin2_;

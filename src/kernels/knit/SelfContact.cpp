@@ -18,15 +18,7 @@ KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
 template <typename T>
 void KnitSelfContact<T>::update(const exec::Exec& ex, KnitSet<T>& set) {
   const std::size_t n = set.size();
-  bool sort = x_sorted_at_.size() != n;
-  if (!sort) {
-    const Vec3<T>* x = set.x.data();
-    const Vec3<T>* x0 = x_sorted_at_.data();
-    const T moved2 = exec::transform_reduce(
-        ex, n, T(0), exec::MaxOp{}, [=] KF_HD(std::size_t i) { return norm2(x[i] - x0[i]); },
-        "knit.self.moved");
-    sort = !(moved2 <= skin2_); // a NaN sorts too (and is caught by the step-size check)
-  }
+  const bool sort = moved_past_skin(ex, set.x, x_sorted_at_, skin2_, "knit.self.moved");
   const auto& perm = grid_.permutation();
   if (sort) {
     grid_.build(ex, set.x.data(), n);

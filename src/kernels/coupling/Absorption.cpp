@@ -1,0 +1,242 @@
+#include "kernels/coupling/Absorption.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace kf {
+
+template <typename T>
+ConservingAbsorption<T>::ConservingAbsorption(
+    exec::Backend b, const AbsorptionParams<T>& params, const std::vector<T>& dry_mass,
+    const std::vector<T>& capacity, const std::vector<std::array<std::uint32_t, 2>>& links,
+    const std::vector<double>& conductance)
+    : params_(params), dry_(b, 0, "absorb.dry"), absorbed_(b, 0, "absorb.absorbed"),
+      capacity_(b, 0, "absorb.capacity"), delta_(b, 0, "absorb.delta"),
+      s_sorted_(b, 0, "absorb.s_sorted"), link_start_(b, 0, "absorb.link_start"),
+      link_other_(b, 0, "absorb.link_other"), target_(b, 0, "absorb.target"),
+      keep_(b, 0, "absorb.keep"), emit_(b, 0, "absorb.emit"), offsets_(b, 0, "absorb.offsets"),
+      link_k_(b, 0, "absorb.link_k"), fraction_(b, 0, "absorb.fraction"),
+      dmom_(b, 0, "absorb.delta_momentum") {
+  const std::size_t n = dry_mass.size();
+  dry_.assign(dry_mass);
+  absorbed_.assign(std::vector<T>(n, T(0)));
+  capacity_.assign(capacity);
+  delta_.resize(n);
+  // Each link in both ends' rows (gather: each point sums its own fluxes).
+  std::vector<std::uint32_t> start(n + 1, 0), other(2 * links.size());
+  std::vector<T> k(2 * links.size());
+  for (const auto& l : links) {
+    ++start[l[0] + 1];
+    ++start[l[1] + 1];
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    start[i + 1] += start[i];
+  std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+  std::vector<double> sum_k(n, 0);
+  for (std::size_t l = 0; l < links.size(); ++l) {
+    const auto [i, j] = links[l];
+    other[fill[i]] = j;
+    k[fill[i]++] = static_cast<T>(conductance[l]);
+    other[fill[j]] = i;
+    k[fill[j]++] = static_cast<T>(conductance[l]);
+    sum_k[i] += conductance[l];
+    sum_k[j] += conductance[l];
+  }
+  link_start_.assign(start);
+  link_other_.assign(other);
+  link_k_.assign(k);
+  // Explicit stability: dPhi/dm = -scale J'(s) / C with |J'| <= 4.5 for s in [0, 1.5].
+  for (std::size_t i = 0; i < n; ++i)
+    if (sum_k[i] > 0)
+      stable_substep_ =
+          std::min(stable_substep_,
+                   0.5 * double(capacity[i]) / (4.5 * double(params.pressure_scale) * sum_k[i]));
+}
+
+template <typename T>
+std::size_t ConservingAbsorption<T>::absorb(const exec::Exec& ex, KnitSet<T>& knit,
+                                            FluidSet<T>& fluid, CellView<T> fluid_cells,
+                                            KnitFluidCoupling<T>& coupling) {
+  const std::size_t nf = fluid.size(), n = knit.size();
+  if (nf == 0 || n == 0)
+    return 0;
+  coupling.sync_knit(ex, knit);
+  const auto& perm = coupling.knit_grid().permutation();
+  // Saturation in the grid's order, for the fluid side's choice.
+  s_sorted_.resize(n);
+  {
+    const T* a = absorbed_.data();
+    const T* c = capacity_.data();
+    const std::uint32_t* pp = perm.data();
+    T* ss = s_sorted_.data();
+    exec::for_each(
+        ex, n, [=] KF_HD(std::size_t k) { ss[k] = a[pp[k]] / c[pp[k]]; }, "absorb.saturation");
+  }
+  target_.resize(nf);
+  exec::for_each(ex, nf,
+                 AbsorbTargetEvaluator<T>{
+                     fluid.x.data(), coupling.sorted_x().data(), s_sorted_.data(), perm.data(),
+                     coupling.knit_grid().view(), params_.reach, target_.data()},
+                 "absorb.target");
+  fraction_.resize(n);
+  exec::for_each(ex, n,
+                 AbsorbFractionEvaluator<T>{knit.x.data(), absorbed_.data(), capacity_.data(),
+                                            fluid.m.data(), target_.data(), fluid_cells,
+                                            fraction_.data()},
+                 "absorb.fraction");
+  const T m_min = params_.min_particle_mass;
+  exec::for_each(ex, n,
+                 AbsorbGatherEvaluator<T>{knit.view(), dry_.data(), absorbed_.data(),
+                                          fraction_.data(), fluid.x.data(), fluid.v.data(),
+                                          fluid.m.data(), target_.data(), fluid_cells, m_min},
+                 "absorb.gather");
+  keep_.resize(nf);
+  const std::uint32_t* t = target_.data();
+  const T* fr = fraction_.data();
+  T* fm = fluid.m.data();
+  Vec3<T>* fa = fluid.a.data();
+  std::uint32_t* kp = keep_.data();
+  exec::for_each(
+      ex, nf,
+      [=] KF_HD(std::size_t j) {
+        kp[j] = 1u;
+        if (t[j] == kNoTarget || fr[t[j]] <= T(0))
+          return;
+        const T give = absorbed_amount(fr[t[j]], fm[j], m_min);
+        if (give == fm[j]) {
+          kp[j] = 0u;
+          return;
+        }
+        // a holds the SPH pair forces over the old mass; the next half kick must apply the same
+        // forces to the lighter particle, or the pairs would no longer cancel.
+        const T m_old = fm[j];
+        fm[j] -= give;
+        fa[j] = fa[j] * (m_old / fm[j]);
+      },
+      "absorb.give");
+  const std::size_t gone = fluid.keep_flagged(ex, keep_);
+  stats_.absorbed_particles += gone;
+  return gone;
+}
+
+template <typename T>
+void ConservingAbsorption<T>::diffuse(const exec::Exec& ex, KnitSet<T>& knit, double dt) {
+  const std::size_t n = knit.size();
+  if (n == 0 || link_other_.size() == 0 || !(dt > 0))
+    return;
+  const int sub = static_cast<int>(std::min(1e4, std::ceil(dt / stable_substep_)));
+  const T h = static_cast<T>(dt / sub);
+  const PoreLinksView<T> links{link_start_.data(), link_other_.data(), link_k_.data()};
+  T* a = absorbed_.data();
+  const T* d = delta_.data();
+  dmom_.resize(n);
+  const Vec3<T>* dp = dmom_.data();
+  const T* dry = dry_.data();
+  const KnitView<T> kv = knit.view();
+  double moved = 0;
+  for (int s = 0; s < sub; ++s) {
+    exec::for_each(ex, n,
+                   DiffusionEvaluator<T>{links, knit.x.data(), knit.v.data(), absorbed_.data(),
+                                         capacity_.data(), params_, h, delta_.data(), dmom_.data()},
+                   "absorb.diffuse");
+    moved += 0.5 * exec::transform_reduce(
+                       ex, n, 0.0, exec::SumOp{},
+                       [=] KF_HD(std::size_t i) {
+                         const T m_old = kv.m[i];
+                         a[i] += d[i];
+                         kv.m[i] = dry[i] + a[i];
+                         if (kv.handle[i] == kFreePoint)
+                           kv.v[i] = (kv.v[i] * m_old + dp[i]) * (T(1) / kv.m[i]);
+                         return double(d[i] < T(0) ? -d[i] : d[i]);
+                       },
+                       "absorb.apply");
+  }
+  stats_.diffused_mass += moved;
+}
+
+template <typename T>
+std::size_t ConservingAbsorption<T>::emit(const exec::Exec& ex, KnitSet<T>& knit,
+                                          FluidSet<T>& fluid, std::uint64_t& next_id) {
+  const std::size_t n = knit.size();
+  if (n == 0)
+    return 0;
+  emit_.resize(n);
+  offsets_.resize(n);
+  {
+    const T* a = absorbed_.data();
+    const T* c = capacity_.data();
+    std::uint32_t* e = emit_.data();
+    const T s_emit = params_.emit_saturation, drop = params_.drop_mass;
+    exec::for_each(
+        ex, n,
+        [=] KF_HD(std::size_t i) {
+          const T excess = a[i] - s_emit * c[i];
+          const T quarter = T(0.25) * c[i];
+          e[i] = excess >= (drop < quarter ? drop : quarter) ? 1u : 0u;
+        },
+        "absorb.emit_count");
+  }
+  const std::size_t count = exec::exclusive_scan(ex, emit_, offsets_, "absorb.emit_scan");
+  if (count == 0)
+    return 0;
+  const std::size_t first = fluid.size();
+  fluid.resize(first + count);
+  const FluidView<T> f = fluid.view();
+  const KnitView<T> p = knit.view();
+  const std::uint32_t* e = emit_.data();
+  const std::uint32_t* o = offsets_.data();
+  T* a = absorbed_.data();
+  const T* c = capacity_.data();
+  const T* dry = dry_.data();
+  const AbsorptionParams<T> prm = params_;
+  const std::uint64_t id0 = next_id;
+  exec::for_each(
+      ex, n,
+      [=] KF_HD(std::size_t i) {
+        if (!e[i])
+          return;
+        const std::size_t j = first + o[i];
+        // The excess over emit_saturation, at most a full particle: small knit points (less
+        // capacity than a particle's mass) emit small drops.
+        const T excess = a[i] - prm.emit_saturation * c[i];
+        const T drop = excess < prm.drop_mass ? excess : prm.drop_mass;
+        a[i] -= drop;
+        p.m[i] = dry[i] + a[i];
+        f.x[j] = p.x[i] + prm.down * prm.drop_offset;
+        f.v[j] = p.v[i]; // the drop leaves with the point's velocity: momentum kept
+        f.a[j] = prm.gravity;
+        f.m[j] = drop;
+        f.rho[j] = prm.rho0;
+        f.p[j] = T(0);
+        f.id[j] = id0 + o[i];
+      },
+      "absorb.emit");
+  next_id += count;
+  stats_.emitted_particles += count;
+  return count;
+}
+
+template <typename T>
+void ConservingAbsorption<T>::restore(const exec::Exec& ex, KnitSet<T>& knit,
+                                      const std::vector<T>& absorbed) {
+  absorbed_.assign(absorbed);
+  const T* a = absorbed_.data();
+  const T* dry = dry_.data();
+  T* m = knit.m.data();
+  exec::for_each(
+      ex, knit.size(), [=] KF_HD(std::size_t i) { m[i] = dry[i] + a[i]; }, "absorb.restore");
+}
+
+template <typename T>
+std::size_t ConservingAbsorption<T>::bytes() const {
+  return fraction_.capacity_bytes() + dmom_.capacity_bytes() + dry_.capacity_bytes() +
+         absorbed_.capacity_bytes() + capacity_.capacity_bytes() + delta_.capacity_bytes() +
+         s_sorted_.capacity_bytes() + link_start_.capacity_bytes() + link_other_.capacity_bytes() +
+         target_.capacity_bytes() + keep_.capacity_bytes() + emit_.capacity_bytes() +
+         offsets_.capacity_bytes() + link_k_.capacity_bytes();
+}
+
+template class ConservingAbsorption<float>;
+template class ConservingAbsorption<double>;
+
+} // namespace kf
