@@ -35,6 +35,7 @@ CouplingParams<T> coupling_params(const Scene& s, double knit_spacing) {
   CouplingParams<T> p;
   p.contact = s.has(Module::Contact);
   p.capillary = s.has(Module::Capillary);
+  p.capillary_force = s.capillary.model == Scene::AbsorptionModel::Paper;
   const double rf = s.coupling.fluid_radius > 0 ? s.coupling.fluid_radius : 0.5 * s.fluid.spacing;
   const double rk = s.coupling.knit_radius > 0 ? s.coupling.knit_radius
                                                : std::max(s.knit.radius(), 0.8 * knit_spacing - rf);

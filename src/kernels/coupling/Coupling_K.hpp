@@ -15,9 +15,10 @@ namespace kf {
 
 template <typename T>
 struct CouplingParams {
-  bool contact = false;   // DEM between fluid and knit (module "contact")
-  bool capillary = false; // Eq. 9-12 (module "capillary")
-  T reach = T(0);         // R_fluid + R_knit: contact distance
+  bool contact = false;        // DEM between fluid and knit (module "contact")
+  bool capillary = false;      // Eq. 9-12 (module "capillary")
+  bool capillary_force = true; // Eq. 12 on the fluid (the paper's model; off when conserving)
+  T reach = T(0);              // R_fluid + R_knit: contact distance
   DemMaterial<T> dem;
   T h = T(0);               // kernel support of the capillary terms (the fluid's)
   T porosity = T(1);        // phi
@@ -95,7 +96,7 @@ KF_HD KF_INLINE bool coupling_pair_force(const K& kernel, const CouplingParams<T
       any = true;
     }
   }
-  if (prm.capillary && r2 < kernel.h * kernel.h && i.p != T(0)) {
+  if (prm.capillary && prm.capillary_force && r2 < kernel.h * kernel.h && i.p != T(0)) {
     const T vol_i = i.m * prm.volume_per_mass, vol_j = mj / rhoj;
     f += kernel.grad(d, ksqrt(r2)) * (vol_j * vol_i * i.p);
     any = true;
