@@ -74,7 +74,12 @@ TEST(Containment, EverySceneFileKeepsFluidOutOfSolids) {
     if (!s.has(Module::Fluid) || !s.has(Module::Boundary))
       continue;
     // Coarser and shorter than the real runs, long enough for impacts on every solid.
-    s.fluid.spacing = std::max(s.fluid.spacing, 0.02);
+    // At most 2 cm, and fine enough for four layers across every fluid block (a shallow pool
+    // of one layer only splashes).
+    double thinnest = 1e30;
+    for (const auto& b : s.fluid.blocks)
+      thinnest = std::min({thinnest, b.max.x - b.min.x, b.max.y - b.min.y, b.max.z - b.min.z});
+    s.fluid.spacing = std::max(s.fluid.spacing, std::min(0.02, thinnest / 4));
     s.end_time = std::min(s.end_time, 0.6);
     // Knit pieces coarsened alike (a quarter of the stitches each way): their dt, set by the
     // springs and the fluid contact, would otherwise make these runs the longest of the suite.
