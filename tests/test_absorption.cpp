@@ -21,19 +21,14 @@ const char* kModules = R"("fluid", "boundary", "knit", "contact", "capillary")";
 /// A hammock (the patch pinned along two edges) under a block of fluid three times what the
 /// knit can hold.
 Scene hammock(double gravity_z) {
-  Scene s = parse_scene(
-      scene_text(kModules, "min = [-0.02, -0.02, 0.056]\nmax = [0.02, 0.02, 0.086]", 0.0, R"(
+  Scene s =
+      parse_scene(scene_text(kModules, "min = [-0.02, -0.02, 0.056]\nmax = [0.02, 0.02, 0.086]",
+                             0.0, std::string(R"(
 [capillary]
 model = "conserving"
 permeability = 1e-8
-[[knit.pin]]
-min = [-0.06, -0.06, 0]
-max = [0.06, -0.049, 0.1]
-[[knit.pin]]
-min = [-0.06, 0.049, 0]
-max = [0.06, 0.06, 0.1]
-)"),
-      "<absorption>");
+)") + test::kHammockPins),
+                  "<absorption>");
   s.gravity = {0, 0, gravity_z};
   s.knit.substeps = 4;
   return s;

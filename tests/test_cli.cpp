@@ -25,7 +25,8 @@ Result run(const std::string& args, const fs::path& cwd = {}) {
   FILE* p = popen(cmd.c_str(), "r");
   std::string out;
   std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
+  while (fgets(buf.data(), buf.size(), p))
+    out += buf.data();
   const int status = pclose(p);
   return {WEXITSTATUS(status), out};
 }
@@ -37,7 +38,8 @@ TEST(Cli, BrokenScenesFailWithTheirMessageAndWriteNothing) {
   const auto cwd = test::scratch_dir("cli_broken");
   int checked = 0;
   for (const auto& e : fs::directory_iterator(test::data_dir() / "scenes" / "broken")) {
-    if (e.path().extension() != ".toml") continue;
+    if (e.path().extension() != ".toml")
+      continue;
     const Result r = run("run " + e.path().string() + " --quiet", cwd);
     EXPECT_EQ(r.code, 2) << e.path() << "\n" << r.output;
     EXPECT_NE(r.output.find("knitflow: error: "), std::string::npos) << r.output;
@@ -75,17 +77,18 @@ TEST(Cli, PlanDescribesAMeshObstacle) {
 
 TEST(Cli, RunWritesSnapshotsAndIndex) {
   const auto out = test::scratch_dir("cli_run") / "out";
-  const Result r = run("run " + (test::source_dir() / "scenes/hydrostatic.toml").string() +
-                       " --set simulation.end_time=0.01 --set output.interval=0.005 --output " +
-                       out.string());
+  const Result r =
+      run("run " + (test::source_dir() / "scenes/hydrostatic.toml").string() +
+          " --set simulation.end_time=0.01 --set output.interval=0.005 --output " + out.string());
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out / "frame_000000.h5"));
   EXPECT_TRUE(fs::exists(out / "frame_000002.h5"));
   EXPECT_TRUE(fs::exists(out / "snapshots.xmf"));
   EXPECT_NE(r.output.find("done:"), std::string::npos) << r.output;
   // Restart from frame 1 continues to the end.
-  const Result r2 = run("run " + (test::source_dir() / "scenes/hydrostatic.toml").string() +
-                        " --set simulation.end_time=0.01 --set output.interval=0.005 --quiet --output " +
-                        out.string() + " --restart " + (out / "frame_000001.h5").string());
+  const Result r2 =
+      run("run " + (test::source_dir() / "scenes/hydrostatic.toml").string() +
+          " --set simulation.end_time=0.01 --set output.interval=0.005 --quiet --output " +
+          out.string() + " --restart " + (out / "frame_000001.h5").string());
   EXPECT_EQ(r2.code, 0) << r2.output;
 }

@@ -89,18 +89,11 @@ TEST(Coupling, AContactOnlyCollisionNeverGainsEnergy) {
 // capillary force (sigma > 0) the knit holds more fluid mass than with sigma = 0 (gravity alone).
 TEST(Coupling, ADropOnDryKnitIsDrawnIn) {
   auto run = [](double sigma) {
-    Scene s =
-        parse_scene(scene_text(R"("fluid", "boundary", "knit", "contact", "capillary")",
-                               "min = [-0.015, -0.015, 0.0535]\nmax = [0.015, 0.015, 0.0935]", 0.0,
-                               "[capillary]\nsigma = " + std::to_string(sigma) + "\n" + R"(
-[[knit.pin]]
-min = [-0.06, -0.06, 0]
-max = [0.06, -0.049, 0.1]
-[[knit.pin]]
-min = [-0.06, 0.049, 0]
-max = [0.06, 0.06, 0.1]
-)"),
-                    "<coupling>");
+    Scene s = parse_scene(
+        scene_text(R"("fluid", "boundary", "knit", "contact", "capillary")",
+                   "min = [-0.015, -0.015, 0.0535]\nmax = [0.015, 0.015, 0.0935]", 0.0,
+                   "[capillary]\nsigma = " + std::to_string(sigma) + "\n" + test::kHammockPins),
+        "<coupling>");
     s.gravity = {0, 0, -9.81};
     s.knit.substeps = 4;
     auto sim = Simulation::create(s, exec::Backend::Cpu);

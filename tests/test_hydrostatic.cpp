@@ -1,7 +1,8 @@
 // A tank of water at rest. After settling:
 // - density error below 1% in the bulk (deeper than one support radius below the surface: there
 //   the kernel is cut off and particles are under-dense by construction);
-// - the pressure profile within 3% (of the bottom pressure rho0 g H) of rho0 g depth, where depth is
+// - the pressure profile within 3% (of the bottom pressure rho0 g H) of rho0 g depth, where depth
+// is
 //   measured from the free surface z0 = where the bulk pressure extrapolates to zero;
 // - the bulk pressure gradient within 3% of rho0 g, and the bottom pressure within 3% of M g / A
 //   (force balance, independent of particle arrangement);
@@ -42,7 +43,8 @@ TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
   s.solver.kernel = GetParam().kernel;
   s.fluid.support = GetParam().support;
   auto sim = Simulation::create(s, exec::Backend::Cpu);
-  while (sim->time() < 1.0 - 1e-12) sim->step(1.0);
+  while (sim->time() < 1.0 - 1e-12)
+    sim->step(1.0);
   {
     // Settled: rms speed small against the free-fall speed sqrt(g H) = 1.6 m/s.
     const Diagnostics d = sim->diagnostics();
@@ -59,7 +61,8 @@ TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
   const std::size_t n = rho.size();
   const double rho0 = s.fluid.rest_density, g = 9.81, dp = s.fluid.spacing, h = s.support_radius();
   double mass = 0;
-  for (float mi : m) mass += mi;
+  for (float mi : m)
+    mass += mi;
   const double area = 0.15 * 0.15;
   const double H = mass / (rho0 * area);
 
@@ -76,9 +79,11 @@ TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
   double sz = 0, sp = 0, szz = 0, szp = 0, ns = 0;
   std::vector<std::pair<double, double>> bulk;
   for (int k = 1; k < slices; ++k) {
-    if (!cnt[k]) continue;
+    if (!cnt[k])
+      continue;
     const double z = zsum[k] / cnt[k], pm = psum[k] / cnt[k];
-    if (z > H - 2 * h) continue;
+    if (z > H - 2 * h)
+      continue;
     bulk.push_back({z, pm});
     sz += z, sp += pm, szz += z * z, szp += z * pm, ns += 1;
   }
@@ -90,19 +95,23 @@ TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
   const double p0 = psum[0] / cnt[0];
   double max_profile_err = 0, max_bulk_rho_err = 0;
   for (const auto& [z, pm] : bulk)
-    max_profile_err = std::max(max_profile_err, std::fabs(pm - rho0 * g * (z0 - z)) / (rho0 * g * H));
+    max_profile_err =
+        std::max(max_profile_err, std::fabs(pm - rho0 * g * (z0 - z)) / (rho0 * g * H));
   for (std::size_t i = 0; i < n; ++i)
-    if (x[3 * i + 2] < z0 - h) max_bulk_rho_err = std::max(max_bulk_rho_err, std::fabs(rho[i] - rho0) / rho0);
+    if (x[3 * i + 2] < z0 - h)
+      max_bulk_rho_err = std::max(max_bulk_rho_err, std::fabs(rho[i] - rho0) / rho0);
   // Bottom layer: extrapolate its pressure to the floor (z = 0) along the measured gradient.
   const double p_floor = p0 - slope * (zsum[0] / cnt[0]);
-  std::printf("hydrostatic: gradient %.1f Pa/m (rho0 g = %.1f), surface z0 = %.4f m (H = %.4f m), "
-              "floor pressure %.1f Pa (M g / A = %.1f), profile error %.2f%%, bulk density error %.3f%%\n",
-              -slope, rho0 * g, z0, H, p_floor, pbottom_expected, 100 * max_profile_err,
-              100 * max_bulk_rho_err);
+  std::printf(
+      "hydrostatic: gradient %.1f Pa/m (rho0 g = %.1f), surface z0 = %.4f m (H = %.4f m), "
+      "floor pressure %.1f Pa (M g / A = %.1f), profile error %.2f%%, bulk density error %.3f%%\n",
+      -slope, rho0 * g, z0, H, p_floor, pbottom_expected, 100 * max_profile_err,
+      100 * max_bulk_rho_err);
   EXPECT_NEAR(-slope, rho0 * g, 0.03 * rho0 * g);
   EXPECT_NEAR(p_floor, pbottom_expected, 0.03 * pbottom_expected);
   EXPECT_LT(max_profile_err, 0.03);
   EXPECT_LT(max_bulk_rho_err, 0.01);
   EXPECT_NEAR(z0, H, dp);
-  EXPECT_EQ(sim->diagnostics().guard_corrections, 0u) << "the wall forces alone must hold the fluid";
+  EXPECT_EQ(sim->diagnostics().guard_corrections, 0u)
+      << "the wall forces alone must hold the fluid";
 }

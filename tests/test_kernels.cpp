@@ -86,7 +86,8 @@ TEST_P(KernelTest, GradientAntisymmetricAndMatchesFiniteDifferences) {
     while (checked < 500) {
       const Vec3d r{u(rng), u(rng), u(rng)};
       const double len = norm(r);
-      if (len >= 0.98 * h || len < 0.02 * h) continue;
+      if (len >= 0.98 * h || len < 0.02 * h)
+        continue;
       ++checked;
       const Vec3d g = k.grad(r, len), gm = k.grad(-r, len);
       EXPECT_NEAR(g.x, -gm.x, 1e-12 * (1 + std::fabs(g.x)));
@@ -129,7 +130,8 @@ TEST_P(KernelTest, LatticeMassGivesRestDensityInTheInterior) {
       const int r = 5;
       for (int i = -r; i <= r; ++i)
         for (int j = -r; j <= r; ++j)
-          for (int l = -r; l <= r; ++l) rho += m * k.W(dp * std::sqrt(double(i * i + j * j + l * l)));
+          for (int l = -r; l <= r; ++l)
+            rho += m * k.W(dp * std::sqrt(double(i * i + j * j + l * l)));
       return 0;
     });
     EXPECT_NEAR(rho, rho0, 1e-9 * rho0);
@@ -146,8 +148,11 @@ INSTANTIATE_TEST_SUITE_P(AllKernels, KernelTest,
                                            KernelType::WendlandC2),
                          [](const auto& info) {
                            switch (info.param) {
-                           case KernelType::Spiky: return std::string("Spiky");
-                           case KernelType::CubicSpline: return std::string("CubicSpline");
-                           default: return std::string("WendlandC2");
+                           case KernelType::Spiky:
+                             return std::string("Spiky");
+                           case KernelType::CubicSpline:
+                             return std::string("CubicSpline");
+                           default:
+                             return std::string("WendlandC2");
                            }
                          });

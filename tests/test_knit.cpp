@@ -6,6 +6,8 @@
 #include "kernels/integrate/Verlet.hpp"
 #include "kernels/knit/Knit.hpp"
 
+#include "support/KnitChecks.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -80,14 +82,7 @@ struct Network {
 };
 
 Scene knit_scene() {
-  Scene s;
-  s.name = "knit";
-  s.modules = {Module::Knit};
-  s.domain.min = {-2, -2, -2};
-  s.domain.max = {2, 2, 2};
-  s.output.enabled = false;
-  s.precision = Precision::Double;
-  return s;
+  return test::knit_only_scene("knit");
 }
 
 } // namespace

@@ -8,6 +8,8 @@
 #include "domain/Yarns.hpp"
 #include "support/TestPaths.hpp"
 
+#include "support/KnitChecks.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -23,14 +25,7 @@ using namespace kf;
 namespace {
 
 Scene knit_scene() {
-  Scene s;
-  s.name = "knit_mesh";
-  s.modules = {Module::Knit};
-  s.domain.min = {-2, -2, -2};
-  s.domain.max = {2, 2, 2};
-  s.output.enabled = false;
-  s.precision = Precision::Double;
-  return s;
+  return test::knit_only_scene("knit_mesh");
 }
 
 KnitPiece mesh_piece(const std::string& obj_text, double scale = 1, Vec3d translate = {0, 0, 0}) {
@@ -58,6 +53,21 @@ std::string grid_obj(int nu, int nv, double a, double b) {
       os << "f " << id(i, j) << " " << id(i + 1, j) << " " << id(i + 1, j + 1) << " "
          << id(i, j + 1) << "\n";
   return os.str();
+}
+
+/// A tube of n wales around and m courses along z, radius r and length h, centred on the origin:
+/// the grid counterpart of cylinder_obj(n, m, r, h) translated by -h/2.
+KnitPiece tube_piece(int n, int m, double r, double h) {
+  KnitPiece p;
+  p.shape = KnitShape::Tube;
+  p.center = {0, 0, 0};
+  p.normal = {0, 0, 1};
+  p.u_axis = {1, 0, 0};
+  p.circumference = 2 * std::numbers::pi * r;
+  p.length = h;
+  p.wales = n;
+  p.courses = m;
+  return p;
 }
 
 /// An open cylinder about z of n quads around and m along, radius r and length h, wound outward.
@@ -254,16 +264,7 @@ TEST(KnitMeshPiece, CylinderObjGivesTheTubeUpToChordVersusArc) {
   const int n = 32, m = 8;
   const double r = 0.06, h = 0.2;
   Scene tube = knit_scene(), mesh = knit_scene();
-  KnitPiece p;
-  p.shape = KnitShape::Tube;
-  p.center = {0, 0, 0};
-  p.normal = {0, 0, 1};
-  p.u_axis = {1, 0, 0};
-  p.circumference = 2 * std::numbers::pi * r;
-  p.length = h;
-  p.wales = n;
-  p.courses = m;
-  tube.knit.pieces = {p};
+  tube.knit.pieces = {tube_piece(n, m, r, h)};
   mesh.knit.pieces = {mesh_piece(cylinder_obj(n, m, r, h), 1, {0, 0, -0.5 * h})};
   const double arc_over_chord = (std::numbers::pi / n) / std::sin(std::numbers::pi / n);
   const auto [springs, cells] =
@@ -311,16 +312,7 @@ TEST(KnitMeshPiece, GridAndCylinderObjsGiveThePatchsAndTheTubesYarns) {
     const int n = 16, m = 5;
     const double r = 0.05, h = 0.15;
     Scene tube = knit_scene(), mesh = knit_scene();
-    KnitPiece p;
-    p.shape = KnitShape::Tube;
-    p.center = {0, 0, 0};
-    p.normal = {0, 0, 1};
-    p.u_axis = {1, 0, 0};
-    p.circumference = 2 * std::numbers::pi * r;
-    p.length = h;
-    p.wales = n;
-    p.courses = m;
-    tube.knit.pieces = {p};
+    tube.knit.pieces = {tube_piece(n, m, r, h)};
     mesh.knit.pieces = {mesh_piece(cylinder_obj(n, m, r, h), 1, {0, 0, -0.5 * h})};
     expect_same_yarns(tube, mesh);
   }

@@ -21,7 +21,8 @@ std::vector<Vec3<T>> test_points(std::size_t n, double h, const Vec3d& lo, const
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> ux(lo.x, hi.x), uy(lo.y, hi.y), uz(lo.z, hi.z);
   std::vector<Vec3<T>> x;
-  for (std::size_t i = 0; i < n; ++i) x.push_back(vec_cast<T>(Vec3d{ux(rng), uy(rng), uz(rng)}));
+  for (std::size_t i = 0; i < n; ++i)
+    x.push_back(vec_cast<T>(Vec3d{ux(rng), uy(rng), uz(rng)}));
   std::uniform_int_distribution<int> cell(0, static_cast<int>((hi.x - lo.x) / h));
   for (int i = 0; i < 200; ++i) // on cell borders (grid origin is lo - h, so multiples of h)
     x.push_back(vec_cast<T>(Vec3d{lo.x + h * cell(rng), lo.y + h * (cell(rng) % 3), uz(rng)}));
@@ -48,7 +49,8 @@ void check_against_brute_force(exec::Backend backend) {
   // A first build with other points (more of them, elsewhere): the second build must leave none
   // of their cells behind (it clears only the cells the first one filled).
   auto other = test_points<T>(4000, h, lo, hi, 7);
-  for (auto& p : other) p.z = static_cast<T>(0.5 * p.z);
+  for (auto& p : other)
+    p.z = static_cast<T>(0.5 * p.z);
   x.assign(other);
   grid.build(ex, x.data(), other.size());
   x.assign(host);
@@ -64,7 +66,8 @@ void check_against_brute_force(exec::Backend backend) {
     seen[p] = 1;
   }
   std::vector<Vec3<T>> sorted(n);
-  for (std::size_t i = 0; i < n; ++i) sorted[i] = host[perm[i]];
+  for (std::size_t i = 0; i < n; ++i)
+    sorted[i] = host[perm[i]];
   x.assign(sorted);
 
   // Neighbour counts per particle found through the grid, on the backend, poisoned first.
@@ -107,11 +110,13 @@ void check_against_brute_force(exec::Backend backend) {
   for (std::size_t i = 0; i < n; i += 37) {
     std::set<std::uint32_t> brute, viagrid;
     for (std::size_t j = 0; j < n; ++j)
-      if (norm2(sorted[i] - sorted[j]) < h2) brute.insert(static_cast<std::uint32_t>(j));
+      if (norm2(sorted[i] - sorted[j]) < h2)
+        brute.insert(static_cast<std::uint32_t>(j));
     const CellView<T> hv = view;
     if (backend == exec::Backend::Cpu) {
       hv.for_each_candidate(sorted[i], [&](std::uint32_t j) {
-        if (norm2(sorted[i] - sorted[j]) < h2) viagrid.insert(j);
+        if (norm2(sorted[i] - sorted[j]) < h2)
+          viagrid.insert(j);
       });
       EXPECT_EQ(brute, viagrid) << "particle " << i;
     }
@@ -120,23 +125,30 @@ void check_against_brute_force(exec::Backend backend) {
 
 } // namespace
 
-TEST(NeighbourGrid, MatchesBruteForceCpuFloat) { check_against_brute_force<float>(exec::Backend::Cpu); }
-TEST(NeighbourGrid, MatchesBruteForceCpuDouble) { check_against_brute_force<double>(exec::Backend::Cpu); }
+TEST(NeighbourGrid, MatchesBruteForceCpuFloat) {
+  check_against_brute_force<float>(exec::Backend::Cpu);
+}
+TEST(NeighbourGrid, MatchesBruteForceCpuDouble) {
+  check_against_brute_force<double>(exec::Backend::Cpu);
+}
 TEST(NeighbourGrid, MatchesBruteForceCudaFloat) {
-  if (!exec::cuda_available()) GTEST_SKIP() << "no CUDA device";
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
   check_against_brute_force<float>(exec::Backend::Cuda);
 }
 
 TEST(NeighbourGrid, CellsSortedInMortonRankOrder) {
   const double h = 0.1;
   auto host = test_points<double>(2000, h, {0, 0, 0}, {0.8, 0.8, 0.8}, 3);
-  NeighbourGrid<double> grid(exec::Backend::Cpu, NeighbourGrid<double>::cover({0, 0, 0}, {0.8, 0.8, 0.8}, h));
+  NeighbourGrid<double> grid(exec::Backend::Cpu,
+                             NeighbourGrid<double>::cover({0, 0, 0}, {0.8, 0.8, 0.8}, h));
   exec::DeviceBuffer<Vec3<double>> x(exec::Backend::Cpu);
   x.assign(host);
   grid.build({exec::Backend::Cpu}, x.data(), host.size());
   const auto perm = grid.permutation().to_host();
   const auto v = grid.view();
-  // Along the sorted order the cell rank never decreases, and each particle lies in its cell's range.
+  // Along the sorted order the cell rank never decreases, and each particle lies in its cell's
+  // range.
   std::uint32_t prev = 0;
   for (std::size_t i = 0; i < perm.size(); ++i) {
     int cx, cy, cz;

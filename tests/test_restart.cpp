@@ -67,11 +67,13 @@ TEST_P(Restart, ContinuesBitForBit) {
   auto resumed = Simulation::create(s, exec::Backend::Cpu);
   resumed->restore(io::read_snapshot(MPI_COMM_WORLD, snap));
   EXPECT_EQ(resumed->steps(), 25u);
-  for (int k = 25; k < 60; ++k) resumed->step(1e9);
+  for (int k = 25; k < 60; ++k)
+    resumed->step(1e9);
   expect_frames_equal(full->frame(), resumed->frame());
 }
 
-INSTANTIATE_TEST_SUITE_P(Precisions, Restart, ::testing::Values(Precision::Float, Precision::Double));
+INSTANTIATE_TEST_SUITE_P(Precisions, Restart,
+                         ::testing::Values(Precision::Float, Precision::Double));
 
 TEST(Restart, RefusesAnotherPrecision) {
   const auto dir = test::scratch_dir("restart_precision");

@@ -49,6 +49,16 @@ courses = 16
 )" + extra;
 }
 
+/// Pins along the patch's two y edges: it hangs as a hammock.
+inline const char* const kHammockPins = R"(
+[[knit.pin]]
+min = [-0.06, -0.06, 0]
+max = [0.06, -0.049, 0.1]
+[[knit.pin]]
+min = [-0.06, 0.049, 0]
+max = [0.06, 0.06, 0.1]
+)";
+
 /// Total momentum of the fluid and the knit (their current masses).
 inline Vec3d momentum(const Simulation& sim) {
   Vec3d p{0, 0, 0};

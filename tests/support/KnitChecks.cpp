@@ -91,4 +91,15 @@ std::vector<Vec3d> as_points(const std::vector<float>& flat) {
   return points_of(flat);
 }
 
+Scene knit_only_scene(const std::string& name) {
+  Scene s;
+  s.name = name;
+  s.modules = {Module::Knit};
+  s.domain.min = {-2, -2, -2};
+  s.domain.max = {2, 2, 2};
+  s.output.enabled = false;
+  s.precision = Precision::Double;
+  return s;
+}
+
 } // namespace kf::test

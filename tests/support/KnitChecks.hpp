@@ -4,8 +4,10 @@
 // thickness. Grid pieces (patch, tube) only: both throw std::invalid_argument on a mesh piece.
 #include "core/Vec3.hpp"
 #include "domain/KnitBuilder.hpp"
+#include "domain/Scene.hpp"
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 namespace kf::test {
@@ -22,6 +24,9 @@ std::size_t profile_crossings(const std::vector<Vec3d>& x, const KnitPieceLayout
 /// middle layer's normal from its neighbours, differs from the rest mesh's. Interior nodes only.
 std::size_t layer_order_violations(const std::vector<Vec3d>& x, const std::vector<Vec3d>& rest,
                                    const KnitPieceLayout& L);
+
+/// A knit-only scene in double precision, a 4 m box around the origin, no output; pieces to add.
+Scene knit_only_scene(const std::string& name);
 
 /// Positions of a snapshot field (x0 y0 z0 x1 ...) as vectors.
 std::vector<Vec3d> as_points(const std::vector<double>& flat);

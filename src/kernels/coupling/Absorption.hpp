@@ -14,7 +14,7 @@ namespace kf {
 
 struct AbsorptionStats {
   std::uint64_t absorbed_particles = 0, emitted_particles = 0; // whole run
-  double diffused_mass = 0;                                    // moved along links, whole run
+  double diffused_mass = 0; // net mass moved along links per fluid step, summed over the run
 };
 
 template <typename T>
@@ -52,6 +52,7 @@ private:
   exec::DeviceBuffer<std::uint32_t> link_start_, link_other_, target_, keep_, emit_, offsets_;
   exec::DeviceBuffer<T> link_k_, fraction_;
   exec::DeviceBuffer<Vec3<T>> dmom_;
+  exec::DeviceBuffer<T> start_; // absorbed at the start of diffuse(), for its stats
   double stable_substep_ = 1e30;
   AbsorptionStats stats_;
 };

@@ -34,8 +34,7 @@ void KnitFluidCoupling<T>::sort_knit(const exec::Exec& ex, KnitSet<T>& knit) {
   x_.resize(n);
   v_.resize(n);
   m_.resize(n);
-  p_.resize(n);
-  exec::gather(ex, grid_.permutation(), knit.m, m_, "coupling.gather");
+  p_.resize(n); // m_ and p_ are gathered by begin_step every step (the wet mass changes)
 }
 
 template <typename T>
@@ -49,6 +48,7 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
                                       const FluidSide<T>& fluid, const T* absorbed,
                                       const T* capacity) {
   const std::size_t n = knit.size();
+  const bool fresh = saturation_.size() != n;
   saturation_.resize(n);
   pressure_.resize(n);
   fluid_mass_.resize(n);
@@ -76,7 +76,7 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
                                                pressure_.data(), fluid_mass_.data()},
                      "coupling.saturation");
     });
-  } else {
+  } else if (fresh) { // contact only: no saturation, zero once
     exec::fill(ex, saturation_, T(0), "coupling.saturation");
     exec::fill(ex, pressure_, T(0), "coupling.saturation");
     exec::fill(ex, fluid_mass_, T(0), "coupling.saturation");
@@ -136,7 +136,7 @@ CouplingStats KnitFluidCoupling<T>::stats(const exec::Exec& ex, KnitSet<T>& knit
                                           const FluidSide<T>& fluid) {
   const std::size_t n = knit.size();
   if (saturation_.size() != n)
-    begin_step(ex, knit, fluid);
+    throw Error("knit-fluid coupling: stats before the first begin_step");
   const T* s = saturation_.data();
   const T* mf = fluid_mass_.data();
   const Vec3<T>* kx = knit.x.data();
