@@ -91,6 +91,16 @@ std::uint64_t sum_u64(const Exec& ex, const DeviceBuffer<std::uint32_t>& v, std:
       [=] KF_HD(std::size_t i) { return static_cast<std::uint64_t>(p[i]); }, "test.sum_u64");
 }
 
+// acc[0] = op(acc[0], reduction): the accumulator stays in the backend's memory.
+template <typename Op>
+void reduce_f64_into(const Exec& ex, const DeviceBuffer<double>& v, Op op,
+                     DeviceBuffer<double>& acc) {
+  const double* p = v.data();
+  kf::exec::transform_reduce_into(
+      ex, v.size(), op, [=] KF_HD(std::size_t i) { return p[i]; }, acc.data(),
+      "test.reduce_f64_into");
+}
+
 } // namespace kf_exec_test
 
 namespace {
@@ -174,6 +184,34 @@ TEST_P(ExecTest, TransformReduceOfNothingIsInit) {
   EXPECT_EQ(reduce_f64(ex(), f, 3.5, kf::exec::SumOp{}), 3.5);
   EXPECT_EQ(reduce_f64(ex(), f, -3.5, kf::exec::MaxOp{}), -3.5);
   EXPECT_EQ(reduce_f64(ex(), f, 9.0, kf::exec::MinOp{}), 9.0);
+}
+
+TEST_P(ExecTest, TransformReduceIntoAccumulatesOnTheBackend) {
+  // Sizes in decreasing and increasing order, so the reused scratch both shrinks in use and grows.
+  DeviceBuffer<double> sum(b(), 0, "sum"), mx(b(), 0, "max");
+  sum.assign(std::vector<double>{2.5});
+  mx.assign(std::vector<double>{-1e300});
+  double want_sum = 2.5, abs_sum = 2.5, want_max = -1e300;
+  const std::size_t sizes[] = {1u << 20, 3, 100003, 0, 257, 1};
+  for (std::size_t n : sizes) {
+    const auto hf = random_f64(n, 23 + static_cast<std::uint32_t>(n));
+    DeviceBuffer<double> f(b(), 0, "f");
+    f.assign(hf);
+    reduce_f64_into(ex(), f, kf::exec::SumOp{}, sum);
+    reduce_f64_into(ex(), f, kf::exec::MaxOp{}, mx);
+    for (double x : hf) {
+      want_sum += x;
+      abs_sum += std::fabs(x);
+      want_max = std::max(want_max, x);
+    }
+    // Interleaved host-read reductions use the same scratch; they must not disturb the sums.
+    if (n > 0) {
+      EXPECT_EQ(reduce_f64(ex(), f, -1e300, kf::exec::MaxOp{}),
+                *std::max_element(hf.begin(), hf.end()));
+    }
+  }
+  EXPECT_NEAR(sum.to_host()[0], want_sum, 1e-12 * abs_sum);
+  EXPECT_EQ(mx.to_host()[0], want_max);
 }
 
 TEST_P(ExecTest, TransformReduceIsDeterministic) {

@@ -1,6 +1,7 @@
 // The neighbour grid returns exactly the brute-force neighbour sets, on every backend.
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
+#include "kernels/grid/NeighbourList.hpp"
 
 #include <gtest/gtest.h>
 
@@ -37,13 +38,14 @@ std::vector<Vec3<T>> test_points(std::size_t n, double h, const Vec3d& lo, const
   return x;
 }
 
+// span: cells of h / span searched span cells on each side (the fluid's solver.cell_span).
 template <typename T>
-void check_against_brute_force(exec::Backend backend) {
+void check_against_brute_force(exec::Backend backend, int span = 1) {
   const double h = 0.1;
   const Vec3d lo{0, 0, 0}, hi{1.0, 0.3, 0.55};
   auto host = test_points<T>(3000, h, lo, hi, 42);
   const std::size_t n = host.size();
-  NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(lo, hi, h));
+  NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(lo, hi, h / span, span), span);
   exec::DeviceBuffer<Vec3<T>> x(backend);
   exec::Exec ex{backend};
   // A first build with other points (more of them, elsewhere): the second build must leave none
@@ -72,18 +74,21 @@ void check_against_brute_force(exec::Backend backend) {
 
   // Neighbour counts per particle found through the grid, on the backend, poisoned first.
   const T h2 = static_cast<T>(h * h);
-  exec::DeviceBuffer<std::uint32_t> count(backend, n), checksum(backend, n);
+  exec::DeviceBuffer<std::uint32_t> count(backend, n), checksum(backend, n), any(backend, n);
   count.poison();
   checksum.poison();
+  any.poison();
   const auto view = grid.view();
   const Vec3<T>* px = x.data();
   std::uint32_t* pc = count.data();
   std::uint32_t* ps = checksum.data();
+  std::uint32_t* pa = any.data();
   exec::for_each(
       ex, n,
       [=] KF_HD(std::size_t i) {
-        std::uint32_t c = 0, s = 0;
+        std::uint32_t c = 0, s = 0, candidates = 0;
         view.for_each_candidate(px[i], [&](std::uint32_t j) {
+          ++candidates;
           if (norm2(px[i] - px[j]) < h2) {
             ++c;
             s += j * 2654435761u; // order-free fingerprint of the set
@@ -91,10 +96,16 @@ void check_against_brute_force(exec::Backend backend) {
         });
         pc[i] = c;
         ps[i] = s;
+        // has_candidates agrees with the loop (2: agree and some, 1: agree and none, 0: differ).
+        const bool has = view.has_candidates(px[i]);
+        pa[i] = has == (candidates > 0) ? (has ? 2u : 1u) : 0u;
       },
       "test.neighbours");
   auto got_count = count.to_host();
   auto got_sum = checksum.to_host();
+  auto got_any = any.to_host();
+  for (std::size_t i = 0; i < n; ++i)
+    ASSERT_EQ(got_any[i], 2u) << "particle " << i << " (each sees at least itself)";
 
   // Host side: exact sets for a sample, counts and fingerprints for all.
   for (std::size_t i = 0; i < n; ++i) {
@@ -136,8 +147,166 @@ TEST(NeighbourGrid, MatchesBruteForceCudaFloat) {
     GTEST_SKIP() << "no CUDA device";
   check_against_brute_force<float>(exec::Backend::Cuda);
 }
+TEST(NeighbourGrid, HalfCellsMatchBruteForceCpu) {
+  check_against_brute_force<float>(exec::Backend::Cpu, 2);
+  check_against_brute_force<double>(exec::Backend::Cpu, 3);
+}
+TEST(NeighbourGrid, HalfCellsMatchBruteForceCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check_against_brute_force<float>(exec::Backend::Cuda, 2);
+}
 
-TEST(NeighbourGrid, CellsSortedInMortonRankOrder) {
+// The lists hold exactly the brute-force neighbour sets, in the grid's candidate order, and grow
+// past their first capacity (32) when a particle has more neighbours (~75 here).
+template <typename T>
+void check_lists(exec::Backend backend) {
+  const double h = 0.1;
+  const Vec3d lo{0, 0, 0}, hi{1.0, 0.3, 0.55};
+  const auto host = test_points<T>(3000, h, lo, hi, 11);
+  const std::size_t n = host.size();
+  exec::Exec ex{backend};
+  NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(lo, hi, h));
+  exec::DeviceBuffer<Vec3<T>> x(backend);
+  x.assign(host);
+  grid.build(ex, x.data(), n);
+  const auto perm = grid.permutation().to_host();
+  std::vector<Vec3<T>> sorted(n);
+  for (std::size_t i = 0; i < n; ++i)
+    sorted[i] = host[perm[i]];
+  x.assign(sorted);
+  NeighbourList<T> lists(backend);
+  const T h2 = static_cast<T>(h * h);
+  lists.build(ex, x.data(), n, grid.view(), h2);
+  EXPECT_GT(lists.most(), 32u) << "the test must make the capacity grow";
+  EXPECT_GE(lists.capacity(), lists.most());
+  // The lists, copied to the host.
+  const ListView<T> v = lists.view();
+  std::vector<std::uint32_t> c(n), l(std::size_t(lists.capacity()) * n);
+  exec::copy_bytes(c.data(), exec::Backend::Cpu, v.count, backend, n * sizeof(std::uint32_t));
+  exec::copy_bytes(l.data(), exec::Backend::Cpu, v.list, backend, l.size() * sizeof(std::uint32_t));
+  const CellView<T> cells = grid.view();
+  if (backend == exec::Backend::Cuda)
+    return; // the cell tables are on the device; the counts were checked by the CPU case
+  for (std::size_t i = 0; i < n; ++i) {
+    std::vector<std::uint32_t> want;
+    cells.for_each_candidate(sorted[i], [&](std::uint32_t j) {
+      if (norm2(sorted[i] - sorted[j]) < h2)
+        want.push_back(j);
+    });
+    ASSERT_EQ(c[i], want.size()) << "particle " << i;
+    for (std::size_t k = 0; k < want.size(); ++k)
+      ASSERT_EQ(l[i * lists.capacity() + k], want[k]) << "particle " << i << " slot " << k;
+    std::size_t brute = 0;
+    for (std::size_t j = 0; j < n; ++j)
+      brute += norm2(sorted[i] - sorted[j]) < h2;
+    ASSERT_EQ(c[i], brute) << "particle " << i;
+  }
+}
+
+TEST(NeighbourList, MatchesTheGridInOrderCpu) {
+  check_lists<float>(exec::Backend::Cpu);
+  check_lists<double>(exec::Backend::Cpu);
+}
+
+TEST(NeighbourList, MatchesTheCpuListsCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  // Same points, both backends: identical counts and slots (the same candidate order).
+  const double h = 0.1;
+  const Vec3d lo{0, 0, 0}, hi{1.0, 0.3, 0.55};
+  const auto host = test_points<float>(3000, h, lo, hi, 11);
+  std::vector<std::uint32_t> got[2];
+  std::uint32_t cap[2];
+  int k = 0;
+  for (exec::Backend b : {exec::Backend::Cpu, exec::Backend::Cuda}) {
+    exec::Exec ex{b};
+    NeighbourGrid<float> grid(b, NeighbourGrid<float>::cover(lo, hi, h));
+    exec::DeviceBuffer<Vec3<float>> x(b);
+    x.assign(host);
+    grid.build(ex, x.data(), host.size());
+    exec::DeviceBuffer<Vec3<float>> xs(b, host.size());
+    exec::gather(ex, grid.permutation(), x, xs, "test.gather");
+    NeighbourList<float> lists(b);
+    lists.build(ex, xs.data(), host.size(), grid.view(), float(h * h));
+    const auto v = lists.view();
+    got[k].resize(host.size() * (1 + std::size_t(lists.capacity())));
+    exec::copy_bytes(got[k].data(), exec::Backend::Cpu, v.count, b,
+                     host.size() * sizeof(std::uint32_t));
+    exec::copy_bytes(got[k].data() + host.size(), exec::Backend::Cpu, v.list, b,
+                     host.size() * lists.capacity() * sizeof(std::uint32_t));
+    cap[k++] = lists.capacity();
+  }
+  ASSERT_EQ(cap[0], cap[1]);
+  const std::size_t n = host.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_EQ(got[0][i], got[1][i]) << "count of particle " << i;
+    for (std::uint32_t s = 0; s < got[0][i]; ++s)
+      ASSERT_EQ(got[0][n + i * cap[0] + s], got[1][n + i * cap[1] + s])
+          << "particle " << i << " slot " << s;
+  }
+}
+
+TEST(NeighbourGrid, OccupiedAroundFlagsExactlyTheCellsWithCandidates) {
+  // A few particles in a large grid; flag[c] must be 1 exactly when a particle lies within span
+  // cells of c along every axis (brute force over the particles' cells).
+  for (int span : {1, 2}) {
+    const Vec3d lo{0, 0, 0}, hi{1.0, 0.6, 0.4};
+    const double cell = 0.05;
+    const auto geo = NeighbourGrid<double>::cover(lo, hi, cell, span);
+    NeighbourGrid<double> grid(exec::Backend::Cpu, geo, span);
+    const std::vector<Vec3<double>> pts{{0.02, 0.02, 0.02}, {0.51, 0.33, 0.2}, {0.98, 0.59, 0.39}};
+    exec::DeviceBuffer<Vec3<double>> x(exec::Backend::Cpu);
+    x.assign(pts);
+    exec::Exec ex{exec::Backend::Cpu};
+    grid.build(ex, x.data(), pts.size());
+    exec::DeviceBuffer<std::uint8_t> flag(exec::Backend::Cpu, 0, "flag");
+    flag.poison();
+    grid.occupied_around(ex, flag);
+    ASSERT_EQ(flag.size(), geo.cells());
+    const auto f = flag.to_host();
+    std::size_t ones = 0;
+    for (int z = 0; z < geo.nz; ++z)
+      for (int y = 0; y < geo.ny; ++y)
+        for (int xx = 0; xx < geo.nx; ++xx) {
+          bool want = false;
+          for (const auto& p : pts) {
+            int px, py, pz;
+            geo.coords(p, px, py, pz);
+            want = want || (std::abs(px - xx) <= span && std::abs(py - y) <= span &&
+                            std::abs(pz - z) <= span);
+          }
+          const std::uint8_t got = f[geo.linear(xx, y, z)];
+          ASSERT_EQ(got, want ? 1 : 0) << "cell " << xx << " " << y << " " << z;
+          ones += got;
+        }
+    const std::size_t side = 2 * span + 1;
+    EXPECT_LE(ones, 3 * side * side * side);
+    EXPECT_GT(ones, 0u);
+  }
+}
+
+TEST(NeighbourGrid, CellsAlongXHaveConsecutiveRanks) {
+  // The neighbour loop reads a row of cells along x as one range of particles; that needs
+  // rank(x + 1, y, z) = rank(x, y, z) + 1, and the ranks a permutation of the cells.
+  const auto geo = NeighbourGrid<double>::cover({0, 0, 0}, {0.7, 0.5, 0.3}, 0.05);
+  NeighbourGrid<double> grid(exec::Backend::Cpu, geo);
+  const auto v = grid.view();
+  std::vector<char> used(geo.cells(), 0);
+  for (int z = 0; z < geo.nz; ++z)
+    for (int y = 0; y < geo.ny; ++y)
+      for (int x = 0; x < geo.nx; ++x) {
+        const std::uint32_t r = v.rank[geo.linear(x, y, z)];
+        ASSERT_LT(r, geo.cells());
+        ASSERT_FALSE(used[r]);
+        used[r] = 1;
+        if (x > 0) {
+          ASSERT_EQ(r, v.rank[geo.linear(x - 1, y, z)] + 1);
+        }
+      }
+}
+
+TEST(NeighbourGrid, ParticlesSortedInCellRankOrder) {
   const double h = 0.1;
   auto host = test_points<double>(2000, h, {0, 0, 0}, {0.8, 0.8, 0.8}, 3);
   NeighbourGrid<double> grid(exec::Backend::Cpu,

@@ -392,5 +392,22 @@ TEST(Scene, OverrideErrorNamesTheOverrideNotTheFile) {
       << msg;
 }
 
+TEST(Scene, NeighbourSearchOptions) {
+  const Scene d = load_scene(scene_file("minimal.toml"));
+  EXPECT_EQ(d.solver.cell_span, 1);
+  EXPECT_EQ(d.solver.neighbour_list, Scene::Solver::NeighbourLists::Off);
+  const Scene s = load_scene(scene_file("minimal.toml"),
+                             {"solver.cell_span=2", "solver.neighbour_list=\"on\""});
+  EXPECT_EQ(s.solver.cell_span, 2);
+  EXPECT_EQ(s.solver.neighbour_list, Scene::Solver::NeighbourLists::On);
+  const std::string span = load_error(scene_file("minimal.toml"), {"solver.cell_span=4"});
+  EXPECT_NE(span.find("key 'solver.cell_span': expected an integer from 1 to 3, got 4"),
+            std::string::npos)
+      << span;
+  const std::string list = load_error(scene_file("minimal.toml"), {"solver.neighbour_list=yes"});
+  EXPECT_NE(list.find("solver.neighbour_list"), std::string::npos) << list;
+  EXPECT_NE(list.find("\"on\""), std::string::npos) << list;
+}
+
 } // namespace
 } // namespace kf

@@ -1,6 +1,7 @@
 #include "domain/KnitSystem.hpp"
 
 #include "domain/FrameFields.hpp"
+#include "domain/StageParts.hpp"
 #include "domain/Yarns.hpp"
 #include "kernels/boundary/Boundary.hpp"
 #include "kernels/integrate/Verlet.hpp"
@@ -14,7 +15,9 @@ namespace kf {
 template <typename T>
 KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex)
     : scene_(scene), ex_(ex), set_(ex.backend), springs_(ex.backend), volumes_(ex.backend),
-      handle_v_(ex.backend, 0, "knit.handle_velocity"), gravity_(vec_cast<T>(scene.gravity)) {
+      handle_v_(ex.backend, 0, "knit.handle_velocity"), gravity_(vec_cast<T>(scene.gravity)),
+      collisions_(ex.backend, 0, "knit.contact_count") {
+  collisions_.assign(std::vector<std::uint64_t>{0});
   const KnitMesh mesh = build_knit(scene);
   const std::size_t n = mesh.x.size();
   std::vector<Vec3<T>> x(n), v(n);
@@ -103,8 +106,12 @@ double KnitSystem<T>::min_free_mass() const {
 
 template <typename T>
 void KnitSystem<T>::internal_forces() {
-  knit_forces(ex_, set_.view(), springs_.view(), gravity_, volumes_.view());
+  {
+    stage_parts::Scope part("knit.step: springs, volume cells, gravity");
+    knit_forces(ex_, set_.view(), springs_.view(), gravity_, volumes_.view());
+  }
   if (self_) {
+    stage_parts::Scope part("knit.step: self-contact (grid check/sort, gathers, forces)");
     self_->update(ex_, set_);
     self_->add_forces(ex_, set_);
   }
@@ -149,6 +156,7 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
   const double h = dt / n;
   if (couple) {
     internal_forces();
+    stage_parts::Scope part("knit.step: fluid coupling (both sides)");
     couple(static_cast<T>(0.5 * h));
   }
   const T radius = static_cast<T>(scene_.knit.radius());
@@ -157,17 +165,25 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
     auto p = set_.view();
     set_handle_velocities(t + s * h);
     const Prescribed<T> fixed{p.handle, handle_v_.data()};
-    kick_drift(ex_, p.x, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick_drift", fixed);
-    if (n_shapes) {
-      if (set_shapes)
-        set_shapes(t + (s + 1) * h);
-      collisions_ += enforce_rigid_shapes(ex_, p.x, p.v, p.n, shapes, n_shapes, radius, friction,
-                                          p.handle, "knit.contact");
+    {
+      stage_parts::Scope part("knit.step: kick-drift, contact with solids");
+      kick_drift(ex_, p.x, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick_drift", fixed);
+      if (n_shapes) {
+        if (set_shapes)
+          set_shapes(t + (s + 1) * h);
+        enforce_rigid_shapes(ex_, p.x, p.v, p.n, shapes, n_shapes, radius, friction, p.handle,
+                             collisions_.data(), "knit.contact");
+      }
     }
     internal_forces();
-    if (couple)
+    if (couple) {
+      stage_parts::Scope part("knit.step: fluid coupling (both sides)");
       couple(static_cast<T>(s + 1 < n ? h : 0.5 * h));
-    kick(ex_, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick", fixed);
+    }
+    {
+      stage_parts::Scope part("knit.step: kick");
+      kick(ex_, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick", fixed);
+    }
   }
 }
 

@@ -54,7 +54,7 @@ public:
 
   std::size_t size() const { return set_.size(); }
   std::size_t bytes() const;
-  std::uint64_t collisions() const { return collisions_; }
+  std::uint64_t collisions() const { return collisions_.to_host()[0]; }
   KnitEnergy energy();
   const SpringTopology<T>& springs() const { return springs_; }
   std::size_t volume_cells() const { return volumes_.cells(); }
@@ -90,7 +90,8 @@ private:
   double extra_limit_ = 1e30;
   double longest_spacing_ = 0;
   std::optional<KnitSelfContact<T>> self_;
-  std::uint64_t collisions_ = 0;
+  // Point-substeps in contact with a solid, whole run; on the device, read for diagnostics only.
+  exec::DeviceBuffer<std::uint64_t> collisions_;
 };
 
 } // namespace kf

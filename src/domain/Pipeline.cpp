@@ -1,5 +1,7 @@
 #include "domain/Pipeline.hpp"
 
+#include "core/Error.hpp"
+
 #include <chrono>
 
 namespace kf {
@@ -13,7 +15,15 @@ void Pipeline::run(const std::function<void()>& timer_sync) {
   using clock = std::chrono::steady_clock;
   for (auto& s : stages_) {
     const auto t0 = clock::now();
-    s.run();
+    try {
+      s.run();
+    } catch (const InstabilityError&) {
+      throw; // names its step and particle already
+    } catch (const Error& e) {
+      // A device failure (out of memory, a failed launch) names its buffer or kernel and size;
+      // the stage says where in the step it happened.
+      throw Error("stage '" + s.name + "' [" + s.module + "]: " + e.what());
+    }
     if (timer_sync)
       timer_sync();
     s.seconds += std::chrono::duration<double>(clock::now() - t0).count();

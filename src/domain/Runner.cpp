@@ -1,4 +1,5 @@
 #include "domain/Runner.hpp"
+#include "domain/StageParts.hpp"
 
 #include "core/Error.hpp"
 #include "io/Progress.hpp"
@@ -153,6 +154,12 @@ std::string format_summary(const RunSummary& s) {
     for (const auto& st : s.stages) {
       std::snprintf(buf, sizeof buf, "  %-22s %9.3f s %6.1f%%\n", st.name.c_str(), st.seconds,
                     100 * st.seconds / total);
+      o << buf;
+    }
+    // Parts inside the stages (timed only with --profile), as shares of the whole step.
+    for (const auto& [name, sec] : stage_parts::totals()) {
+      std::snprintf(buf, sizeof buf, "    %-60s %9.3f s %6.1f%%\n", name.c_str(), sec,
+                    100 * sec / total);
       o << buf;
     }
   }

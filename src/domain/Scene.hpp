@@ -118,6 +118,13 @@ struct Scene {
     long max_steps = 0;       // 0: no limit
     double damping = 0;       // global velocity damping rate zeta [1/s] (settling a rest state)
     double damping_until = 0; // damping acts while t < damping_until
+    // Fluid and boundary neighbour grids: cells of h / cell_span, searched cell_span cells on
+    // each side. 1: 27 cells of h (27 h^3 of candidates); 2: 125 cells of h/2 (15.6 h^3) but
+    // 5x the cell-table reads. docs/PERFORMANCE.md has the measured trade-off.
+    long cell_span = 1;
+    // Fluid neighbour lists built once per step (NeighbourList). Off by default: built every
+    // step they cost more than they save (docs/PERFORMANCE.md, P4).
+    enum class NeighbourLists { On, Off } neighbour_list = NeighbourLists::Off;
   } solver;
 
   // [fluid]

@@ -40,6 +40,9 @@ constexpr std::array kPrecisions{Choice<Precision>{"float", Precision::Float},
 constexpr std::array kKernels{Choice<KernelType>{"spiky", KernelType::Spiky},
                               Choice<KernelType>{"cubic", KernelType::CubicSpline},
                               Choice<KernelType>{"wendland", KernelType::WendlandC2}};
+constexpr std::array kNeighbourLists{
+    Choice<Scene::Solver::NeighbourLists>{"on", Scene::Solver::NeighbourLists::On},
+    Choice<Scene::Solver::NeighbourLists>{"off", Scene::Solver::NeighbourLists::Off}};
 constexpr std::array kEos{Choice<EosType>{"linear", EosType::Linear},
                           Choice<EosType>{"tait", EosType::Tait}};
 constexpr std::array kShapes{Choice<ObstacleShape>{"plane", ObstacleShape::Plane},
@@ -142,8 +145,9 @@ void read_output(const TableReader& t, Scene& s) {
 
 void read_solver(const TableReader& t, Scene::Solver& sv) {
   t.allow_only({"kernel", "cfl", "force_factor", "viscous_factor", "dt_max", "dt_min", "max_steps",
-                "damping", "damping_until"});
+                "damping", "damping_until", "cell_span", "neighbour_list"});
   t.read("kernel", sv.kernel, kKernels);
+  t.read("neighbour_list", sv.neighbour_list, kNeighbourLists);
   t.read("cfl", sv.cfl, Range::above_up_to(0, 1));
   t.read("force_factor", sv.force_factor, Range::above_up_to(0, 1));
   t.read("viscous_factor", sv.viscous_factor, Range::above_up_to(0, 1));
@@ -162,6 +166,9 @@ void read_solver(const TableReader& t, Scene::Solver& sv) {
                repr(n));
   }
   t.read_integer("max_steps", sv.max_steps, 0);
+  if (t.read_integer("cell_span", sv.cell_span, 1) && sv.cell_span > 3)
+    t.fail_key(*t.node("cell_span"), "cell_span", "an integer from 1 to 3",
+               std::to_string(sv.cell_span));
   t.read("damping", sv.damping, Range::at_least(0));
   t.read("damping_until", sv.damping_until, Range::at_least(0));
 }

@@ -7,10 +7,12 @@
 #include "domain/RigidShapes.hpp"
 #include "domain/Samplers.hpp"
 #include "domain/Simulation.hpp"
+#include "domain/StageParts.hpp"
 #include "kernels/boundary/Boundary.hpp"
 #include "kernels/coupling/Absorption.hpp"
 #include "kernels/coupling/KnitFluidCoupling.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
+#include "kernels/grid/NeighbourList.hpp"
 #include "kernels/integrate/Verlet.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/particles/Outflow.hpp"
@@ -88,7 +90,10 @@ public:
   const Scene& scene() const override { return scene_; }
   exec::Backend backend() const override { return ex_.backend; }
   std::size_t memory_bytes() const override;
-  void set_profiling(bool on) override { profiling_ = on; }
+  void set_profiling(bool on) override {
+    profiling_ = on;
+    stage_parts::enable(on, ex_.backend);
+  }
 
 private:
   void build_pipeline();
@@ -119,7 +124,11 @@ private:
   SphParams<T> sph_;
   double h_ = 0, margin_ = 0;
   double time_ = 0, dt_ = 0;
-  std::uint64_t steps_ = 0, guard_corrections_ = 0;
+  std::uint64_t steps_ = 0;
+  // Particles put back by the guard, whole run: a counter in device memory, read only for
+  // snapshots and diagnostics so the step never waits for it.
+  exec::DeviceBuffer<std::uint64_t> guard_count_{exec::Backend::Cpu, 0, "boundary.guard_count"};
+  std::uint64_t guard_corrections() const { return guard_count_.to_host()[0]; }
   std::uint64_t outflow_particles_ = 0;
   double outflow_mass_ = 0;
   exec::DeviceBuffer<std::uint32_t> flags_{exec::Backend::Cpu, 0, "fluid.flags"};
@@ -137,6 +146,15 @@ private:
   std::optional<FluidSet<T>> fluid_;
   std::optional<BoundarySet<T>> boundary_;
   std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
+  std::optional<NeighbourList<T>> fluid_list_; // built with the grid each step, when enabled
+  exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
+  const ListView<T>* fluid_list_view() {
+    if (!fluid_list_)
+      return nullptr;
+    list_view_ = fluid_list_->view();
+    return &list_view_;
+  }
+  ListView<T> list_view_;
   RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
   exec::DeviceBuffer<RigidShape<T>> shapes_;
   Pipeline pipeline_;
@@ -144,8 +162,10 @@ private:
 
 template <typename T>
 SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only)
-    : scene_(scene), ex_{backend}, flags_(backend, 0, "fluid.flags"), solids_(scene, backend),
-      shapes_(backend, 0, "rigid.shapes") {
+    : scene_(scene), ex_{backend}, guard_count_(backend, 0, "boundary.guard_count"),
+      flags_(backend, 0, "fluid.flags"), boundary_near_(backend, 0, "boundary.near"),
+      solids_(scene, backend), shapes_(backend, 0, "rigid.shapes") {
+  guard_count_.assign(std::vector<std::uint64_t>{0});
   fluid_on_ = scene.has(Module::Fluid);
   boundary_on_ = scene.has(Module::Boundary);
   knit_on_ = scene.has(Module::Knit);
@@ -212,7 +232,10 @@ void SimulationT<T>::init_particles() {
     fluid_->m.assign(std::vector<T>(x.size(), static_cast<T>(m)));
     fluid_->id.assign(ids);
     next_fluid_id_ = ids.size();
-    fluid_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_));
+    const int span = static_cast<int>(scene_.solver.cell_span);
+    fluid_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_ / span, span), span);
+    if (scene_.solver.neighbour_list == Scene::Solver::NeighbourLists::On)
+      fluid_list_.emplace(ex_.backend);
   }
   if (boundary_on_) {
     const auto s = sample_boundaries(scene_, scene_.fluid.spacing, h_);
@@ -234,7 +257,9 @@ void SimulationT<T>::init_particles() {
     boundary_->obstacle.assign(s.obstacle);
     boundary_->volume.assign(vol);
     boundary_->id.assign(ids);
-    boundary_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_));
+    const int span = static_cast<int>(scene_.solver.cell_span);
+    boundary_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_ / span, span),
+                           span);
   }
   if (coupling_on_)
     init_coupling();
@@ -365,13 +390,13 @@ void SimulationT<T>::build_pipeline() {
                   [this] { sort_boundary(); });
   }
   if (fluid_on_ && !solids_.empty())
-    pipeline_.add(
-        "boundary.guard", "boundary", "put back particles crossing into a solid (counted)", [this] {
-          auto f = fluid_->view();
-          guard_corrections_ +=
-              enforce_rigid_shapes(ex_, f.x, f.v, f.n, shapes_.data(), shapes_.size(),
-                                   static_cast<T>(margin_), T(0), nullptr, "boundary.guard");
-        });
+    pipeline_.add("boundary.guard", "boundary",
+                  "put back particles crossing into a solid (counted)", [this] {
+                    auto f = fluid_->view();
+                    enforce_rigid_shapes(ex_, f.x, f.v, f.n, shapes_.data(), shapes_.size(),
+                                         static_cast<T>(margin_), T(0), nullptr,
+                                         guard_count_.data(), "boundary.guard");
+                  });
   const auto& walls = scene_.domain.walls;
   if (fluid_on_ && !std::all_of(walls.begin(), walls.end(), [](bool w) { return w; }))
     pipeline_.add("fluid.outflow", "fluid",
@@ -384,16 +409,21 @@ void SimulationT<T>::build_pipeline() {
                     outflow_mass_ += r.mass;
                   });
   if (fluid_on_) {
-    pipeline_.add("grid.fluid", "fluid", "sort fluid by cell (Morton order), cell ranges",
+    const bool lists = scene_.solver.neighbour_list == Scene::Solver::NeighbourLists::On;
+    pipeline_.add("grid.fluid", "fluid",
+                  lists ? "sort fluid by cell, cell ranges, neighbour lists"
+                        : "sort fluid by cell, cell ranges",
                   [this] { sort_fluid(); });
     pipeline_.add("sph.density", "fluid", "density (Eq. 2) and pressure (EOS)", [this] {
-      sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours());
+      sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+                  fluid_list_view());
     });
     if (boundary_on_)
       pipeline_.add("boundary.pressure", "boundary", "wall pressure from the fluid (Adami 2012)",
                     [this] { extrapolate_boundary_pressure(); });
     pipeline_.add("sph.forces", "fluid", "pressure (Eq. 3), viscosity (Eq. 4), gravity", [this] {
-      sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours());
+      sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+                 fluid_list_view());
     });
     pipeline_.add("integrate.kick", "fluid", "velocity Verlet: half kick", [this] {
       auto f = fluid_->view();
@@ -414,12 +444,16 @@ template <typename T>
 void SimulationT<T>::sort_fluid() {
   fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
   fluid_->reorder(ex_, fluid_grid_->permutation());
+  if (fluid_list_)
+    fluid_list_->build(ex_, fluid_->x.data(), fluid_->size(), fluid_grid_->view(),
+                       static_cast<T>(h_ * h_));
 }
 
 template <typename T>
 void SimulationT<T>::sort_boundary() {
   boundary_grid_->build(ex_, boundary_->x.data(), boundary_->size());
   boundary_->reorder(ex_, boundary_grid_->permutation());
+  boundary_grid_->occupied_around(ex_, boundary_near_);
 }
 
 template <typename T>
@@ -432,15 +466,18 @@ BoundaryNeighbours<T> SimulationT<T>::boundary_neighbours() {
           boundary_->rho.data(),
           sph_.no_slip ? boundary_->v.data() : nullptr,
           boundary_grid_->view(),
-          boundary_->size()};
+          boundary_->size(),
+          boundary_near_.data()};
 }
 
 template <typename T>
 void SimulationT<T>::compute_forces() {
-  sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours());
+  sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+              fluid_list_view());
   if (boundary_on_)
     extrapolate_boundary_pressure();
-  sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours());
+  sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+             fluid_list_view());
 }
 
 template <typename T>
@@ -536,7 +573,7 @@ io::Frame SimulationT<T>::frame() const {
   fr.step = steps_;
   fr.scene_text = scene_.text;
   fr.precision = std::string(to_string(scene_.precision));
-  fr.scalars.push_back({"guard_corrections", static_cast<double>(guard_corrections_)});
+  fr.scalars.push_back({"guard_corrections", static_cast<double>(guard_corrections())});
   fr.scalars.push_back({"outflow_particles", static_cast<double>(outflow_particles_)});
   fr.scalars.push_back({"outflow_mass", outflow_mass_});
   fr.scalars.push_back({"next_fluid_id", static_cast<double>(next_fluid_id_)});
@@ -596,7 +633,7 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   steps_ = fr.step;
   for (const auto& [k, v] : fr.scalars)
     if (k == "guard_corrections")
-      guard_corrections_ = static_cast<std::uint64_t>(v);
+      guard_count_.assign(std::vector<std::uint64_t>{static_cast<std::uint64_t>(v)});
     else if (k == "outflow_particles")
       outflow_particles_ = static_cast<std::uint64_t>(v);
     else if (k == "outflow_mass")
@@ -652,7 +689,7 @@ void SimulationT<T>::restore(const io::Frame& fr) {
 template <typename T>
 Diagnostics SimulationT<T>::diagnostics() const {
   Diagnostics d;
-  d.guard_corrections = guard_corrections_;
+  d.guard_corrections = guard_corrections();
   if (boundary_on_)
     d.boundary = boundary_->size();
   if (knit_on_) {
@@ -722,9 +759,11 @@ template <typename T>
 std::size_t SimulationT<T>::memory_bytes() const {
   std::size_t b = shapes_.capacity_bytes() + solids_.bytes();
   if (fluid_)
-    b += fluid_->size() * FluidSet<T>::bytes_per_particle() + fluid_grid_->bytes();
+    b += fluid_->size() * FluidSet<T>::bytes_per_particle() + fluid_grid_->bytes() +
+         (fluid_list_ ? fluid_list_->bytes() : 0);
   if (boundary_)
-    b += boundary_->size() * BoundarySet<T>::bytes_per_particle() + boundary_grid_->bytes();
+    b += boundary_->size() * BoundarySet<T>::bytes_per_particle() + boundary_grid_->bytes() +
+         boundary_near_.capacity_bytes();
   if (knit_)
     b += knit_->bytes();
   return b;
@@ -763,7 +802,8 @@ PlanReport Simulation::plan(const Scene& scene) {
     r.obstacles.push_back(describe_obstacle(o));
   r.bytes_solids = dbl ? RigidShapes<double>(scene).bytes() : RigidShapes<float>(scene).bytes();
   const double h = r.support_radius;
-  const auto geo = NeighbourGrid<double>::cover(scene.domain.min, scene.domain.max, h);
+  const int span = static_cast<int>(scene.solver.cell_span);
+  const auto geo = NeighbourGrid<double>::cover(scene.domain.min, scene.domain.max, h / span, span);
   r.grid[0] = geo.nx;
   r.grid[1] = geo.ny;
   r.grid[2] = geo.nz;

@@ -13,40 +13,64 @@ void move_boundary(const exec::Exec& ex, BoundaryView<T> b, const RigidShape<T>*
       "boundary.move");
 }
 
+namespace {
+
+/// Puts one point back outside every solid; returns 1 when it was corrected.
 template <typename T>
-std::size_t enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
-                                 const RigidShape<T>* shapes, std::size_t n_shapes, T margin,
-                                 T friction, const std::uint32_t* fixed, const char* label) {
-  // A reduction whose functor also corrects the particle: one pass over the particles, and each
-  // index is visited exactly once on either backend.
-  return exec::transform_reduce(
-      ex, n, std::size_t(0), exec::SumOp{},
-      [=] KF_HD(std::size_t i) -> std::size_t {
-        if (fixed && fixed[i] != kNoHandle)
-          return 0;
-        std::size_t hits = 0;
-        for (std::size_t s = 0; s < n_shapes; ++s) {
-          Vec3<T> nrm;
-          const T d = shapes[s].distance(x[i], nrm);
-          if (d >= margin)
-            continue;
-          x[i] += nrm * (margin - d);
-          const Vec3<T> rel = v[i] - shapes[s].velocity;
-          const T vn = dot(rel, nrm);
-          if (vn < T(0)) {
-            v[i] -= nrm * vn;
-            if (friction > T(0)) { // Coulomb: tangential speed drops by friction |vn|, not past 0
-              const Vec3<T> vt = rel - nrm * vn;
-              const T vt_len = norm(vt);
-              const T lose = vt_len > T(0) ? kmin(T(1), friction * (-vn) / vt_len) : T(0);
-              v[i] -= vt * lose;
-            }
-          }
-          hits = 1;
+struct RigidContact {
+  Vec3<T>* x;
+  Vec3<T>* v;
+  const RigidShape<T>* shapes;
+  std::size_t n_shapes;
+  T margin, friction;
+  const std::uint32_t* fixed;
+
+  KF_HD std::uint64_t operator()(std::size_t i) const {
+    if (fixed && fixed[i] != kNoHandle)
+      return 0;
+    std::uint64_t hits = 0;
+    for (std::size_t s = 0; s < n_shapes; ++s) {
+      Vec3<T> nrm;
+      const T d = shapes[s].distance(x[i], nrm);
+      if (d >= margin)
+        continue;
+      x[i] += nrm * (margin - d);
+      const Vec3<T> rel = v[i] - shapes[s].velocity;
+      const T vn = dot(rel, nrm);
+      if (vn < T(0)) {
+        v[i] -= nrm * vn;
+        if (friction > T(0)) { // Coulomb: tangential speed drops by friction |vn|, not past 0
+          const Vec3<T> vt = rel - nrm * vn;
+          const T vt_len = norm(vt);
+          const T lose = vt_len > T(0) ? kmin(T(1), friction * (-vn) / vt_len) : T(0);
+          v[i] -= vt * lose;
         }
-        return hits;
-      },
-      label);
+      }
+      hits = 1;
+    }
+    return hits;
+  }
+};
+
+template <typename T>
+struct RigidContactUncounted {
+  RigidContact<T> f;
+  KF_HD void operator()(std::size_t i) const { (void)f(i); }
+};
+
+} // namespace
+
+template <typename T>
+void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
+                          const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
+                          const std::uint32_t* fixed, std::uint64_t* count, const char* label) {
+  // With a counter: a reduction whose functor also corrects the point (each index is visited
+  // exactly once on either backend); the sum stays in device memory.
+  const RigidContact<T> f{x, v, shapes, n_shapes, margin, friction, fixed};
+  if (count)
+    exec::transform_reduce_into(ex, n, exec::SumOp{}, f, count, label);
+  else
+    exec::for_each(ex, n, RigidContactUncounted<T>{f}, label);
 }
 
 template <typename T>
@@ -68,9 +92,9 @@ T min_rigid_distance(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
 
 #define KF_INSTANTIATE(T)                                                                          \
   template void move_boundary<T>(const exec::Exec&, BoundaryView<T>, const RigidShape<T>*);        \
-  template std::size_t enforce_rigid_shapes<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, std::size_t, \
-                                               const RigidShape<T>*, std::size_t, T, T,            \
-                                               const std::uint32_t*, const char*);                 \
+  template void enforce_rigid_shapes<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, std::size_t,        \
+                                        const RigidShape<T>*, std::size_t, T, T,                   \
+                                        const std::uint32_t*, std::uint64_t*, const char*);        \
   template T min_rigid_distance<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                 \
                                    const RigidShape<T>*, std::size_t);
 KF_INSTANTIATE(float)

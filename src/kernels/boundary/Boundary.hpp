@@ -16,11 +16,12 @@ void move_boundary(const exec::Exec& ex, BoundaryView<T> b, const RigidShape<T>*
 /// friction, up to `friction` times that lost normal speed of its tangential speed. For the fluid
 /// this is the last line of defence (friction 0; with working boundary forces it stays rare);
 /// for the knit it is the contact with solids. Points with fixed[i] != kNoHandle (prescribed
-/// motion) are left alone; fixed may be null. Returns how many points were corrected.
+/// motion) are left alone; fixed may be null. The number of points corrected is added to
+/// *count, a counter in ex.backend's memory (null: not counted), so nothing waits for the device.
 template <typename T>
-std::size_t enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
-                                 const RigidShape<T>* shapes, std::size_t n_shapes, T margin,
-                                 T friction, const std::uint32_t* fixed, const char* label);
+void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
+                          const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
+                          const std::uint32_t* fixed, std::uint64_t* count, const char* label);
 
 /// Smallest signed distance of any of the n points to any shape (negative: inside a solid),
 /// used by tests and diagnostics.

@@ -14,7 +14,8 @@ KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
       pressure_(b, 0, "coupling.pressure"), fluid_mass_(b, 0, "coupling.fluid_mass"),
       x_(b, 0, "coupling.knit_x"), v_(b, 0, "coupling.knit_v"), m_(b, 0, "coupling.knit_m"),
       p_(b, 0, "coupling.knit_p"), x_sorted_at_(b, 0, "coupling.x_sorted_at"),
-      impulse_(b, 0, "coupling.impulse") {
+      impulse_(b, 0, "coupling.impulse"), near_flag_(b, 0, "coupling.near_flag"),
+      near_offset_(b, 0, "coupling.near_offset"), near_(b, 0, "coupling.near") {
   const T reach = params.capillary && params.h > params.reach ? params.h : params.reach;
   if (!(grid.cell > reach))
     throw Error("knit-fluid coupling: grid cell " + std::to_string(double(grid.cell)) +
@@ -86,6 +87,31 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
   exec::gather(ex, grid_.permutation(), knit.m, m_, "coupling.gather"); // wet mass changes
   impulse_.resize(fluid.f.n);
   exec::fill(ex, impulse_, Vec3<T>{T(0), T(0), T(0)}, "coupling.impulse");
+  find_fluid_near_knit(ex, fluid);
+}
+
+template <typename T>
+void KnitFluidCoupling<T>::find_fluid_near_knit(const exec::Exec& ex, const FluidSide<T>& fluid) {
+  const std::size_t n = fluid.f.n;
+  near_flag_.resize(n);
+  near_offset_.resize(n);
+  near_.resize(n);
+  const CellView<T> knit_cells = grid_.view();
+  const Vec3<T>* x = fluid.f.x;
+  std::uint32_t* flag = near_flag_.data();
+  exec::for_each(
+      ex, n, [=] KF_HD(std::size_t j) { flag[j] = knit_cells.has_candidates(x[j]) ? 1u : 0u; },
+      "coupling.near");
+  n_near_ = exec::exclusive_scan(ex, near_flag_, near_offset_, "coupling.near");
+  const std::uint32_t* off = near_offset_.data();
+  std::uint32_t* list = near_.data();
+  exec::for_each(
+      ex, n,
+      [=] KF_HD(std::size_t j) {
+        if (flag[j])
+          list[off[j]] = static_cast<std::uint32_t>(j);
+      },
+      "coupling.near");
 }
 
 template <typename T>
@@ -96,11 +122,13 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
   exec::gather(ex, perm, knit.v, v_, "coupling.gather");
   with_kernel<T>(kernel_, params_.h, [&](auto k) {
     using K = decltype(k);
+    using Fluid = FluidCouplingEvaluator<T, K>;
     exec::for_each(
-        ex, fluid.f.n,
-        FluidCouplingEvaluator<T, K>{k, params_, fluid.f,
-                                     SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()},
-                                     grid_.view(), weight, impulse_.data()},
+        ex, n_near_,
+        exec::OverList<Fluid>{Fluid{k, params_, fluid.f,
+                                    SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()},
+                                    grid_.view(), weight, impulse_.data()},
+                              near_.data()},
         "coupling.fluid");
     exec::for_each(ex, knit.size(),
                    KnitCouplingEvaluator<T, K>{
@@ -171,7 +199,8 @@ CouplingStats KnitFluidCoupling<T>::stats(const exec::Exec& ex, KnitSet<T>& knit
 
 template <typename T>
 std::size_t KnitFluidCoupling<T>::bytes() const {
-  return grid_.bytes() + saturation_.capacity_bytes() + pressure_.capacity_bytes() +
+  return grid_.bytes() + near_flag_.capacity_bytes() + near_offset_.capacity_bytes() +
+         near_.capacity_bytes() + saturation_.capacity_bytes() + pressure_.capacity_bytes() +
          fluid_mass_.capacity_bytes() + x_.capacity_bytes() + v_.capacity_bytes() +
          m_.capacity_bytes() + p_.capacity_bytes() + x_sorted_at_.capacity_bytes() +
          impulse_.capacity_bytes();

@@ -62,6 +62,11 @@ public:
   void sync_knit(const exec::Exec& ex, KnitSet<T>& knit);
   const NeighbourGrid<T>& knit_grid() const { return grid_; }
   const exec::DeviceBuffer<Vec3<T>>& sorted_x() const { return x_; }
+  /// Lists the fluid particles with a knit point in their knit-grid cells (public: nvcc's
+  /// device lambdas may not live in private members).
+  void find_fluid_near_knit(const exec::Exec& ex, const FluidSide<T>& fluid);
+  /// How many fluid particles the last begin_step found near the knit.
+  std::size_t fluid_near_knit() const { return n_near_; }
 
 private:
   KernelType kernel_;
@@ -74,6 +79,11 @@ private:
   exec::DeviceBuffer<T> m_, p_;                              // knit, grid order
   exec::DeviceBuffer<Vec3<T>> x_sorted_at_;                  // knit order, at the last sort
   exec::DeviceBuffer<Vec3<T>> impulse_;                      // fluid order
+  // The fluid particles with a knit point in their 27 knit-grid cells, found once per step
+  // (begin_step): the fluid is held still through the knit's substeps and the knit grid is not
+  // sorted between them, so only these can feel the knit. The rest of the fluid is skipped.
+  exec::DeviceBuffer<std::uint32_t> near_flag_, near_offset_, near_;
+  std::size_t n_near_ = 0;
 };
 
 } // namespace kf

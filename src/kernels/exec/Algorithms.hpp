@@ -62,6 +62,15 @@ void for_each(const Exec& ex, std::size_t n, const F& f, const char* label) {
   }
 }
 
+/// Runs a per-element functor over a list of indices: OverList{f, list} called with k calls
+/// f(list[k]), so a kernel can visit a subset (e.g. the fluid near the knit) without a branch.
+template <typename F>
+struct OverList {
+  F f;
+  const std::uint32_t* list;
+  KF_HD KF_INLINE void operator()(std::size_t k) const { f(list[k]); }
+};
+
 struct SumOp {
   template <typename T>
   KF_HD KF_INLINE T operator()(const T& a, const T& b) const {
@@ -110,8 +119,9 @@ __global__ void __launch_bounds__(kReduceThreads)
     partial[blockIdx.x] = block;
 }
 
-// One block folds the per-block partials, then applies init exactly once.
-template <typename R, typename Op>
+// One block folds the per-block partials, then applies the start value exactly once: init
+// (*out = op(init, total)), or with Into the value already at *out (*out = op(*out, total)).
+template <bool Into, typename R, typename Op>
 __global__ void __launch_bounds__(kReduceThreads)
     reduce_partials_kernel(unsigned nblocks, R init, Op op, const R* partial, R* out) {
   using BlockReduce = cub::BlockReduce<R, kReduceThreads>;
@@ -125,36 +135,28 @@ __global__ void __launch_bounds__(kReduceThreads)
   const int valid = nblocks < blockDim.x ? static_cast<int>(nblocks) : static_cast<int>(blockDim.x);
   R total = BlockReduce(tmp).Reduce(acc, op, valid);
   if (threadIdx.x == 0)
-    *out = op(init, total);
+    *out = op(Into ? *out : init, total);
 }
 #endif
 
-/// Returns op-reduction of f(i) over [0, n) starting from init (applied once; it need not be op's
-/// identity), on the host. op must be associative and commutative (SumOp, MaxOp, MinOp). The result
-/// is deterministic for a given n (and, on CPU, thread count); CPU and CUDA floating-point sums
-/// differ in rounding because their trees differ.
-template <typename R, typename Op, typename F>
-R transform_reduce(const Exec& ex, std::size_t n, R init, Op op, const F& f, const char* label) {
-  if (n == 0)
-    return init;
-  if (ex.backend == Backend::Cuda) {
 #if defined(__CUDACC__)
-    // partial[0..kReduceBlocks) per block, partial[kReduceBlocks] the result.
-    DeviceBuffer<R> partial(Backend::Cuda, kReduceBlocks + 1, label);
-    const std::size_t want = (n + kReduceThreads - 1) / kReduceThreads;
-    const unsigned blocks = static_cast<unsigned>(want < kReduceBlocks ? want : kReduceBlocks);
-    transform_reduce_kernel<R, Op, F><<<blocks, kReduceThreads>>>(n, init, op, f, partial.data());
-    KF_CHECK_LAUNCH(label, n);
-    reduce_partials_kernel<R, Op>
-        <<<1, kReduceThreads>>>(blocks, init, op, partial.data(), partial.data() + kReduceBlocks);
-    KF_CHECK_LAUNCH(label, blocks);
-    R out = init;
-    copy_bytes(&out, Backend::Cpu, partial.data() + kReduceBlocks, Backend::Cuda, sizeof(R));
-    return out;
-#else
-    throw_not_compiled_for_cuda(label);
+// Launches the first pass into the reduce scratch slot; returns the partials and their count.
+template <typename R, typename Op, typename F>
+R* launch_block_partials(std::size_t n, R placeholder, Op op, const F& f, unsigned& blocks,
+                         const char* label) {
+  // partial[0..kReduceBlocks) per block, partial[kReduceBlocks] the result.
+  R* partial =
+      static_cast<R*>(cuda_scratch(ScratchSlot::Reduce, (kReduceBlocks + 1) * sizeof(R), label));
+  const std::size_t want = (n + kReduceThreads - 1) / kReduceThreads;
+  blocks = static_cast<unsigned>(want < kReduceBlocks ? want : kReduceBlocks);
+  transform_reduce_kernel<R, Op, F><<<blocks, kReduceThreads>>>(n, placeholder, op, f, partial);
+  KF_CHECK_LAUNCH(label, n);
+  return partial;
+}
 #endif
-  }
+
+template <typename R, typename Op, typename F>
+R host_transform_reduce(std::size_t n, R init, Op op, const F& f) {
   // Fixed contiguous chunk per thread and an in-order combine: the same result every run (an
   // omp critical combine would add the partials in arrival order).
 #if defined(_OPENMP)
@@ -188,6 +190,53 @@ R transform_reduce(const Exec& ex, std::size_t n, R init, Op op, const F& f, con
   return result;
 }
 
+/// Returns op-reduction of f(i) over [0, n) starting from init (applied once; it need not be op's
+/// identity), on the host. op must be associative and commutative (SumOp, MaxOp, MinOp). The result
+/// is deterministic for a given n (and, on CPU, thread count); CPU and CUDA floating-point sums
+/// differ in rounding because their trees differ. On CUDA this waits for the device (the result
+/// is read back); use transform_reduce_into where the host does not need the value now.
+template <typename R, typename Op, typename F>
+R transform_reduce(const Exec& ex, std::size_t n, R init, Op op, const F& f, const char* label) {
+  if (n == 0)
+    return init;
+  if (ex.backend == Backend::Cuda) {
+#if defined(__CUDACC__)
+    unsigned blocks = 0;
+    R* partial = launch_block_partials(n, init, op, f, blocks, label);
+    reduce_partials_kernel<false, R, Op>
+        <<<1, kReduceThreads>>>(blocks, init, op, partial, partial + kReduceBlocks);
+    KF_CHECK_LAUNCH(label, blocks);
+    R out = init;
+    cuda_read_result(&out, partial + kReduceBlocks, sizeof(R), label);
+    return out;
+#else
+    throw_not_compiled_for_cuda(label);
+#endif
+  }
+  return host_transform_reduce(n, init, op, f);
+}
+
+/// *acc = op(*acc, op-reduction of f(i) over [0, n)), where acc points to memory on ex.backend:
+/// the result stays on the device, nothing waits (counters read at the diagnostics' cadence).
+template <typename R, typename Op, typename F>
+void transform_reduce_into(const Exec& ex, std::size_t n, Op op, const F& f, R* acc,
+                           const char* label) {
+  if (n == 0)
+    return;
+  if (ex.backend == Backend::Cuda) {
+#if defined(__CUDACC__)
+    unsigned blocks = 0;
+    R* partial = launch_block_partials(n, R{}, op, f, blocks, label);
+    reduce_partials_kernel<true, R, Op><<<1, kReduceThreads>>>(blocks, R{}, op, partial, acc);
+    KF_CHECK_LAUNCH(label, blocks);
+    return;
+#else
+    throw_not_compiled_for_cuda(label);
+#endif
+  }
+  *acc = host_transform_reduce(n, *acc, op, f); // init applied once: same as op(*acc, total)
+}
+
 /// Stable ascending sort of keys (only the low `key_bits` bits are looked at), carrying values.
 /// Both buffers must be on ex.backend and hold n elements; the sort is done in place.
 void sort_by_key(const Exec& ex, DeviceBuffer<std::uint32_t>& keys,
@@ -197,12 +246,27 @@ void sort_by_key(const Exec& ex, DeviceBuffer<std::uint32_t>& keys,
 std::uint64_t exclusive_scan(const Exec& ex, const DeviceBuffer<std::uint32_t>& in,
                              DeviceBuffer<std::uint32_t>& out, const char* label);
 
+// Named functors, not device lambdas, in these shared inline templates: nvcc's host-device lambda
+// wrappers instantiated from several translation units have called a null function on the CPU
+// backend of the CUDA build (moved_past_skin did).
+template <typename T>
+struct FillWith {
+  T* p;
+  T value;
+  KF_HD KF_INLINE void operator()(std::size_t i) const { p[i] = value; }
+};
+template <typename T>
+struct GatherBy {
+  const std::uint32_t* perm;
+  const T* src;
+  T* dst;
+  KF_HD KF_INLINE void operator()(std::size_t i) const { dst[i] = src[perm[i]]; }
+};
+
 /// Fills buf[0..n) with value.
 template <typename T>
 void fill(const Exec& ex, DeviceBuffer<T>& buf, T value, const char* label) {
-  T* p = buf.data();
-  for_each(
-      ex, buf.size(), [=] KF_HD(std::size_t i) { p[i] = value; }, label);
+  for_each(ex, buf.size(), FillWith<T>{buf.data(), value}, label);
 }
 
 /// dst[i] = src[perm[i]] — reorders one per-particle field after a sort.
@@ -212,11 +276,7 @@ void gather(const Exec& ex, const DeviceBuffer<std::uint32_t>& perm, const Devic
   if (dst.size() != perm.size())
     throw Error(std::string(label) + ": gather into " + std::to_string(dst.size()) +
                 " elements with a permutation of " + std::to_string(perm.size()));
-  const std::uint32_t* pp = perm.data();
-  const T* s = src.data();
-  T* d = dst.data();
-  for_each(
-      ex, perm.size(), [=] KF_HD(std::size_t i) { d[i] = s[pp[i]]; }, label);
+  for_each(ex, perm.size(), GatherBy<T>{perm.data(), src.data(), dst.data()}, label);
 }
 
 } // namespace kf::exec

@@ -6,6 +6,7 @@
 #include "kernels/exec/CudaCheck.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -192,6 +193,61 @@ void cuda_copy(void* dst, bool dst_dev, const void* src, bool src_dev, std::size
                                                  (dst_dev ? "device" : "host"));
 }
 
+// ---- scratch
+// --------------------------------------------------------------------------------------
+
+namespace {
+
+struct Scratch {
+  void* ptr = nullptr;
+  std::size_t bytes = 0;
+};
+// One process drives one device (rank -> device), so one set of slots suffices. Freed at exit
+// by the runtime's teardown; never freed earlier, so pointers handed out stay valid.
+Scratch g_scratch[static_cast<int>(ScratchSlot::Count)];
+void* g_pinned = nullptr;
+constexpr std::size_t kPinnedBytes = 4096;
+
+} // namespace
+
+void* cuda_scratch(ScratchSlot slot, std::size_t bytes, const char* label) {
+  Scratch& s = g_scratch[static_cast<int>(slot)];
+  if (bytes <= s.bytes)
+    return s.ptr;
+  // Grow by half again so a slowly growing particle count does not reallocate every step.
+  const std::size_t want = std::max(bytes, s.bytes + s.bytes / 2);
+  cuda_free(s.ptr); // cudaFree waits for queued work that may still use the old block
+  s.ptr = nullptr;
+  s.bytes = 0;
+  const std::string what = std::string(label) + " (scratch)";
+  s.ptr = cuda_alloc(want, what.c_str());
+  s.bytes = want;
+  return s.ptr;
+}
+
+void* cuda_pinned_result(std::size_t bytes, const char* label) {
+  if (bytes > kPinnedBytes)
+    throw Error(std::string(label) + ": a device result of " + std::to_string(bytes) +
+                " bytes exceeds the pinned staging buffer (" + std::to_string(kPinnedBytes) +
+                " bytes)");
+  if (!g_pinned)
+    KF_CUDA(cudaMallocHost(&g_pinned, kPinnedBytes),
+            std::string(label) + ": allocating the pinned result buffer");
+  return g_pinned;
+}
+
+void cuda_read_result(void* dst, const void* device_src, std::size_t bytes, const char* label) {
+  void* staging = cuda_pinned_result(bytes, label);
+  const auto ctx = [&] {
+    return std::string(label) + ": reading a " + std::to_string(bytes) +
+           "-byte result from the device (a kernel queued earlier may have failed; run with "
+           "KF_CUDA_SYNC_CHECK=1 to name it)";
+  };
+  KF_CUDA(cudaMemcpyAsync(staging, device_src, bytes, cudaMemcpyDeviceToHost, 0), ctx());
+  KF_CUDA(cudaStreamSynchronize(0), ctx());
+  std::memcpy(dst, staging, bytes);
+}
+
 // ---- sort and scan ------------------------------------------------------------------------------
 
 void cuda_sort_by_key(DeviceBuffer<std::uint32_t>& keys, DeviceBuffer<std::uint32_t>& values,
@@ -213,14 +269,14 @@ void cuda_sort_by_key(DeviceBuffer<std::uint32_t>& keys, DeviceBuffer<std::uint3
   cub::DoubleBuffer<std::uint32_t> dk(keys.data(), nullptr), dv(values.data(), nullptr);
   std::size_t temp_bytes = 0;
   KF_CUDA(cub::DeviceRadixSort::SortPairs(nullptr, temp_bytes, dk, dv, n, 0, key_bits), ctx());
-  const std::string what = std::string(label) + " (sort scratch)";
-  DeviceBuffer<unsigned char> scratch(Backend::Cuda, 2 * array_bytes + temp_bytes, what.c_str());
-  auto* alt_keys = reinterpret_cast<std::uint32_t*>(scratch.data());
-  auto* alt_values = reinterpret_cast<std::uint32_t*>(scratch.data() + array_bytes);
+  auto* scratch = static_cast<unsigned char*>(
+      cuda_scratch(ScratchSlot::Sort, 2 * array_bytes + temp_bytes, label));
+  auto* alt_keys = reinterpret_cast<std::uint32_t*>(scratch);
+  auto* alt_values = reinterpret_cast<std::uint32_t*>(scratch + array_bytes);
   dk = cub::DoubleBuffer<std::uint32_t>(keys.data(), alt_keys);
   dv = cub::DoubleBuffer<std::uint32_t>(values.data(), alt_values);
-  KF_CUDA(cub::DeviceRadixSort::SortPairs(scratch.data() + 2 * array_bytes, temp_bytes, dk, dv, n,
-                                          0, key_bits),
+  KF_CUDA(cub::DeviceRadixSort::SortPairs(scratch + 2 * array_bytes, temp_bytes, dk, dv, n, 0,
+                                          key_bits),
           ctx());
 
   // The pass count decides which half holds the result; bring it home if it ended in scratch.
@@ -231,7 +287,6 @@ void cuda_sort_by_key(DeviceBuffer<std::uint32_t>& keys, DeviceBuffer<std::uint3
   if (dv.Current() != values.data())
     KF_CUDA(cudaMemcpyAsync(values.data(), dv.Current(), bytes, cudaMemcpyDeviceToDevice),
             ctx() + " (copying values back)");
-  // The scratch is freed on return; cudaFree waits for the sort, so no explicit sync is needed.
 }
 
 std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
@@ -256,11 +311,10 @@ std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
   std::size_t temp_bytes = reduce_bytes > scan_bytes ? reduce_bytes : scan_bytes;
 
   // One scratch block: the total (padded to keep alignment), then the shared temporary storage.
-  const std::string what = std::string(label) + " (scan scratch)";
-  DeviceBuffer<unsigned char> scratch(Backend::Cuda, align_up(sizeof(std::uint64_t)) + temp_bytes,
-                                      what.c_str());
-  d_total = reinterpret_cast<std::uint64_t*>(scratch.data());
-  void* d_temp = scratch.data() + align_up(sizeof(std::uint64_t));
+  auto* scratch = static_cast<unsigned char*>(
+      cuda_scratch(ScratchSlot::Scan, align_up(sizeof(std::uint64_t)) + temp_bytes, label));
+  d_total = reinterpret_cast<std::uint64_t*>(scratch);
+  void* d_temp = scratch + align_up(sizeof(std::uint64_t));
   std::size_t bytes = temp_bytes;
   KF_CUDA(cub::DeviceReduce::TransformReduce(d_temp, bytes, d_in, d_total, n, ::cuda::std::plus<>{},
                                              Widen{}, std::uint64_t{0}),
@@ -269,8 +323,7 @@ std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
   KF_CUDA(cub::DeviceScan::ExclusiveSum(d_temp, bytes, d_in, d_out, n), ctx());
 
   std::uint64_t total = 0;
-  KF_CUDA(cudaMemcpy(&total, d_total, sizeof(total), cudaMemcpyDeviceToHost),
-          ctx() + " (reading the total)");
+  cuda_read_result(&total, d_total, sizeof(total), label);
   return total;
 }
 

@@ -20,6 +20,19 @@ namespace kf::exec {
                                    const std::string& context);
 void check_launch_impl(const char* label, std::size_t n, const char* file, int line);
 
+/// Scratch slots reused across calls, so that no sort, scan or reduction allocates (cudaMalloc and
+/// cudaFree synchronise the device, which made small scenes wait on the host every call).
+enum class ScratchSlot { Sort, Scan, Reduce, Count };
+/// Device memory of at least `bytes` for `slot`, kept between calls and grown (never shrunk)
+/// when a caller needs more. All work is on the legacy default stream, so a slot's next user runs
+/// after its previous one; callers must not hold the pointer across another call for the slot.
+void* cuda_scratch(ScratchSlot slot, std::size_t bytes, const char* label);
+/// Page-locked host memory (4 KiB) that small device results are copied into before the host
+/// reads them; valid until the next call that uses it.
+void* cuda_pinned_result(std::size_t bytes, const char* label);
+/// Copies `bytes` from device memory into host memory `dst` through the pinned buffer and waits.
+void cuda_read_result(void* dst, const void* device_src, std::size_t bytes, const char* label);
+
 } // namespace kf::exec
 
 #define KF_CUDA(call, ...)                                                                         \

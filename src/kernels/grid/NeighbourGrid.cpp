@@ -11,33 +11,33 @@ namespace kf {
 
 namespace {
 
-// Spreads the low 21 bits of v so that two zero bits separate each.
-std::uint64_t spread3(std::uint64_t v) {
-  v &= 0x1FFFFF;
-  v = (v | v << 32) & 0x1F00000000FFFFULL;
-  v = (v | v << 16) & 0x1F0000FF0000FFULL;
-  v = (v | v << 8) & 0x100F00F00F00F00FULL;
-  v = (v | v << 4) & 0x10C30C30C30C30C3ULL;
-  v = (v | v << 2) & 0x1249249249249249ULL;
+// Spreads the low 32 bits of v so that one zero bit separates each.
+std::uint64_t spread2(std::uint64_t v) {
+  v &= 0xFFFFFFFFULL;
+  v = (v | v << 16) & 0x0000FFFF0000FFFFULL;
+  v = (v | v << 8) & 0x00FF00FF00FF00FFULL;
+  v = (v | v << 4) & 0x0F0F0F0F0F0F0F0FULL;
+  v = (v | v << 2) & 0x3333333333333333ULL;
+  v = (v | v << 1) & 0x5555555555555555ULL;
   return v;
-}
-
-std::uint64_t morton(int x, int y, int z) {
-  return spread3(static_cast<std::uint64_t>(x)) | spread3(static_cast<std::uint64_t>(y)) << 1 |
-         spread3(static_cast<std::uint64_t>(z)) << 2;
 }
 
 } // namespace
 
 template <typename T>
-GridGeometry<T> NeighbourGrid<T>::cover(const Vec3d& lo, const Vec3d& hi, double cell) {
+GridGeometry<T> NeighbourGrid<T>::cover(const Vec3d& lo, const Vec3d& hi, double cell, int pad) {
   if (!(cell > 0))
     throw Error("neighbour grid: cell size must be > 0");
+  if (pad < 1)
+    throw Error("neighbour grid: padding must be at least one cell");
   GridGeometry<T> g;
   g.cell = static_cast<T>(cell);
   g.inv_cell = static_cast<T>(1.0 / cell);
-  g.origin = vec_cast<T>(Vec3d{lo.x - cell, lo.y - cell, lo.z - cell});
-  auto count = [&](double a, double b) { return static_cast<int>(std::ceil((b - a) / cell)) + 2; };
+  const double margin = pad * cell;
+  g.origin = vec_cast<T>(Vec3d{lo.x - margin, lo.y - margin, lo.z - margin});
+  auto count = [&](double a, double b) {
+    return static_cast<int>(std::ceil((b - a) / cell)) + 2 * pad;
+  };
   g.nx = count(lo.x, hi.x);
   g.ny = count(lo.y, hi.y);
   g.nz = count(lo.z, hi.z);
@@ -50,24 +50,33 @@ GridGeometry<T> NeighbourGrid<T>::cover(const Vec3d& lo, const Vec3d& hi, double
 }
 
 template <typename T>
-NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo)
-    : geo_(geo), rank_(b, 0, "grid.rank"), start_(b, 0, "grid.start"), end_(b, 0, "grid.end"),
-      keys_(b, 0, "grid.keys"), perm_(b, 0, "grid.permutation") {
+NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span)
+    : geo_(geo), span_(span), rank_(b, 0, "grid.rank"), start_(b, 0, "grid.start"),
+      end_(b, 0, "grid.end"), keys_(b, 0, "grid.keys"), perm_(b, 0, "grid.permutation") {
+  if (span < 1)
+    throw Error("neighbour grid: span must be at least one cell");
   const std::uint32_t n = geo.cells();
-  // Rank of each cell in Morton order, computed once: sorting particles by rank groups each
-  // cell's particles and keeps nearby cells nearby in memory.
-  std::vector<std::uint32_t> order(n);
+  // Rank of each cell, computed once: rows of cells along x in Morton order of (y, z), and x
+  // running within a row. Sorting particles by rank groups each cell's particles and keeps
+  // nearby cells nearby in memory; cells next to each other along x are next to each other in
+  // rank, so a neighbour loop reads each row of its cells as one range. Only the rows are
+  // sorted (ny nz of them), so a large grid costs O(cells) to set up.
+  const std::uint32_t rows =
+      static_cast<std::uint32_t>(geo.ny) * static_cast<std::uint32_t>(geo.nz);
+  std::vector<std::uint32_t> order(rows);
   std::iota(order.begin(), order.end(), 0u);
-  std::vector<std::uint64_t> code(n);
+  std::vector<std::uint64_t> code(rows);
   for (int z = 0; z < geo.nz; ++z)
     for (int y = 0; y < geo.ny; ++y)
-      for (int x = 0; x < geo.nx; ++x)
-        code[geo.linear(x, y, z)] = morton(x, y, z);
+      code[std::uint32_t(z) * std::uint32_t(geo.ny) + std::uint32_t(y)] =
+          spread2(std::uint64_t(y)) | spread2(std::uint64_t(z)) << 1;
   std::sort(order.begin(), order.end(),
             [&](std::uint32_t a, std::uint32_t b) { return code[a] < code[b]; });
   std::vector<std::uint32_t> rank(n);
-  for (std::uint32_t r = 0; r < n; ++r)
-    rank[order[r]] = r;
+  const std::uint32_t nx = static_cast<std::uint32_t>(geo.nx);
+  for (std::uint32_t r = 0; r < rows; ++r) // order[r] = z ny + y, and linear = (z ny + y) nx + x
+    for (std::uint32_t x = 0; x < nx; ++x)
+      rank[order[r] * nx + x] = r * nx + x;
   rank_.assign(rank);
   start_.resize(n);
   end_.resize(n);
@@ -119,6 +128,35 @@ void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
           end[k] = static_cast<std::uint32_t>(i + 1);
       },
       "grid.ranges");
+}
+
+namespace {
+
+template <typename T>
+struct OccupiedAround {
+  CellView<T> cells;
+  std::uint8_t* flag;
+  KF_HD void operator()(std::size_t c) const {
+    const GridGeometry<T>& g = cells.geo;
+    const int nx = g.nx, ny = g.ny;
+    const int x = static_cast<int>(c % std::size_t(nx));
+    const int y = static_cast<int>((c / std::size_t(nx)) % std::size_t(ny));
+    const int z = static_cast<int>(c / (std::size_t(nx) * std::size_t(ny)));
+    // The centre of the cell: for_each_candidate from any point of it visits the same cells.
+    const Vec3<T> centre{g.origin.x + (T(x) + T(0.5)) * g.cell,
+                         g.origin.y + (T(y) + T(0.5)) * g.cell,
+                         g.origin.z + (T(z) + T(0.5)) * g.cell};
+    flag[c] = cells.has_candidates(centre) ? 1 : 0;
+  }
+};
+
+} // namespace
+
+template <typename T>
+void NeighbourGrid<T>::occupied_around(const exec::Exec& ex,
+                                       exec::DeviceBuffer<std::uint8_t>& flag) const {
+  flag.resize(geo_.cells());
+  exec::for_each(ex, geo_.cells(), OccupiedAround<T>{view(), flag.data()}, "grid.occupied");
 }
 
 template <typename T>

@@ -4,19 +4,27 @@
 
 namespace kf {
 
+/// Squared displacement of point i since the grid was sorted.
+template <typename T>
+struct SquaredDisplacement {
+  const Vec3<T>* x;
+  const Vec3<T>* x0;
+  KF_HD KF_INLINE T operator()(std::size_t i) const { return norm2(x[i] - x0[i]); }
+};
+
 /// Whether a grid sorted when the points were at x0 is stale for x: some point moved farther
 /// than the skin (the cell's margin over the interaction reach), or the count changed. A NaN
-/// counts as moved (the step-size check reports it).
+/// counts as moved (the step-size check reports it). A named functor, not a device lambda:
+/// nvcc's host-device lambda wrappers in an inline function shared by several translation units
+/// called a null function on the CPU backend of the CUDA build.
 template <typename T>
 bool moved_past_skin(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x,
                      const exec::DeviceBuffer<Vec3<T>>& x0, T skin2, const char* label) {
   const std::size_t n = x.size();
   if (x0.size() != n)
     return true;
-  const Vec3<T>* a = x.data();
-  const Vec3<T>* b = x0.data();
-  const T moved2 = exec::transform_reduce(
-      ex, n, T(0), exec::MaxOp{}, [=] KF_HD(std::size_t i) { return norm2(a[i] - b[i]); }, label);
+  const T moved2 = exec::transform_reduce(ex, n, T(0), exec::MaxOp{},
+                                          SquaredDisplacement<T>{x.data(), x0.data()}, label);
   return !(moved2 <= skin2);
 }
 
@@ -26,19 +34,27 @@ bool moved_past_skin(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x,
 template <typename T>
 class NeighbourGrid {
 public:
-  NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo);
+  /// span: cells searched on each side of a particle's cell (the interaction radius is span
+  /// cell edges; see CellView).
+  NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span = 1);
 
-  /// Grid covering [lo, hi] with cells of edge `cell` plus one cell of padding on every side.
-  static GridGeometry<T> cover(const Vec3d& lo, const Vec3d& hi, double cell);
+  /// Grid covering [lo, hi] with cells of edge `cell` plus `pad` cells of padding on every side.
+  static GridGeometry<T> cover(const Vec3d& lo, const Vec3d& hi, double cell, int pad = 1);
 
   void build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n);
+  /// flag[linear cell index] = 1 when some particle of this grid lies in the cells a neighbour
+  /// loop from that cell visits, else 0: a point of another set (on a grid of the same
+  /// geometry) in a 0 cell has no candidates here and can skip the loop. After build().
+  void occupied_around(const exec::Exec& ex, exec::DeviceBuffer<std::uint8_t>& flag) const;
   const exec::DeviceBuffer<std::uint32_t>& permutation() const { return perm_; }
-  CellView<T> view() const { return {geo_, rank_.data(), start_.data(), end_.data()}; }
+  CellView<T> view() const { return {geo_, rank_.data(), start_.data(), end_.data(), span_}; }
+  int span() const { return span_; }
   const GridGeometry<T>& geometry() const { return geo_; }
   std::size_t bytes() const;
 
 private:
   GridGeometry<T> geo_;
+  int span_ = 1;
   int key_bits_ = 1;
   bool cleared_ = false; // start/end zeroed once; later builds clear only the cells last used
   exec::DeviceBuffer<std::uint32_t> rank_, start_, end_, keys_, perm_;

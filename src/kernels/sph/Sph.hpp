@@ -5,6 +5,7 @@
 #include "kernels/boundary/RigidShape.hpp"
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/GridGeometry.hpp"
+#include "kernels/grid/NeighbourList.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/sph/Eos.hpp"
 
@@ -30,12 +31,27 @@ struct BoundaryNeighbours {
   const Vec3<T>* v = nullptr; // no-slip velocity; nullptr: free slip (no viscous wall term)
   CellView<T> cells{};
   std::size_t n = 0;
+  // Per linear cell of `cells`' geometry: 1 where boundary particles lie around (null: walk
+  // every cell). Most fluid lies far from any wall; this saves its empty boundary-cell walks.
+  const std::uint8_t* near = nullptr;
+
+  /// Whether the boundary loop from x can find anything.
+  KF_HD KF_INLINE bool around(const Vec3<T>& x) const {
+    if (n == 0)
+      return false;
+    if (!near)
+      return true;
+    int cx, cy, cz;
+    cells.geo.coords(x, cx, cy, cz);
+    return near[cells.geo.linear(cx, cy, cz)] != 0;
+  }
 };
 
-/// rho_i (Eq. 2, plus boundary psi_b W) and P_i from the EOS, for every fluid particle.
+/// rho_i (Eq. 2, plus boundary psi_b W) and P_i from the EOS, for every fluid particle. With
+/// `list` (built this step from `cells`), fluid neighbours come from it instead of the cells.
 template <typename T>
 void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                 const BoundaryNeighbours<T>& b);
+                 const BoundaryNeighbours<T>& b, const ListView<T>* list = nullptr);
 
 /// Boundary pressure from the fluid around each boundary particle (Adami et al. 2012):
 /// P_b = (sum_f P_f W + (g - a_b) . sum_f rho_f (x_b - x_f) W) / sum_f W, and rho_b from the EOS.
@@ -49,6 +65,6 @@ void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryVi
 /// a_i = g + pressure (Eq. 3) + viscosity (Eq. 4) + boundary pressure, for every fluid particle.
 template <typename T>
 void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                const BoundaryNeighbours<T>& b);
+                const BoundaryNeighbours<T>& b, const ListView<T>* list = nullptr);
 
 } // namespace kf

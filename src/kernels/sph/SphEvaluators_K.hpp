@@ -2,28 +2,31 @@
 #include "core/Math.hpp"
 // The SPH evaluators: one particle's gather over its neighbours, as host-device functors.
 // Gather only (each particle sums what acts on it): no atomics, deterministic sums.
+#include "kernels/grid/NeighbourList.hpp"
 #include "kernels/sph/Sph.hpp"
 
 namespace kf {
 
-template <typename T, typename K>
+// N: where a particle's fluid neighbours come from: CellNeighbours (the grid's candidates) or
+// ListView (the step's neighbour lists); both call f(j) in the same order, so sums agree.
+template <typename T, typename K, typename N>
 struct DensityEvaluator {
   K kernel;
   Eos<T> eos;
   FluidView<T> f;
-  CellView<T> cells;
+  N nb;
   BoundaryNeighbours<T> b;
 
   KF_HD void operator()(std::size_t i) const {
     const Vec3<T> xi = f.x[i];
     const T h2 = kernel.h * kernel.h;
     T rho = T(0);
-    cells.for_each_candidate(xi, [&](std::uint32_t j) {
+    nb.for_each_neighbour(i, xi, [&](std::uint32_t j) {
       const T r2 = norm2(xi - f.x[j]);
       if (r2 < h2)
         rho += f.m[j] * kernel.W(ksqrt(r2));
     });
-    if (b.n) {
+    if (b.around(xi)) {
       T vol = T(0);
       b.cells.for_each_candidate(xi, [&](std::uint32_t k) {
         const T r2 = norm2(xi - b.x[k]);
@@ -77,54 +80,57 @@ struct BoundaryPressureEvaluator {
   }
 };
 
-template <typename T, typename K>
+template <typename T, typename K, typename N>
 struct ForceEvaluator {
   K kernel;
   SphParams<T> prm;
   FluidView<T> f;
-  CellView<T> cells;
+  N nb;
   BoundaryNeighbours<T> b;
 
+  // On the GPU the lanes of a warp walk their candidates together and ~85% of candidates are
+  // out of range, so whenever one lane has a neighbour the whole warp runs the pair code: its
+  // cost is paid per candidate. It is written with one reciprocal square root and two
+  // reciprocals (no divisions): grad W = r_ij dW/dr / r, and r . grad W = r^2 dW/dr / r.
   KF_HD void operator()(std::size_t i) const {
     const Vec3<T> xi = f.x[i];
     const Vec3<T> vi = f.v[i];
     const T h2 = kernel.h * kernel.h;
     const T eta2 = T(0.01) * h2; // keeps the viscous term finite as r -> 0 (Morris et al. 1997)
-    const T rho_i = f.rho[i];
-    const T pi = f.p[i] / (rho_i * rho_i);
+    const T inv_rho_i = krcp(f.rho[i]);
+    const T pi = f.p[i] * inv_rho_i * inv_rho_i;
     const T mu2 = T(2) * prm.viscosity;
     Vec3<T> acc = prm.gravity;
-    cells.for_each_candidate(xi, [&](std::uint32_t j) {
-      if (j == i)
-        return;
+    nb.for_each_neighbour(i, xi, [&](std::uint32_t j) {
       const Vec3<T> rij = xi - f.x[j];
       const T r2 = norm2(rij);
-      if (r2 >= h2)
+      if (r2 >= h2 || r2 <= T(0)) // r = 0: j == i (or a coincident particle: no direction)
         return;
-      const T r = ksqrt(r2);
-      const Vec3<T> gw = kernel.grad(rij, r);
-      const T rho_j = f.rho[j];
+      const T inv_r = krsqrt(r2);
+      const T dw = kernel.dWdr(r2 * inv_r) * inv_r; // grad W = rij dw
+      const T inv_rho_j = krcp(f.rho[j]);
       const T mj = f.m[j];
       // Eq. 3: pressure, symmetric in i and j so pair forces cancel.
-      acc -= gw * (mj * (pi + f.p[j] / (rho_j * rho_j)));
+      const T press = mj * (pi + f.p[j] * inv_rho_j * inv_rho_j);
       // Eq. 4 (Morris form): mu_i + mu_j, relative velocity, (r . grad W) / (r^2 + eta^2).
-      const T visc = mj * mu2 / (rho_i * rho_j) * dot(rij, gw) / (r2 + eta2);
-      acc += (vi - f.v[j]) * visc;
+      const T visc = mj * mu2 * inv_rho_i * inv_rho_j * (r2 * dw) * krcp(r2 + eta2);
+      acc += (vi - f.v[j]) * visc - rij * (dw * press);
     });
-    if (b.n) {
+    if (b.around(xi)) {
       // Boundary particles as fluid particles of mass psi_b = rho0 V_b and pressure P_b.
       const T rho0 = prm.eos.rho0;
       b.cells.for_each_candidate(xi, [&](std::uint32_t k) {
         const Vec3<T> rik = xi - b.x[k];
         const T r2 = norm2(rik);
-        if (r2 >= h2)
+        if (r2 >= h2 || r2 <= T(0))
           return;
-        const T rho_k = b.rho[k];
-        const Vec3<T> gw = kernel.grad(rik, ksqrt(r2));
+        const T inv_r = krsqrt(r2);
+        const T dw = kernel.dWdr(r2 * inv_r) * inv_r;
+        const T inv_rho_k = krcp(b.rho[k]);
         const T mk = rho0 * b.volume[k];
-        acc -= gw * (mk * (pi + b.p[k] / (rho_k * rho_k)));
+        acc -= rik * (dw * mk * (pi + b.p[k] * inv_rho_k * inv_rho_k));
         if (b.v)
-          acc += (vi - b.v[k]) * (mk * mu2 / (rho_i * rho_k) * dot(rik, gw) / (r2 + eta2));
+          acc += (vi - b.v[k]) * (mk * mu2 * inv_rho_i * inv_rho_k * (r2 * dw) * krcp(r2 + eta2));
       });
     }
     f.a[i] = acc;

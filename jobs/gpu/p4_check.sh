@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# P4 on a GPU machine, one command (after `. .devrt/prelude.sh`, from the project root): the GPU
+# unit tests and the CPU/GPU comparison, compute-sanitizer memcheck and racecheck on a small
+# scene, the P4 benchmark table (bench_gpu), and the whole pour with per-stage profile.
+# Logs, CSV and the table go to $OUT (default out/p4). Binaries are found on PATH
+# (.devrt/bin from scripts/pack-gpu.sh) or in build/cuda.
+set -uo pipefail
+out=${OUT:-out/p4}
+mkdir -p "$out"
+export PATH="$PATH:build/cuda/apps:build/cuda/bench:build/cuda/tests"
+nvidia-smi --query-gpu=name,memory.total,clocks.max.sm,clocks.max.mem --format=csv > "$out/gpu.txt" 2>&1
+for t in test_exec_K test_neighbour_grid_K test_coupling_K test_self_contact_K test_backends; do
+  if command -v "$t" >/dev/null; then
+    "$t" > "$out/$t.log" 2>&1
+    echo "$t rc=$? $(grep -E '^\[  (PASSED|FAILED) ' "$out/$t.log" | tr '\n' ' ')"
+  fi
+done
+san=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 2>/dev/null | head -1)
+if [ -n "$san" ]; then
+  for tool in memcheck racecheck; do
+    "$san" --tool $tool --error-exitcode 9 knitflow run scenes/pour.toml --device cuda \
+      --set output.enabled=false --set fluid.spacing=0.012 --set knit.piece.0.wales=24 \
+      --set knit.piece.0.courses=24 --set solver.max_steps=${P4_SAN_STEPS:-10} > "$out/sanitizer_$tool.log" 2>&1
+    echo "compute-sanitizer $tool rc=$? $(grep -E 'SUMMARY' "$out/sanitizer_$tool.log")"
+  done
+fi
+bench_gpu --device cuda --csv "$out/bench_gpu.csv" > "$out/bench_gpu.log" 2>&1
+echo "bench_gpu rc=$?"
+knitflow run scenes/pour.toml --device cuda --profile --set output.enabled=false > "$out/pour_whole.log" 2>&1
+echo "pour rc=$?"

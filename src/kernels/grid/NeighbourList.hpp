@@ -1,0 +1,69 @@
+#pragma once
+// Per-particle lists of the neighbours within a radius, built from a NeighbourGrid once per step
+// and read by every pass of that step (density, forces).
+//
+// Why: on the GPU the lanes of a warp walk their grid candidates together, and with ~15% of
+// candidates in range some lane almost always has a neighbour, so the whole warp runs the pair
+// code for every candidate. A list pays the candidate walk once, with a cheap body (append),
+// and the passes then run the pair code only for real neighbours. Measured on an H100
+// (docs/PERFORMANCE.md): density and forces get 1.6-1.8x faster, but a build every step costs
+// more than that saves, so solver.neighbour_list is off by default; reusing a list over several
+// steps (a skin) is what would make it pay.
+#include "kernels/exec/Algorithms.hpp"
+#include "kernels/grid/GridGeometry.hpp"
+
+namespace kf {
+
+/// Read-only view of the lists, passed by value into kernels. Particle i's neighbours are the
+/// row list[i * capacity, i * capacity + count[i]). Rows, not columns: the build's lanes append
+/// at different rates, and a column layout (slot k of consecutive particles together) made
+/// every append its own memory transaction (measured: the build took 3x the density pass).
+template <typename T>
+struct ListView {
+  const std::uint32_t* count = nullptr;
+  const std::uint32_t* list = nullptr;
+  std::size_t capacity = 0;
+
+  /// Calls f(j) for the neighbours of i found at build time, in the grid's candidate order.
+  template <typename F>
+  KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>&, F&& f) const {
+    const std::uint32_t c = count[i];
+    const std::uint32_t* row = list + i * capacity;
+    for (std::uint32_t k = 0; k < c; ++k)
+      f(row[k]);
+  }
+};
+
+/// The same interface over a cell grid: every candidate of the cells around x (f filters).
+template <typename T>
+struct CellNeighbours {
+  CellView<T> cells;
+  template <typename F>
+  KF_HD KF_INLINE void for_each_neighbour(std::size_t, const Vec3<T>& x, F&& f) const {
+    cells.for_each_candidate(x, f);
+  }
+};
+
+template <typename T>
+class NeighbourList {
+public:
+  explicit NeighbourList(exec::Backend b);
+
+  /// Lists, for each of the n points x (sorted as `cells` describes), every j with
+  /// |x_i - x_j|^2 < radius2 (i itself included), in the order the cell walk meets them. The
+  /// capacity grows (and the build repeats) until the densest particle fits.
+  void build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const CellView<T>& cells,
+             T radius2);
+  ListView<T> view() const { return {count_.data(), list_.data(), capacity_}; }
+  /// Slots per particle now; most neighbours of one particle at the last build.
+  std::uint32_t capacity() const { return capacity_; }
+  std::uint32_t most() const { return most_; }
+  std::size_t bytes() const { return count_.capacity_bytes() + list_.capacity_bytes(); }
+
+private:
+  exec::DeviceBuffer<std::uint32_t> count_, list_;
+  std::size_t n_ = 0;
+  std::uint32_t capacity_ = 0, most_ = 0;
+};
+
+} // namespace kf
