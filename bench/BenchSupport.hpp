@@ -1,7 +1,12 @@
 #pragma once
-// Helpers the bench programs share: neighbour counts measured on a snapshot frame, and the DRAM
-// traffic model of a dam-break step. Host code only; nothing here launches kernels.
+// Helpers the bench programs share: the command line, neighbour counts measured on a snapshot
+// frame, and the DRAM traffic model of a dam-break step. Host code only; nothing here launches
+// kernels.
 #include "io/Frame.hpp"
+
+#include <CLI/CLI.hpp>
+#include <mpi.h>
+#include <optional>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +16,19 @@
 #include <vector>
 
 namespace kf::bench {
+
+/// Parses the command line. On --help or a bad option: prints CLI11's text, finalises MPI and
+/// returns the exit code to leave main with; otherwise nothing.
+inline std::optional<int> parse_or_exit(CLI::App& app, int argc, char** argv) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    MPI_Finalize();
+    return rc;
+  }
+  return std::nullopt;
+}
 
 /// Mean number of fluid + boundary neighbours within h (pairs the density and force loops
 /// evaluate), from a sample of fluid particles, by brute force over a hashed grid on the host.

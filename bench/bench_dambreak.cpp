@@ -123,13 +123,8 @@ int main(int argc, char** argv) {
   app.add_option("--work", work, "fluid particle-steps timed per case");
   app.add_option("--scene", scene, "scene to refine (default scenes/dambreak.toml)");
   app.add_option("--csv", csv, "also write the table as CSV");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int rc = app.exit(e);
-    MPI_Finalize();
-    return rc;
-  }
+  if (const auto rc = bench::parse_or_exit(app, argc, argv))
+    return *rc;
   const exec::Backend be = device == "cuda" ? exec::Backend::Cuda : exec::Backend::Cpu;
   if (be == exec::Backend::Cuda)
     threads = {omp_get_max_threads()};

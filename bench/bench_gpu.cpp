@@ -418,13 +418,8 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "OpenMP threads of the CPU backend (default: all)");
   app.add_option("--root", root, "source tree whose scenes/ to run (default: the build's, else .)");
   app.add_option("--csv", csv, "also write the table as CSV");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int rc = app.exit(e);
-    MPI_Finalize();
-    return rc;
-  }
+  if (const auto rc = bench::parse_or_exit(app, argc, argv))
+    return *rc;
   if (threads > 0)
     omp_set_num_threads(threads);
   opt.device = device == "cuda" ? exec::Backend::Cuda : exec::Backend::Cpu;
