@@ -2,11 +2,14 @@
 // Helpers the bench programs share: the command line, neighbour counts measured on a snapshot
 // frame, and the DRAM traffic model of a dam-break step. Host code only; nothing here launches
 // kernels.
+#include "domain/Scene.hpp"
 #include "io/Frame.hpp"
 
 #include <CLI/CLI.hpp>
 #include <mpi.h>
 #include <optional>
+#include <sstream>
+#include <string>
 
 #include <algorithm>
 #include <cmath>
@@ -16,6 +19,25 @@
 #include <vector>
 
 namespace kf::bench {
+
+/// fluid.spacing that gives the scene's fluid blocks about n particles.
+inline double spacing_for(const std::string& path, double n) {
+  const Scene probe = load_scene(path);
+  double volume = 0;
+  for (const auto& b : probe.fluid.blocks) {
+    const Vec3d e = b.max - b.min;
+    volume += e.x * e.y * e.z;
+  }
+  return std::cbrt(volume / n);
+}
+
+/// The --set override for that spacing, with enough digits to reproduce it.
+inline std::string spacing_override(double dp) {
+  std::ostringstream o;
+  o.precision(10);
+  o << "fluid.spacing=" << dp;
+  return o.str();
+}
 
 /// Parses the command line. On --help or a bad option: prints CLI11's text, finalises MPI and
 /// returns the exit code to leave main with; otherwise nothing.

@@ -64,18 +64,9 @@ struct Result {
 
 Result run_case(const std::string& scene_path, std::size_t target, int threads, exec::Backend be,
                 const std::string& precision, double work) {
-  Scene probe = load_scene(scene_path);
-  double column = 0;
-  for (const auto& b : probe.fluid.blocks) {
-    const Vec3d e = b.max - b.min;
-    column += e.x * e.y * e.z;
-  }
-  const double dp = std::cbrt(column / double(target));
-  std::ostringstream sp;
-  sp.precision(10);
-  sp << "fluid.spacing=" << dp;
-  Scene s = load_scene(
-      scene_path, {sp.str(), "output.enabled=false", "simulation.precision=\"" + precision + "\""});
+  Scene s = load_scene(scene_path,
+                       {spacing_override(spacing_for(scene_path, double(target))),
+                        "output.enabled=false", "simulation.precision=\"" + precision + "\""});
   omp_set_num_threads(threads);
   Result r;
   r.threads = threads;

@@ -251,24 +251,6 @@ std::string size_label(double n) {
   return b;
 }
 
-std::string spacing_override(double dp) {
-  std::ostringstream o;
-  o.precision(10);
-  o << "fluid.spacing=" << dp;
-  return o.str();
-}
-
-/// fluid.spacing that gives the scene's fluid blocks about n particles.
-double spacing_for(const std::string& path, double n) {
-  const Scene probe = load_scene(path);
-  double volume = 0;
-  for (const auto& b : probe.fluid.blocks) {
-    const Vec3d e = b.max - b.min;
-    volume += e.x * e.y * e.z;
-  }
-  return std::cbrt(volume / n);
-}
-
 /// The neighbour search the gather loops make, per interior fluid particle: candidates tested
 /// in the cells around it and neighbours within the support. The cells come from `plan`'s grid
 /// of a coarse copy of the scene (the cell edge is a fixed fraction of the support, so it does
@@ -280,7 +262,7 @@ struct SearchModel {
 };
 
 SearchModel search_model(const std::string& path) {
-  const Scene coarse = load_scene(path, {spacing_override(spacing_for(path, 2e4))});
+  const Scene coarse = load_scene(path, {bench::spacing_override(bench::spacing_for(path, 2e4))});
   const PlanReport plan = Simulation::plan(coarse);
   const Vec3d extent = coarse.domain.max - coarse.domain.min;
   const double e[3] = {extent.x, extent.y, extent.z}, h = plan.support_radius;
@@ -488,8 +470,8 @@ int main(int argc, char** argv) {
       try {
         if (!model)
           model = search_model(dambreak);
-        const Scene s =
-            load_scene(dambreak, {spacing_override(spacing_for(dambreak, n)), no_output});
+        const Scene s = load_scene(
+            dambreak, {bench::spacing_override(bench::spacing_for(dambreak, n)), no_output});
         const Timing t = time_scene(s, be, opt, 5, 0, n <= 2.1e6);
         Row r = row_from("dambreak", what, be, t);
         const double floor = bench::bytes_per_step(t.fluid, t.boundary, false) / opt.bandwidth;
@@ -517,7 +499,7 @@ int main(int argc, char** argv) {
       try {
         if (!model)
           model = search_model(column);
-        const Scene s = load_scene(column, {spacing_override(dp), no_output});
+        const Scene s = load_scene(column, {bench::spacing_override(dp), no_output});
         const Timing t = time_scene(s, be, opt, 5, 0, true);
         Row r = row_from("column", what, be, t);
         r.floor_ms = 1e3 * bench::bytes_per_step(t.fluid, t.boundary, false) / opt.bandwidth;
@@ -562,7 +544,9 @@ int main(int argc, char** argv) {
     try {
       ratio_cases.push_back(
           {"dambreak 0.1M",
-           load_scene(dambreak, {spacing_override(spacing_for(dambreak, 1e5)), no_output}), 5, 0});
+           load_scene(dambreak,
+                      {bench::spacing_override(bench::spacing_for(dambreak, 1e5)), no_output}),
+           5, 0});
       ratio_cases.push_back({"pour", load_scene(pour, {no_output}), 5, 30});
     } catch (const std::exception& e) {
       failed("ratio", "scenes", exec::Backend::Cpu, e);
@@ -612,8 +596,8 @@ int main(int argc, char** argv) {
       if (!largest_fluid_only) {
         const double n =
             sizes.empty() ? 1e6 : std::min(4e6, *std::max_element(sizes.begin(), sizes.end()));
-        const Scene s =
-            load_scene(dambreak, {spacing_override(spacing_for(dambreak, n)), no_output});
+        const Scene s = load_scene(
+            dambreak, {bench::spacing_override(bench::spacing_for(dambreak, n)), no_output});
         Options quick = opt;
         quick.max_seconds = 1;
         largest_fluid_only = {"dam break " + size_label(n), time_scene(s, be, quick, 2, 3, false)};

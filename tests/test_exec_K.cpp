@@ -285,6 +285,23 @@ TEST_P(ExecTest, ExclusiveScanMatchesStd) {
   }
 }
 
+TEST_P(ExecTest, FlaggedIndicesCompactsInOrder) {
+  for (std::size_t n : kSizes) {
+    const auto bits = random_u32(n, 1, 31 + static_cast<std::uint32_t>(n));
+    DeviceBuffer<std::uint32_t> flags(b(), 0, "flags"), offsets(b(), 0, "offsets"),
+        out(b(), 3, "out");
+    flags.assign(bits);
+    out.poison();
+    const std::size_t k = kf::exec::flagged_indices(ex(), flags, offsets, out, "test.flagged");
+    std::vector<std::uint32_t> want;
+    for (std::size_t i = 0; i < n; ++i)
+      if (bits[i])
+        want.push_back(static_cast<std::uint32_t>(i));
+    ASSERT_EQ(k, want.size()) << "n=" << n;
+    EXPECT_EQ(out.to_host(), want) << "n=" << n;
+  }
+}
+
 TEST_P(ExecTest, GatherPermutes) {
   for (std::size_t n : {std::size_t{1}, std::size_t{1000}, std::size_t{100003}}) {
     std::vector<std::uint32_t> perm(n);

@@ -148,13 +148,7 @@ private:
   std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
   std::optional<NeighbourList<T>> fluid_list_; // built with the grid each step, when enabled
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
-  const ListView<T>* fluid_list_view() {
-    if (!fluid_list_)
-      return nullptr;
-    list_view_ = fluid_list_->view();
-    return &list_view_;
-  }
-  ListView<T> list_view_;
+  ListView<T> fluid_list_view() const { return fluid_list_ ? fluid_list_->view() : ListView<T>{}; }
   RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
   exec::DeviceBuffer<RigidShape<T>> shapes_;
   Pipeline pipeline_;

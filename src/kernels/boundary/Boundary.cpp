@@ -52,25 +52,17 @@ struct RigidContact {
   }
 };
 
-template <typename T>
-struct RigidContactUncounted {
-  RigidContact<T> f;
-  KF_HD void operator()(std::size_t i) const { (void)f(i); }
-};
-
 } // namespace
 
 template <typename T>
 void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
                           const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
                           const std::uint32_t* fixed, std::uint64_t* count, const char* label) {
-  // With a counter: a reduction whose functor also corrects the point (each index is visited
-  // exactly once on either backend); the sum stays in device memory.
-  const RigidContact<T> f{x, v, shapes, n_shapes, margin, friction, fixed};
-  if (count)
-    exec::transform_reduce_into(ex, n, exec::SumOp{}, f, count, label);
-  else
-    exec::for_each(ex, n, RigidContactUncounted<T>{f}, label);
+  // A reduction whose functor also corrects the point (each index is visited exactly once on
+  // either backend); the sum stays in device memory.
+  exec::transform_reduce_into(ex, n, exec::SumOp{},
+                              RigidContact<T>{x, v, shapes, n_shapes, margin, friction, fixed},
+                              count, label);
 }
 
 template <typename T>

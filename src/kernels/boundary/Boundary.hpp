@@ -17,7 +17,7 @@ void move_boundary(const exec::Exec& ex, BoundaryView<T> b, const RigidShape<T>*
 /// this is the last line of defence (friction 0; with working boundary forces it stays rare);
 /// for the knit it is the contact with solids. Points with fixed[i] != kNoHandle (prescribed
 /// motion) are left alone; fixed may be null. The number of points corrected is added to
-/// *count, a counter in ex.backend's memory (null: not counted), so nothing waits for the device.
+/// *count, a counter in ex.backend's memory, so nothing waits for the device.
 template <typename T>
 void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
                           const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,

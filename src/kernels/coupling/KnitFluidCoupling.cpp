@@ -94,24 +94,13 @@ template <typename T>
 void KnitFluidCoupling<T>::find_fluid_near_knit(const exec::Exec& ex, const FluidSide<T>& fluid) {
   const std::size_t n = fluid.f.n;
   near_flag_.resize(n);
-  near_offset_.resize(n);
-  near_.resize(n);
   const CellView<T> knit_cells = grid_.view();
   const Vec3<T>* x = fluid.f.x;
   std::uint32_t* flag = near_flag_.data();
   exec::for_each(
       ex, n, [=] KF_HD(std::size_t j) { flag[j] = knit_cells.has_candidates(x[j]) ? 1u : 0u; },
       "coupling.near");
-  n_near_ = exec::exclusive_scan(ex, near_flag_, near_offset_, "coupling.near");
-  const std::uint32_t* off = near_offset_.data();
-  std::uint32_t* list = near_.data();
-  exec::for_each(
-      ex, n,
-      [=] KF_HD(std::size_t j) {
-        if (flag[j])
-          list[off[j]] = static_cast<std::uint32_t>(j);
-      },
-      "coupling.near");
+  n_near_ = exec::flagged_indices(ex, near_flag_, near_offset_, near_, "coupling.near");
 }
 
 template <typename T>

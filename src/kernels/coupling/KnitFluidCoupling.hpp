@@ -65,8 +65,6 @@ public:
   /// Lists the fluid particles with a knit point in their knit-grid cells (public: nvcc's
   /// device lambdas may not live in private members).
   void find_fluid_near_knit(const exec::Exec& ex, const FluidSide<T>& fluid);
-  /// How many fluid particles the last begin_step found near the knit.
-  std::size_t fluid_near_knit() const { return n_near_; }
 
 private:
   KernelType kernel_;

@@ -246,6 +246,12 @@ void sort_by_key(const Exec& ex, DeviceBuffer<std::uint32_t>& keys,
 std::uint64_t exclusive_scan(const Exec& ex, const DeviceBuffer<std::uint32_t>& in,
                              DeviceBuffer<std::uint32_t>& out, const char* label);
 
+/// Stream compaction: out becomes the indices i with flags[i] != 0, in increasing order, and
+/// their count is returned. offsets is scratch (resized to flags.size()).
+std::size_t flagged_indices(const Exec& ex, const DeviceBuffer<std::uint32_t>& flags,
+                            DeviceBuffer<std::uint32_t>& offsets, DeviceBuffer<std::uint32_t>& out,
+                            const char* label);
+
 // Named functors, not device lambdas, in these shared inline templates: nvcc's host-device lambda
 // wrappers instantiated from several translation units have called a null function on the CPU
 // backend of the CUDA build (moved_past_skin did).

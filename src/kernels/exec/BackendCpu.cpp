@@ -80,7 +80,8 @@ std::string describe(Backend b) {
 }
 
 void* alloc_bytes(Backend b, std::size_t bytes, const char* what) {
-  if (bytes == 0) return nullptr;
+  if (bytes == 0)
+    return nullptr;
   if (b == Backend::Cuda) {
 #if defined(KF_WITH_CUDA)
     return cuda_alloc(bytes, what);
@@ -97,7 +98,8 @@ void* alloc_bytes(Backend b, std::size_t bytes, const char* what) {
 }
 
 void free_bytes(Backend b, void* p) noexcept {
-  if (!p) return;
+  if (!p)
+    return;
   if (b == Backend::Cuda) {
 #if defined(KF_WITH_CUDA)
     cuda_free(p);
@@ -108,7 +110,8 @@ void free_bytes(Backend b, void* p) noexcept {
 }
 
 void copy_bytes(void* dst, Backend dst_b, const void* src, Backend src_b, std::size_t bytes) {
-  if (bytes == 0) return;
+  if (bytes == 0)
+    return;
   if (dst_b == Backend::Cpu && src_b == Backend::Cpu) {
     std::memcpy(dst, src, bytes);
     return;
@@ -122,7 +125,8 @@ void copy_bytes(void* dst, Backend dst_b, const void* src, Backend src_b, std::s
 
 void synchronize(Backend b) {
 #if defined(KF_WITH_CUDA)
-  if (b == Backend::Cuda) cuda_synchronize();
+  if (b == Backend::Cuda)
+    cuda_synchronize();
 #else
   (void)b;
 #endif
@@ -132,7 +136,8 @@ void synchronize(Backend b) {
 // order changes little between steps, so the passes stream through memory.
 static void cpu_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::size_t n,
                             int key_bits) {
-  if (n < 2) return;
+  if (n < 2)
+    return;
   std::vector<std::uint32_t> k2(n), v2(n);
   std::uint32_t *ks = keys, *vs = values, *kd = k2.data(), *vd = v2.data();
   const int passes = std::max(1, (key_bits + 7) / 8);
@@ -155,7 +160,8 @@ static void cpu_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::siz
 #endif
       const std::size_t lo = n * t / team, hi = n * (t + 1) / team;
       std::size_t* h = &hist[static_cast<std::size_t>(t) * 256];
-      for (std::size_t i = lo; i < hi; ++i) ++h[(ks[i] >> shift) & 0xFF];
+      for (std::size_t i = lo; i < hi; ++i)
+        ++h[(ks[i] >> shift) & 0xFF];
 #pragma omp barrier
 #pragma omp single
       {
@@ -196,6 +202,31 @@ void sort_by_key(const Exec& ex, DeviceBuffer<std::uint32_t>& keys,
 #endif
   }
   cpu_sort_by_key(keys.data(), values.data(), keys.size(), key_bits);
+}
+
+namespace {
+
+/// out[offset[i]] = i where flagged.
+struct ScatterFlagged {
+  const std::uint32_t* flag;
+  const std::uint32_t* offset;
+  std::uint32_t* out;
+  KF_HD void operator()(std::size_t i) const {
+    if (flag[i])
+      out[offset[i]] = static_cast<std::uint32_t>(i);
+  }
+};
+
+} // namespace
+
+std::size_t flagged_indices(const Exec& ex, const DeviceBuffer<std::uint32_t>& flags,
+                            DeviceBuffer<std::uint32_t>& offsets, DeviceBuffer<std::uint32_t>& out,
+                            const char* label) {
+  offsets.resize(flags.size());
+  const std::size_t k = exclusive_scan(ex, flags, offsets, label);
+  out.resize(k);
+  for_each(ex, flags.size(), ScatterFlagged{flags.data(), offsets.data(), out.data()}, label);
+  return k;
 }
 
 std::uint64_t exclusive_scan(const Exec& ex, const DeviceBuffer<std::uint32_t>& in,

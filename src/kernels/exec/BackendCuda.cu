@@ -193,8 +193,7 @@ void cuda_copy(void* dst, bool dst_dev, const void* src, bool src_dev, std::size
                                                  (dst_dev ? "device" : "host"));
 }
 
-// ---- scratch
-// --------------------------------------------------------------------------------------
+// ---- scratch ------------------------------------------------------------------------------------
 
 namespace {
 
@@ -207,6 +206,18 @@ struct Scratch {
 Scratch g_scratch[static_cast<int>(ScratchSlot::Count)];
 void* g_pinned = nullptr;
 constexpr std::size_t kPinnedBytes = 4096;
+
+// Page-locked host memory that small device results are copied into before the host reads them.
+void* pinned_staging(std::size_t bytes, const char* label) {
+  if (bytes > kPinnedBytes)
+    throw Error(std::string(label) + ": a device result of " + std::to_string(bytes) +
+                " bytes exceeds the pinned staging buffer (" + std::to_string(kPinnedBytes) +
+                " bytes)");
+  if (!g_pinned)
+    KF_CUDA(cudaMallocHost(&g_pinned, kPinnedBytes),
+            std::string(label) + ": allocating the pinned result buffer");
+  return g_pinned;
+}
 
 } // namespace
 
@@ -225,19 +236,8 @@ void* cuda_scratch(ScratchSlot slot, std::size_t bytes, const char* label) {
   return s.ptr;
 }
 
-void* cuda_pinned_result(std::size_t bytes, const char* label) {
-  if (bytes > kPinnedBytes)
-    throw Error(std::string(label) + ": a device result of " + std::to_string(bytes) +
-                " bytes exceeds the pinned staging buffer (" + std::to_string(kPinnedBytes) +
-                " bytes)");
-  if (!g_pinned)
-    KF_CUDA(cudaMallocHost(&g_pinned, kPinnedBytes),
-            std::string(label) + ": allocating the pinned result buffer");
-  return g_pinned;
-}
-
 void cuda_read_result(void* dst, const void* device_src, std::size_t bytes, const char* label) {
-  void* staging = cuda_pinned_result(bytes, label);
+  void* staging = pinned_staging(bytes, label);
   const auto ctx = [&] {
     return std::string(label) + ": reading a " + std::to_string(bytes) +
            "-byte result from the device (a kernel queued earlier may have failed; run with "

@@ -27,10 +27,8 @@ enum class ScratchSlot { Sort, Scan, Reduce, Count };
 /// when a caller needs more. All work is on the legacy default stream, so a slot's next user runs
 /// after its previous one; callers must not hold the pointer across another call for the slot.
 void* cuda_scratch(ScratchSlot slot, std::size_t bytes, const char* label);
-/// Page-locked host memory (4 KiB) that small device results are copied into before the host
-/// reads them; valid until the next call that uses it.
-void* cuda_pinned_result(std::size_t bytes, const char* label);
-/// Copies `bytes` from device memory into host memory `dst` through the pinned buffer and waits.
+/// Copies `bytes` (a small result, at most 4 KiB) from device memory into host memory `dst`
+/// through a page-locked staging buffer, and waits for it.
 void cuda_read_result(void* dst, const void* device_src, std::size_t bytes, const char* label);
 
 } // namespace kf::exec

@@ -43,9 +43,9 @@ struct GridGeometry {
 template <typename T>
 struct CellView {
   GridGeometry<T> geo;
-  const std::uint32_t* rank = nullptr;  // linear cell -> Morton rank
-  const std::uint32_t* start = nullptr; // Morton rank -> first particle
-  const std::uint32_t* end = nullptr;   // Morton rank -> one past last particle
+  const std::uint32_t* rank = nullptr;  // linear cell -> rank (NeighbourGrid's cell order)
+  const std::uint32_t* start = nullptr; // rank -> first particle
+  const std::uint32_t* end = nullptr;   // rank -> one past last particle
   /// Cells searched on each side: the interaction radius is span cell edges. Cells of half the
   /// radius (span 2) test (5/2)^3 = 15.6 h^3 of candidates instead of 3^3 = 27 h^3.
   int span = 1;

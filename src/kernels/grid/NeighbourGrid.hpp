@@ -28,9 +28,9 @@ bool moved_past_skin(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x,
   return !(moved2 <= skin2);
 }
 
-/// Sorts one particle set by cell (Morton order) and keeps the cell tables for neighbour loops.
-/// After build(), permutation()[i] is the old index of the particle now at i; the owner reorders
-/// its fields with it so that positions and tables agree.
+/// Sorts one particle set by cell (rows along x, Morton order over y, z) and keeps the cell tables
+/// for neighbour loops. After build(), permutation()[i] is the old index of the particle now at i;
+/// the owner reorders its fields with it so that positions and tables agree.
 template <typename T>
 class NeighbourGrid {
 public:
@@ -48,7 +48,6 @@ public:
   void occupied_around(const exec::Exec& ex, exec::DeviceBuffer<std::uint8_t>& flag) const;
   const exec::DeviceBuffer<std::uint32_t>& permutation() const { return perm_; }
   CellView<T> view() const { return {geo_, rank_.data(), start_.data(), end_.data(), span_}; }
-  int span() const { return span_; }
   const GridGeometry<T>& geometry() const { return geo_; }
   std::size_t bytes() const;
 

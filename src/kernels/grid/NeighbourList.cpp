@@ -81,7 +81,6 @@ NeighbourList<T>::NeighbourList(exec::Backend b)
 template <typename T>
 void NeighbourList<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                              const CellView<T>& cells, T radius2) {
-  n_ = n;
   count_.resize(n);
   if (capacity_ == 0)
     capacity_ = 32;

@@ -15,9 +15,8 @@
 namespace kf {
 
 /// Read-only view of the lists, passed by value into kernels. Particle i's neighbours are the
-/// row list[i * capacity, i * capacity + count[i]). Rows, not columns: the build's lanes append
-/// at different rates, and a column layout (slot k of consecutive particles together) made
-/// every append its own memory transaction (measured: the build took 3x the density pass).
+/// row list[i * capacity, i * capacity + count[i]). Rows, so that the build can write four
+/// indices with one 16-byte store (ListBuilder); a particle's own row is then read through L1.
 template <typename T>
 struct ListView {
   const std::uint32_t* count = nullptr;
@@ -62,7 +61,6 @@ public:
 
 private:
   exec::DeviceBuffer<std::uint32_t> count_, list_;
-  std::size_t n_ = 0;
   std::uint32_t capacity_ = 0, most_ = 0;
 };
 

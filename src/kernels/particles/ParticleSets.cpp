@@ -21,21 +21,9 @@ std::size_t FluidSet<T>::keep_flagged(const exec::Exec& ex,
   if (flags.size() != n)
     throw Error("fluid.keep: " + std::to_string(flags.size()) + " flags for " + std::to_string(n) +
                 " particles");
-  offsets_.resize(n);
-  const std::size_t kept = exec::exclusive_scan(ex, flags, offsets_, "fluid.keep");
+  const std::size_t kept = exec::flagged_indices(ex, flags, offsets_, kept_, "fluid.keep");
   if (kept == n)
     return 0;
-  kept_.resize(kept);
-  const std::uint32_t* f = flags.data();
-  const std::uint32_t* o = offsets_.data();
-  std::uint32_t* k = kept_.data();
-  exec::for_each(
-      ex, n,
-      [=] KF_HD(std::size_t j) {
-        if (f[j])
-          k[o[j]] = static_cast<std::uint32_t>(j);
-      },
-      "fluid.keep");
   reorder(ex, kept_);
   permute(ex, kept_, rho, scratch_t_, "fluid.keep");
   permute(ex, kept_, p, scratch_t_, "fluid.keep");

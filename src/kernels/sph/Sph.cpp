@@ -7,11 +7,11 @@ namespace kf {
 
 template <typename T>
 void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                 const BoundaryNeighbours<T>& b, const ListView<T>* list) {
+                 const BoundaryNeighbours<T>& b, const ListView<T>& list) {
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
     using K = decltype(k);
-    if (list)
-      exec::for_each(ex, f.n, DensityEvaluator<T, K, ListView<T>>{k, prm.eos, f, *list, b},
+    if (list.count)
+      exec::for_each(ex, f.n, DensityEvaluator<T, K, ListView<T>>{k, prm.eos, f, list, b},
                      "sph.density");
     else
       exec::for_each(ex, f.n, DensityEvaluator<T, K, CellNeighbours<T>>{k, prm.eos, f, {cells}, b},
@@ -32,11 +32,11 @@ void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryVi
 
 template <typename T>
 void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                const BoundaryNeighbours<T>& b, const ListView<T>* list) {
+                const BoundaryNeighbours<T>& b, const ListView<T>& list) {
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
     using K = decltype(k);
-    if (list)
-      exec::for_each(ex, f.n, ForceEvaluator<T, K, ListView<T>>{k, prm, f, *list, b}, "sph.forces");
+    if (list.count)
+      exec::for_each(ex, f.n, ForceEvaluator<T, K, ListView<T>>{k, prm, f, list, b}, "sph.forces");
     else
       exec::for_each(ex, f.n, ForceEvaluator<T, K, CellNeighbours<T>>{k, prm, f, {cells}, b},
                      "sph.forces");
@@ -45,11 +45,11 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
 
 #define KF_INSTANTIATE(T)                                                                          \
   template void sph_density<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,  \
-                               const BoundaryNeighbours<T>&, const ListView<T>*);                  \
+                               const BoundaryNeighbours<T>&, const ListView<T>&);                  \
   template void boundary_pressure<T>(const exec::Exec&, const SphParams<T>&, BoundaryView<T>,      \
                                      const FluidView<T>&, CellView<T>, const RigidShape<T>*);      \
   template void sph_forces<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,   \
-                              const BoundaryNeighbours<T>&, const ListView<T>*);
+                              const BoundaryNeighbours<T>&, const ListView<T>&);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

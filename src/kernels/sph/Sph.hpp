@@ -47,11 +47,12 @@ struct BoundaryNeighbours {
   }
 };
 
-/// rho_i (Eq. 2, plus boundary psi_b W) and P_i from the EOS, for every fluid particle. With
-/// `list` (built this step from `cells`), fluid neighbours come from it instead of the cells.
+/// rho_i (Eq. 2, plus boundary psi_b W) and P_i from the EOS, for every fluid particle. With a
+/// `list` (built this step from `cells`; an empty view has no counts), fluid neighbours come
+/// from it instead of the cells.
 template <typename T>
 void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                 const BoundaryNeighbours<T>& b, const ListView<T>* list = nullptr);
+                 const BoundaryNeighbours<T>& b, const ListView<T>& list = {});
 
 /// Boundary pressure from the fluid around each boundary particle (Adami et al. 2012):
 /// P_b = (sum_f P_f W + (g - a_b) . sum_f rho_f (x_b - x_f) W) / sum_f W, and rho_b from the EOS.
@@ -65,6 +66,6 @@ void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryVi
 /// a_i = g + pressure (Eq. 3) + viscosity (Eq. 4) + boundary pressure, for every fluid particle.
 template <typename T>
 void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                const BoundaryNeighbours<T>& b, const ListView<T>* list = nullptr);
+                const BoundaryNeighbours<T>& b, const ListView<T>& list = {});
 
 } // namespace kf
