@@ -101,6 +101,23 @@ void reduce_f64_into(const Exec& ex, const DeviceBuffer<double>& v, Op op,
       "test.reduce_f64_into");
 }
 
+/// max_into over |v[i]| (non-negative) that also copies v to out: the pass must visit every i.
+template <typename T>
+struct AbsAndCopy {
+  const T* v;
+  T* out;
+  KF_HD T operator()(std::size_t i) const {
+    out[i] = v[i];
+    return v[i] < T(0) ? -v[i] : v[i];
+  }
+};
+template <typename T>
+void max_abs_into(const Exec& ex, const DeviceBuffer<T>& v, DeviceBuffer<T>& out,
+                  DeviceBuffer<T>& acc) {
+  kf::exec::max_into(ex, v.size(), AbsAndCopy<T>{v.data(), out.data()}, acc.data(),
+                     "test.max_into");
+}
+
 } // namespace kf_exec_test
 
 namespace {
@@ -212,6 +229,38 @@ TEST_P(ExecTest, TransformReduceIntoAccumulatesOnTheBackend) {
   }
   EXPECT_NEAR(sum.to_host()[0], want_sum, 1e-12 * abs_sum);
   EXPECT_EQ(mx.to_host()[0], want_max);
+}
+
+// The one-pass atomic max: exact against the host's max for float and double, accumulating onto
+// the value already there (and keeping it when larger), every element visited once.
+template <typename T>
+void check_max_into(const Exec& ex, Backend b) {
+  DeviceBuffer<T> acc(b, 0, "acc");
+  acc.assign(std::vector<T>{T(0.25)});
+  T want = T(0.25);
+  for (std::size_t n : {std::size_t(1), std::size_t(255), std::size_t(257), std::size_t(100003),
+                        std::size_t(1) << 20, std::size_t(0), std::size_t(3)}) {
+    const auto hd = random_f64(n, 41 + static_cast<std::uint32_t>(n));
+    std::vector<T> hv(hd.begin(), hd.end());
+    DeviceBuffer<T> v(b, 0, "v"), out(b, n, "out");
+    v.assign(hv);
+    out.poison();
+    max_abs_into(ex, v, out, acc);
+    for (T x : hv)
+      want = std::max(want, std::fabs(x));
+    EXPECT_EQ(out.to_host(), hv) << "n = " << n;
+    EXPECT_EQ(acc.to_host()[0], want) << "n = " << n;
+  }
+  acc.assign(std::vector<T>{T(1e30)}); // larger than every value: stays
+  DeviceBuffer<T> v(b, 0, "v"), out(b, 1000, "out");
+  v.assign(std::vector<T>(1000, T(-3)));
+  max_abs_into(ex, v, out, acc);
+  EXPECT_EQ(acc.to_host()[0], T(1e30));
+}
+
+TEST_P(ExecTest, MaxIntoIsExactAndVisitsEveryElement) {
+  check_max_into<float>(ex(), b());
+  check_max_into<double>(ex(), b());
 }
 
 TEST_P(ExecTest, TransformReduceIsDeterministic) {

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #if defined(_OPENMP)
@@ -61,15 +62,6 @@ void for_each(const Exec& ex, std::size_t n, const F& f, const char* label) {
       f(static_cast<std::size_t>(i));
   }
 }
-
-/// Runs a per-element functor over a list of indices: OverList{f, list} called with k calls
-/// f(list[k]), so a kernel can visit a subset (e.g. the fluid near the knit) without a branch.
-template <typename F>
-struct OverList {
-  F f;
-  const std::uint32_t* list;
-  KF_HD KF_INLINE void operator()(std::size_t k) const { f(list[k]); }
-};
 
 struct SumOp {
   template <typename T>
@@ -235,6 +227,50 @@ void transform_reduce_into(const Exec& ex, std::size_t n, Op op, const F& f, R* 
 #endif
   }
   *acc = host_transform_reduce(n, *acc, op, f); // init applied once: same as op(*acc, total)
+}
+
+#if defined(__CUDACC__)
+__device__ KF_INLINE void atomic_max_nonnegative(float* p, float v) {
+  atomicMax(reinterpret_cast<unsigned*>(p), __float_as_uint(v));
+}
+__device__ KF_INLINE void atomic_max_nonnegative(double* p, double v) {
+  atomicMax(reinterpret_cast<unsigned long long*>(p),
+            static_cast<unsigned long long>(__double_as_longlong(v)));
+}
+
+template <typename T, typename F>
+__global__ void __launch_bounds__(kReduceThreads) max_into_kernel(std::size_t n, F f, T* acc) {
+  using BlockReduce = cub::BlockReduce<T, kReduceThreads>;
+  __shared__ typename BlockReduce::TempStorage tmp;
+  const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  const T v = i < n ? f(i) : T(0);
+  const T block = BlockReduce(tmp).Reduce(v, MaxOp{});
+  if (threadIdx.x == 0)
+    atomic_max_nonnegative(acc, block);
+}
+#endif
+
+/// *acc = max(*acc, f(i) over [0, n)) for values f(i) >= 0 (+0, never -0; f maps a NaN to a
+/// large value itself), where acc points to memory on ex.backend. One pass, f called once per i
+/// (it may write outputs too): the blocks meet in an atomic max on the values' bits, which order
+/// like the values when non-negative; a max is exact, so the result does not depend on the
+/// order. Nothing waits.
+template <typename T, typename F>
+void max_into(const Exec& ex, std::size_t n, const F& f, T* acc, const char* label) {
+  static_assert(std::is_floating_point_v<T>, "max_into: float or double values");
+  if (n == 0)
+    return;
+  if (ex.backend == Backend::Cuda) {
+#if defined(__CUDACC__)
+    const std::size_t grid = (n + kReduceThreads - 1) / kReduceThreads;
+    max_into_kernel<T, F><<<static_cast<unsigned>(grid), kReduceThreads>>>(n, f, acc);
+    KF_CHECK_LAUNCH(label, n);
+    return;
+#else
+    throw_not_compiled_for_cuda(label);
+#endif
+  }
+  *acc = host_transform_reduce(n, *acc, MaxOp{}, f);
 }
 
 /// Stable ascending sort of keys (only the low `key_bits` bits are looked at), carrying values.
