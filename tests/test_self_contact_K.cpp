@@ -76,10 +76,31 @@ bool excluded(const Cloud& c, std::size_t i, std::size_t j, const SelfContactPar
   return c.piece[i] == c.piece[j] && norm2(c.rest[i] - c.rest[j]) < p.exclusion2;
 }
 
+/// Where the points are when the forces are taken, against where the grid was sorted.
+enum class Motion {
+  None,       // sorted where they are
+  WithinSkin, // every point moved less than the skin since the sort: the grid still holds
+  PastSkin,   // some points moved past the skin and no sort followed: the all-pairs fallback
+};
+
 template <typename T>
-void check(exec::Backend backend) {
-  const Cloud c = make_cloud(1500, 11);
+void check(exec::Backend backend, Motion motion = Motion::None) {
+  const Cloud sorted_at = make_cloud(1500, 11);
+  Cloud c = sorted_at;
   const std::size_t n = c.x.size();
+  const double skin = 3 * kR - 2 * kR; // the grid below
+  {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(-1, 1);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3d r{u(rng), u(rng), u(rng) + 1e-3};
+      const Vec3d dir = r * (1 / norm(r));
+      if (motion == Motion::WithinSkin)
+        c.x[i] += dir * (0.9 * skin * std::abs(u(rng)));
+      else if (motion == Motion::PastSkin && i % 10 == 0)
+        c.x[i] += dir * (2.5 * skin);
+    }
+  }
   const auto p = params();
   exec::Exec ex{backend};
   KnitSet<T> set(backend);
@@ -90,7 +111,7 @@ void check(exec::Backend backend) {
       o.push_back(vec_cast<T>(q));
     return o;
   };
-  set.x.assign(cast(c.x));
+  set.x.assign(cast(sorted_at.x));
   set.v.assign(cast(c.v));
   set.x_rest.assign(cast(c.rest));
   set.m.assign(std::vector<T>(c.m.begin(), c.m.end()));
@@ -106,8 +127,20 @@ void check(exec::Backend backend) {
   // Cells wider than 2R: candidates are a superset, the kernel must filter by distance itself.
   KnitSelfContact<T> sc(backend, NeighbourGrid<T>::cover({0, 0, 0}, {0.12, 0.12, 0.06}, 3 * kR),
                         pt);
+  sc.sync(ex, set);
+  if (motion != Motion::None) {
+    sc.begin_step(ex, set, T(0)); // no motion expected: the substeps watch on the device
+    ASSERT_FALSE(sc.checks_on_host());
+  }
+  set.x.assign(cast(c.x));
   sc.update(ex, set);
   sc.add_forces(ex, set);
+  EXPECT_EQ(sc.sorts(), 1u) << "the forces must come from the grid sorted at the old positions";
+  if (motion != Motion::None) {
+    sc.sync(ex, set); // reads the watched motion
+    EXPECT_EQ(sc.stale_steps(), motion == Motion::PastSkin ? 1u : 0u);
+    EXPECT_EQ(sc.sorts(), motion == Motion::PastSkin ? 2u : 1u);
+  }
   const SelfContactStats st = sc.stats(ex, set);
   const auto a = set.a.to_host();
 
@@ -160,6 +193,20 @@ TEST(SelfContact, MatchesAllPairsReferenceCudaFloat) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
   check<float>(exec::Backend::Cuda);
+}
+// Points moved since the sort, with no sort between: within the skin the kept grid finds every
+// pair; past it the force pass sees the watched motion and sums over all pairs.
+TEST(SelfContact, MovedWithinSkinKeepsTheGridCpu) {
+  check<double>(exec::Backend::Cpu, Motion::WithinSkin);
+}
+TEST(SelfContact, MovedPastSkinFallsBackToAllPairsCpu) {
+  check<double>(exec::Backend::Cpu, Motion::PastSkin);
+}
+TEST(SelfContact, MovedPastSkinFallsBackToAllPairsCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check<float>(exec::Backend::Cuda, Motion::WithinSkin);
+  check<float>(exec::Backend::Cuda, Motion::PastSkin);
 }
 
 // The corrected signs: approaching points are pushed apart (Eq. 7 as printed would pull them

@@ -83,7 +83,7 @@ void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh) {
   constexpr double kMaxCells = 4e6;
   const double cell = std::max(2.4 * radius, std::cbrt(ext.x * ext.y * ext.z / kMaxCells));
   self_.emplace(ex_.backend, NeighbourGrid<T>::cover(lo, hi, cell), p);
-  self_->update(ex_, set_); // allocates everything now, so plan's memory figure is the run's
+  self_->sync(ex_, set_); // allocates everything now, so plan's memory figure is the run's
   double m_min = 1e300;
   for (std::size_t i = 0; i < mesh.m.size(); ++i)
     if (mesh.handle[i] == kFreePoint)
@@ -121,7 +121,7 @@ template <typename T>
 SelfContactStats KnitSystem<T>::self_contact_stats() {
   if (!self_)
     return {};
-  self_->update(ex_, set_);
+  self_->sync(ex_, set_);
   return self_->stats(ex_, set_);
 }
 
@@ -154,6 +154,8 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
                             const std::function<void(T)>& couple) {
   const int n = scene_.knit.substeps;
   const double h = dt / n;
+  if (self_) // how far a point may go this step, from the bounds stable_dt() read
+    self_->begin_step(ex_, set_, static_cast<T>(expected_motion(dt)));
   if (couple) {
     internal_forces();
     stage_parts::Scope part("knit.step: fluid coupling (both sides)");
@@ -190,10 +192,22 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
 template <typename T>
 double KnitSystem<T>::stable_dt() {
   auto p = set_.view();
-  const MotionBounds<T> mb = motion_bounds(ex_, p.v, p.a, p.n, "knit.dt");
+  return stable_dt(motion_bounds(ex_, p.v, p.a, p.n, "knit.dt"));
+}
+
+template <typename T>
+void KnitSystem<T>::motion_bounds_into(MotionBounds<T>* acc) {
+  auto p = set_.view();
+  kf::motion_bounds_into(ex_, p.v, p.a, p.n, acc, "knit.dt");
+}
+
+template <typename T>
+double KnitSystem<T>::stable_dt(const MotionBounds<T>& mb) {
   const double vmax = std::sqrt(double(mb.v2));
   if (!std::isfinite(vmax) || !std::isfinite(double(mb.a2)))
     throw InstabilityError("a knit velocity or acceleration is not finite");
+  vmax_ = vmax;
+  amax_ = std::sqrt(double(mb.a2));
   double sub = std::min({spring_limit_, contact_limit_, extra_limit_});
   // A substep moves no point more than half its contact radius, so collisions are not skipped.
   if (vmax > 0)

@@ -6,6 +6,7 @@
 #include "domain/Scene.hpp"
 #include "io/Frame.hpp"
 #include "kernels/boundary/RigidShape.hpp"
+#include "kernels/integrate/Verlet.hpp"
 #include "kernels/knit/SelfContact.hpp"
 #include "kernels/knit/SpringTopology.hpp"
 #include "kernels/particles/KnitSet.hpp"
@@ -41,6 +42,12 @@ public:
   void set_substep_limit(double sub) { extra_limit_ = sub; }
   /// Largest step (all substeps together) the springs and the contact radius allow now.
   double stable_dt();
+  /// stable_dt() from bounds already read (motion_bounds_into, then one read for several sets).
+  double stable_dt(const MotionBounds<T>& mb);
+  void motion_bounds_into(MotionBounds<T>* acc);
+  /// How far a point may move in a step of dt, from the speed and acceleration stable_dt() saw
+  /// (an estimate; huge before the first stable_dt()).
+  double expected_motion(double dt) const { return vmax_ * dt + 0.5 * amax_ * dt * dt; }
   /// a(t) from the springs, self-contact and gravity (the first half kick needs it).
   void compute_forces();
 
@@ -88,6 +95,9 @@ private:
   double spring_limit_ = 0;     // min sqrt(m / sum k), m / sum c over free points (cached: fixed)
   double contact_limit_ = 1e30; // spring_factor sqrt(m_min / (kMaxContacts k_self))
   double extra_limit_ = 1e30;
+  // Largest speed and acceleration at the last stable_dt(): the self-contact grid's motion bound
+  // for the coming step (infinite before the first: every substep then checks on the host).
+  double vmax_ = 1e30, amax_ = 1e30;
   double longest_spacing_ = 0;
   std::optional<KnitSelfContact<T>> self_;
   // Point-substeps in contact with a solid, whole run; on the device, read for diagnostics only.

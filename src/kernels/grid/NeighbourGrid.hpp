@@ -2,14 +2,20 @@
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/GridGeometry.hpp"
 
+#include <limits>
+
 namespace kf {
 
-/// Squared displacement of point i since the grid was sorted.
+/// Squared displacement of point i since the grid was sorted; a NaN reads as the largest value
+/// (a max-reduction would drop it).
 template <typename T>
 struct SquaredDisplacement {
   const Vec3<T>* x;
   const Vec3<T>* x0;
-  KF_HD KF_INLINE T operator()(std::size_t i) const { return norm2(x[i] - x0[i]); }
+  KF_HD KF_INLINE T operator()(std::size_t i) const {
+    const T d2 = norm2(x[i] - x0[i]);
+    return d2 == d2 ? d2 : std::numeric_limits<T>::max();
+  }
 };
 
 /// Whether a grid sorted when the points were at x0 is stale for x: some point moved farther

@@ -7,8 +7,7 @@ KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
                                     const SelfContactParams<T>& params)
     : params_(params), grid_(b, geo), x_(b, 0, "knit.self.x"), v_(b, 0, "knit.self.v"),
       rest_(b, 0, "knit.self.rest"), m_(b, 0, "knit.self.m"), piece_(b, 0, "knit.self.piece"),
-      id_(b, 0, "knit.self.id"), x_sorted_at_(b, 0, "knit.self.x_sorted_at"),
-      skin2_((geo.cell - T(2) * params.radius) * (geo.cell - T(2) * params.radius)) {
+      id_(b, 0, "knit.self.id"), watch_(b, geo.cell - T(2) * params.radius, "knit.self.moved") {
   if (!(geo.cell > T(2) * params.radius))
     throw Error("knit self-collision: grid cell " + std::to_string(double(geo.cell)) +
                 " m is not larger than the contact reach 2R = " +
@@ -16,28 +15,68 @@ KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
 }
 
 template <typename T>
-void KnitSelfContact<T>::update(const exec::Exec& ex, KnitSet<T>& set) {
+void KnitSelfContact<T>::sort(const exec::Exec& ex, KnitSet<T>& set) {
   const std::size_t n = set.size();
-  const bool sort = moved_past_skin(ex, set.x, x_sorted_at_, skin2_, "knit.self.moved");
   const auto& perm = grid_.permutation();
-  if (sort) {
-    grid_.build(ex, set.x.data(), n);
-    ++sorts_;
-    x_.resize(n);
-    v_.resize(n);
-    rest_.resize(n);
-    m_.resize(n);
-    piece_.resize(n);
-    id_.resize(n);
-    x_sorted_at_.resize(n);
-    x_sorted_at_.copy_from(set.x, n);
-    exec::gather(ex, perm, set.x_rest, rest_, "knit.self.gather");
-    exec::gather(ex, perm, set.m, m_, "knit.self.gather");
-    exec::gather(ex, perm, set.piece, piece_, "knit.self.gather");
-    exec::gather(ex, perm, set.id, id_, "knit.self.gather");
+  grid_.build(ex, set.x.data(), n);
+  ++sorts_;
+  x_.resize(n);
+  v_.resize(n);
+  rest_.resize(n);
+  m_.resize(n);
+  piece_.resize(n);
+  id_.resize(n);
+  watch_.reset(ex, set.x);
+  exec::gather(ex, perm, set.x_rest, rest_, "knit.self.gather");
+  exec::gather(ex, perm, set.m, m_, "knit.self.gather");
+  exec::gather(ex, perm, set.piece, piece_, "knit.self.gather");
+  exec::gather(ex, perm, set.id, id_, "knit.self.gather");
+}
+
+template <typename T>
+void KnitSelfContact<T>::gather_motion(const exec::Exec& ex, KnitSet<T>& set) {
+  exec::gather(ex, grid_.permutation(), set.x, x_, "knit.self.gather");
+  exec::gather(ex, grid_.permutation(), set.v, v_, "knit.self.gather");
+}
+
+template <typename T>
+void KnitSelfContact<T>::sync(const exec::Exec& ex, KnitSet<T>& set) {
+  if (x_.size() != set.size()) {
+    sort(ex, set);
+  } else if (!(watch_.moved(ex, set.x) <= watch_.skin())) {
+    if (!host_checks_)
+      ++stale_steps_; // device-watched substeps crossed the skin
+    sort(ex, set);
   }
-  exec::gather(ex, perm, set.x, x_, "knit.self.gather");
-  exec::gather(ex, perm, set.v, v_, "knit.self.gather");
+  gather_motion(ex, set);
+}
+
+template <typename T>
+void KnitSelfContact<T>::begin_step(const exec::Exec& ex, KnitSet<T>& set, T motion) {
+  const T skin = watch_.skin();
+  if (!(T(2) * motion <= skin)) { // a sort might not last the step: every substep checks
+    host_checks_ = true;
+    sync(ex, set);
+    return;
+  }
+  const bool device_watched = !host_checks_;
+  host_checks_ = false;
+  if (x_.size() != set.size() || watch_.may_exceed(ex, set.x, skin - T(2) * motion)) {
+    if (device_watched && x_.size() == set.size() && !(watch_.bound() <= skin))
+      ++stale_steps_; // device-watched substeps crossed the skin
+    sort(ex, set);
+  }
+  watch_.expect(motion);
+  gather_motion(ex, set);
+}
+
+template <typename T>
+void KnitSelfContact<T>::update(const exec::Exec& ex, KnitSet<T>& set) {
+  if (host_checks_) {
+    sync(ex, set);
+    return;
+  }
+  watch_.observe_gather(ex, set.x, set.v, grid_.permutation(), x_, v_);
 }
 
 template <typename T>
@@ -49,7 +88,8 @@ template <typename T>
 void KnitSelfContact<T>::add_forces(const exec::Exec& ex, KnitSet<T>& set) const {
   exec::for_each(ex, set.size(),
                  SelfContactEvaluator<T>{set.view(), set.x_rest.data(), set.piece.data(), sorted(),
-                                         grid_.view(), params_},
+                                         grid_.view(), params_, watch_.moved2(), watch_.skin2(),
+                                         static_cast<std::uint32_t>(x_.size())},
                  "knit.self_contact");
 }
 
@@ -65,8 +105,7 @@ SelfContactStats KnitSelfContact<T>::stats(const exec::Exec& ex, KnitSet<T>& set
 template <typename T>
 std::size_t KnitSelfContact<T>::bytes() const {
   return grid_.bytes() + x_.capacity_bytes() + v_.capacity_bytes() + rest_.capacity_bytes() +
-         m_.capacity_bytes() + piece_.capacity_bytes() + id_.capacity_bytes() +
-         x_sorted_at_.capacity_bytes();
+         m_.capacity_bytes() + piece_.capacity_bytes() + id_.capacity_bytes() + watch_.bytes();
 }
 
 template class KnitSelfContact<float>;

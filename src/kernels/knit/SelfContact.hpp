@@ -2,6 +2,7 @@
 // Knit self-collision stage: a neighbour grid over the knit points (sorting a permutation, not
 // the points), cell-ordered copies of what the pair loop reads, and the DEM force pass.
 #include "kernels/grid/NeighbourGrid.hpp"
+#include "kernels/grid/SkinWatch.hpp"
 #include "kernels/knit/SelfContact_K.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
@@ -13,13 +14,27 @@ public:
   /// geo: a grid with cells no smaller than 2 * params.radius.
   KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo, const SelfContactParams<T>& params);
 
-  /// Brings the cell-ordered copies up to date. The grid is sorted again only when a point moved
-  /// farther than the skin (cell - 2R) since the last sort: until then every pair within 2R is
-  /// still found in the 27 cells around a point, and only positions and velocities are gathered
-  /// again through the kept permutation. Call after the points moved, before add_forces/stats.
+  /// Brings the cell-ordered copies up to date, exactly: the grid is sorted again when a point
+  /// moved farther than the skin (cell - 2R) since the last sort (until then every pair within 2R
+  /// is still found in the 27 cells around a point, and only positions and velocities are
+  /// gathered again through the kept permutation). Reads the motion on the host (waits).
+  void sync(const exec::Exec& ex, KnitSet<T>& set);
+  /// Once per fluid step, before its substeps: sorts the grid if a point is so far from its
+  /// sorted position that `motion` (a bound on how far a point will move over the step, from
+  /// its speed and acceleration) could take it past the skin. When twice the motion fits in the
+  /// skin, the step's update() calls wait for nothing: the motion is watched on the device and a
+  /// substep whose points did cross the skin after all sums over all pairs instead (exact, slow,
+  /// counted in stale_steps()). Otherwise update() is sync(). The motion is read on the host
+  /// only when the motion expected since the last reading could have used up the skin.
+  void begin_step(const exec::Exec& ex, KnitSet<T>& set, T motion);
+  /// Call after the points moved, before add_forces.
   void update(const exec::Exec& ex, KnitSet<T>& set);
   /// Grid sorts so far (for the benchmark and the tests).
   std::uint64_t sorts() const { return sorts_; }
+  /// Readings that found device-watched substeps past the skin (they summed over all pairs).
+  std::uint64_t stale_steps() const { return stale_steps_; }
+  /// Whether this step's update() calls wait for the host's check (set by begin_step).
+  bool checks_on_host() const { return host_checks_; }
   /// a += self-contact force / m on every free point (a already holds springs and gravity).
   void add_forces(const exec::Exec& ex, KnitSet<T>& set) const;
   /// Contacts, penalty energy and closest approach at the last update.
@@ -36,9 +51,11 @@ private:
   exec::DeviceBuffer<T> m_;
   exec::DeviceBuffer<std::uint16_t> piece_;
   exec::DeviceBuffer<std::uint64_t> id_;
-  exec::DeviceBuffer<Vec3<T>> x_sorted_at_; // positions at the last sort, in knit order
-  T skin2_;
-  std::uint64_t sorts_ = 0;
+  void sort(const exec::Exec& ex, KnitSet<T>& set);
+  void gather_motion(const exec::Exec& ex, KnitSet<T>& set);
+  SkinWatch<T> watch_; // motion since the last sort
+  bool host_checks_ = true;
+  std::uint64_t sorts_ = 0, stale_steps_ = 0;
 };
 
 } // namespace kf

@@ -48,7 +48,10 @@ KF_HD KF_INLINE bool self_contact_allowed(std::uint16_t piece_i, std::uint16_t p
   return piece_i != piece_j || norm2(rest_i - rest_j) >= exclusion2;
 }
 
-/// a_i += (sum of self-contact forces on i) / m_i for every free point.
+/// a_i += (sum of self-contact forces on i) / m_i for every free point. When the watched motion
+/// since the grid's sort passed its skin (*moved2 > skin2: a point may sit in a cell the grid
+/// does not list it in), every point sums over all n points instead: exact, O(n^2), and rare
+/// (KnitSelfContact::begin_step sorts ahead of the motion it expects).
 template <typename T>
 struct SelfContactEvaluator {
   KnitView<T> p;
@@ -57,6 +60,9 @@ struct SelfContactEvaluator {
   SortedKnitView<T> s;
   CellView<T> cells;
   SelfContactParams<T> params;
+  const T* moved2;
+  T skin2;
+  std::uint32_t n;
 
   KF_HD void operator()(std::size_t i) const {
     if (p.handle[i] != kFreePoint)
@@ -66,7 +72,7 @@ struct SelfContactEvaluator {
     const std::uint16_t pi = piece[i];
     Vec3<T> f{T(0), T(0), T(0)};
     const T reach2 = T(4) * params.radius * params.radius;
-    cells.for_each_candidate(xi, [&](std::uint32_t j) {
+    auto pair = [&](std::uint32_t j) {
       const Vec3<T> d = xi - s.x[j];
       // Distance first: most candidates are out of reach, and it reads one array, not three.
       if (norm2(d) >= reach2 ||
@@ -75,7 +81,12 @@ struct SelfContactEvaluator {
       Vec3<T> fij;
       if (self_contact_force(d, vi - s.v[j], mi, s.m[j], params, fij))
         f += fij;
-    });
+    };
+    if (*moved2 <= skin2)
+      cells.for_each_candidate(xi, pair);
+    else
+      for (std::uint32_t j = 0; j < n; ++j)
+        pair(j);
     p.a[i] += f * (T(1) / mi);
   }
 };

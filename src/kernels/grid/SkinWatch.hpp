@@ -1,0 +1,114 @@
+#pragma once
+// How far a point set has moved since a grid or list was built for it, kept on the device so
+// that kernels can tell a stale structure without the host waiting. A structure built for
+// positions x0 with a skin s (its reach plus s is what it covers) finds every pair as long as no
+// point is farther than s from x0; `observe` records the largest displacement seen since `reset`
+// into one device word, a kernel reads it and takes an exact fallback past the skin, and the
+// host reads it (`moved`) only where it decides whether to rebuild, once per fluid step.
+#include "kernels/exec/Algorithms.hpp"
+#include "kernels/grid/NeighbourGrid.hpp"
+
+#include <limits>
+#include <string>
+
+namespace kf {
+
+/// Gathers positions and velocities through a permutation (out[k] = in[perm[k]]) and returns the
+/// squared displacement of the point gathered (NaN read as the largest value): one pass for a
+/// structure's sorted copies and its watch.
+template <typename T>
+struct GatherDisplaced {
+  const std::uint32_t* perm;
+  const Vec3<T>* x;
+  const Vec3<T>* v;
+  const Vec3<T>* x0;
+  Vec3<T>* x_out;
+  Vec3<T>* v_out;
+  KF_HD KF_INLINE T operator()(std::size_t k) const {
+    const std::uint32_t i = perm[k];
+    const Vec3<T> xi = x[i];
+    x_out[k] = xi;
+    v_out[k] = v[i];
+    return SquaredDisplacement<T>{x, x0}(i);
+  }
+};
+
+template <typename T>
+class SkinWatch {
+public:
+  SkinWatch(exec::Backend b, T skin, const char* name)
+      : skin_(skin), x0_(b, 0, name), moved2_(b, 0, name), label_(name) {
+    moved2_.assign(std::vector<T>{std::numeric_limits<T>::max()}); // stale until reset
+  }
+
+  /// The positions now become the reference; the recorded motion is zero.
+  void reset(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x) {
+    x0_.resize(x.size());
+    x0_.copy_from(x, x.size());
+    exec::fill(ex, moved2_, T(0), label_);
+    bound_ = T(0);
+  }
+  /// Whether a point may be farther than `limit` from its reference. Answered on the host when
+  /// the bound it keeps (the last reading plus the motion expected since) is within the limit;
+  /// else the device is read (waits) and the bound becomes the reading. An expectation that
+  /// proves too small costs no correctness: kernels still see the device's record.
+  bool may_exceed(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x, T limit) {
+    if (x0_.size() == x.size() && bound_ <= limit)
+      return false;
+    bound_ = moved(ex, x);
+    return !(bound_ <= limit);
+  }
+  /// Adds a step's expected motion (an estimate, from speeds and accelerations) to the host's
+  /// bound.
+  void expect(T motion) { bound_ += motion; }
+  /// Device side, nothing waits: the recorded squared motion takes the largest displacement now.
+  void observe(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x) {
+    if (x0_.size() != x.size()) { // never reset for this count: stale
+      exec::fill(ex, moved2_, std::numeric_limits<T>::max(), label_);
+      return;
+    }
+    exec::max_into(ex, x.size(), SquaredDisplacement<T>{x.data(), x0_.data()}, moved2_.data(),
+                   label_);
+  }
+  /// observe() and, in the same pass, x_out[k] = x[perm[k]], v_out[k] = v[perm[k]] for k < n.
+  void observe_gather(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x,
+                      const exec::DeviceBuffer<Vec3<T>>& v,
+                      const exec::DeviceBuffer<std::uint32_t>& perm,
+                      exec::DeviceBuffer<Vec3<T>>& x_out, exec::DeviceBuffer<Vec3<T>>& v_out) {
+    const std::size_t n = perm.size();
+    if (x0_.size() != x.size() || n != x.size() || x_out.size() != n || v_out.size() != n)
+      throw Error(std::string(label_) + ": observe_gather of " + std::to_string(x.size()) +
+                  " points through a permutation of " + std::to_string(n) + " into " +
+                  std::to_string(x_out.size()) + " / " + std::to_string(v_out.size()) +
+                  " slots, watching " + std::to_string(x0_.size()));
+    exec::max_into(
+        ex, n,
+        GatherDisplaced<T>{perm.data(), x.data(), v.data(), x0_.data(), x_out.data(), v_out.data()},
+        moved2_.data(), label_);
+  }
+  /// observe(), then the farthest any point has been from its reference at an observation since
+  /// reset, read on the host (waits for the device). A NaN position reads as infinitely far.
+  T moved(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x) {
+    observe(ex, x);
+    const T m2 = moved2_.to_host()[0];
+    return m2 >= T(0) && m2 < std::numeric_limits<T>::max() ? ksqrt(m2)
+                                                            : std::numeric_limits<T>::infinity();
+  }
+
+  T skin() const { return skin_; }
+  T skin2() const { return skin_ * skin_; }
+  /// For kernels: the structure is stale when *moved2() > skin2().
+  const T* moved2() const { return moved2_.data(); }
+  /// The host's bound on the motion since reset (see may_exceed).
+  T bound() const { return bound_; }
+  std::size_t bytes() const { return x0_.capacity_bytes() + moved2_.capacity_bytes(); }
+
+private:
+  T skin_;
+  exec::DeviceBuffer<Vec3<T>> x0_;
+  exec::DeviceBuffer<T> moved2_;
+  const char* label_;
+  T bound_ = std::numeric_limits<T>::infinity();
+};
+
+} // namespace kf
