@@ -115,9 +115,30 @@ struct Fixture {
   FluidSide<T> side() { return {fluid.view(), fluid_grid.view()}; }
 };
 
+/// Where the knit is when the forces are taken, against where its grid was sorted (begin_step).
+enum class Motion {
+  None,       // where begin_step saw it
+  WithinSkin, // every point moved less than the skin: the kept grid and near flags still hold
+  PastSkin,   // some points moved past the skin, no sort: the fluid side sums over all points
+};
+
 template <typename T>
-void check(exec::Backend backend) {
-  const Cloud c = make_cloud(5);
+void check(exec::Backend backend, Motion motion = Motion::None) {
+  const Cloud c0 = make_cloud(5); // saturation and pressure come from here (begin_step)
+  Cloud c = c0;                   // the pair forces from here
+  const double skin = 0.2 * kH;   // the knit grid below: cells of 1.2 h
+  {
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> u(-1, 1);
+    for (std::size_t i = 0; i < c.kx.size(); ++i) {
+      const Vec3d r{u(rng), u(rng), u(rng) + 1e-3};
+      const Vec3d dir = r * (1 / norm(r));
+      if (motion == Motion::WithinSkin)
+        c.kx[i] += dir * (0.9 * skin * std::abs(u(rng)));
+      else if (motion == Motion::PastSkin && i % 7 == 0)
+        c.kx[i].x += c.kx[i].x < 0.05 ? 10 * skin : -10 * skin; // out of their cells' reach
+    }
+  }
   const auto p = params();
   CouplingParams<T> pt;
   pt.contact = p.contact;
@@ -130,14 +151,17 @@ void check(exec::Backend backend) {
   pt.pressure_scale = T(p.pressure_scale);
   pt.volume_per_mass = T(p.volume_per_mass);
   pt.gravity = vec_cast<T>(p.gravity);
-  Fixture<T> fx(backend, c);
+  Fixture<T> fx(backend, c0);
   KnitFluidCoupling<T> cp(backend, KernelType::Spiky, pt,
                           NeighbourGrid<T>::cover({0, 0, 0}, {0.1, 0.1, 0.1}, 1.2 * kH));
   // Poisoned outputs: every element must be written.
   fx.knit.a.assign(std::vector<Vec3<T>>(c.kx.size(), Vec3<T>{T(0), T(0), T(0)}));
-  cp.begin_step(fx.ex, fx.knit, fx.side());
+  // No motion expected over the step: the substeps watch the knit on the device only.
+  cp.begin_step(fx.ex, fx.knit, fx.side(), nullptr, nullptr, T(0));
+  fx.knit.x.assign(cast<T>(c.kx));
   const T weight = T(0.25);
   cp.add_forces(fx.ex, fx.knit, fx.side(), weight);
+  EXPECT_EQ(cp.sorts(), 1u) << "the forces must come from the grid sorted at begin_step";
   const auto a = fx.knit.a.to_host();
   const auto s = cp.saturation().to_host();
   const auto mfl = cp.fluid_mass().to_host();
@@ -156,7 +180,7 @@ void check(exec::Backend backend) {
   for (std::size_t i = 0; i < n; ++i) {
     double rho = 0;
     for (std::size_t j = 0; j < nf; ++j) {
-      const double r = norm(c.kx[i] - c.fx[j]);
+      const double r = norm(c0.kx[i] - c.fx[j]);
       if (r < kH)
         rho += c.fm[j] * W.W(r);
     }
@@ -232,6 +256,21 @@ TEST(CouplingKernels, MatchAllPairsReferenceCudaFloat) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
   check<float>(exec::Backend::Cuda);
+}
+// The knit moved within its substeps after begin_step sorted its grid: within the skin the kept
+// grid and near flags find every pair; past it (no read on the host) the fluid side sees the
+// watched motion and sums over all knit points.
+TEST(CouplingKernels, KnitMovedWithinSkinKeepsTheGridCpu) {
+  check<double>(exec::Backend::Cpu, Motion::WithinSkin);
+}
+TEST(CouplingKernels, KnitMovedPastSkinFallsBackToAllPairsCpu) {
+  check<double>(exec::Backend::Cpu, Motion::PastSkin);
+}
+TEST(CouplingKernels, KnitMovedFallsBackToAllPairsCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check<float>(exec::Backend::Cuda, Motion::WithinSkin);
+  check<float>(exec::Backend::Cuda, Motion::PastSkin);
 }
 
 // Eq. 11 as a hydrophilic medium needs it: draws fluid in below saturation, none at it, pushes

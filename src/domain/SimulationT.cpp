@@ -141,13 +141,15 @@ private:
   void begin_coupling() {
     coupling_->begin_step(ex_, knit_->set(), fluid_side(),
                           absorption_ ? absorption_->absorbed().data() : nullptr,
-                          absorption_ ? absorption_->capacity().data() : nullptr);
+                          absorption_ ? absorption_->capacity().data() : nullptr,
+                          static_cast<T>(knit_->expected_motion(dt_)));
   }
   std::optional<FluidSet<T>> fluid_;
   std::optional<BoundarySet<T>> boundary_;
   std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
   std::optional<NeighbourList<T>> fluid_list_; // built with the grid each step, when enabled
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
+  exec::DeviceBuffer<MotionBounds<T>> bounds_{exec::Backend::Cpu, 0, "integrate.dt"}; // knit, fluid
   ListView<T> fluid_list_view() const { return fluid_list_ ? fluid_list_->view() : ListView<T>{}; }
   RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
   exec::DeviceBuffer<RigidShape<T>> shapes_;
@@ -158,7 +160,8 @@ template <typename T>
 SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only)
     : scene_(scene), ex_{backend}, guard_count_(backend, 0, "boundary.guard_count"),
       flags_(backend, 0, "fluid.flags"), boundary_near_(backend, 0, "boundary.near"),
-      solids_(scene, backend), shapes_(backend, 0, "rigid.shapes") {
+      bounds_(backend, 2, "integrate.dt"), solids_(scene, backend),
+      shapes_(backend, 0, "rigid.shapes") {
   guard_count_.assign(std::vector<std::uint64_t>{0});
   fluid_on_ = scene.has(Module::Fluid);
   boundary_on_ = scene.has(Module::Boundary);
@@ -486,13 +489,21 @@ template <typename T>
 double SimulationT<T>::stable_dt() {
   const auto& s = scene_.solver;
   double dt = s.dt_max;
-  if (knit_on_)
-    dt = std::min(dt, knit_->stable_dt());
   if (!fluid_on_)
-    return dt;
-  dt = std::min(dt, coupling_fluid_limit_);
+    return knit_on_ ? std::min(dt, knit_->stable_dt()) : dt;
   auto f = fluid_->view();
-  const MotionBounds<T> mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
+  MotionBounds<T> mb;
+  if (knit_on_) { // both sets' bounds in one read
+    exec::fill(ex_, bounds_, MotionBounds<T>{}, "integrate.dt");
+    knit_->motion_bounds_into(bounds_.data());
+    motion_bounds_into(ex_, f.v, f.a, f.n, bounds_.data() + 1, "integrate.dt");
+    const auto both = bounds_.to_host();
+    dt = std::min(dt, knit_->stable_dt(both[0]));
+    mb = both[1];
+  } else {
+    mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
+  }
+  dt = std::min(dt, coupling_fluid_limit_);
   const double vmax = std::sqrt(static_cast<double>(mb.v2));
   const double amax = std::sqrt(static_cast<double>(mb.a2));
   if (!std::isfinite(vmax) || !std::isfinite(amax))

@@ -28,6 +28,12 @@ struct CouplingParams {
   Vec3<T> gravity{T(0), T(0), T(0)};
 };
 
+/// The farthest a pair interacts: the contact reach, or the kernel support where capillary.
+template <typename T>
+KF_HD KF_INLINE T coupling_reach(const CouplingParams<T>& prm) {
+  return prm.capillary && prm.h > prm.reach ? prm.h : prm.reach;
+}
+
 /// Leverett J for a hydrophilic medium (Eq. 11): positive below saturation, zero at s = 1,
 /// negative above (oversaturated knit pushes fluid out).
 template <typename T>
@@ -84,7 +90,7 @@ KF_HD KF_INLINE bool coupling_pair_force(const K& kernel, const CouplingParams<T
                                          const KnitPairSide<T>& i, Vec3<T>& f) {
   const Vec3<T> d = xj - i.x;
   const T r2 = norm2(d);
-  const T reach = prm.capillary && kernel.h > prm.reach ? kernel.h : prm.reach;
+  const T reach = coupling_reach(prm);
   if (r2 >= reach * reach || r2 <= T(0))
     return false;
   f = Vec3<T>{T(0), T(0), T(0)};
@@ -113,7 +119,10 @@ struct SortedKnitSide {
   const T* p;
 };
 
-/// Fluid side: impulse_j += weight * (sum over knit points of the pair force on j).
+/// Fluid side: impulse_j += weight * (sum over knit points of the pair force on j), for the fluid
+/// particles flagged near the knit (a knit point in their 27 knit-grid cells). When the watched
+/// knit motion since the grid's sort passed its skin (*moved2 > skin2: the grid and the flags may
+/// miss a point), every fluid particle sums over all knit points instead: exact, O(n m), rare.
 template <typename T, typename K>
 struct FluidCouplingEvaluator {
   K kernel;
@@ -123,17 +132,29 @@ struct FluidCouplingEvaluator {
   CellView<T> knit_cells;
   T weight;
   Vec3<T>* impulse;
+  const std::uint32_t* near; // per fluid particle: 1 near the knit at the grid's sort
+  const T* moved2;
+  T skin2;
+  std::uint32_t n_knit;
 
   KF_HD void operator()(std::size_t j) const {
+    const bool stale = !(*moved2 <= skin2);
+    if (!stale && !near[j])
+      return;
     const Vec3<T> xj = f.x[j], vj = f.v[j];
     const T mj = f.m[j], rhoj = f.rho[j];
     Vec3<T> sum{T(0), T(0), T(0)};
-    knit_cells.for_each_candidate(xj, [&](std::uint32_t i) {
+    auto pair = [&](std::uint32_t i) {
       Vec3<T> fij;
       if (coupling_pair_force(kernel, prm, xj, vj, mj, rhoj,
                               KnitPairSide<T>{knit.x[i], knit.v[i], knit.m[i], knit.p[i]}, fij))
         sum += fij;
-    });
+    };
+    if (!stale)
+      knit_cells.for_each_candidate(xj, pair);
+    else
+      for (std::uint32_t i = 0; i < n_knit; ++i)
+        pair(i);
     impulse[j] += sum * weight;
   }
 };

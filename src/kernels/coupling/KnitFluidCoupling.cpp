@@ -10,28 +10,31 @@ template <typename T>
 KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
                                         const CouplingParams<T>& params,
                                         const GridGeometry<T>& grid)
-    : kernel_(kernel), params_(params), grid_(b, grid), saturation_(b, 0, "coupling.saturation"),
-      pressure_(b, 0, "coupling.pressure"), fluid_mass_(b, 0, "coupling.fluid_mass"),
-      x_(b, 0, "coupling.knit_x"), v_(b, 0, "coupling.knit_v"), m_(b, 0, "coupling.knit_m"),
-      p_(b, 0, "coupling.knit_p"), x_sorted_at_(b, 0, "coupling.x_sorted_at"),
-      impulse_(b, 0, "coupling.impulse"), near_flag_(b, 0, "coupling.near_flag"),
-      near_offset_(b, 0, "coupling.near_offset"), near_(b, 0, "coupling.near") {
-  const T reach = params.capillary && params.h > params.reach ? params.h : params.reach;
+    : kernel_(kernel), params_(params), grid_(b, grid),
+      watch_(b, grid.cell - coupling_reach(params), "coupling.moved"),
+      saturation_(b, 0, "coupling.saturation"), pressure_(b, 0, "coupling.pressure"),
+      fluid_mass_(b, 0, "coupling.fluid_mass"), x_(b, 0, "coupling.knit_x"),
+      v_(b, 0, "coupling.knit_v"), m_(b, 0, "coupling.knit_m"), p_(b, 0, "coupling.knit_p"),
+      impulse_(b, 0, "coupling.impulse"), near_flag_(b, 0, "coupling.near_flag") {
+  const T reach = coupling_reach(params);
   if (!(grid.cell > reach))
     throw Error("knit-fluid coupling: grid cell " + std::to_string(double(grid.cell)) +
                 " m is not larger than the coupling's reach " + std::to_string(double(reach)) +
                 " m");
-  skin2_ = (grid.cell - reach) * (grid.cell - reach);
 }
 
 template <typename T>
 void KnitFluidCoupling<T>::sort_knit(const exec::Exec& ex, KnitSet<T>& knit) {
+  if (x_.size() != knit.size() || !(watch_.moved(ex, knit.x) <= watch_.skin()))
+    sort_now(ex, knit);
+}
+
+template <typename T>
+void KnitFluidCoupling<T>::sort_now(const exec::Exec& ex, KnitSet<T>& knit) {
   const std::size_t n = knit.size();
-  if (!moved_past_skin(ex, knit.x, x_sorted_at_, skin2_, "coupling.moved"))
-    return;
   grid_.build(ex, knit.x.data(), n);
-  x_sorted_at_.resize(n);
-  x_sorted_at_.copy_from(knit.x, n);
+  watch_.reset(ex, knit.x);
+  ++sorts_;
   x_.resize(n);
   v_.resize(n);
   m_.resize(n);
@@ -47,7 +50,7 @@ void KnitFluidCoupling<T>::sync_knit(const exec::Exec& ex, KnitSet<T>& knit) {
 template <typename T>
 void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
                                       const FluidSide<T>& fluid, const T* absorbed,
-                                      const T* capacity) {
+                                      const T* capacity, T motion) {
   const std::size_t n = knit.size();
   const bool fresh = saturation_.size() != n;
   saturation_.resize(n);
@@ -82,7 +85,12 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
     exec::fill(ex, pressure_, T(0), "coupling.saturation");
     exec::fill(ex, fluid_mass_, T(0), "coupling.saturation");
   }
-  sort_knit(ex, knit);
+  const T skin = watch_.skin();
+  if (!(T(2) * motion <= skin))
+    sort_knit(ex, knit); // read now
+  else if (x_.size() != n || watch_.may_exceed(ex, knit.x, skin - T(2) * motion))
+    sort_now(ex, knit);
+  watch_.expect(motion);
   exec::gather(ex, grid_.permutation(), pressure_, p_, "coupling.gather");
   exec::gather(ex, grid_.permutation(), knit.m, m_, "coupling.gather"); // wet mass changes
   impulse_.resize(fluid.f.n);
@@ -100,25 +108,22 @@ void KnitFluidCoupling<T>::find_fluid_near_knit(const exec::Exec& ex, const Flui
   exec::for_each(
       ex, n, [=] KF_HD(std::size_t j) { flag[j] = knit_cells.has_candidates(x[j]) ? 1u : 0u; },
       "coupling.near");
-  n_near_ = exec::flagged_indices(ex, near_flag_, near_offset_, near_, "coupling.near");
 }
 
 template <typename T>
 void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
                                       const FluidSide<T>& fluid, T weight) {
   const auto& perm = grid_.permutation();
-  exec::gather(ex, perm, knit.x, x_, "coupling.gather");
-  exec::gather(ex, perm, knit.v, v_, "coupling.gather");
+  watch_.observe_gather(ex, knit.x, knit.v, perm, x_, v_);
   with_kernel<T>(kernel_, params_.h, [&](auto k) {
     using K = decltype(k);
-    using Fluid = FluidCouplingEvaluator<T, K>;
-    exec::for_each(
-        ex, n_near_,
-        exec::OverList<Fluid>{Fluid{k, params_, fluid.f,
-                                    SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()},
-                                    grid_.view(), weight, impulse_.data()},
-                              near_.data()},
-        "coupling.fluid");
+    exec::for_each(ex, fluid.f.n,
+                   FluidCouplingEvaluator<T, K>{
+                       k, params_, fluid.f,
+                       SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()}, grid_.view(),
+                       weight, impulse_.data(), near_flag_.data(), watch_.moved2(), watch_.skin2(),
+                       static_cast<std::uint32_t>(x_.size())},
+                   "coupling.fluid");
     exec::for_each(ex, knit.size(),
                    KnitCouplingEvaluator<T, K>{
                        k, params_, knit.view(), pressure_.data(),
@@ -188,10 +193,9 @@ CouplingStats KnitFluidCoupling<T>::stats(const exec::Exec& ex, KnitSet<T>& knit
 
 template <typename T>
 std::size_t KnitFluidCoupling<T>::bytes() const {
-  return grid_.bytes() + near_flag_.capacity_bytes() + near_offset_.capacity_bytes() +
-         near_.capacity_bytes() + saturation_.capacity_bytes() + pressure_.capacity_bytes() +
-         fluid_mass_.capacity_bytes() + x_.capacity_bytes() + v_.capacity_bytes() +
-         m_.capacity_bytes() + p_.capacity_bytes() + x_sorted_at_.capacity_bytes() +
+  return grid_.bytes() + watch_.bytes() + near_flag_.capacity_bytes() +
+         saturation_.capacity_bytes() + pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() +
+         x_.capacity_bytes() + v_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
          impulse_.capacity_bytes();
 }
 

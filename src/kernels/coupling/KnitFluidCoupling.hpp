@@ -8,10 +8,13 @@
 #include "kernels/coupling/Coupling_K.hpp"
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
+#include "kernels/grid/SkinWatch.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
 #include "core/SolverOptions.hpp"
+
+#include <limits>
 
 namespace kf {
 
@@ -42,8 +45,13 @@ public:
   /// knit grid sorted again if a point moved farther than its skin, fluid impulses zeroed.
   /// With absorbed and capacity (the mass-conserving model) s = absorbed / capacity and the
   /// absorbed fluid's weight is already in the knit's mass; else s comes from the fluid around.
+  /// motion: how far a knit point may move over the coming step (an estimate, from its speed and
+  /// acceleration). While the motion expected since the last reading leaves the skin unused,
+  /// the knit grid's staleness is not read on the host: the substeps watch the motion on the
+  /// device and the fluid side sums over all knit points if the skin was crossed after all.
   void begin_step(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid,
-                  const T* absorbed = nullptr, const T* capacity = nullptr);
+                  const T* absorbed = nullptr, const T* capacity = nullptr,
+                  T motion = std::numeric_limits<T>::infinity());
   /// Knit a += coupling / m; fluid impulse += weight * (the opposite forces).
   void add_forces(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid, T weight);
   /// Fluid v += impulse / m.
@@ -55,14 +63,15 @@ public:
   const exec::DeviceBuffer<T>& fluid_mass() const { return fluid_mass_; }
   std::size_t bytes() const;
 
-  /// Sorts the knit grid again if a point moved past the skin (public: nvcc's device lambdas
-  /// may not live in private members).
+  /// Sorts the knit grid again if a point moved past the skin (reads the motion on the host).
   void sort_knit(const exec::Exec& ex, KnitSet<T>& knit);
+  /// Knit grid sorts so far.
+  std::uint64_t sorts() const { return sorts_; }
   /// The knit grid sorted for the current positions and the sorted positions gathered.
   void sync_knit(const exec::Exec& ex, KnitSet<T>& knit);
   const NeighbourGrid<T>& knit_grid() const { return grid_; }
   const exec::DeviceBuffer<Vec3<T>>& sorted_x() const { return x_; }
-  /// Lists the fluid particles with a knit point in their knit-grid cells (public: nvcc's
+  /// Flags the fluid particles with a knit point in their knit-grid cells (public: nvcc's
   /// device lambdas may not live in private members).
   void find_fluid_near_knit(const exec::Exec& ex, const FluidSide<T>& fluid);
 
@@ -70,18 +79,19 @@ private:
   KernelType kernel_;
   bool conserving_ = false;
   CouplingParams<T> params_;
+  void sort_now(const exec::Exec& ex, KnitSet<T>& knit);
   NeighbourGrid<T> grid_;
-  T skin2_;
+  SkinWatch<T> watch_; // knit motion since the grid's sort
+  std::uint64_t sorts_ = 0;
   exec::DeviceBuffer<T> saturation_, pressure_, fluid_mass_; // knit order
   exec::DeviceBuffer<Vec3<T>> x_, v_;                        // knit, grid order
   exec::DeviceBuffer<T> m_, p_;                              // knit, grid order
-  exec::DeviceBuffer<Vec3<T>> x_sorted_at_;                  // knit order, at the last sort
   exec::DeviceBuffer<Vec3<T>> impulse_;                      // fluid order
-  // The fluid particles with a knit point in their 27 knit-grid cells, found once per step
+  // 1 for the fluid particles with a knit point in their 27 knit-grid cells, found once per step
   // (begin_step): the fluid is held still through the knit's substeps and the knit grid is not
-  // sorted between them, so only these can feel the knit. The rest of the fluid is skipped.
-  exec::DeviceBuffer<std::uint32_t> near_flag_, near_offset_, near_;
-  std::size_t n_near_ = 0;
+  // sorted between them, so only these can feel the knit (while the skin holds). A flag, not a
+  // compacted list: the list's length would have to be read on the host.
+  exec::DeviceBuffer<std::uint32_t> near_flag_;
 };
 
 } // namespace kf

@@ -48,14 +48,24 @@ struct NanMaxOp {
 };
 
 template <typename T>
+struct MotionOf {
+  const Vec3<T>* v;
+  const Vec3<T>* a;
+  KF_HD KF_INLINE MotionBounds<T> operator()(std::size_t i) const {
+    return {norm2(v[i]), norm2(a[i])};
+  }
+};
+
+template <typename T>
 MotionBounds<T> motion_bounds(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a,
                               std::size_t n, const char* label) {
-  return exec::transform_reduce(
-      ex, n, MotionBounds<T>{}, NanMaxOp{},
-      [=] KF_HD(std::size_t i) {
-        return MotionBounds<T>{norm2(v[i]), norm2(a[i])};
-      },
-      label);
+  return exec::transform_reduce(ex, n, MotionBounds<T>{}, NanMaxOp{}, MotionOf<T>{v, a}, label);
+}
+
+template <typename T>
+void motion_bounds_into(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a, std::size_t n,
+                        MotionBounds<T>* acc, const char* label) {
+  exec::transform_reduce_into(ex, n, NanMaxOp{}, MotionOf<T>{v, a}, acc, label);
 }
 
 #define KF_INSTANTIATE(T)                                                                          \
@@ -64,7 +74,9 @@ MotionBounds<T> motion_bounds(const exec::Exec& ex, const Vec3<T>* v, const Vec3
   template void kick<T>(const exec::Exec&, Vec3<T>*, const Vec3<T>*, std::size_t, T, T,            \
                         const char*, Prescribed<T>);                                               \
   template MotionBounds<T> motion_bounds<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,     \
-                                            std::size_t, const char*);
+                                            std::size_t, const char*);                             \
+  template void motion_bounds_into<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,           \
+                                      std::size_t, MotionBounds<T>*, const char*);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE
