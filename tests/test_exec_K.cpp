@@ -118,6 +118,40 @@ void max_abs_into(const Exec& ex, const DeviceBuffer<T>& v, DeviceBuffer<T>& out
                      "test.max_into");
 }
 
+double reduce_f64_to(const Exec& ex, const DeviceBuffer<double>& v, DeviceBuffer<double>& out) {
+  const double* p = v.data();
+  out.poison();
+  kf::exec::transform_reduce_to(
+      ex, v.size(), 1.5, kf::exec::SumOp{}, [=] KF_HD(std::size_t i) { return p[i]; }, out.data(),
+      "test.reduce_f64_to");
+  return out.to_host()[0];
+}
+
+/// out[i] = sum over k < i % 37 of (i + k), split over the lanes (exact in double), written by
+/// lane 0; every lane also counts its visits so a lane that skipped or repeated work shows.
+struct LaneSum {
+  double* out;
+  std::uint32_t* visits;
+  KF_HD void operator()(std::size_t i, kf::exec::Lanes g = {}) const {
+    double part = 0;
+    std::uint32_t seen = 0;
+    for (std::size_t k = g.lane; k < i % 37; k += g.size) {
+      part += double(i + k);
+      ++seen;
+    }
+    const double total = g.sum(part);
+    const std::uint32_t all = g.sum(seen);
+    if (g.lane == 0) {
+      out[i] = total;
+      visits[i] = all;
+    }
+  }
+};
+template <unsigned G>
+void lane_sums(const Exec& ex, DeviceBuffer<double>& out, DeviceBuffer<std::uint32_t>& visits) {
+  kf::exec::for_each_lanes<G>(ex, out.size(), LaneSum{out.data(), visits.data()}, "test.lanes");
+}
+
 } // namespace kf_exec_test
 
 namespace {
@@ -261,6 +295,48 @@ void check_max_into(const Exec& ex, Backend b) {
 TEST_P(ExecTest, MaxIntoIsExactAndVisitsEveryElement) {
   check_max_into<float>(ex(), b());
   check_max_into<double>(ex(), b());
+}
+
+// transform_reduce_to writes what transform_reduce returns (the same tree), init included, and
+// init alone for no elements.
+TEST_P(ExecTest, TransformReduceToWritesTheReduction) {
+  DeviceBuffer<double> out(b(), 1, "out");
+  for (std::size_t n : {std::size_t(0), std::size_t(1), std::size_t(257), std::size_t(100003)}) {
+    const auto hf = random_f64(n, 77 + static_cast<std::uint32_t>(n));
+    DeviceBuffer<double> f(b(), 0, "f");
+    f.assign(hf);
+    EXPECT_EQ(reduce_f64_to(ex(), f, out), reduce_f64(ex(), f, 1.5, kf::exec::SumOp{}))
+        << "n = " << n;
+  }
+}
+
+// for_each_lanes: every element once, its loop split over G lanes and summed back exactly, for
+// sizes around the block (128 threads = 128 / G elements) and G from 1 to 32.
+template <unsigned G>
+void check_lanes(const Exec& ex, Backend b) {
+  for (std::size_t n : {std::size_t(1), std::size_t(31), std::size_t(32), std::size_t(33),
+                        std::size_t(1000), std::size_t(100003)}) {
+    DeviceBuffer<double> out(b, n, "out");
+    DeviceBuffer<std::uint32_t> visits(b, n, "visits");
+    out.poison();
+    visits.poison();
+    lane_sums<G>(ex, out, visits);
+    const auto o = out.to_host();
+    const auto v = visits.to_host();
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t m = i % 37;
+      const std::size_t want = m * i + (m > 0 ? m * (m - 1) / 2 : 0); // sum of i + k, k < m
+      ASSERT_EQ(o[i], double(want)) << "G = " << G << ", n = " << n << ", i = " << i;
+      ASSERT_EQ(v[i], m) << "G = " << G << ", n = " << n << ", i = " << i;
+    }
+  }
+}
+
+TEST_P(ExecTest, ForEachLanesSplitsAndSumsEveryElement) {
+  check_lanes<1>(ex(), b());
+  check_lanes<4>(ex(), b());
+  check_lanes<8>(ex(), b());
+  check_lanes<32>(ex(), b());
 }
 
 TEST_P(ExecTest, TransformReduceIsDeterministic) {

@@ -50,6 +50,7 @@ void for_each(const Exec& ex, std::size_t n, const F& f, const char* label) {
 #if defined(__CUDACC__)
     constexpr unsigned block = 256;
     const std::size_t grid = (n + block - 1) / block;
+    KernelTimeScope timed(label);
     for_each_kernel<<<static_cast<unsigned>(grid), block>>>(n, f);
     KF_CHECK_LAUNCH(label, n);
 #else
@@ -60,6 +61,85 @@ void for_each(const Exec& ex, std::size_t n, const F& f, const char* label) {
 #pragma omp parallel for schedule(static)
     for (std::int64_t i = 0; i < m; ++i)
       f(static_cast<std::size_t>(i));
+  }
+}
+
+/// p[i] = value. A named functor, not a device lambda: see the note at GatherBy.
+template <typename T>
+struct FillWith {
+  T* p;
+  T value;
+  KF_HD KF_INLINE void operator()(std::size_t i) const { p[i] = value; }
+};
+
+/// The lanes that share one element in for_each_lanes: lane in [0, size). Lanes split the
+/// element's loop (lane, lane + size, ...) and combine with sum(), which every lane of the group
+/// must reach (the decisions before it must depend on the element only).
+struct Lanes {
+  unsigned lane = 0, size = 1;
+
+  /// Sum over the group's lanes, returned to all of them (a butterfly over warp shuffles, in a
+  /// fixed order: deterministic; it differs from a sequential sum by rounding).
+  template <typename V>
+  KF_HD KF_INLINE V sum(V v) const {
+#if defined(__CUDA_ARCH__)
+    const unsigned first = (threadIdx.x & 31u) & ~(size - 1u);
+    const unsigned mask = (size == 32u ? 0xFFFFFFFFu : ((1u << size) - 1u)) << first;
+    for (unsigned off = size / 2; off > 0; off /= 2)
+      v += shuffle_xor(mask, v, off);
+#endif
+    return v;
+  }
+
+private:
+#if defined(__CUDA_ARCH__)
+  template <typename V>
+  __device__ static V shuffle_xor(unsigned mask, const V& v, unsigned off) {
+    if constexpr (std::is_arithmetic_v<V>) {
+      return __shfl_xor_sync(mask, v, static_cast<int>(off));
+    } else { // Vec3
+      return V{__shfl_xor_sync(mask, v.x, static_cast<int>(off)),
+               __shfl_xor_sync(mask, v.y, static_cast<int>(off)),
+               __shfl_xor_sync(mask, v.z, static_cast<int>(off))};
+    }
+  }
+#endif
+};
+
+#if defined(__CUDACC__)
+template <unsigned G, typename F>
+__global__ void for_each_lanes_kernel(std::size_t n, F f) {
+  const std::size_t t = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  const std::size_t i = t / G;
+  if (i < n) // all G lanes of an element agree
+    f(i, Lanes{static_cast<unsigned>(t % G), G});
+}
+#endif
+
+/// Calls f(i, lanes) for i in [0, n) with G lanes (threads) per element on the GPU, one on the
+/// CPU: for gathers whose elements are few (tens of thousands of knit points fill a fraction of
+/// a GPU's threads) and whose loops are long enough to split. G: 1, 2, 4, 8, 16 or 32.
+template <unsigned G, typename F>
+void for_each_lanes(const Exec& ex, std::size_t n, const F& f, const char* label) {
+  static_assert(G >= 1 && G <= 32 && (G & (G - 1)) == 0, "for_each_lanes: G a power of 2 <= 32");
+  if (n == 0)
+    return;
+  if (ex.backend == Backend::Cuda) {
+#if defined(__CUDACC__)
+    constexpr unsigned block = 128;
+    const std::size_t threads = n * G;
+    const std::size_t grid = (threads + block - 1) / block;
+    KernelTimeScope timed(label);
+    for_each_lanes_kernel<G><<<static_cast<unsigned>(grid), block>>>(n, f);
+    KF_CHECK_LAUNCH(label, n);
+#else
+    throw_not_compiled_for_cuda(label);
+#endif
+  } else {
+    const std::int64_t m = static_cast<std::int64_t>(n);
+#pragma omp parallel for schedule(static)
+    for (std::int64_t i = 0; i < m; ++i)
+      f(static_cast<std::size_t>(i), Lanes{});
   }
 }
 
@@ -194,6 +274,7 @@ R transform_reduce(const Exec& ex, std::size_t n, R init, Op op, const F& f, con
   if (ex.backend == Backend::Cuda) {
 #if defined(__CUDACC__)
     unsigned blocks = 0;
+    KernelTimeScope timed(label);
     R* partial = launch_block_partials(n, init, op, f, blocks, label);
     reduce_partials_kernel<false, R, Op>
         <<<1, kReduceThreads>>>(blocks, init, op, partial, partial + kReduceBlocks);
@@ -208,6 +289,30 @@ R transform_reduce(const Exec& ex, std::size_t n, R init, Op op, const F& f, con
   return host_transform_reduce(n, init, op, f);
 }
 
+/// *out = op-reduction of f(i) over [0, n) starting from init, where out points to memory on
+/// ex.backend: transform_reduce without the read, so several results come back in one copy.
+template <typename R, typename Op, typename F>
+void transform_reduce_to(const Exec& ex, std::size_t n, R init, Op op, const F& f, R* out,
+                         const char* label) {
+  if (ex.backend == Backend::Cuda) {
+#if defined(__CUDACC__)
+    if (n == 0) {
+      for_each(ex, 1, FillWith<R>{out, init}, label);
+      return;
+    }
+    unsigned blocks = 0;
+    KernelTimeScope timed(label);
+    R* partial = launch_block_partials(n, init, op, f, blocks, label);
+    reduce_partials_kernel<false, R, Op><<<1, kReduceThreads>>>(blocks, init, op, partial, out);
+    KF_CHECK_LAUNCH(label, blocks);
+    return;
+#else
+    throw_not_compiled_for_cuda(label);
+#endif
+  }
+  *out = host_transform_reduce(n, init, op, f);
+}
+
 /// *acc = op(*acc, op-reduction of f(i) over [0, n)), where acc points to memory on ex.backend:
 /// the result stays on the device, nothing waits (counters read at the diagnostics' cadence).
 template <typename R, typename Op, typename F>
@@ -218,6 +323,7 @@ void transform_reduce_into(const Exec& ex, std::size_t n, Op op, const F& f, R* 
   if (ex.backend == Backend::Cuda) {
 #if defined(__CUDACC__)
     unsigned blocks = 0;
+    KernelTimeScope timed(label);
     R* partial = launch_block_partials(n, R{}, op, f, blocks, label);
     reduce_partials_kernel<true, R, Op><<<1, kReduceThreads>>>(blocks, R{}, op, partial, acc);
     KF_CHECK_LAUNCH(label, blocks);
@@ -263,6 +369,7 @@ void max_into(const Exec& ex, std::size_t n, const F& f, T* acc, const char* lab
   if (ex.backend == Backend::Cuda) {
 #if defined(__CUDACC__)
     const std::size_t grid = (n + kReduceThreads - 1) / kReduceThreads;
+    KernelTimeScope timed(label);
     max_into_kernel<T, F><<<static_cast<unsigned>(grid), kReduceThreads>>>(n, f, acc);
     KF_CHECK_LAUNCH(label, n);
     return;
@@ -291,12 +398,6 @@ std::size_t flagged_indices(const Exec& ex, const DeviceBuffer<std::uint32_t>& f
 // Named functors, not device lambdas, in these shared inline templates: nvcc's host-device lambda
 // wrappers instantiated from several translation units have called a null function on the CPU
 // backend of the CUDA build (moved_past_skin did).
-template <typename T>
-struct FillWith {
-  T* p;
-  T value;
-  KF_HD KF_INLINE void operator()(std::size_t i) const { p[i] = value; }
-};
 template <typename T>
 struct GatherBy {
   const std::uint32_t* perm;

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -104,6 +105,130 @@ void check_launch_impl(const char* label, std::size_t n, const char* file, int l
                   ") failed while running: " + error_text(e) + where() + " [KF_CUDA_SYNC_CHECK=1]");
     }
   }
+}
+
+// ---- kernel times (KF_KERNEL_TIMES=1) -----------------------------------------------------------
+
+namespace {
+
+struct KernelTimes {
+  struct Pending {
+    const char* label;
+    cudaEvent_t start, end;
+  };
+  struct Total {
+    std::string label;
+    std::uint64_t launches = 0;
+    double ms = 0;
+  };
+  std::vector<cudaEvent_t> free_events;
+  std::vector<Pending> pending;
+  std::vector<Total> totals;
+  cudaEvent_t first = nullptr, last = nullptr; // the span: first start, latest end
+  double busy_ms = 0;
+  int depth = 0; // nested scopes (a reduction inside a timed stage) are counted once, outermost
+
+  cudaEvent_t event() {
+    if (free_events.empty()) {
+      cudaEvent_t e;
+      KF_CUDA(cudaEventCreate(&e), std::string("creating a kernel-time event"));
+      return e;
+    }
+    cudaEvent_t e = free_events.back();
+    free_events.pop_back();
+    return e;
+  }
+  // Waits for the pending events and adds their times; keeps the span's end event.
+  void resolve() {
+    if (pending.empty())
+      return;
+    KF_CUDA(cudaEventSynchronize(pending.back().end), std::string("kernel times"));
+    for (const Pending& p : pending) {
+      float ms = 0;
+      KF_CUDA(cudaEventElapsedTime(&ms, p.start, p.end), std::string("kernel times"));
+      auto it = std::find_if(totals.begin(), totals.end(),
+                             [&](const Total& t) { return t.label == p.label; });
+      if (it == totals.end()) {
+        totals.push_back({p.label});
+        it = totals.end() - 1;
+      }
+      ++it->launches;
+      it->ms += ms;
+      busy_ms += ms;
+      if (p.start != first)
+        free_events.push_back(p.start);
+      if (p.end != last)
+        free_events.push_back(p.end);
+    }
+    pending.clear();
+  }
+  void report() {
+    resolve();
+    if (totals.empty() || !first || !last)
+      return;
+    float span = 0;
+    KF_CUDA(cudaEventElapsedTime(&span, first, last), std::string("kernel times"));
+    std::sort(totals.begin(), totals.end(),
+              [](const Total& a, const Total& b) { return a.ms > b.ms; });
+    std::fprintf(stderr,
+                 "kernel times (KF_KERNEL_TIMES=1): GPU busy %.1f of %.1f ms timed (%.0f%%)\n"
+                 "  %-34s %10s %10s %9s %6s\n",
+                 busy_ms, double(span), span > 0 ? 100.0 * busy_ms / span : 0.0, "label",
+                 "launches", "total ms", "mean us", "share");
+    for (const Total& t : totals)
+      std::fprintf(stderr, "  %-34s %10llu %10.2f %9.2f %5.1f%%\n", t.label.c_str(),
+                   static_cast<unsigned long long>(t.launches), t.ms, 1e3 * t.ms / t.launches,
+                   busy_ms > 0 ? 100.0 * t.ms / busy_ms : 0.0);
+  }
+};
+
+KernelTimes* kernel_times() {
+  static KernelTimes* const times = [] {
+    const char* v = std::getenv("KF_KERNEL_TIMES");
+    if (v == nullptr || std::string_view(v) != "1")
+      return static_cast<KernelTimes*>(nullptr);
+    auto* t = new KernelTimes; // lives to the end; reported from atexit
+    std::atexit([] {
+      try {
+        kernel_times()->report();
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "kernel times: %s\n", e.what());
+      }
+    });
+    return t;
+  }();
+  return times;
+}
+
+} // namespace
+
+KernelTimeScope::KernelTimeScope(const char* label) {
+  KernelTimes* t = kernel_times();
+  if (!t || t->depth++ > 0)
+    return;
+  label_ = label;
+  cudaEvent_t start = t->event();
+  KF_CUDA(cudaEventRecord(start), std::string("kernel times"));
+  if (!t->first)
+    t->first = start;
+  t->pending.push_back({label, start, nullptr});
+  slot_ = static_cast<int>(t->pending.size()) - 1;
+}
+
+KernelTimeScope::~KernelTimeScope() {
+  KernelTimes* t = kernel_times();
+  if (!t)
+    return;
+  --t->depth;
+  if (slot_ < 0)
+    return;
+  cudaEvent_t end = t->event();
+  if (cudaEventRecord(end) != cudaSuccess)
+    return;      // a destructor does not throw; the launch's own check reports the failure
+  t->last = end; // an earlier end still pending is freed when resolved
+  t->pending[static_cast<std::size_t>(slot_)].end = end;
+  if (t->pending.size() >= 4096)
+    t->resolve();
 }
 
 // ---- devices ------------------------------------------------------------------------------------
@@ -258,6 +383,7 @@ void cuda_sort_by_key(DeviceBuffer<std::uint32_t>& keys, DeviceBuffer<std::uint3
   const std::uint32_t n = checked_count(keys.size(), "sort_by_key", label);
   if (n < 2 || key_bits == 0)
     return; // already sorted
+  KernelTimeScope timed(label);
   const auto ctx = [&] {
     return std::string(label) + ": sort_by_key of " + std::to_string(n) + " pairs, " +
            std::to_string(key_bits) + " key bits";
@@ -294,6 +420,7 @@ std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
   const std::uint32_t n = checked_count(in.size(), "exclusive_scan", label);
   if (n == 0)
     return 0;
+  KernelTimeScope timed(label);
   const auto ctx = [&] {
     return std::string(label) + ": exclusive_scan of " + std::to_string(n) + " elements";
   };

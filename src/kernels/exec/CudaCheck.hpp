@@ -31,6 +31,23 @@ void* cuda_scratch(ScratchSlot slot, std::size_t bytes, const char* label);
 /// through a page-locked staging buffer, and waits for it.
 void cuda_read_result(void* dst, const void* device_src, std::size_t bytes, const char* label);
 
+/// GPU time per kernel label, for finding where a step's time goes (KF_KERNEL_TIMES=1 in the
+/// environment; off otherwise, and then free). A scope records a CUDA event before and after the
+/// launches it spans; at exit the table is printed to stderr: per label the launches, the GPU
+/// time between the events and its share, and how busy the GPU was over the timed span (low
+/// means the GPU waited for the host: launch- or wait-bound).
+class KernelTimeScope {
+public:
+  explicit KernelTimeScope(const char* label);
+  ~KernelTimeScope();
+  KernelTimeScope(const KernelTimeScope&) = delete;
+  KernelTimeScope& operator=(const KernelTimeScope&) = delete;
+
+private:
+  const char* label_ = nullptr;
+  int slot_ = -1;
+};
+
 } // namespace kf::exec
 
 #define KF_CUDA(call, ...)                                                                         \
