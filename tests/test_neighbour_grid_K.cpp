@@ -125,11 +125,24 @@ void check_against_brute_force(exec::Backend backend, int span = 1) {
         brute.insert(static_cast<std::uint32_t>(j));
     const CellView<T> hv = view;
     if (backend == exec::Backend::Cpu) {
+      std::vector<std::uint32_t> all;
       hv.for_each_candidate(sorted[i], [&](std::uint32_t j) {
+        all.push_back(j);
         if (norm2(sorted[i] - sorted[j]) < h2)
           viagrid.insert(j);
       });
       EXPECT_EQ(brute, viagrid) << "particle " << i;
+      // Lanes sharing the walk (for_each_lanes) visit every candidate once between them.
+      for (std::uint32_t stride : {2u, 4u, 8u}) {
+        std::vector<std::uint32_t> shared;
+        for (std::uint32_t lane = 0; lane < stride; ++lane)
+          hv.for_each_candidate(sorted[i], lane, stride,
+                                [&](std::uint32_t j) { shared.push_back(j); });
+        std::sort(shared.begin(), shared.end());
+        std::vector<std::uint32_t> want = all;
+        std::sort(want.begin(), want.end());
+        EXPECT_EQ(shared, want) << "particle " << i << ", " << stride << " lanes";
+      }
     }
   }
 }

@@ -196,9 +196,9 @@ double KnitSystem<T>::stable_dt() {
 }
 
 template <typename T>
-void KnitSystem<T>::motion_bounds_into(MotionBounds<T>* acc) {
+void KnitSystem<T>::motion_bounds_to(MotionBounds<T>* out) {
   auto p = set_.view();
-  kf::motion_bounds_into(ex_, p.v, p.a, p.n, acc, "knit.dt");
+  kf::motion_bounds_to(ex_, p.v, p.a, p.n, out, "knit.dt");
 }
 
 template <typename T>

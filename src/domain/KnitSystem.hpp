@@ -42,9 +42,9 @@ public:
   void set_substep_limit(double sub) { extra_limit_ = sub; }
   /// Largest step (all substeps together) the springs and the contact radius allow now.
   double stable_dt();
-  /// stable_dt() from bounds already read (motion_bounds_into, then one read for several sets).
+  /// stable_dt() from bounds already read (motion_bounds_to, then one read for several sets).
   double stable_dt(const MotionBounds<T>& mb);
-  void motion_bounds_into(MotionBounds<T>* acc);
+  void motion_bounds_to(MotionBounds<T>* out);
   /// How far a point may move in a step of dt, from the speed and acceleration stable_dt() saw
   /// (an estimate; huge before the first stable_dt()).
   double expected_motion(double dt) const { return vmax_ * dt + 0.5 * amax_ * dt * dt; }

@@ -303,9 +303,10 @@ template <typename T>
 void SimulationT<T>::init_coupling() {
   const CouplingParams<T> p = coupling_params<T>(scene_, knit_->longest_spacing());
   const double reach = std::max(double(p.reach), p.capillary ? h_ : 0.0);
-  // Cells 20% over the reach: the knit grid is sorted again only when a point moved that far.
+  // Cells 50% over the reach: a third of the margin is the grid's skin (it is sorted again when a
+  // point moved that far), two thirds the per-step lists' (KnitFluidCoupling).
   coupling_.emplace(ex_.backend, scene_.solver.kernel, p,
-                    NeighbourGrid<T>::cover(scene_.domain.min, scene_.domain.max, 1.2 * reach));
+                    NeighbourGrid<T>::cover(scene_.domain.min, scene_.domain.max, 1.5 * reach));
   if (p.capillary && scene_.capillary.model == Scene::AbsorptionModel::Conserving)
     init_absorption(p);
   if (!p.contact)
@@ -494,9 +495,8 @@ double SimulationT<T>::stable_dt() {
   auto f = fluid_->view();
   MotionBounds<T> mb;
   if (knit_on_) { // both sets' bounds in one read
-    exec::fill(ex_, bounds_, MotionBounds<T>{}, "integrate.dt");
-    knit_->motion_bounds_into(bounds_.data());
-    motion_bounds_into(ex_, f.v, f.a, f.n, bounds_.data() + 1, "integrate.dt");
+    knit_->motion_bounds_to(bounds_.data());
+    motion_bounds_to(ex_, f.v, f.a, f.n, bounds_.data() + 1, "integrate.dt");
     const auto both = bounds_.to_host();
     dt = std::min(dt, knit_->stable_dt(both[0]));
     mb = both[1];

@@ -5,7 +5,9 @@
 // subtracts it, so the pair forces cancel bit for bit and momentum is conserved to rounding.
 #include "core/Math.hpp"
 #include "kernels/contact/DemContact_K.hpp"
+#include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/GridGeometry.hpp"
+#include "kernels/grid/NeighbourList.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
@@ -120,9 +122,11 @@ struct SortedKnitSide {
 };
 
 /// Fluid side: impulse_j += weight * (sum over knit points of the pair force on j), for the fluid
-/// particles flagged near the knit (a knit point in their 27 knit-grid cells). When the watched
-/// knit motion since the grid's sort passed its skin (*moved2 > skin2: the grid and the flags may
-/// miss a point), every fluid particle sums over all knit points instead: exact, O(n m), rare.
+/// particles flagged near the knit (a knit point in their 27 knit-grid cells), over the knit
+/// points listed for j once per step (or its knit-grid cells where its list overflowed). When
+/// the watched knit motion since the grid's sort passed its skin (*moved2 > skin2: the grid, the
+/// flags and the lists may miss a point), every fluid particle sums over all knit points
+/// instead: exact, O(n m), rare.
 template <typename T, typename K>
 struct FluidCouplingEvaluator {
   K kernel;
@@ -133,6 +137,7 @@ struct FluidCouplingEvaluator {
   T weight;
   Vec3<T>* impulse;
   const std::uint32_t* near; // per fluid particle: 1 near the knit at the grid's sort
+  ListView<T> list;          // per fluid particle: knit points (grid order) within reach + skin
   const T* moved2;
   T skin2;
   std::uint32_t n_knit;
@@ -150,7 +155,9 @@ struct FluidCouplingEvaluator {
                               KnitPairSide<T>{knit.x[i], knit.v[i], knit.m[i], knit.p[i]}, fij))
         sum += fij;
     };
-    if (!stale)
+    if (!stale && list.complete(j))
+      list.for_each_neighbour(j, xj, pair);
+    else if (!stale)
       knit_cells.for_each_candidate(xj, pair);
     else
       for (std::uint32_t i = 0; i < n_knit; ++i)
@@ -174,21 +181,22 @@ struct KnitCouplingEvaluator {
   const T* fluid_rho;
   CellView<T> fluid_cells;
 
-  KF_HD void operator()(std::size_t i) const {
+  KF_HD void operator()(std::size_t i, exec::Lanes g = {}) const {
     if (p.handle[i] != kFreePoint)
       return;
     const KnitPairSide<T> side{p.x[i], p.v[i], p.m[i], pressure[i]};
     Vec3<T> sum{T(0), T(0), T(0)};
-    fluid_cells.for_each_candidate(side.x, [&](std::uint32_t j) {
+    fluid_cells.for_each_candidate(side.x, g.lane, g.size, [&](std::uint32_t j) {
       Vec3<T> fji;
       if (coupling_pair_force(kernel, prm, fluid_x[j], fluid_v[j], fluid_m[j], fluid_rho[j], side,
                               fji))
         sum += fji;
     });
-    Vec3<T> force = sum * T(-1);
+    Vec3<T> force = g.sum(sum) * T(-1);
     if (fluid_mass)
       force += prm.gravity * fluid_mass[i];
-    p.a[i] += force * (T(1) / side.m);
+    if (g.lane == 0)
+      p.a[i] += force * (T(1) / side.m);
   }
 };
 

@@ -9,13 +9,15 @@ namespace kf {
 template <typename T>
 KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
                                         const CouplingParams<T>& params,
-                                        const GridGeometry<T>& grid)
+                                        const GridGeometry<T>& grid, std::uint32_t list_capacity)
     : kernel_(kernel), params_(params), grid_(b, grid),
-      watch_(b, grid.cell - coupling_reach(params), "coupling.moved"),
+      watch_(b, (grid.cell - coupling_reach(params)) / T(3), "coupling.moved"),
       saturation_(b, 0, "coupling.saturation"), pressure_(b, 0, "coupling.pressure"),
       fluid_mass_(b, 0, "coupling.fluid_mass"), x_(b, 0, "coupling.knit_x"),
       v_(b, 0, "coupling.knit_v"), m_(b, 0, "coupling.knit_m"), p_(b, 0, "coupling.knit_p"),
-      impulse_(b, 0, "coupling.impulse"), near_flag_(b, 0, "coupling.near_flag") {
+      impulse_(b, 0, "coupling.impulse"), near_flag_(b, 0, "coupling.near_flag"), list_(b),
+      list_skin_(T(2) * (grid.cell - coupling_reach(params)) / T(3)),
+      list_capacity_(list_capacity) {
   const T reach = coupling_reach(params);
   if (!(grid.cell > reach))
     throw Error("knit-fluid coupling: grid cell " + std::to_string(double(grid.cell)) +
@@ -96,6 +98,14 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
   impulse_.resize(fluid.f.n);
   exec::fill(ex, impulse_, Vec3<T>{T(0), T(0), T(0)}, "coupling.impulse");
   find_fluid_near_knit(ex, fluid);
+  // Lists from the knit's positions now: a pair within the reach at a substep is then within
+  // reach + list skin now (the knit moves at most 2 watch skins from now, the fluid not at all),
+  // and the grid walk finds it (1 watch skin since the sort, plus the list's reach + skin, fits
+  // in a cell).
+  watch_.observe_gather(ex, knit.x, knit.v, grid_.permutation(), x_, v_);
+  const T r = coupling_reach(params_) + list_skin_;
+  list_.build_for(ex, fluid.f.x, near_flag_.data(), fluid.f.n, x_.data(), grid_.view(), r * r,
+                  list_capacity_);
 }
 
 template <typename T>
@@ -121,15 +131,15 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
                    FluidCouplingEvaluator<T, K>{
                        k, params_, fluid.f,
                        SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()}, grid_.view(),
-                       weight, impulse_.data(), near_flag_.data(), watch_.moved2(), watch_.skin2(),
-                       static_cast<std::uint32_t>(x_.size())},
+                       weight, impulse_.data(), near_flag_.data(), list_.view(), watch_.moved2(),
+                       watch_.skin2(), static_cast<std::uint32_t>(x_.size())},
                    "coupling.fluid");
-    exec::for_each(ex, knit.size(),
-                   KnitCouplingEvaluator<T, K>{
-                       k, params_, knit.view(), pressure_.data(),
-                       params_.capillary && !conserving_ ? fluid_mass_.data() : nullptr, fluid.f.x,
-                       fluid.f.v, fluid.f.m, fluid.f.rho, fluid.cells},
-                   "coupling.knit");
+    exec::for_each_lanes<4>(ex, knit.size(),
+                            KnitCouplingEvaluator<T, K>{
+                                k, params_, knit.view(), pressure_.data(),
+                                params_.capillary && !conserving_ ? fluid_mass_.data() : nullptr,
+                                fluid.f.x, fluid.f.v, fluid.f.m, fluid.f.rho, fluid.cells},
+                            "coupling.knit");
   });
 }
 
@@ -193,7 +203,7 @@ CouplingStats KnitFluidCoupling<T>::stats(const exec::Exec& ex, KnitSet<T>& knit
 
 template <typename T>
 std::size_t KnitFluidCoupling<T>::bytes() const {
-  return grid_.bytes() + watch_.bytes() + near_flag_.capacity_bytes() +
+  return grid_.bytes() + watch_.bytes() + near_flag_.capacity_bytes() + list_.bytes() +
          saturation_.capacity_bytes() + pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() +
          x_.capacity_bytes() + v_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
          impulse_.capacity_bytes();

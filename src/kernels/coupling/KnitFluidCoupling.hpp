@@ -8,6 +8,7 @@
 #include "kernels/coupling/Coupling_K.hpp"
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
+#include "kernels/grid/NeighbourList.hpp"
 #include "kernels/grid/SkinWatch.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/particles/KnitSet.hpp"
@@ -37,9 +38,13 @@ struct CouplingStats {
 template <typename T>
 class KnitFluidCoupling {
 public:
-  /// grid: a geometry covering the domain with cells no smaller than the coupling's reach.
+  /// grid: a geometry covering the domain with cells larger than the coupling's reach r; the
+  /// margin (cell - r) is split into the lists' skin (2/3) and the grid's (1/3).
+  /// list_capacity: knit points listed per fluid particle; a fuller row walks its cells (exact,
+  /// slower). A sheet of three layers holds ~31 points within a reach of 2 fluid spacings, ~55
+  /// within the list's radius.
   KnitFluidCoupling(exec::Backend b, KernelType kernel, const CouplingParams<T>& params,
-                    const GridGeometry<T>& grid);
+                    const GridGeometry<T>& grid, std::uint32_t list_capacity = 96);
 
   /// Saturation, capillary pressure and absorbed mass of every knit point (when capillary), the
   /// knit grid sorted again if a point moved farther than its skin, fluid impulses zeroed.
@@ -92,6 +97,12 @@ private:
   // sorted between them, so only these can feel the knit (while the skin holds). A flag, not a
   // compacted list: the list's length would have to be read on the host.
   exec::DeviceBuffer<std::uint32_t> near_flag_;
+  // For each near fluid particle, the knit points within reach + list_skin_ of it, built once
+  // per step; valid while no knit point moved farther than the watch's skin since the grid's
+  // sort (docs/ARCHITECTURE.md "Knit-fluid coupling on the GPU" derives the skins).
+  NeighbourList<T> list_;
+  T list_skin_;
+  std::uint32_t list_capacity_;
 };
 
 } // namespace kf

@@ -23,7 +23,9 @@ KF_HD KF_INLINE void store4(std::uint32_t* p, std::uint32_t a, std::uint32_t b, 
 /// became their own memory transaction, and the build cost 2.5x a density pass (measured).
 template <typename T>
 struct ListBuilder {
-  const Vec3<T>* x;
+  const Vec3<T>* q;            // query points
+  const Vec3<T>* x;            // candidates, in `cells`' order
+  const std::uint32_t* active; // nullptr: every query point; else those with active[i] != 0
   CellView<T> cells;
   T radius2;
   std::size_t capacity; // a multiple of 4
@@ -31,7 +33,11 @@ struct ListBuilder {
   std::uint32_t* list;
 
   KF_HD void operator()(std::size_t i) const {
-    const Vec3<T> xi = x[i];
+    if (active && !active[i]) {
+      count[i] = 0;
+      return;
+    }
+    const Vec3<T> xi = q[i];
     std::uint32_t c = 0, b0 = 0, b1 = 0, b2 = 0;
     std::uint32_t* row = list + i * capacity;
     cells.for_each_candidate(xi, [&](std::uint32_t j) {
@@ -88,8 +94,10 @@ void NeighbourList<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
     list_.resize(std::size_t(capacity_) * n);
     // One thread per particle (for_each), then the largest count: a reduction's fixed grid
     // of strided threads would walk the candidates with a third of the GPU's threads.
-    exec::for_each(ex, n, ListBuilder<T>{x, cells, radius2, capacity_, count_.data(), list_.data()},
-                   "neighbours.build");
+    exec::for_each(
+        ex, n,
+        ListBuilder<T>{x, x, nullptr, cells, radius2, capacity_, count_.data(), list_.data()},
+        "neighbours.build");
     const std::uint32_t* c = count_.data();
     most_ = exec::transform_reduce(ex, n, std::uint32_t(0), exec::MaxOp{}, CountOf{c},
                                    "neighbours.most");
@@ -98,6 +106,18 @@ void NeighbourList<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
     // Room for the density to rise before the next growth; a multiple of 4 (16-byte rows).
     capacity_ = (most_ + most_ / 4 + 4 + 3) / 4 * 4;
   }
+}
+
+template <typename T>
+void NeighbourList<T>::build_for(const exec::Exec& ex, const Vec3<T>* q,
+                                 const std::uint32_t* active, std::size_t n, const Vec3<T>* x,
+                                 const CellView<T>& cells, T radius2, std::uint32_t capacity) {
+  capacity_ = (capacity + 3) / 4 * 4;
+  count_.resize(n);
+  list_.resize(std::size_t(capacity_) * n);
+  exec::for_each(
+      ex, n, ListBuilder<T>{q, x, active, cells, radius2, capacity_, count_.data(), list_.data()},
+      "neighbours.build_for");
 }
 
 template class NeighbourList<float>;

@@ -23,6 +23,8 @@ struct ListView {
   const std::uint32_t* list = nullptr;
   std::size_t capacity = 0;
 
+  /// Whether row i holds all its neighbours (build_for's rows may overflow).
+  KF_HD KF_INLINE bool complete(std::size_t i) const { return count[i] <= capacity; }
   /// Calls f(j) for the neighbours of i found at build time, in the grid's candidate order.
   template <typename F>
   KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>&, F&& f) const {
@@ -53,6 +55,12 @@ public:
   /// capacity grows (and the build repeats) until the densest particle fits.
   void build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const CellView<T>& cells,
              T radius2);
+  /// Lists, for each of n query points q (the inactive ones, active[i] == 0, get none), the
+  /// candidates j of `cells` (positions x) with |q_i - x_j|^2 < radius2, in the order the cell
+  /// walk meets them. Fixed capacity and no read on the host: a count over the capacity marks a
+  /// row that overflowed (ListView::complete is false; its user walks the cells instead).
+  void build_for(const exec::Exec& ex, const Vec3<T>* q, const std::uint32_t* active, std::size_t n,
+                 const Vec3<T>* x, const CellView<T>& cells, T radius2, std::uint32_t capacity);
   ListView<T> view() const { return {count_.data(), list_.data(), capacity_}; }
   /// Slots per particle now; most neighbours of one particle at the last build.
   std::uint32_t capacity() const { return capacity_; }

@@ -63,9 +63,9 @@ MotionBounds<T> motion_bounds(const exec::Exec& ex, const Vec3<T>* v, const Vec3
 }
 
 template <typename T>
-void motion_bounds_into(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a, std::size_t n,
-                        MotionBounds<T>* acc, const char* label) {
-  exec::transform_reduce_into(ex, n, NanMaxOp{}, MotionOf<T>{v, a}, acc, label);
+void motion_bounds_to(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a, std::size_t n,
+                      MotionBounds<T>* out, const char* label) {
+  exec::transform_reduce_to(ex, n, MotionBounds<T>{}, NanMaxOp{}, MotionOf<T>{v, a}, out, label);
 }
 
 #define KF_INSTANTIATE(T)                                                                          \
@@ -75,8 +75,8 @@ void motion_bounds_into(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a
                         const char*, Prescribed<T>);                                               \
   template MotionBounds<T> motion_bounds<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,     \
                                             std::size_t, const char*);                             \
-  template void motion_bounds_into<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,           \
-                                      std::size_t, MotionBounds<T>*, const char*);
+  template void motion_bounds_to<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,             \
+                                    std::size_t, MotionBounds<T>*, const char*);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

@@ -33,10 +33,10 @@ struct MotionBounds {
 template <typename T>
 MotionBounds<T> motion_bounds(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a,
                               std::size_t n, const char* label);
-/// The same into *acc on the device (*acc = max(*acc, the bounds); nothing waits), so that
-/// several sets' bounds come back in one read.
+/// The same written to *out on the device (nothing waits), so that several sets' bounds come
+/// back in one read.
 template <typename T>
-void motion_bounds_into(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a, std::size_t n,
-                        MotionBounds<T>* acc, const char* label);
+void motion_bounds_to(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a, std::size_t n,
+                      MotionBounds<T>* out, const char* label);
 
 } // namespace kf

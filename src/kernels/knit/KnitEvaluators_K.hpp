@@ -18,14 +18,16 @@ KF_HD KF_INLINE Vec3<T> spring_force(const Vec3<T>& d, const Vec3<T>& dv, T rest
   return u * (k * (len - rest) + c * dot(dv, u));
 }
 
-/// Calls f(V - V0, k, gradient of V with respect to point i) for every volume cell of point i.
+/// Calls f(V - V0, k, gradient of V with respect to point i) for every volume cell of point i
+/// (with lanes: for every stride-th from `lane` on).
 template <typename T, typename F>
 KF_HD KF_INLINE void for_each_volume_cell(const VolumeView<T>& vol, const Vec3<T>* x, std::size_t i,
-                                          F&& f) {
+                                          F&& f, std::uint32_t lane = 0, std::uint32_t stride = 1) {
   if (vol.empty())
     return;
-  for (std::uint32_t e = vol.start[i]; e < vol.start[i + 1]; ++e) {
-    const std::uint32_t c = vol.cell[e];
+  const std::uint32_t cells = vol.count[i];
+  for (std::uint32_t e = lane; e < cells; e += stride) {
+    const std::uint32_t c = vol.cell[e * vol.n_points + i];
     const std::uint32_t* q = vol.point + 4 * std::size_t(c);
     const Vec3<T> xp = x[q[0]], xo = x[q[1]], xa = x[q[2]], xb = x[q[3]];
     const int role = q[0] == i ? 0 : q[1] == i ? 1 : q[2] == i ? 2 : 3;
@@ -43,20 +45,25 @@ struct SpringForceEvaluator {
   VolumeView<T> vol;
   Vec3<T> gravity;
 
-  KF_HD void operator()(std::size_t i) const {
+  KF_HD void operator()(std::size_t i, exec::Lanes g = {}) const {
     if (p.handle[i] != kFreePoint) {
-      p.a[i] = {T(0), T(0), T(0)};
+      if (g.lane == 0)
+        p.a[i] = {T(0), T(0), T(0)};
       return;
     }
     const Vec3<T> xi = p.x[i], vi = p.v[i];
     Vec3<T> f{T(0), T(0), T(0)};
-    for (std::uint32_t e = s.start[i]; e < s.start[i + 1]; ++e) {
-      const std::uint32_t j = s.other[e];
-      f += spring_force(p.x[j] - xi, p.v[j] - vi, s.rest[e], s.k[e], s.c[e]);
-    }
-    for_each_volume_cell(vol, p.x, i,
-                         [&](T dv, T k, const Vec3<T>& grad) { f -= grad * (k * dv); });
-    p.a[i] = f * (T(1) / p.m[i]) + gravity;
+    s.for_each_spring(
+        i,
+        [&](const SpringEntry<T>& e) {
+          f += spring_force(p.x[e.other] - xi, p.v[e.other] - vi, e.rest, e.k, e.c);
+        },
+        g.lane, g.size);
+    for_each_volume_cell(
+        vol, p.x, i, [&](T dv, T k, const Vec3<T>& grad) { f -= grad * (k * dv); }, g.lane, g.size);
+    f = g.sum(f);
+    if (g.lane == 0)
+      p.a[i] = f * (T(1) / p.m[i]) + gravity;
   }
 };
 
@@ -70,10 +77,10 @@ struct SpringEnergyEvaluator {
 
   KF_HD double operator()(std::size_t i) const {
     double e = 0;
-    for (std::uint32_t k = s.start[i]; k < s.start[i + 1]; ++k) {
-      const double stretch = double(norm(p.x[s.other[k]] - p.x[i])) - double(s.rest[k]);
-      e += 0.25 * double(s.k[k]) * stretch * stretch;
-    }
+    s.for_each_spring(i, [&](const SpringEntry<T>& sp) {
+      const double stretch = double(norm(p.x[sp.other] - p.x[i])) - double(sp.rest);
+      e += 0.25 * double(sp.k) * stretch * stretch;
+    });
     for_each_volume_cell(vol, p.x, i, [&](T dv, T k, const Vec3<T>&) {
       e += 0.125 * double(k) * double(dv) * double(dv);
     });
@@ -96,10 +103,10 @@ struct SpringLimitEvaluator {
 
   KF_HD SpringLimits<T> operator()(std::size_t i) const {
     T ks = T(0), cs = T(0);
-    for (std::uint32_t e = s.start[i]; e < s.start[i + 1]; ++e) {
-      ks += s.k[e];
-      cs += s.c[e];
-    }
+    s.for_each_spring(i, [&](const SpringEntry<T>& e) {
+      ks += e.k;
+      cs += e.c;
+    });
     for_each_volume_cell(vol, p.x, i, [&](T, T k, const Vec3<T>& grad) { ks += k * norm2(grad); });
     SpringLimits<T> l;
     if (p.handle[i] != kFreePoint)

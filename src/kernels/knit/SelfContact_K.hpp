@@ -5,6 +5,7 @@
 // is antisymmetric, so momentum is conserved to rounding).
 #include "core/Math.hpp"
 #include "kernels/contact/DemContact_K.hpp"
+#include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/GridGeometry.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
@@ -64,7 +65,7 @@ struct SelfContactEvaluator {
   T skin2;
   std::uint32_t n;
 
-  KF_HD void operator()(std::size_t i) const {
+  KF_HD void operator()(std::size_t i, exec::Lanes g = {}) const {
     if (p.handle[i] != kFreePoint)
       return;
     const Vec3<T> xi = p.x[i], vi = p.v[i], ri = rest[i];
@@ -83,11 +84,13 @@ struct SelfContactEvaluator {
         f += fij;
     };
     if (*moved2 <= skin2)
-      cells.for_each_candidate(xi, pair);
+      cells.for_each_candidate(xi, g.lane, g.size, pair);
     else
-      for (std::uint32_t j = 0; j < n; ++j)
+      for (std::uint32_t j = g.lane; j < n; j += g.size)
         pair(j);
-    p.a[i] += f * (T(1) / mi);
+    f = g.sum(f);
+    if (g.lane == 0)
+      p.a[i] += f * (T(1) / mi);
   }
 };
 

@@ -1,7 +1,7 @@
 #pragma once
-// The springs of the knit mesh, stored per point (compressed rows): every spring appears in the
-// rows of both its ends, so each point gathers its own force (no atomics, deterministic sums, the
-// same code on both backends).
+// The springs of the knit mesh, stored per point: every spring appears in the rows of both its
+// ends, so each point gathers its own force (no atomics, deterministic sums, the same code on both
+// backends).
 #include "core/Vec3.hpp"
 #include "kernels/exec/Algorithms.hpp"
 
@@ -30,21 +30,38 @@ struct Spring {
   SpringKind kind = SpringKind::Stretch;
 };
 
+/// One end's view of a spring: the point at the other end and the spring's constants.
+template <typename T>
+struct SpringEntry {
+  std::uint32_t other = 0;
+  T rest = T(0), k = T(0), c = T(0);
+};
+
+/// Point i's e-th spring is entry[e * n_points + i], e < count[i]: slot-major (ELL), so the lanes
+/// of a warp, one point each, read adjacent entries (compressed rows had each lane read its own
+/// row: a cache line per lane per spring).
 template <typename T>
 struct SpringView {
-  const std::uint32_t* start; // row i is [start[i], start[i+1])
-  const std::uint32_t* other; // the point at the other end
-  const T* rest;
-  const T* k;
-  const T* c;
+  const std::uint32_t* count;
+  const SpringEntry<T>* entry;
   std::size_t n_points;
+
+  /// f(entry) for point i's springs (with lanes: every stride-th from `lane` on).
+  template <typename F>
+  KF_HD KF_INLINE void for_each_spring(std::size_t i, F&& f, std::uint32_t lane = 0,
+                                       std::uint32_t stride = 1) const {
+    const std::uint32_t c = count[i];
+    for (std::uint32_t e = lane; e < c; e += stride)
+      f(entry[e * n_points + i]);
+  }
 };
 
 template <typename T>
 class SpringTopology {
 public:
   explicit SpringTopology(exec::Backend b);
-  /// Builds the rows from a spring list over n_points points; rejects i == j and indices >= n.
+  /// Builds the rows from a spring list over n_points points (each row in the list's order);
+  /// rejects i == j and indices >= n.
   void build(const std::vector<Spring>& springs, std::size_t n_points);
   SpringView<T> view() const;
   std::size_t springs() const { return springs_; }
@@ -53,8 +70,8 @@ public:
   const std::vector<std::size_t>& count_by_kind() const { return by_kind_; }
 
 private:
-  exec::DeviceBuffer<std::uint32_t> start_, other_;
-  exec::DeviceBuffer<T> rest_, k_, c_;
+  exec::DeviceBuffer<std::uint32_t> count_;
+  exec::DeviceBuffer<SpringEntry<T>> entry_;
   std::size_t springs_ = 0;
   std::vector<std::size_t> by_kind_;
 };

@@ -50,14 +50,14 @@ KF_HD KF_INLINE Vec3<T> tet_volume_gradient(const Vec3<T>& p, const Vec3<T>& o, 
 
 template <typename T>
 struct VolumeView {
-  const std::uint32_t* start = nullptr; // row i lists the cells point i belongs to
-  const std::uint32_t* cell = nullptr;
+  const std::uint32_t* count = nullptr; // cells point i belongs to
+  const std::uint32_t* cell = nullptr;  // its e-th at cell[e * n_points + i] (slot-major)
   const std::uint32_t* point = nullptr; // 4 per cell
   const T* rest = nullptr;
   const T* k = nullptr;
   std::size_t n_points = 0;
 
-  KF_HD KF_INLINE bool empty() const { return start == nullptr; }
+  KF_HD KF_INLINE bool empty() const { return count == nullptr; }
 };
 
 template <typename T>
@@ -70,7 +70,7 @@ public:
   std::size_t bytes() const;
 
 private:
-  exec::DeviceBuffer<std::uint32_t> start_, cell_, point_;
+  exec::DeviceBuffer<std::uint32_t> count_, cell_, point_;
   exec::DeviceBuffer<T> rest_, k_;
   std::size_t cells_ = 0;
 };
