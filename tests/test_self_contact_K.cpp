@@ -84,11 +84,11 @@ enum class Motion {
 };
 
 template <typename T>
-void check(exec::Backend backend, Motion motion = Motion::None) {
+void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t list_capacity = 512) {
   const Cloud sorted_at = make_cloud(1500, 11);
   Cloud c = sorted_at;
   const std::size_t n = c.x.size();
-  const double skin = 3 * kR - 2 * kR; // the grid below
+  const double skin = (3 * kR - 2 * kR) / 2; // the grid's below: half its cells' margin
   {
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> u(-1, 1);
@@ -125,8 +125,8 @@ void check(exec::Backend backend, Motion motion = Motion::None) {
 
   SelfContactParams<T> pt{T(p.radius), T(p.exclusion2), T(p.k), T(p.zeta), T(p.friction)};
   // Cells wider than 2R: candidates are a superset, the kernel must filter by distance itself.
-  KnitSelfContact<T> sc(backend, NeighbourGrid<T>::cover({0, 0, 0}, {0.12, 0.12, 0.06}, 3 * kR),
-                        pt);
+  KnitSelfContact<T> sc(backend, NeighbourGrid<T>::cover({0, 0, 0}, {0.12, 0.12, 0.06}, 3 * kR), pt,
+                        list_capacity);
   sc.sync(ex, set);
   if (motion != Motion::None) {
     sc.begin_step(ex, set, T(0)); // no motion expected: the substeps watch on the device
@@ -194,6 +194,18 @@ TEST(SelfContact, MatchesAllPairsReferenceCudaFloat) {
     GTEST_SKIP() << "no CUDA device";
   check<float>(exec::Backend::Cuda);
 }
+// Rows of 8: most points have more allowed partners within a cell edge and walk their cells
+// instead; the two kinds of rows side by side give the same forces.
+TEST(SelfContact, OverflowingListsWalkTheirCellsCpu) {
+  check<double>(exec::Backend::Cpu, Motion::None, 8);
+  check<double>(exec::Backend::Cpu, Motion::WithinSkin, 8);
+}
+TEST(SelfContact, OverflowingListsWalkTheirCellsCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check<float>(exec::Backend::Cuda, Motion::None, 8);
+}
+
 // Points moved since the sort, with no sort between: within the skin the kept grid finds every
 // pair; past it the force pass sees the watched motion and sums over all pairs.
 TEST(SelfContact, MovedWithinSkinKeepsTheGridCpu) {

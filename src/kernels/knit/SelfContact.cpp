@@ -4,10 +4,12 @@ namespace kf {
 
 template <typename T>
 KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
-                                    const SelfContactParams<T>& params)
+                                    const SelfContactParams<T>& params, std::uint32_t list_capacity)
     : params_(params), grid_(b, geo), x_(b, 0, "knit.self.x"), v_(b, 0, "knit.self.v"),
       rest_(b, 0, "knit.self.rest"), m_(b, 0, "knit.self.m"), piece_(b, 0, "knit.self.piece"),
-      id_(b, 0, "knit.self.id"), watch_(b, geo.cell - T(2) * params.radius, "knit.self.moved") {
+      id_(b, 0, "knit.self.id"),
+      watch_(b, (geo.cell - T(2) * params.radius) / T(2), "knit.self.moved"), list_(b),
+      cell_(geo.cell), list_capacity_(list_capacity) {
   if (!(geo.cell > T(2) * params.radius))
     throw Error("knit self-collision: grid cell " + std::to_string(double(geo.cell)) +
                 " m is not larger than the contact reach 2R = " +
@@ -31,6 +33,10 @@ void KnitSelfContact<T>::sort(const exec::Exec& ex, KnitSet<T>& set) {
   exec::gather(ex, perm, set.m, m_, "knit.self.gather");
   exec::gather(ex, perm, set.piece, piece_, "knit.self.gather");
   exec::gather(ex, perm, set.id, id_, "knit.self.gather");
+  gather_motion(ex, set);
+  list_.build_for(
+      ex, set.x.data(), nullptr, n, x_.data(), grid_.view(), cell_ * cell_, list_capacity_,
+      SelfPairAllowed<T>{set.piece.data(), set.x_rest.data(), sorted(), params_.exclusion2});
 }
 
 template <typename T>
@@ -88,8 +94,8 @@ template <typename T>
 void KnitSelfContact<T>::add_forces(const exec::Exec& ex, KnitSet<T>& set) const {
   exec::for_each_lanes<4>(ex, set.size(),
                           SelfContactEvaluator<T>{set.view(), set.x_rest.data(), set.piece.data(),
-                                                  sorted(), grid_.view(), params_, watch_.moved2(),
-                                                  watch_.skin2(),
+                                                  sorted(), grid_.view(), params_, list_.view(),
+                                                  watch_.moved2(), watch_.skin2(),
                                                   static_cast<std::uint32_t>(x_.size())},
                           "knit.self_contact");
 }
@@ -105,8 +111,9 @@ SelfContactStats KnitSelfContact<T>::stats(const exec::Exec& ex, KnitSet<T>& set
 
 template <typename T>
 std::size_t KnitSelfContact<T>::bytes() const {
-  return grid_.bytes() + x_.capacity_bytes() + v_.capacity_bytes() + rest_.capacity_bytes() +
-         m_.capacity_bytes() + piece_.capacity_bytes() + id_.capacity_bytes() + watch_.bytes();
+  return grid_.bytes() + list_.bytes() + x_.capacity_bytes() + v_.capacity_bytes() +
+         rest_.capacity_bytes() + m_.capacity_bytes() + piece_.capacity_bytes() +
+         id_.capacity_bytes() + watch_.bytes();
 }
 
 template class KnitSelfContact<float>;

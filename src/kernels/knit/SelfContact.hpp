@@ -12,7 +12,10 @@ template <typename T>
 class KnitSelfContact {
 public:
   /// geo: a grid with cells no smaller than 2 * params.radius.
-  KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo, const SelfContactParams<T>& params);
+  /// list_capacity: allowed partners listed per point; a fuller row (a deep fold) walks its
+  /// cells instead (exact, slower).
+  KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo, const SelfContactParams<T>& params,
+                  std::uint32_t list_capacity = 32);
 
   /// Brings the cell-ordered copies up to date, exactly: the grid is sorted again when a point
   /// moved farther than the skin (cell - 2R) since the last sort (until then every pair within 2R
@@ -53,7 +56,13 @@ private:
   exec::DeviceBuffer<std::uint64_t> id_;
   void sort(const exec::Exec& ex, KnitSet<T>& set);
   void gather_motion(const exec::Exec& ex, KnitSet<T>& set);
-  SkinWatch<T> watch_; // motion since the last sort
+  SkinWatch<T> watch_; // motion since the last sort: half the cell's margin over 2R
+  // Per point, the sorted points it may touch (not excluded) within a cell edge at the sort: a
+  // pair within 2R later, each point at most half the margin from where it was sorted, was
+  // within 2R + margin = a cell edge then. A knit lying flat lists almost nothing.
+  NeighbourList<T> list_;
+  T cell_;
+  std::uint32_t list_capacity_;
   bool host_checks_ = true;
   std::uint64_t sorts_ = 0, stale_steps_ = 0;
 };

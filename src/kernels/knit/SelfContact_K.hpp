@@ -7,6 +7,7 @@
 #include "kernels/contact/DemContact_K.hpp"
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/GridGeometry.hpp"
+#include "kernels/grid/NeighbourList.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
 #include <cstdint>
@@ -49,10 +50,11 @@ KF_HD KF_INLINE bool self_contact_allowed(std::uint16_t piece_i, std::uint16_t p
   return piece_i != piece_j || norm2(rest_i - rest_j) >= exclusion2;
 }
 
-/// a_i += (sum of self-contact forces on i) / m_i for every free point. When the watched motion
-/// since the grid's sort passed its skin (*moved2 > skin2: a point may sit in a cell the grid
-/// does not list it in), every point sums over all n points instead: exact, O(n^2), and rare
-/// (KnitSelfContact::begin_step sorts ahead of the motion it expects).
+/// a_i += (sum of self-contact forces on i) / m_i for every free point, over the partners listed
+/// at the grid's sort (or its cells where its list overflowed). When the watched motion since
+/// the sort passed its skin (*moved2 > skin2: a list or the grid may miss a point), every point
+/// sums over all n points instead: exact, O(n^2), and rare (KnitSelfContact::begin_step sorts
+/// ahead of the motion it expects).
 template <typename T>
 struct SelfContactEvaluator {
   KnitView<T> p;
@@ -61,6 +63,7 @@ struct SelfContactEvaluator {
   SortedKnitView<T> s;
   CellView<T> cells;
   SelfContactParams<T> params;
+  ListView<T> list; // per point: the allowed partners within a cell edge at the sort
   const T* moved2;
   T skin2;
   std::uint32_t n;
@@ -83,7 +86,9 @@ struct SelfContactEvaluator {
       if (self_contact_force(d, vi - s.v[j], mi, s.m[j], params, fij))
         f += fij;
     };
-    if (*moved2 <= skin2)
+    if (*moved2 <= skin2 && list.count && list.complete(i))
+      list.for_each_neighbour(i, xi, g.lane, g.size, pair);
+    else if (*moved2 <= skin2)
       cells.for_each_candidate(xi, g.lane, g.size, pair);
     else
       for (std::uint32_t j = g.lane; j < n; j += g.size)
@@ -91,6 +96,19 @@ struct SelfContactEvaluator {
     f = g.sum(f);
     if (g.lane == 0)
       p.a[i] += f * (T(1) / mi);
+  }
+};
+
+/// Whether sorted point j may ever touch point i (list building: the exclusion depends only on
+/// pieces and rest positions, so it holds for the list's whole life).
+template <typename T>
+struct SelfPairAllowed {
+  const std::uint16_t* piece; // knit order
+  const Vec3<T>* rest;        // knit order
+  SortedKnitView<T> s;
+  T exclusion2;
+  KF_HD KF_INLINE bool operator()(std::size_t i, std::uint32_t j) const {
+    return self_contact_allowed(piece[i], s.piece[j], rest[i], s.rest[j], exclusion2);
   }
 };
 
