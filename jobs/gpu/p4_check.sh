@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # P4 on a GPU machine, one command (after `. .devrt/prelude.sh`, from the project root): the GPU
 # unit tests and the CPU/GPU comparison, compute-sanitizer memcheck and racecheck on a small
-# scene, the P4 benchmark table (bench_gpu), and the whole pour with per-stage profile.
+# scene, the P4 benchmark table (bench_gpu), the whole pour, and GPU time per kernel.
 # Logs, CSV and the table go to $OUT (default out/p4). Binaries are found on PATH
 # (.devrt/bin from scripts/pack-gpu.sh) or in build/cuda.
 set -uo pipefail
@@ -26,5 +26,11 @@ if [ -n "$san" ]; then
 fi
 bench_gpu --device cuda --csv "$out/bench_gpu.csv" > "$out/bench_gpu.log" 2>&1
 echo "bench_gpu rc=$?"
-knitflow run scenes/pour.toml --device cuda --profile --set output.enabled=false > "$out/pour_whole.log" 2>&1
-echo "pour rc=$?"
+knitflow run scenes/pour.toml --device cuda --set output.enabled=false > "$out/pour_whole.log" 2>&1
+echo "pour rc=$? $(grep -E '^done' "$out/pour_whole.log")"
+# GPU time per kernel (KF_KERNEL_TIMES=1): the first 300 steps and the whole pour.
+KF_KERNEL_TIMES=1 knitflow run scenes/pour.toml --device cuda --set output.enabled=false \
+  --set solver.max_steps=300 > "$out/kernel_times_pour300.log" 2>&1
+KF_KERNEL_TIMES=1 knitflow run scenes/pour.toml --device cuda --set output.enabled=false \
+  > "$out/kernel_times_pour.log" 2>&1
+echo "kernel times rc=$? $(grep -E '^kernel times' "$out/kernel_times_pour.log")"
