@@ -32,38 +32,6 @@ struct Exec {
 
 [[noreturn]] void throw_not_compiled_for_cuda(const char* label);
 
-#if defined(__CUDACC__)
-template <typename F>
-__global__ void for_each_kernel(std::size_t n, F f) {
-  const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
-  if (i < n)
-    f(i);
-}
-#endif
-
-/// Calls f(i) for i in [0, n): a CUDA kernel launch or an OpenMP static loop.
-template <typename F>
-void for_each(const Exec& ex, std::size_t n, const F& f, const char* label) {
-  if (n == 0)
-    return;
-  if (ex.backend == Backend::Cuda) {
-#if defined(__CUDACC__)
-    constexpr unsigned block = 256;
-    const std::size_t grid = (n + block - 1) / block;
-    KernelTimeScope timed(label);
-    for_each_kernel<<<static_cast<unsigned>(grid), block>>>(n, f);
-    KF_CHECK_LAUNCH(label, n);
-#else
-    throw_not_compiled_for_cuda(label);
-#endif
-  } else {
-    const std::int64_t m = static_cast<std::int64_t>(n);
-#pragma omp parallel for schedule(static)
-    for (std::int64_t i = 0; i < m; ++i)
-      f(static_cast<std::size_t>(i));
-  }
-}
-
 /// p[i] = value. A named functor, not a device lambda: see the note at GatherBy.
 template <typename T>
 struct FillWith {
@@ -118,19 +86,19 @@ __global__ void for_each_lanes_kernel(std::size_t n, F f) {
 
 /// Calls f(i, lanes) for i in [0, n) with G lanes (threads) per element on the GPU, one on the
 /// CPU: for gathers whose elements are few (tens of thousands of knit points fill a fraction of
-/// a GPU's threads) and whose loops are long enough to split. G: 1, 2, 4, 8, 16 or 32.
-template <unsigned G, typename F>
+/// a GPU's threads) and whose loops are long enough to split. G: 1, 2, 4, 8, 16 or 32; Block:
+/// threads per CUDA block, a multiple of 32.
+template <unsigned G, unsigned Block = 128, typename F>
 void for_each_lanes(const Exec& ex, std::size_t n, const F& f, const char* label) {
   static_assert(G >= 1 && G <= 32 && (G & (G - 1)) == 0, "for_each_lanes: G a power of 2 <= 32");
   if (n == 0)
     return;
   if (ex.backend == Backend::Cuda) {
 #if defined(__CUDACC__)
-    constexpr unsigned block = 128;
     const std::size_t threads = n * G;
-    const std::size_t grid = (threads + block - 1) / block;
+    const std::size_t grid = (threads + Block - 1) / Block;
     KernelTimeScope timed(label);
-    for_each_lanes_kernel<G><<<static_cast<unsigned>(grid), block>>>(n, f);
+    for_each_lanes_kernel<G><<<static_cast<unsigned>(grid), Block>>>(n, f);
     KF_CHECK_LAUNCH(label, n);
 #else
     throw_not_compiled_for_cuda(label);
@@ -141,6 +109,19 @@ void for_each_lanes(const Exec& ex, std::size_t n, const F& f, const char* label
     for (std::int64_t i = 0; i < m; ++i)
       f(static_cast<std::size_t>(i), Lanes{});
   }
+}
+
+/// Adapts a per-element functor f(i) to for_each_lanes.
+template <typename F>
+struct WithoutLanes {
+  F f;
+  KF_HD KF_INLINE void operator()(std::size_t i, Lanes) const { f(i); }
+};
+
+/// Calls f(i) for i in [0, n): a CUDA kernel launch or an OpenMP static loop.
+template <typename F>
+void for_each(const Exec& ex, std::size_t n, const F& f, const char* label) {
+  for_each_lanes<1, 256>(ex, n, WithoutLanes<F>{f}, label);
 }
 
 struct SumOp {
