@@ -87,12 +87,7 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
     exec::fill(ex, pressure_, T(0), "coupling.saturation");
     exec::fill(ex, fluid_mass_, T(0), "coupling.saturation");
   }
-  const T skin = watch_.skin();
-  if (!(T(2) * motion <= skin))
-    sort_knit(ex, knit); // read now
-  else if (x_.size() != n || watch_.may_exceed(ex, knit.x, skin - T(2) * motion))
-    sort_now(ex, knit);
-  watch_.expect(motion);
+  watch_.before_step(ex, knit.x, motion, x_.size() != n, [&] { sort_now(ex, knit); });
   exec::gather(ex, grid_.permutation(), pressure_, p_, "coupling.gather");
   exec::gather(ex, grid_.permutation(), knit.m, m_, "coupling.gather"); // wet mass changes
   impulse_.resize(fluid.f.n);

@@ -378,7 +378,7 @@ std::size_t flagged_indices(const Exec& ex, const DeviceBuffer<std::uint32_t>& f
 
 // Named functors, not device lambdas, in these shared inline templates: nvcc's host-device lambda
 // wrappers instantiated from several translation units have called a null function on the CPU
-// backend of the CUDA build (moved_past_skin did).
+// backend of the CUDA build (a skin check did; docs/ARCHITECTURE.md).
 template <typename T>
 struct GatherBy {
   const std::uint32_t* perm;

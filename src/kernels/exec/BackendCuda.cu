@@ -206,7 +206,6 @@ KernelTimeScope::KernelTimeScope(const char* label) {
   KernelTimes* t = kernel_times();
   if (!t || t->depth++ > 0)
     return;
-  label_ = label;
   cudaEvent_t start = t->event();
   KF_CUDA(cudaEventRecord(start), std::string("kernel times"));
   if (!t->first)
@@ -223,8 +222,13 @@ KernelTimeScope::~KernelTimeScope() {
   if (slot_ < 0)
     return;
   cudaEvent_t end = t->event();
-  if (cudaEventRecord(end) != cudaSuccess)
-    return;      // a destructor does not throw; the launch's own check reports the failure
+  if (cudaEventRecord(end) != cudaSuccess) {
+    // A destructor does not throw; the launch's own check reports the failure. The entry (the
+    // last one: timed scopes do not nest) is dropped, so resolve() never sees a missing end.
+    t->free_events.push_back(end);
+    t->pending.pop_back();
+    return;
+  }
   t->last = end; // an earlier end still pending is freed when resolved
   t->pending[static_cast<std::size_t>(slot_)].end = end;
   if (t->pending.size() >= 4096)

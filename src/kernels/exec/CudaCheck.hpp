@@ -44,8 +44,7 @@ public:
   KernelTimeScope& operator=(const KernelTimeScope&) = delete;
 
 private:
-  const char* label_ = nullptr;
-  int slot_ = -1;
+  int slot_ = -1; // its entry among the pending events; -1: not timed (off, or nested)
 };
 
 } // namespace kf::exec

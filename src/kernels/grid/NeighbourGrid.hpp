@@ -7,7 +7,9 @@
 namespace kf {
 
 /// Squared displacement of point i since the grid was sorted; a NaN reads as the largest value
-/// (a max-reduction would drop it).
+/// (a max-reduction would drop it). A named functor, not a device lambda: nvcc's host-device
+/// lambda wrappers in an inline function shared by several translation units called a null
+/// function on the CPU backend of the CUDA build.
 template <typename T>
 struct SquaredDisplacement {
   const Vec3<T>* x;
@@ -17,22 +19,6 @@ struct SquaredDisplacement {
     return d2 == d2 ? d2 : std::numeric_limits<T>::max();
   }
 };
-
-/// Whether a grid sorted when the points were at x0 is stale for x: some point moved farther
-/// than the skin (the cell's margin over the interaction reach), or the count changed. A NaN
-/// counts as moved (the step-size check reports it). A named functor, not a device lambda:
-/// nvcc's host-device lambda wrappers in an inline function shared by several translation units
-/// called a null function on the CPU backend of the CUDA build.
-template <typename T>
-bool moved_past_skin(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x,
-                     const exec::DeviceBuffer<Vec3<T>>& x0, T skin2, const char* label) {
-  const std::size_t n = x.size();
-  if (x0.size() != n)
-    return true;
-  const T moved2 = exec::transform_reduce(ex, n, T(0), exec::MaxOp{},
-                                          SquaredDisplacement<T>{x.data(), x0.data()}, label);
-  return !(moved2 <= skin2);
-}
 
 /// Sorts one particle set by cell (rows along x, Morton order over y, z) and keeps the cell tables
 /// for neighbour loops. After build(), permutation()[i] is the old index of the particle now at i;

@@ -29,7 +29,8 @@ struct GatherDisplaced {
     const Vec3<T> xi = x[i];
     x_out[k] = xi;
     v_out[k] = v[i];
-    return SquaredDisplacement<T>{x, x0}(i);
+    const T d2 = norm2(xi - x0[i]);
+    return d2 == d2 ? d2 : std::numeric_limits<T>::max();
   }
 };
 
@@ -48,19 +49,26 @@ public:
     exec::fill(ex, moved2_, T(0), label_);
     bound_ = T(0);
   }
-  /// Whether a point may be farther than `limit` from its reference. Answered on the host when
-  /// the bound it keeps (the last reading plus the motion expected since) is within the limit;
-  /// else the device is read (waits) and the bound becomes the reading. An expectation that
-  /// proves too small costs no correctness: kernels still see the device's record.
-  bool may_exceed(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x, T limit) {
-    if (x0_.size() == x.size() && bound_ <= limit)
-      return false;
-    bound_ = moved(ex, x);
-    return !(bound_ <= limit);
+  /// Once per step, before it: calls rebuild() (which must reset() the watch) when the structure
+  /// may not last the step, then adds the step's expected motion (an estimate, from speeds and
+  /// accelerations) to the host's bound. With twice the motion inside the skin, "may not last"
+  /// is may_exceed(skin - 2 motion), read on the host only when the bound could have used the
+  /// skin up; otherwise a sort might not last the step anyway, and the rule is the exact reading
+  /// (moved past the skin). `force` (a count changed) rebuilds without asking.
+  template <typename Rebuild>
+  void before_step(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x, T motion, bool force,
+                   Rebuild&& rebuild) {
+    bool stale = force;
+    if (!stale && T(2) * motion <= skin_) {
+      stale = may_exceed(ex, x, skin_ - T(2) * motion);
+    } else if (!stale) {
+      bound_ = moved(ex, x);
+      stale = !(bound_ <= skin_);
+    }
+    if (stale)
+      rebuild();
+    bound_ += motion;
   }
-  /// Adds a step's expected motion (an estimate, from speeds and accelerations) to the host's
-  /// bound.
-  void expect(T motion) { bound_ += motion; }
   /// Device side, nothing waits: the recorded squared motion takes the largest displacement now.
   void observe(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x) {
     if (x0_.size() != x.size()) { // never reset for this count: stale
@@ -104,6 +112,17 @@ public:
   std::size_t bytes() const { return x0_.capacity_bytes() + moved2_.capacity_bytes(); }
 
 private:
+  /// Whether a point may be farther than `limit` from its reference. Answered on the host when
+  /// the bound it keeps (the last reading plus the motion expected since) is within the limit;
+  /// else the device is read (waits) and the bound becomes the reading. An expectation that
+  /// proves too small costs no correctness: kernels still see the device's record.
+  bool may_exceed(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x, T limit) {
+    if (x0_.size() == x.size() && bound_ <= limit)
+      return false;
+    bound_ = moved(ex, x);
+    return !(bound_ <= limit);
+  }
+
   T skin_;
   exec::DeviceBuffer<Vec3<T>> x0_;
   exec::DeviceBuffer<T> moved2_;

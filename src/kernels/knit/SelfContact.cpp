@@ -53,27 +53,25 @@ void KnitSelfContact<T>::sync(const exec::Exec& ex, KnitSet<T>& set) {
     if (!host_checks_)
       ++stale_steps_; // device-watched substeps crossed the skin
     sort(ex, set);
+  } else {
+    gather_motion(ex, set);
   }
-  gather_motion(ex, set);
 }
 
 template <typename T>
 void KnitSelfContact<T>::begin_step(const exec::Exec& ex, KnitSet<T>& set, T motion) {
-  const T skin = watch_.skin();
-  if (!(T(2) * motion <= skin)) { // a sort might not last the step: every substep checks
-    host_checks_ = true;
-    sync(ex, set);
-    return;
-  }
   const bool device_watched = !host_checks_;
-  host_checks_ = false;
-  if (x_.size() != set.size() || watch_.may_exceed(ex, set.x, skin - T(2) * motion)) {
-    if (device_watched && x_.size() == set.size() && !(watch_.bound() <= skin))
+  // A sort might not last the step: every substep then checks on the host (sync).
+  host_checks_ = !(T(2) * motion <= watch_.skin());
+  bool sorted = false;
+  watch_.before_step(ex, set.x, motion, x_.size() != set.size(), [&] {
+    if (device_watched && x_.size() == set.size() && !(watch_.bound() <= watch_.skin()))
       ++stale_steps_; // device-watched substeps crossed the skin
     sort(ex, set);
-  }
-  watch_.expect(motion);
-  gather_motion(ex, set);
+    sorted = true;
+  });
+  if (!sorted)
+    gather_motion(ex, set);
 }
 
 template <typename T>

@@ -54,6 +54,7 @@ private:
   exec::DeviceBuffer<T> m_;
   exec::DeviceBuffer<std::uint16_t> piece_;
   exec::DeviceBuffer<std::uint64_t> id_;
+  // Sorts the grid, gathers every cell-ordered copy (x and v too) and builds the lists.
   void sort(const exec::Exec& ex, KnitSet<T>& set);
   void gather_motion(const exec::Exec& ex, KnitSet<T>& set);
   SkinWatch<T> watch_; // motion since the last sort: half the cell's margin over 2R
