@@ -168,21 +168,20 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
     set_handle_velocities(t + s * h);
     const Prescribed<T> fixed{p.handle, handle_v_.data()};
     {
+      // One kernel: the previous substep's closing half kick (a is unchanged since), this
+      // substep's half kick and drift, and the contact with solids (kick_drift_contact).
       stage_parts::Scope part("knit.step: kick-drift, contact with solids");
-      kick_drift(ex_, p.x, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick_drift", fixed);
-      if (n_shapes) {
-        if (set_shapes)
-          set_shapes(t + (s + 1) * h);
-        enforce_rigid_shapes(ex_, p.x, p.v, p.n, shapes, n_shapes, radius, friction, p.handle,
-                             collisions_.data(), "knit.contact");
-      }
+      if (n_shapes && set_shapes)
+        set_shapes(t + (s + 1) * h);
+      kick_drift_contact(ex_, p.x, p.v, p.a, p.n, static_cast<T>(h), keep, s > 0, fixed, shapes,
+                         n_shapes, radius, friction, collisions_.data(), "knit.kick_drift");
     }
     internal_forces();
     if (couple) {
       stage_parts::Scope part("knit.step: fluid coupling (both sides)");
       couple(static_cast<T>(s + 1 < n ? h : 0.5 * h));
     }
-    {
+    if (s + 1 == n) {
       stage_parts::Scope part("knit.step: kick");
       kick(ex_, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick", fixed);
     }

@@ -1,5 +1,7 @@
 #include "kernels/boundary/Boundary.hpp"
 
+#include "kernels/boundary/RigidContact_K.hpp"
+
 namespace kf {
 
 template <typename T>
@@ -13,47 +15,6 @@ void move_boundary(const exec::Exec& ex, BoundaryView<T> b, const RigidShape<T>*
       "boundary.move");
 }
 
-namespace {
-
-/// Puts one point back outside every solid; returns 1 when it was corrected.
-template <typename T>
-struct RigidContact {
-  Vec3<T>* x;
-  Vec3<T>* v;
-  const RigidShape<T>* shapes;
-  std::size_t n_shapes;
-  T margin, friction;
-  const std::uint32_t* fixed;
-
-  KF_HD std::uint64_t operator()(std::size_t i) const {
-    if (fixed && fixed[i] != kNoHandle)
-      return 0;
-    std::uint64_t hits = 0;
-    for (std::size_t s = 0; s < n_shapes; ++s) {
-      Vec3<T> nrm;
-      const T d = shapes[s].distance(x[i], nrm);
-      if (d >= margin)
-        continue;
-      x[i] += nrm * (margin - d);
-      const Vec3<T> rel = v[i] - shapes[s].velocity;
-      const T vn = dot(rel, nrm);
-      if (vn < T(0)) {
-        v[i] -= nrm * vn;
-        if (friction > T(0)) { // Coulomb: tangential speed drops by friction |vn|, not past 0
-          const Vec3<T> vt = rel - nrm * vn;
-          const T vt_len = norm(vt);
-          const T lose = vt_len > T(0) ? kmin(T(1), friction * (-vn) / vt_len) : T(0);
-          v[i] -= vt * lose;
-        }
-      }
-      hits = 1;
-    }
-    return hits;
-  }
-};
-
-} // namespace
-
 template <typename T>
 void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
                           const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
@@ -63,6 +24,43 @@ void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::siz
   exec::transform_reduce_into(ex, n, exec::SumOp{},
                               RigidContact<T>{x, v, shapes, n_shapes, margin, friction, fixed},
                               count, label);
+}
+
+namespace {
+
+template <typename T>
+struct KickDriftContact {
+  Vec3<T>* x;
+  Vec3<T>* v;
+  const Vec3<T>* a;
+  T dt, keep;
+  bool close_previous;
+  Prescribed<T> fixed;
+  RigidContact<T> contact;
+
+  KF_HD std::uint64_t operator()(std::size_t i) const {
+    const T half = T(0.5) * dt;
+    if (close_previous)
+      v[i] = half_kick(i, v, a, half, keep, fixed);
+    const Vec3<T> vh = half_kick(i, v, a, half, keep, fixed);
+    v[i] = vh;
+    x[i] += vh * dt;
+    return contact.n_shapes ? contact(i) : 0;
+  }
+};
+
+} // namespace
+
+template <typename T>
+void kick_drift_contact(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a,
+                        std::size_t n, T dt, T keep, bool close_previous, Prescribed<T> fixed,
+                        const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
+                        std::uint64_t* count, const char* label) {
+  exec::transform_reduce_into(
+      ex, n, exec::SumOp{},
+      KickDriftContact<T>{x, v, a, dt, keep, close_previous, fixed,
+                          RigidContact<T>{x, v, shapes, n_shapes, margin, friction, fixed.handle}},
+      count, label);
 }
 
 template <typename T>
@@ -87,6 +85,9 @@ T min_rigid_distance(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
   template void enforce_rigid_shapes<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, std::size_t,        \
                                         const RigidShape<T>*, std::size_t, T, T,                   \
                                         const std::uint32_t*, std::uint64_t*, const char*);        \
+  template void kick_drift_contact<T>(                                                             \
+      const exec::Exec&, Vec3<T>*, Vec3<T>*, const Vec3<T>*, std::size_t, T, T, bool,              \
+      Prescribed<T>, const RigidShape<T>*, std::size_t, T, T, std::uint64_t*, const char*);        \
   template T min_rigid_distance<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                 \
                                    const RigidShape<T>*, std::size_t);
 KF_INSTANTIATE(float)

@@ -23,6 +23,17 @@ void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::siz
                           const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
                           const std::uint32_t* fixed, std::uint64_t* count, const char* label);
 
+/// One kernel for what a substep of velocity Verlet does between two force evaluations: with
+/// close_previous, the previous substep's closing half kick (the same a); then kick_drift; then
+/// enforce_rigid_shapes (margin, friction, counting into *count). The same arithmetic as the
+/// three calls in a row (bit for bit): a prescribed point's velocity is set by the second kick
+/// whatever the first left, so `fixed` may already hold this substep's velocities.
+template <typename T>
+void kick_drift_contact(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a,
+                        std::size_t n, T dt, T keep, bool close_previous, Prescribed<T> fixed,
+                        const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
+                        std::uint64_t* count, const char* label);
+
 /// Smallest signed distance of any of the n points to any shape (negative: inside a solid),
 /// used by tests and diagnostics.
 template <typename T>

@@ -2,19 +2,6 @@
 
 namespace kf {
 
-namespace {
-
-/// The half-kicked velocity of point i: prescribed, or keep (v + a dt/2).
-template <typename T>
-KF_HD KF_INLINE Vec3<T> half_kick(std::size_t i, const Vec3<T>* v, const Vec3<T>* a, T half, T keep,
-                                  const Prescribed<T>& fixed) {
-  if (fixed.handle && fixed.handle[i] != kNoHandle)
-    return fixed.velocity[fixed.handle[i]];
-  return (v[i] + a[i] * half) * keep;
-}
-
-} // namespace
-
 template <typename T>
 void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt,
                 T keep, const char* label, Prescribed<T> fixed) {

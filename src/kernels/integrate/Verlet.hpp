@@ -16,6 +16,15 @@ struct Prescribed {
   const Vec3<T>* velocity = nullptr;
 };
 
+/// The half-kicked velocity of point i: prescribed, or keep (v + a dt/2).
+template <typename T>
+KF_HD KF_INLINE Vec3<T> half_kick(std::size_t i, const Vec3<T>* v, const Vec3<T>* a, T half, T keep,
+                                  const Prescribed<T>& fixed) {
+  if (fixed.handle && fixed.handle[i] != kNoHandle)
+    return fixed.velocity[fixed.handle[i]];
+  return (v[i] + a[i] * half) * keep;
+}
+
 /// v = keep (v + a dt/2), then x += v dt. keep = exp(-zeta dt/2) < 1 damps (settling); 1 does not.
 template <typename T>
 void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt,
