@@ -3,6 +3,7 @@
 //   bench_gpu [--device cuda|cpu] [--cases dambreak,column,pour,ratio,memory]
 //             [--sizes 1e5,1e6,4e6,1.6e7] [--column-dp 0.0085,0.0035] [--work 4e8] [--steps N]
 //             [--max-seconds 20] [--bandwidth-gbs 3000] [--fp32-tflops 67] [--gpu-mem-gib G]
+//             [--lists off,on,verlet] [--column-start T] [--set KEY=VALUE]...
 //             [--threads T] [--root DIR] [--csv FILE]
 //
 // Cases (rows):
@@ -82,6 +83,7 @@ struct Timing {
   std::optional<bench::PairCounts> pairs;
   std::vector<std::pair<std::string, double>> stage_seconds; // per step, profiled pass
   double profiled_step_seconds = 0;
+  double sorts_per_step = kNone; // fluid sorts (list builds with "verlet" lists) in the timed steps
 
   double ms() const { return 1e3 * seconds / double(steps); }
   double stage(const std::string& name) const {
@@ -102,9 +104,12 @@ struct Timing {
 
 /// Times `scene` on `be`: `case_steps` steps (0: as many as --work asks), capped by
 /// --max-seconds, unless --steps fixes the count. Particle-steps count fluid and knit alike.
+/// advance_to > 0: steps (untimed) to that simulated time first.
 Timing time_scene(const Scene& scene, exec::Backend be, const Options& opt, int warmup,
-                  long case_steps, bool count_pairs) {
+                  long case_steps, bool count_pairs, double advance_to = 0) {
   auto sim = Simulation::create(scene, be);
+  while (sim->time() < advance_to)
+    sim->step(advance_to);
   Timing t;
   const Diagnostics d = sim->diagnostics();
   t.fluid = d.fluid;
@@ -134,7 +139,10 @@ Timing time_scene(const Scene& scene, exec::Backend be, const Options& opt, int 
     profiled = std::max(3L, steps / 4);
   }
   t.steps = steps;
+  const auto sorts0 = sim->diagnostics().fluid_sorts;
   t.seconds = run(steps);
+  if (t.fluid > 0)
+    t.sorts_per_step = double(sim->diagnostics().fluid_sorts - sorts0) / double(steps);
 
   sim->set_profiling(true);
   std::vector<double> before;
@@ -176,6 +184,14 @@ Row row_from(const std::string& kind, const std::string& what, exec::Backend be,
     std::snprintf(split, sizeof split, "nbr %.1f fluid + %.1f boundary", t.pairs->fluid,
                   t.pairs->boundary);
     r.note = split;
+  }
+  if (!std::isnan(t.sorts_per_step) && t.sorts_per_step < 1) {
+    char sorts[64];
+    if (t.sorts_per_step > 0)
+      std::snprintf(sorts, sizeof sorts, "one sort per %.1f steps", 1 / t.sorts_per_step);
+    else
+      std::snprintf(sorts, sizeof sorts, "no sort in the timed steps");
+    r.note += (r.note.empty() ? "" : "; ") + std::string(sorts);
   }
   r.memory = double(t.memory);
   if (t.fluid > 0)
@@ -301,15 +317,19 @@ SearchModel search_model(const std::string& path) {
 /// docs/PERFORMANCE.md P1). Bytes: the stage's fluid arrays (bench::kDensityBytesPerFluid,
 /// kForcesBytesPerFluid) plus the cell tables around the fluid (rank, start, end: 12 B a cell,
 /// fluid and boundary grids); neighbour gathers hit in cache and the boundary arrays are left
-/// out (only their wetted part is read), so this is a lower bound.
+/// out (only their wetted part is read), so this is a lower bound. With neighbour lists
+/// (list_reach: the lists' radius over the support; 0 without lists) each pass reads its list
+/// from memory (4 B an entry) and tests the entries instead of the cells' candidates.
 std::vector<Row> floor_rows(const std::string& what, exec::Backend be, const Timing& t,
-                            const SearchModel& m, const Options& opt) {
+                            const SearchModel& m, const Options& opt, double list_reach = 0) {
   const double per_cell = m.candidates / std::pow(2.0 * m.span + 1, 3); // particles in a cell
   // Surface and wall particles have fewer fluid candidates; the measured neighbour count scales
   // the lattice's (fluid and boundary candidates together stay about a full lattice near walls).
   const double fill = t.pairs ? (t.pairs->fluid + t.pairs->boundary) / m.neighbours : 1.0;
-  const double candidates = m.candidates * fill, neighbours = m.neighbours * fill;
-  const double cell_bytes = 2 * 12.0 / per_cell;
+  const double neighbours = m.neighbours * fill;
+  const double entries = neighbours * list_reach * list_reach * list_reach;
+  const double candidates = list_reach > 0 ? entries : m.candidates * fill;
+  const double cell_bytes = list_reach > 0 ? 4 * entries : 2 * 12.0 / per_cell;
   struct StageModel {
     const char* name;
     double bytes, flops_per_neighbour;
@@ -336,10 +356,11 @@ std::vector<Row> floor_rows(const std::string& what, exec::Backend be, const Tim
     r.over_floor = r.ms / r.floor_ms;
     char note[256];
     std::snprintf(note, sizeof note,
-                  "%.0f B + %.0f flop per particle (%.0f candidates x 9 + %.0f neighbours x %.0f; "
+                  "%.0f B + %.0f flop per particle (%.0f %s x 9 + %.0f neighbours x %.0f; "
                   "cells of h/%d); %.3g TFLOP/s achieved, compute floor %.3g ms at %.0f TFLOP/s",
-                  bytes, flops, candidates, neighbours, sm.flops_per_neighbour, m.span,
-                  flops * n / seconds / 1e12, 1e3 * flops * n / opt.flops, opt.flops / 1e12);
+                  bytes, flops, candidates, list_reach > 0 ? "list entries" : "candidates",
+                  neighbours, sm.flops_per_neighbour, m.span, flops * n / seconds / 1e12,
+                  1e3 * flops * n / opt.flops, opt.flops / 1e12);
     r.note = note;
     rows.push_back(r);
   }
@@ -359,6 +380,19 @@ double gpu_memory(double gib_option) {
   return 80.0 * double(1ull << 30);
 }
 
+/// The fluid lists' radius over the support (0: no lists).
+double list_reach(const Scene& s) {
+  using L = Scene::Solver::NeighbourLists;
+  return s.solver.neighbour_list == L::Off      ? 0.0
+         : s.solver.neighbour_list == L::Verlet ? 1 + s.solver.neighbour_skin
+                                                : 1.0;
+}
+
+/// " verlet" / " lists" after a row's label; nothing for the default (off).
+std::string lists_label(const std::string& mode) {
+  return mode == "off" ? "" : mode == "on" ? " lists" : " " + mode;
+}
+
 std::string join_args(int argc, char** argv) {
   std::string s;
   for (int i = 0; i < argc; ++i)
@@ -376,6 +410,9 @@ int main(int argc, char** argv) {
   std::vector<std::string> cases{"dambreak", "column", "pour", "ratio", "memory"};
   std::vector<double> sizes{1e5, 1e6, 4e6, 16e6};
   std::vector<double> column_dp{0.0085, 0.0035};
+  std::vector<std::string> lists{"off", "verlet"};
+  double column_start = 0;
+  std::vector<std::string> sets;
   double bandwidth_gbs = 3000, fp32_tflops = 67, gpu_mem_gib = 0;
   int threads = 0;
   std::string root;
@@ -386,6 +423,14 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"dambreak", "column", "pour", "ratio", "memory"}));
   app.add_option("--sizes", sizes, "dam break fluid particle counts")->delimiter(',');
   app.add_option("--column-dp", column_dp, "dambreak_column.toml spacings [m]")->delimiter(',');
+  app.add_option("--lists", lists,
+                 "solver.neighbour_list modes of the dambreak and column rows (off,on,verlet)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"off", "on", "verlet"}));
+  app.add_option("--set", sets, "KEY=VALUE scene override for every case (repeatable)");
+  app.add_option("--column-start", column_start,
+                 "simulated time [s] the column runs (untimed) before its timed steps; 0.3: "
+                 "the surge reaches the column");
   app.add_option("--work", opt.work, "particle-steps timed per case (at least 10 steps)");
   app.add_option("--steps", opt.steps,
                  "time exactly this many steps in every case (default: by --work, capped by "
@@ -429,6 +474,11 @@ int main(int argc, char** argv) {
   const std::string pour = root + "/scenes/pour.toml";
   const std::string drape = root + "/scenes/drape.toml";
   const std::string no_output = "output.enabled=false";
+  // Every scene takes the --set overrides last.
+  auto load = [&](const std::string& file, std::vector<std::string> overrides) {
+    overrides.insert(overrides.end(), sets.begin(), sets.end());
+    return load_scene(file, overrides);
+  };
 
   std::printf("bench_gpu: %s\n", join_args(argc, argv).c_str());
   std::printf("device: %s\n", exec::describe(be).c_str());
@@ -465,70 +515,84 @@ int main(int argc, char** argv) {
   // a) Fluid-only dam break, refined. Neighbours are counted on the host up to ~2M particles.
   if (want.count("dambreak")) {
     std::optional<SearchModel> model;
-    for (double n : sizes) {
-      const std::string what = size_label(n);
-      try {
-        if (!model)
-          model = search_model(dambreak);
-        const Scene s = load_scene(
-            dambreak, {bench::spacing_override(bench::spacing_for(dambreak, n)), no_output});
-        const Timing t = time_scene(s, be, opt, 5, 0, n <= 2.1e6);
-        Row r = row_from("dambreak", what, be, t);
-        const double floor = bench::bytes_per_step(t.fluid, t.boundary, false) / opt.bandwidth;
-        r.floor_ms = 1e3 * floor;
-        r.over_floor = r.ms / r.floor_ms;
-        if (t.fluid >= 3.5e6) // P4: 1e9 fluid particle-steps/s at 4M and above
-          r.goal_ms = 1e3 * double(t.fluid) / 1e9;
-        emit(r);
-        for (const Row& f : floor_rows("dambreak " + what, be, t, *model, opt))
-          floors.push_back(f);
-        if (!largest_fluid_only || t.fluid > largest_fluid_only->second.fluid)
-          largest_fluid_only = {"dam break " + what, t};
-      } catch (const std::exception& e) {
-        failed("dambreak", what, be, e);
+    for (const std::string& mode : lists)
+      for (double n : sizes) {
+        const std::string what = size_label(n) + lists_label(mode);
+        try {
+          if (!model)
+            model = search_model(dambreak);
+          const Scene s = load(dambreak, {bench::spacing_override(bench::spacing_for(dambreak, n)),
+                                          no_output, "solver.neighbour_list=\"" + mode + "\""});
+          const Timing t = time_scene(s, be, opt, 5, 0, n <= 2.1e6);
+          Row r = row_from("dambreak", what, be, t);
+          const double floor = bench::bytes_per_step(t.fluid, t.boundary, false) / opt.bandwidth;
+          r.floor_ms = 1e3 * floor;
+          r.over_floor = r.ms / r.floor_ms;
+          if (t.fluid >= 3.5e6) // P4: 1e9 fluid particle-steps/s at 4M and above
+            r.goal_ms = 1e3 * double(t.fluid) / 1e9;
+          emit(r);
+          for (const Row& f : floor_rows("dambreak " + what, be, t, *model, opt, list_reach(s)))
+            floors.push_back(f);
+          if (mode == "off" && (!largest_fluid_only || t.fluid > largest_fluid_only->second.fluid))
+            largest_fluid_only = {"dam break " + what, t};
+        } catch (const std::exception& e) {
+          failed("dambreak", what, be, e);
+        }
       }
-    }
   }
 
   // b) DualSPHysics's dam break with a column.
   if (want.count("column")) {
     std::optional<SearchModel> model;
-    for (double dp : column_dp) {
-      char what[32];
-      std::snprintf(what, sizeof what, "dp %g", dp);
-      try {
-        if (!model)
-          model = search_model(column);
-        const Scene s = load_scene(column, {bench::spacing_override(dp), no_output});
-        const Timing t = time_scene(s, be, opt, 5, 0, true);
-        Row r = row_from("column", what, be, t);
-        r.floor_ms = 1e3 * bench::bytes_per_step(t.fluid, t.boundary, false) / opt.bandwidth;
-        r.over_floor = r.ms / r.floor_ms;
-        if (const auto ref = dualsphysics_ms(dp)) {
-          r.ref_ms = *ref;
-          r.speedup = *ref / r.ms;
-          r.note += dp > 0.005 ? "; ref: DualSPHysics 5.4 on an H100, 171k particles"
-                               : "; ref: DualSPHysics 5.4 on an H100, 2.14M particles";
+    for (const std::string& mode : lists)
+      for (double dp : column_dp) {
+        char label[64];
+        std::snprintf(label, sizeof label, "dp %g", dp);
+        std::string what = label + lists_label(mode);
+        if (column_start > 0) {
+          std::snprintf(label, sizeof label, " from t=%g", column_start);
+          what += label;
         }
-        emit(r);
-        for (const Row& f : floor_rows(std::string("column ") + what, be, t, *model, opt))
-          floors.push_back(f);
-      } catch (const std::exception& e) {
-        failed("column", what, be, e);
+        try {
+          if (!model)
+            model = search_model(column);
+          const Scene s = load(column, {bench::spacing_override(dp), no_output,
+                                        "solver.neighbour_list=\"" + mode + "\""});
+          const Timing t = time_scene(s, be, opt, 5, 0, column_start <= 0, column_start);
+          Row r = row_from("column", what, be, t);
+          r.floor_ms = 1e3 * bench::bytes_per_step(t.fluid, t.boundary, false) / opt.bandwidth;
+          r.over_floor = r.ms / r.floor_ms;
+          if (const auto ref = dualsphysics_ms(dp)) {
+            r.ref_ms = *ref;
+            r.speedup = *ref / r.ms;
+            r.note += dp > 0.005 ? "; ref: DualSPHysics 5.4 on an H100, 171k particles"
+                                 : "; ref: DualSPHysics 5.4 on an H100, 2.14M particles";
+          }
+          emit(r);
+          for (const Row& f :
+               floor_rows(std::string("column ") + what, be, t, *model, opt, list_reach(s)))
+            floors.push_back(f);
+        } catch (const std::exception& e) {
+          failed("column", what, be, e);
+        }
       }
-    }
   }
 
   // c) The pour at the paper's scale, output off.
   if (want.count("pour")) {
-    try {
-      const Timing t = time_scene(load_scene(pour, {no_output}), be, opt, 10, 300, false);
-      Row r = row_from("pour", "64k fluid + 50k knit", be, t);
-      r.bytes_per_particle = kNone; // two kinds of particle; the memory rows split them
-      r.goal_ms = 0.5;
-      emit(r);
-    } catch (const std::exception& e) {
-      failed("pour", "64k fluid + 50k knit", be, e);
+    for (const std::string& mode : lists) {
+      const std::string what = "64k fluid + 50k knit" + lists_label(mode);
+      try {
+        const Timing t =
+            time_scene(load(pour, {no_output, "solver.neighbour_list=\"" + mode + "\""}), be, opt,
+                       10, 300, false);
+        Row r = row_from("pour", what, be, t);
+        r.bytes_per_particle = kNone; // two kinds of particle; the memory rows split them
+        r.goal_ms = 0.5;
+        emit(r);
+      } catch (const std::exception& e) {
+        failed("pour", what, be, e);
+      }
     }
   }
 
@@ -544,10 +608,9 @@ int main(int argc, char** argv) {
     try {
       ratio_cases.push_back(
           {"dambreak 0.1M",
-           load_scene(dambreak,
-                      {bench::spacing_override(bench::spacing_for(dambreak, 1e5)), no_output}),
+           load(dambreak, {bench::spacing_override(bench::spacing_for(dambreak, 1e5)), no_output}),
            5, 0});
-      ratio_cases.push_back({"pour", load_scene(pour, {no_output}), 5, 30});
+      ratio_cases.push_back({"pour", load(pour, {no_output}), 5, 30});
     } catch (const std::exception& e) {
       failed("ratio", "scenes", exec::Backend::Cpu, e);
     }
@@ -596,8 +659,8 @@ int main(int argc, char** argv) {
       if (!largest_fluid_only) {
         const double n =
             sizes.empty() ? 1e6 : std::min(4e6, *std::max_element(sizes.begin(), sizes.end()));
-        const Scene s = load_scene(
-            dambreak, {bench::spacing_override(bench::spacing_for(dambreak, n)), no_output});
+        const Scene s =
+            load(dambreak, {bench::spacing_override(bench::spacing_for(dambreak, n)), no_output});
         Options quick = opt;
         quick.max_seconds = 1;
         largest_fluid_only = {"dam break " + size_label(n), time_scene(s, be, quick, 2, 3, false)};
@@ -636,7 +699,7 @@ int main(int argc, char** argv) {
     try {
       Options quick = opt;
       quick.max_seconds = 1;
-      const Timing k = time_scene(load_scene(drape, {no_output}), be, quick, 2, 3, false);
+      const Timing k = time_scene(load(drape, {no_output}), be, quick, 2, 3, false);
       Row r;
       r.kind = "memory";
       r.what = "knit-only (drape)";

@@ -209,7 +209,7 @@ void check_lists(exec::Backend backend) {
     });
     ASSERT_EQ(c[i], want.size()) << "particle " << i;
     for (std::size_t k = 0; k < want.size(); ++k)
-      ASSERT_EQ(l[i * lists.capacity() + k], want[k]) << "particle " << i << " slot " << k;
+      ASSERT_EQ(l[v.slot(i, k)], want[k]) << "particle " << i << " slot " << k;
     std::size_t brute = 0;
     for (std::size_t j = 0; j < n; ++j)
       brute += norm2(sorted[i] - sorted[j]) < h2;
@@ -231,6 +231,7 @@ TEST(NeighbourList, MatchesTheCpuListsCuda) {
   const auto host = test_points<float>(3000, h, lo, hi, 11);
   std::vector<std::uint32_t> got[2];
   std::uint32_t cap[2];
+  ListView<float> slot_of;
   int k = 0;
   for (exec::Backend b : {exec::Backend::Cpu, exec::Backend::Cuda}) {
     exec::Exec ex{b};
@@ -249,13 +250,14 @@ TEST(NeighbourList, MatchesTheCpuListsCuda) {
     exec::copy_bytes(got[k].data() + host.size(), exec::Backend::Cpu, v.list, b,
                      host.size() * lists.capacity() * sizeof(std::uint32_t));
     cap[k++] = lists.capacity();
+    slot_of = v; // the layout only (capacity, rows): the same on both backends
   }
   ASSERT_EQ(cap[0], cap[1]);
   const std::size_t n = host.size();
   for (std::size_t i = 0; i < n; ++i) {
     ASSERT_EQ(got[0][i], got[1][i]) << "count of particle " << i;
     for (std::uint32_t s = 0; s < got[0][i]; ++s)
-      ASSERT_EQ(got[0][n + i * cap[0] + s], got[1][n + i * cap[1] + s])
+      ASSERT_EQ(got[0][n + slot_of.slot(i, s)], got[1][n + slot_of.slot(i, s)])
           << "particle " << i << " slot " << s;
   }
 }

@@ -122,9 +122,12 @@ struct Scene {
     // each side. 1: 27 cells of h (27 h^3 of candidates); 2: 125 cells of h/2 (15.6 h^3) but
     // 5x the cell-table reads. docs/PERFORMANCE.md has the measured trade-off.
     long cell_span = 1;
-    // Fluid neighbour lists built once per step (NeighbourList). Off by default: built every
-    // step they cost more than they save (docs/PERFORMANCE.md, P4).
-    enum class NeighbourLists { On, Off } neighbour_list = NeighbourLists::Off;
+    // Fluid neighbour lists (NeighbourList, fluid and boundary neighbours of each fluid
+    // particle): "on" builds them every step (costs more than it saves: docs/PERFORMANCE.md,
+    // P4); "verlet" lists everything within the support plus a skin of neighbour_skin * h and
+    // keeps the lists (and the fluid's order) until some particle has moved half the skin.
+    enum class NeighbourLists { On, Off, Verlet } neighbour_list = NeighbourLists::Off;
+    double neighbour_skin = 0.15; // "verlet" lists' skin, in units of the support h
   } solver;
 
   // [fluid]

@@ -42,7 +42,8 @@ constexpr std::array kKernels{Choice<KernelType>{"spiky", KernelType::Spiky},
                               Choice<KernelType>{"wendland", KernelType::WendlandC2}};
 constexpr std::array kNeighbourLists{
     Choice<Scene::Solver::NeighbourLists>{"on", Scene::Solver::NeighbourLists::On},
-    Choice<Scene::Solver::NeighbourLists>{"off", Scene::Solver::NeighbourLists::Off}};
+    Choice<Scene::Solver::NeighbourLists>{"off", Scene::Solver::NeighbourLists::Off},
+    Choice<Scene::Solver::NeighbourLists>{"verlet", Scene::Solver::NeighbourLists::Verlet}};
 constexpr std::array kEos{Choice<EosType>{"linear", EosType::Linear},
                           Choice<EosType>{"tait", EosType::Tait}};
 constexpr std::array kShapes{Choice<ObstacleShape>{"plane", ObstacleShape::Plane},
@@ -145,9 +146,10 @@ void read_output(const TableReader& t, Scene& s) {
 
 void read_solver(const TableReader& t, Scene::Solver& sv) {
   t.allow_only({"kernel", "cfl", "force_factor", "viscous_factor", "dt_max", "dt_min", "max_steps",
-                "damping", "damping_until", "cell_span", "neighbour_list"});
+                "damping", "damping_until", "cell_span", "neighbour_list", "neighbour_skin"});
   t.read("kernel", sv.kernel, kKernels);
   t.read("neighbour_list", sv.neighbour_list, kNeighbourLists);
+  t.read("neighbour_skin", sv.neighbour_skin, Range::above_up_to(0, 1));
   t.read("cfl", sv.cfl, Range::above_up_to(0, 1));
   t.read("force_factor", sv.force_factor, Range::above_up_to(0, 1));
   t.read("viscous_factor", sv.viscous_factor, Range::above_up_to(0, 1));

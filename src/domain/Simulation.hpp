@@ -25,8 +25,9 @@ struct Diagnostics {
   double min_rigid_distance = 0;       // smallest signed distance of a fluid particle to any solid
   std::uint64_t guard_corrections = 0; // particles put back by the boundary guard, whole run
   std::uint64_t outflow_particles =
-      0;                   // fluid removed after leaving through an open side, whole run
-  double outflow_mass = 0; // their mass [kg]
+      0;                         // fluid removed after leaving through an open side, whole run
+  double outflow_mass = 0;       // their mass [kg]
+  std::uint64_t fluid_sorts = 0; // fluid grid sorts (with "verlet" lists: list builds), whole run
   // Knit (zero when the scene has none).
   std::size_t knit = 0;
   double knit_kinetic_energy = 0, knit_elastic_energy = 0, knit_potential_energy = 0; // [J]

@@ -17,6 +17,7 @@
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/particles/Outflow.hpp"
 #include "kernels/sph/Sph.hpp"
+#include "kernels/sph/SphLists.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -129,7 +130,7 @@ private:
   // snapshots and diagnostics so the step never waits for it.
   exec::DeviceBuffer<std::uint64_t> guard_count_{exec::Backend::Cpu, 0, "boundary.guard_count"};
   std::uint64_t guard_corrections() const { return guard_count_.to_host()[0]; }
-  std::uint64_t outflow_particles_ = 0;
+  std::uint64_t outflow_particles_ = 0, fluid_sorts_ = 0;
   double outflow_mass_ = 0;
   exec::DeviceBuffer<std::uint32_t> flags_{exec::Backend::Cpu, 0, "fluid.flags"};
   bool profiling_ = false;
@@ -147,7 +148,13 @@ private:
   std::optional<FluidSet<T>> fluid_;
   std::optional<BoundarySet<T>> boundary_;
   std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
-  std::optional<NeighbourList<T>> fluid_list_; // built with the grid each step, when enabled
+  // solver.neighbour_list "on" or "verlet"; "verlet" lists reach skin_ past the support and are
+  // kept, with the fluid's order and grid, over steps (SphLists).
+  std::optional<SphLists<T>> fluid_list_;
+  double skin_ = 0;
+  bool fluid_relist_ = false;      // the fluid arrays were replaced: list again before using
+  MotionBounds<T> fluid_bounds_{}; // the fluid's speed and acceleration bounds at step start
+  double fluid_step_motion() const;
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
   exec::DeviceBuffer<MotionBounds<T>> bounds_{exec::Backend::Cpu, 0, "integrate.dt"}; // knit, fluid
   ListView<T> fluid_list_view() const { return fluid_list_ ? fluid_list_->view() : ListView<T>{}; }
@@ -169,6 +176,8 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   coupling_on_ =
       fluid_on_ && knit_on_ && (scene.has(Module::Contact) || scene.has(Module::Capillary));
   h_ = scene.support_radius();
+  if (scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet)
+    skin_ = scene.solver.neighbour_skin * h_;
   // Only a true crossing is corrected: near a wall at the free surface the pressure is zero and
   // particles may touch the wall, which is physical.
   margin_ = 0.01 * scene.fluid.spacing;
@@ -230,9 +239,12 @@ void SimulationT<T>::init_particles() {
     fluid_->id.assign(ids);
     next_fluid_id_ = ids.size();
     const int span = static_cast<int>(scene_.solver.cell_span);
-    fluid_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_ / span, span), span);
-    if (scene_.solver.neighbour_list == Scene::Solver::NeighbourLists::On)
-      fluid_list_.emplace(ex_.backend);
+    // Cells reach the support plus the lists' skin: a walk of the grid then stays exact between
+    // the lists' builds (no point has moved more than half the skin since the sort).
+    fluid_grid_.emplace(ex_.backend,
+                        NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span), span);
+    if (scene_.solver.neighbour_list != Scene::Solver::NeighbourLists::Off)
+      fluid_list_.emplace(ex_.backend, static_cast<T>(skin_));
   }
   if (boundary_on_) {
     const auto s = sample_boundaries(scene_, scene_.fluid.spacing, h_);
@@ -255,8 +267,8 @@ void SimulationT<T>::init_particles() {
     boundary_->volume.assign(vol);
     boundary_->id.assign(ids);
     const int span = static_cast<int>(scene_.solver.cell_span);
-    boundary_grid_.emplace(ex_.backend, NeighbourGrid<T>::cover(d.min, d.max, h_ / span, span),
-                           span);
+    boundary_grid_.emplace(ex_.backend,
+                           NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span), span);
   }
   if (coupling_on_)
     init_coupling();
@@ -303,6 +315,13 @@ template <typename T>
 void SimulationT<T>::init_coupling() {
   const CouplingParams<T> p = coupling_params<T>(scene_, knit_->longest_spacing());
   const double reach = std::max(double(p.reach), p.capillary ? h_ : 0.0);
+  // The coupling walks the fluid's grid, which "verlet" lists sort only now and then: it finds
+  // every particle within h + skin / 2 of a point (SphLists), so the reach must fit in that.
+  if (skin_ > 0 && reach > h_ + 0.5 * skin_)
+    throw Error("solver.neighbour_list = \"verlet\": the knit-fluid coupling reaches " +
+                std::to_string(reach) + " m, more than the support plus half the skin (" +
+                std::to_string(h_ + 0.5 * skin_) +
+                " m); raise solver.neighbour_skin or use neighbour_list = \"off\"");
   // Cells 50% over the reach: a third of the margin is the grid's skin (it is sorted again when a
   // point moved that far), two thirds the per-step lists' (KnitFluidCoupling).
   coupling_.emplace(ex_.backend, scene_.solver.kernel, p,
@@ -407,11 +426,24 @@ void SimulationT<T>::build_pipeline() {
                     outflow_mass_ += r.mass;
                   });
   if (fluid_on_) {
-    const bool lists = scene_.solver.neighbour_list == Scene::Solver::NeighbourLists::On;
-    pipeline_.add("grid.fluid", "fluid",
-                  lists ? "sort fluid by cell, cell ranges, neighbour lists"
-                        : "sort fluid by cell, cell ranges",
-                  [this] { sort_fluid(); });
+    using Lists = Scene::Solver::NeighbourLists;
+    const Lists lists = scene_.solver.neighbour_list;
+    if (lists == Lists::Verlet)
+      pipeline_.add("grid.fluid", "fluid",
+                    "sort fluid by cell, cell ranges, neighbour lists with a skin, when a particle "
+                    "may have moved half the skin since",
+                    [this] {
+                      // Moving solids are sorted every step: their list entries would not last.
+                      if (fluid_list_->stale_after(ex_, *fluid_,
+                                                   static_cast<T>(fluid_step_motion()),
+                                                   fluid_relist_ || moving_))
+                        sort_fluid();
+                    });
+    else
+      pipeline_.add("grid.fluid", "fluid",
+                    lists == Lists::On ? "sort fluid by cell, cell ranges, neighbour lists"
+                                       : "sort fluid by cell, cell ranges",
+                    [this] { sort_fluid(); });
     pipeline_.add("sph.density", "fluid", "density (Eq. 2) and pressure (EOS)", [this] {
       sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
                   fluid_list_view());
@@ -440,11 +472,31 @@ void SimulationT<T>::update_shapes(double t) {
 
 template <typename T>
 void SimulationT<T>::sort_fluid() {
+  ++fluid_sorts_;
   fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
   fluid_->reorder(ex_, fluid_grid_->permutation());
   if (fluid_list_)
-    fluid_list_->build(ex_, fluid_->x.data(), fluid_->size(), fluid_grid_->view(),
-                       static_cast<T>(h_ * h_));
+    fluid_list_->build(ex_, *fluid_, fluid_grid_->view(), boundary_neighbours(),
+                       static_cast<T>(h_));
+  fluid_relist_ = false;
+}
+
+template <typename T>
+double SimulationT<T>::fluid_step_motion() const {
+  // The two-way coupling changes fluid velocities after the bounds were read: unknown.
+  if (coupling_on_)
+    return std::numeric_limits<double>::infinity();
+  // Velocity Verlet moves a particle by dt (v + a dt / 2) with v and a at the step's start
+  // (damping only slows it); the guard puts a particle that crossed into a solid back on its
+  // surface, no farther from where it started than twice that. Plus rounding of x + dx.
+  const double vmax = std::sqrt(static_cast<double>(fluid_bounds_.v2));
+  const double amax = std::sqrt(static_cast<double>(fluid_bounds_.a2));
+  const double drift = (vmax + 0.5 * amax * dt_) * dt_;
+  const auto& d = scene_.domain;
+  const double extent = std::max({std::abs(d.min.x), std::abs(d.min.y), std::abs(d.min.z),
+                                  std::abs(d.max.x), std::abs(d.max.y), std::abs(d.max.z)});
+  const double rounding = 4 * double(std::numeric_limits<T>::epsilon()) * (extent + h_);
+  return (solids_.empty() ? 1.0 : 2.0) * drift * (1 + 1e-6) + rounding;
 }
 
 template <typename T>
@@ -503,6 +555,7 @@ double SimulationT<T>::stable_dt() {
   } else {
     mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
   }
+  fluid_bounds_ = mb;
   dt = std::min(dt, coupling_fluid_limit_);
   const double vmax = std::sqrt(static_cast<double>(mb.v2));
   const double amax = std::sqrt(static_cast<double>(mb.a2));
@@ -688,13 +741,16 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     }
   }
   // The fluid order is kept as written; the next step's sort starts from it as the
-  // uninterrupted run did. The grid tables are rebuilt by that sort.
+  // uninterrupted run did. The grid tables are rebuilt by that sort. With "verlet" lists the
+  // next step lists again (the run it continues kept older lists: rounding may differ).
+  fluid_relist_ = true;
 }
 
 template <typename T>
 Diagnostics SimulationT<T>::diagnostics() const {
   Diagnostics d;
   d.guard_corrections = guard_corrections();
+  d.fluid_sorts = fluid_sorts_;
   if (boundary_on_)
     d.boundary = boundary_->size();
   if (knit_on_) {

@@ -59,6 +59,21 @@ struct Lanes {
     return v;
   }
 
+  /// For appending in lane order: how many lanes of the group below this one have `hit`; the
+  /// group's total goes to *total. Every lane of the group must call it together.
+  KF_HD KF_INLINE unsigned count_below(bool hit, unsigned* total) const {
+#if defined(__CUDA_ARCH__)
+    const unsigned me = threadIdx.x & 31u, first = me & ~(size - 1u);
+    const unsigned mask = (size == 32u ? 0xFFFFFFFFu : ((1u << size) - 1u)) << first;
+    const unsigned b = __ballot_sync(mask, hit) & mask;
+    *total = static_cast<unsigned>(__popc(b));
+    return static_cast<unsigned>(__popc(b & ((1u << me) - 1u)));
+#else
+    *total = hit ? 1u : 0u;
+    return 0u;
+#endif
+  }
+
 private:
 #if defined(__CUDA_ARCH__)
   template <typename V>

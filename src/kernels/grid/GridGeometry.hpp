@@ -80,6 +80,15 @@ struct CellView {
   template <typename F>
   KF_HD KF_INLINE void for_each_candidate(const Vec3<T>& x, std::uint32_t lane,
                                           std::uint32_t stride, F&& f) const {
+    for_each_row_range(x, [&](std::uint32_t lo, std::uint32_t hi) {
+      for (std::uint32_t j = lo + lane; j < hi; j += stride)
+        f(j);
+    });
+  }
+  /// Calls range(lo, hi) with the particles [lo, hi) of each non-empty row around x, in the
+  /// order for_each_candidate visits them.
+  template <typename F>
+  KF_HD KF_INLINE void for_each_row_range(const Vec3<T>& x, F&& range) const {
     for_each_row(x, [&](std::uint32_t c0, std::uint32_t width) {
       // Empty cells read (0, 0); the row's range runs from its first non-empty cell's start
       // to its last non-empty cell's end.
@@ -91,8 +100,8 @@ struct CellView {
           hi = e;
         }
       }
-      for (std::uint32_t j = lo + lane; j < hi; j += stride)
-        f(j);
+      if (lo < hi)
+        range(lo, hi);
       return false;
     });
   }

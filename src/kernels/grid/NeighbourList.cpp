@@ -18,25 +18,23 @@ NeighbourList<T>::NeighbourList(exec::Backend b)
 template <typename T>
 void NeighbourList<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                              const CellView<T>& cells, T radius2) {
-  count_.resize(n);
-  if (capacity_ == 0)
-    capacity_ = 32;
-  for (;;) {
-    list_.resize(std::size_t(capacity_) * n);
-    // One thread per particle (for_each), then the largest count: a reduction's fixed grid
-    // of strided threads would walk the candidates with a third of the GPU's threads.
-    exec::for_each(ex, n,
-                   list_detail::ListBuilder<T, AnyPair>{x, x, nullptr, cells, radius2, capacity_,
-                                                        count_.data(), list_.data(), AnyPair{}},
-                   "neighbours.build");
-    const std::uint32_t* c = count_.data();
-    most_ = exec::transform_reduce(ex, n, std::uint32_t(0), exec::MaxOp{}, CountOf{c},
-                                   "neighbours.most");
-    if (most_ <= capacity_)
-      return;
-    // Room for the density to rise before the next growth; a multiple of 4 (16-byte rows).
-    capacity_ = (most_ + most_ / 4 + 4 + 3) / 4 * 4;
-  }
+  build_with(
+      ex, n,
+      [&](const ListSink& out) {
+        return list_detail::ListBuilder<T, AnyPair>{x, x, nullptr, cells, radius2, out, {}};
+      },
+      "neighbours.build");
+}
+
+template <typename T>
+bool NeighbourList<T>::fits(const exec::Exec& ex, std::size_t n) {
+  most_ = exec::transform_reduce(ex, n, std::uint32_t(0), exec::MaxOp{}, CountOf{count_.data()},
+                                 "neighbours.most");
+  if (most_ <= capacity_)
+    return true;
+  // Room for the density to rise before the next growth; a multiple of 4 (16-byte groups).
+  capacity_ = (most_ + most_ / 4 + 4 + 3) / 4 * 4;
+  return false;
 }
 
 template class NeighbourList<float>;

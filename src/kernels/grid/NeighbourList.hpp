@@ -1,43 +1,80 @@
 #pragma once
-// Per-particle lists of the neighbours within a radius, built from a NeighbourGrid once per step
-// and read by every pass of that step (density, forces).
+// Per-particle lists of the neighbours within a radius, built from a NeighbourGrid and read by
+// the passes that follow (SPH density and forces; the knit's self-contact and coupling).
 //
 // Why: on the GPU the lanes of a warp walk their grid candidates together, and with ~15% of
 // candidates in range some lane almost always has a neighbour, so the whole warp runs the pair
 // code for every candidate. A list pays the candidate walk once, with a cheap body (append),
-// and the passes then run the pair code only for real neighbours. Measured on an H100
-// (docs/PERFORMANCE.md): density and forces get 1.6-1.8x faster, but a build every step costs
-// more than that saves, so solver.neighbour_list is off by default; reusing a list over several
-// steps (a skin) is what would make it pay.
+// and the passes then run the pair code only for real neighbours. A build costs several passes
+// (docs/PERFORMANCE.md), so the SPH lists pay when kept over steps with a skin (SphLists).
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/GridGeometry.hpp"
 
+#include <type_traits>
+
 namespace kf {
 
-/// Read-only view of the lists, passed by value into kernels. Particle i's neighbours are the
-/// row list[i * capacity, i * capacity + count[i]). Rows, so that the build can write four
-/// indices with one 16-byte store (ListBuilder); a particle's own row is then read through L1.
+/// Read-only view of the lists, passed by value into kernels. Slot k of particle i sits at
+/// slot(i, k): slots go in groups of four, group-major ((k / 4) * rows + i) * 4 + k % 4, so that
+/// the lanes of a warp, each reading its own particle's next group with one 16-byte load, read
+/// one contiguous block (rows of one particle each made every lane's load its own transaction),
+/// and the build still writes four indices with one 16-byte store (RowAppender).
 template <typename T>
 struct ListView {
   const std::uint32_t* count = nullptr;
   const std::uint32_t* list = nullptr;
-  std::size_t capacity = 0;
+  std::size_t capacity = 0; // slots per particle, a multiple of 4
+  std::size_t rows = 0;     // particles
 
+  KF_HD KF_INLINE std::size_t slot(std::size_t i, std::size_t k) const {
+    return ((k >> 2) * rows + i) * 4 + (k & 3u);
+  }
   /// Whether row i holds all its neighbours (build_for's rows may overflow).
   KF_HD KF_INLINE bool complete(std::size_t i) const { return count[i] <= capacity; }
   /// Calls f(j) for the neighbours of i found at build time, in the grid's candidate order.
   template <typename F>
-  KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>& x, F&& f) const {
-    for_each_neighbour(i, x, 0u, 1u, f);
+  KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>&, F&& f) const {
+    const std::uint32_t c = count[i];
+    std::uint32_t k = 0;
+    for (; k + 4 <= c; k += 4) {
+#if defined(__CUDA_ARCH__)
+      // Streamed (evict first): each slot is read once per pass; the neighbours' data that
+      // the pass gathers should keep the caches.
+      const uint4 g = __ldcs(reinterpret_cast<const uint4*>(list + slot(i, k)));
+      f(g.x);
+      f(g.y);
+      f(g.z);
+      f(g.w);
+#else
+      const std::uint32_t* g = list + slot(i, k);
+      f(g[0]);
+      f(g[1]);
+      f(g[2]);
+      f(g[3]);
+#endif
+    }
+    for (; k < c; ++k)
+      f(list[slot(i, k)]);
   }
   /// The same shared by `stride` lanes: this one takes every stride-th from `lane` on.
   template <typename F>
   KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>&, std::uint32_t lane,
                                           std::uint32_t stride, F&& f) const {
     const std::uint32_t c = count[i];
-    const std::uint32_t* row = list + i * capacity;
     for (std::uint32_t k = lane; k < c; k += stride)
-      f(row[k]);
+      f(list[slot(i, k)]);
+  }
+};
+
+/// Where a builder writes: the mutable side of a ListView.
+struct ListSink {
+  std::uint32_t* count = nullptr;
+  std::uint32_t* list = nullptr;
+  std::size_t capacity = 0; // a multiple of 4
+  std::size_t rows = 0;
+  /// Where slot k of row i goes (ListView::slot).
+  KF_HD KF_INLINE std::uint32_t* slot(std::size_t i, std::size_t k) const {
+    return list + ((k >> 2) * rows + i) * 4 + (k & 3u);
   }
 };
 
@@ -71,10 +108,56 @@ KF_HD KF_INLINE void store4(std::uint32_t* p, std::uint32_t a, std::uint32_t b, 
 #endif
 }
 
-/// Appends i's neighbours while they fit; counts all of them (a count over the capacity marks
-/// an overflow). Neighbours are held in registers and written four at a time: lanes of a warp
-/// find neighbours at different candidates, so single-index stores each became their own
-/// memory transaction, and the build cost 2.5x a density pass (measured).
+} // namespace list_detail
+
+/// Appends one particle's neighbours to its row while they fit and counts all of them (a count
+/// over the capacity marks an overflow). Neighbours are held in registers and written four at a
+/// time: lanes of a warp find neighbours at different candidates, so single-index stores each
+/// became their own memory transaction, and the build cost 2.5x a density pass (measured).
+class RowAppender {
+public:
+  KF_HD KF_INLINE RowAppender(const ListSink& out, std::size_t i) : out_(out), i_(i) {}
+  KF_HD KF_INLINE void push(std::uint32_t j) {
+    switch (c_ & 3u) {
+    case 0:
+      b0_ = j;
+      break;
+    case 1:
+      b1_ = j;
+      break;
+    case 2:
+      b2_ = j;
+      break;
+    default:
+      if (c_ < out_.capacity)
+        list_detail::store4(group(c_), b0_, b1_, b2_, j);
+    }
+    ++c_;
+  }
+  /// Writes the last 1-3 neighbours and the count.
+  KF_HD KF_INLINE void finish() {
+    const std::uint32_t tail = c_ & ~3u;
+    if (tail < out_.capacity && tail < c_) {
+      std::uint32_t* g = group(tail);
+      g[0] = b0_;
+      if (tail + 1 < c_)
+        g[1] = b1_;
+      if (tail + 2 < c_)
+        g[2] = b2_;
+    }
+    out_.count[i_] = c_;
+  }
+
+private:
+  KF_HD KF_INLINE std::uint32_t* group(std::uint32_t k) const { return out_.slot(i_, k & ~3u); }
+  ListSink out_;
+  std::size_t i_;
+  std::uint32_t c_ = 0, b0_ = 0, b1_ = 0, b2_ = 0;
+};
+
+namespace list_detail {
+
+/// One query point's neighbours among one grid's candidates.
 template <typename T, typename Pred>
 struct ListBuilder {
   const Vec3<T>* q;            // query points
@@ -82,49 +165,19 @@ struct ListBuilder {
   const std::uint32_t* active; // nullptr: every query point; else those with active[i] != 0
   CellView<T> cells;
   T radius2;
-  std::size_t capacity; // a multiple of 4
-  std::uint32_t* count;
-  std::uint32_t* list;
+  ListSink out;
   Pred keep; // keep(i, j): whether candidate j may pair with query i at all
 
   KF_HD void operator()(std::size_t i) const {
-    if (active && !active[i]) {
-      count[i] = 0;
-      return;
+    RowAppender row(out, i);
+    if (!active || active[i]) {
+      const Vec3<T> xi = q[i];
+      cells.for_each_candidate(xi, [&](std::uint32_t j) {
+        if (norm2(xi - x[j]) < radius2 && keep(i, j))
+          row.push(j);
+      });
     }
-    const Vec3<T> xi = q[i];
-    std::uint32_t c = 0, b0 = 0, b1 = 0, b2 = 0;
-    std::uint32_t* row = list + i * capacity;
-    cells.for_each_candidate(xi, [&](std::uint32_t j) {
-      if (!(norm2(xi - x[j]) < radius2) || !keep(i, j))
-        return;
-      switch (c & 3u) {
-      case 0:
-        b0 = j;
-        break;
-      case 1:
-        b1 = j;
-        break;
-      case 2:
-        b2 = j;
-        break;
-      default:
-        if (c < capacity)
-          store4(row + (c - 3), b0, b1, b2, j);
-      }
-      ++c;
-    });
-    // The last 1-3 neighbours.
-    const std::uint32_t tail = c & ~3u;
-    if (tail < capacity) {
-      if (tail + 0 < c)
-        row[tail + 0] = b0;
-      if (tail + 1 < c)
-        row[tail + 1] = b1;
-      if (tail + 2 < c)
-        row[tail + 2] = b2;
-    }
-    count[i] = c;
+    row.finish();
   }
 };
 
@@ -140,6 +193,26 @@ public:
   /// capacity grows (and the build repeats) until the densest particle fits.
   void build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const CellView<T>& cells,
              T radius2);
+  /// The same with any builder: make(sink) returns a functor that fills row i of the sink
+  /// (RowAppender) when called with i, for i < n. The capacity grows until every row fits.
+  /// A template that launches: call it from a file under src/kernels (compiled by nvcc).
+  /// A functor taking (i, exec::Lanes) runs with G lanes per row (for_each_lanes).
+  template <unsigned G = 1, typename Make>
+  void build_with(const exec::Exec& ex, std::size_t n, Make&& make, const char* label) {
+    count_.resize(n);
+    if (capacity_ == 0)
+      capacity_ = 32;
+    do {
+      list_.resize(std::size_t(capacity_) * n);
+      // One thread per particle (for_each), then the largest count: a reduction's fixed grid
+      // of strided threads would walk the candidates with a third of the GPU's threads.
+      auto f = make(sink(n));
+      if constexpr (std::is_invocable_v<decltype(f), std::size_t, exec::Lanes>)
+        exec::for_each_lanes<G>(ex, n, f, label);
+      else
+        exec::for_each(ex, n, f, label);
+    } while (!fits(ex, n));
+  }
   /// Lists, for each of n query points q (the inactive ones, active[i] == 0, get none), the
   /// candidates j of `cells` (positions x) with |q_i - x_j|^2 < radius2, in the order the cell
   /// walk meets them. Fixed capacity and no read on the host: a count over the capacity marks a
@@ -153,17 +226,21 @@ public:
     count_.resize(n);
     list_.resize(std::size_t(capacity_) * n);
     exec::for_each(ex, n,
-                   list_detail::ListBuilder<T, Pred>{q, x, active, cells, radius2, capacity_,
-                                                     count_.data(), list_.data(), keep},
+                   list_detail::ListBuilder<T, Pred>{q, x, active, cells, radius2, sink(n), keep},
                    "neighbours.build_for");
   }
-  ListView<T> view() const { return {count_.data(), list_.data(), capacity_}; }
-  /// Slots per particle now; most neighbours of one particle at the last build.
+  ListView<T> view() const { return {count_.data(), list_.data(), capacity_, count_.size()}; }
+  /// Slots per particle now; most neighbours of one particle at the last build (build,
+  /// build_with).
   std::uint32_t capacity() const { return capacity_; }
   std::uint32_t most() const { return most_; }
   std::size_t bytes() const { return count_.capacity_bytes() + list_.capacity_bytes(); }
 
 private:
+  ListSink sink(std::size_t n) { return {count_.data(), list_.data(), capacity_, n}; }
+  /// Reads the largest count; false (and a larger capacity) when some row overflowed.
+  bool fits(const exec::Exec& ex, std::size_t n);
+
   exec::DeviceBuffer<std::uint32_t> count_, list_;
   std::uint32_t capacity_ = 0, most_ = 0;
 };

@@ -17,6 +17,12 @@ struct FluidView {
   T* p;
   std::uint64_t* id; // global id, never changes
   std::size_t n;
+  // Copies the SPH passes gather from neighbours, packed so that a neighbour costs few loads
+  // (the passes were bound by load instructions, docs/PERFORMANCE.md): (x, m) written before
+  // the density pass, (v, m P / rho^2) and m / rho written by it for the forces.
+  Vec4<T>* xm;
+  Vec4<T>* vp;
+  T* vol;
 };
 
 /// SPH fluid particles, structure of arrays, allocated only when a scene has fluid.
@@ -40,6 +46,10 @@ public:
   exec::DeviceBuffer<Vec3<T>> x, v, a;
   exec::DeviceBuffer<T> m, rho, p;
   exec::DeviceBuffer<std::uint64_t> id;
+  // Per-step gather copies (FluidView::xm, vp, vol): recomputed every step, never reordered;
+  // view() keeps them as long as the particle count.
+  exec::DeviceBuffer<Vec4<T>> xm, vp;
+  exec::DeviceBuffer<T> vol;
 
 private:
   exec::DeviceBuffer<Vec3<T>> scratch_v3_;

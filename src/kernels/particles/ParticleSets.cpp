@@ -9,10 +9,10 @@ namespace kf {
 template <typename T>
 FluidSet<T>::FluidSet(exec::Backend b)
     : x(b, 0, "fluid.x"), v(b, 0, "fluid.v"), a(b, 0, "fluid.a"), m(b, 0, "fluid.m"),
-      rho(b, 0, "fluid.rho"), p(b, 0, "fluid.p"), id(b, 0, "fluid.id"),
-      scratch_v3_(b, 0, "fluid.scratch"), scratch_t_(b, 0, "fluid.scratch"),
-      scratch_id_(b, 0, "fluid.scratch"), offsets_(b, 0, "fluid.keep_offsets"),
-      kept_(b, 0, "fluid.kept") {}
+      rho(b, 0, "fluid.rho"), p(b, 0, "fluid.p"), id(b, 0, "fluid.id"), xm(b, 0, "fluid.xm"),
+      vp(b, 0, "fluid.vp"), vol(b, 0, "fluid.vol"), scratch_v3_(b, 0, "fluid.scratch"),
+      scratch_t_(b, 0, "fluid.scratch"), scratch_id_(b, 0, "fluid.scratch"),
+      offsets_(b, 0, "fluid.keep_offsets"), kept_(b, 0, "fluid.kept") {}
 
 template <typename T>
 std::size_t FluidSet<T>::keep_flagged(const exec::Exec& ex,
@@ -52,14 +52,22 @@ void FluidSet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::ui
 
 template <typename T>
 FluidView<T> FluidSet<T>::view() {
-  return {x.data(), v.data(), a.data(), m.data(), rho.data(), p.data(), id.data(), size()};
+  const std::size_t n = size();
+  if (xm.size() < n) {
+    xm.resize(n);
+    vp.resize(n);
+    vol.resize(n);
+  }
+  return {x.data(),  v.data(), a.data(),  m.data(),  rho.data(), p.data(),
+          id.data(), n,        xm.data(), vp.data(), vol.data()};
 }
 
 template <typename T>
 std::size_t FluidSet<T>::bytes_per_particle() {
-  // x v a + scratch (Vec3), m rho p + scratch (T), id + scratch, grid keys + permutation.
+  // x v a + scratch (Vec3), m rho p + scratch (T), id + scratch, grid keys + permutation, the
+  // SPH gather copies (xm, vp, vol).
   return 4 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint64_t) +
-         2 * sizeof(std::uint32_t);
+         2 * sizeof(std::uint32_t) + 2 * sizeof(Vec4<T>) + sizeof(T);
 }
 
 template <typename T>

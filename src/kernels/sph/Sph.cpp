@@ -8,13 +8,14 @@ namespace kf {
 template <typename T>
 void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
                  const BoundaryNeighbours<T>& b, const ListView<T>& list) {
+  exec::for_each(ex, f.n, PackPositionMass<T>{f}, "sph.pack");
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
     using K = decltype(k);
     if (list.count)
-      exec::for_each(ex, f.n, DensityEvaluator<T, K, ListView<T>>{k, prm.eos, f, list, b},
+      exec::for_each(ex, f.n, DensityEvaluator<T, K, SphList<T>>{k, prm.eos, f, {list}, b},
                      "sph.density");
     else
-      exec::for_each(ex, f.n, DensityEvaluator<T, K, CellNeighbours<T>>{k, prm.eos, f, {cells}, b},
+      exec::for_each(ex, f.n, DensityEvaluator<T, K, SphCellWalk<T>>{k, prm.eos, f, {cells, b}, b},
                      "sph.density");
   });
 }
@@ -36,9 +37,9 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
     using K = decltype(k);
     if (list.count)
-      exec::for_each(ex, f.n, ForceEvaluator<T, K, ListView<T>>{k, prm, f, list, b}, "sph.forces");
+      exec::for_each(ex, f.n, ForceEvaluator<T, K, SphList<T>>{k, prm, f, {list}, b}, "sph.forces");
     else
-      exec::for_each(ex, f.n, ForceEvaluator<T, K, CellNeighbours<T>>{k, prm, f, {cells}, b},
+      exec::for_each(ex, f.n, ForceEvaluator<T, K, SphCellWalk<T>>{k, prm, f, {cells, b}, b},
                      "sph.forces");
   });
 }

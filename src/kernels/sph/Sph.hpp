@@ -47,9 +47,10 @@ struct BoundaryNeighbours {
   }
 };
 
-/// rho_i (Eq. 2, plus boundary psi_b W) and P_i from the EOS, for every fluid particle. With a
-/// `list` (built this step from `cells`; an empty view has no counts), fluid neighbours come
-/// from it instead of the cells.
+/// rho_i (Eq. 2, plus boundary psi_b W) and P_i from the EOS, for every fluid particle, and the
+/// gather copies the forces read (FluidView::xm, vp, vol). With a
+/// `list` (SphLists; an empty view has no counts), neighbours come from it instead
+/// of the grids.
 template <typename T>
 void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
                  const BoundaryNeighbours<T>& b, const ListView<T>& list = {});
@@ -64,6 +65,7 @@ void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryVi
                        const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes);
 
 /// a_i = g + pressure (Eq. 3) + viscosity (Eq. 4) + boundary pressure, for every fluid particle.
+/// After sph_density at the same positions (it reads the gather copies that pass wrote).
 template <typename T>
 void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
                 const BoundaryNeighbours<T>& b, const ListView<T>& list = {});

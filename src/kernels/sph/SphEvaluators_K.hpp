@@ -2,13 +2,22 @@
 #include "core/Math.hpp"
 // The SPH evaluators: one particle's gather over its neighbours, as host-device functors.
 // Gather only (each particle sums what acts on it): no atomics, deterministic sums.
-#include "kernels/grid/NeighbourList.hpp"
-#include "kernels/sph/Sph.hpp"
+#include "kernels/sph/SphNeighbours_K.hpp"
 
 namespace kf {
 
-// N: where a particle's fluid neighbours come from: CellNeighbours (the grid's candidates) or
-// ListView (the step's neighbour lists); both call f(j) in the same order, so sums agree.
+// N: where a particle's neighbours come from (SphNeighbours_K.hpp): SphCellWalk (the grids'
+// candidates) or SphList (lists); both meet the neighbours in the same order, so sums agree.
+/// The density pass's neighbour copy: xm[i] = (x_i, m_i).
+template <typename T>
+struct PackPositionMass {
+  FluidView<T> f;
+  KF_HD KF_INLINE void operator()(std::size_t i) const {
+    const Vec3<T> x = f.x[i];
+    f.xm[i] = {x.x, x.y, x.z, f.m[i]};
+  }
+};
+
 template <typename T, typename K, typename N>
 struct DensityEvaluator {
   K kernel;
@@ -20,23 +29,29 @@ struct DensityEvaluator {
   KF_HD void operator()(std::size_t i) const {
     const Vec3<T> xi = f.x[i];
     const T h2 = kernel.h * kernel.h;
-    T rho = T(0);
-    nb.for_each_neighbour(i, xi, [&](std::uint32_t j) {
-      const T r2 = norm2(xi - f.x[j]);
-      if (r2 < h2)
-        rho += f.m[j] * kernel.W(ksqrt(r2));
-    });
-    if (b.around(xi)) {
-      T vol = T(0);
-      b.cells.for_each_candidate(xi, [&](std::uint32_t k) {
-        const T r2 = norm2(xi - b.x[k]);
-        if (r2 < h2)
-          vol += b.volume[k] * kernel.W(ksqrt(r2));
-      });
-      rho += eos.rho0 * vol; // psi_b = rho0 V_b
-    }
+    T rho = T(0), vol = T(0);
+    nb.for_each_neighbour(
+        i, xi,
+        [&](std::uint32_t j) {
+          const Vec4<T> xmj = f.xm[j];
+          const T r2 = norm2(xi - xmj.xyz());
+          if (r2 < h2)
+            rho += xmj.w * kernel.W(ksqrt(r2));
+        },
+        [&](std::uint32_t k) {
+          const T r2 = norm2(xi - b.x[k]);
+          if (r2 < h2)
+            vol += b.volume[k] * kernel.W(ksqrt(r2));
+        });
+    rho += eos.rho0 * vol; // psi_b = rho0 V_b
+    const T p = eos.pressure(rho);
     f.rho[i] = rho;
-    f.p[i] = eos.pressure(rho);
+    f.p[i] = p;
+    // The forces pass's neighbour copies: (v, m P / rho^2) and m / rho (rho > 0: the i term).
+    const T inv_rho = krcp(rho), m = f.m[i];
+    const Vec3<T> v = f.v[i];
+    f.vp[i] = {v.x, v.y, v.z, m * p * inv_rho * inv_rho};
+    f.vol[i] = m * inv_rho;
   }
 };
 
@@ -101,38 +116,40 @@ struct ForceEvaluator {
     const T pi = f.p[i] * inv_rho_i * inv_rho_i;
     const T mu2 = T(2) * prm.viscosity;
     Vec3<T> acc = prm.gravity;
-    nb.for_each_neighbour(i, xi, [&](std::uint32_t j) {
-      const Vec3<T> rij = xi - f.x[j];
-      const T r2 = norm2(rij);
-      if (r2 >= h2 || r2 <= T(0)) // r = 0: j == i (or a coincident particle: no direction)
-        return;
-      const T inv_r = krsqrt(r2);
-      const T dw = kernel.dWdr(r2 * inv_r) * inv_r; // grad W = rij dw
-      const T inv_rho_j = krcp(f.rho[j]);
-      const T mj = f.m[j];
-      // Eq. 3: pressure, symmetric in i and j so pair forces cancel.
-      const T press = mj * (pi + f.p[j] * inv_rho_j * inv_rho_j);
-      // Eq. 4 (Morris form): mu_i + mu_j, relative velocity, (r . grad W) / (r^2 + eta^2).
-      const T visc = mj * mu2 * inv_rho_i * inv_rho_j * (r2 * dw) * krcp(r2 + eta2);
-      acc += (vi - f.v[j]) * visc - rij * (dw * press);
-    });
-    if (b.around(xi)) {
-      // Boundary particles as fluid particles of mass psi_b = rho0 V_b and pressure P_b.
-      const T rho0 = prm.eos.rho0;
-      b.cells.for_each_candidate(xi, [&](std::uint32_t k) {
-        const Vec3<T> rik = xi - b.x[k];
-        const T r2 = norm2(rik);
-        if (r2 >= h2 || r2 <= T(0))
-          return;
-        const T inv_r = krsqrt(r2);
-        const T dw = kernel.dWdr(r2 * inv_r) * inv_r;
-        const T inv_rho_k = krcp(b.rho[k]);
-        const T mk = rho0 * b.volume[k];
-        acc -= rik * (dw * mk * (pi + b.p[k] * inv_rho_k * inv_rho_k));
-        if (b.v)
-          acc += (vi - b.v[k]) * (mk * mu2 * inv_rho_i * inv_rho_k * (r2 * dw) * krcp(r2 + eta2));
-      });
-    }
+    // Boundary particles act as fluid particles of mass psi_b = rho0 V_b and pressure P_b. Both
+    // sources meet every fluid neighbour before any boundary one, so the sums keep one order.
+    const T rho0 = prm.eos.rho0;
+    nb.for_each_neighbour(
+        i, xi,
+        [&](std::uint32_t j) {
+          const Vec4<T> xmj = f.xm[j]; // (x_j, m_j)
+          const Vec3<T> rij = xi - xmj.xyz();
+          const T r2 = norm2(rij);
+          if (r2 >= h2 || r2 <= T(0)) // r = 0: j == i (or a coincident particle: no direction)
+            return;
+          const T inv_r = krsqrt(r2);
+          const T dw = kernel.dWdr(r2 * inv_r) * inv_r; // grad W = rij dw
+          const Vec4<T> vpj = f.vp[j];                  // (v_j, m_j P_j / rho_j^2)
+          // Eq. 3: pressure, symmetric in i and j so pair forces cancel.
+          const T press = xmj.w * pi + vpj.w;
+          // Eq. 4 (Morris form): mu_i + mu_j, relative velocity, (r . grad W) / (r^2 + eta^2),
+          // with m_j / rho_j from the density pass.
+          const T visc = mu2 * inv_rho_i * f.vol[j] * (r2 * dw) * krcp(r2 + eta2);
+          acc += (vi - vpj.xyz()) * visc - rij * (dw * press);
+        },
+        [&](std::uint32_t k) {
+          const Vec3<T> rik = xi - b.x[k];
+          const T r2 = norm2(rik);
+          if (r2 >= h2 || r2 <= T(0))
+            return;
+          const T inv_r = krsqrt(r2);
+          const T dw = kernel.dWdr(r2 * inv_r) * inv_r;
+          const T inv_rho_k = krcp(b.rho[k]);
+          const T mk = rho0 * b.volume[k];
+          acc -= rik * (dw * mk * (pi + b.p[k] * inv_rho_k * inv_rho_k));
+          if (b.v)
+            acc += (vi - b.v[k]) * (mk * mu2 * inv_rho_i * inv_rho_k * (r2 * dw) * krcp(r2 + eta2));
+        });
     f.a[i] = acc;
   }
 };
