@@ -26,6 +26,10 @@ if [ -n "$san" ]; then
 fi
 bench_gpu --device cuda --csv "$out/bench_gpu.csv" > "$out/bench_gpu.log" 2>&1
 echo "bench_gpu rc=$?"
+# The column when the surge reaches it (t = 0.3 s): lists are rebuilt there, unlike at rest.
+bench_gpu --device cuda --cases column --column-dp 0.0035 --column-start 0.3 --max-seconds 8 \
+  --csv "$out/bench_column_surge.csv" > "$out/bench_column_surge.log" 2>&1
+echo "column surge rc=$?"
 knitflow run scenes/pour.toml --device cuda --set output.enabled=false > "$out/pour_whole.log" 2>&1
 echo "pour rc=$? $(grep -E '^done' "$out/pour_whole.log")"
 # GPU time per kernel (KF_KERNEL_TIMES=1): the first 300 steps and the whole pour.
