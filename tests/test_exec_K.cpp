@@ -297,6 +297,43 @@ TEST_P(ExecTest, MaxIntoIsExactAndVisitsEveryElement) {
   check_max_into<double>(ex(), b());
 }
 
+/// max_into_each over (|v[i]|, |v[i]| / 2, i-th of three spikes): three maxima in one pass.
+template <typename T>
+struct ThreeMaxima {
+  const T* v;
+  KF_HD kf::exec::Maxima<T, 3> operator()(std::size_t i) const {
+    const T a = v[i] < T(0) ? -v[i] : v[i];
+    return {{a, a / T(2), i % 3 == 2 ? T(i) : T(0)}};
+  }
+};
+
+// max_into_each: each of K maxima exact against the host, accumulated onto what is there.
+template <typename T>
+void check_max_into_each(const Exec& ex, Backend b) {
+  DeviceBuffer<T> acc(b, 0, "acc");
+  acc.assign(std::vector<T>{T(0.25), T(1e30), T(0)});
+  std::vector<T> want{T(0.25), T(1e30), T(0)};
+  for (std::size_t n : {std::size_t(1), std::size_t(257), std::size_t(100003), std::size_t(0)}) {
+    const auto hd = random_f64(n, 53 + static_cast<std::uint32_t>(n));
+    std::vector<T> hv(hd.begin(), hd.end());
+    DeviceBuffer<T> v(b, 0, "v");
+    v.assign(hv);
+    kf::exec::max_into_each<T, 3>(ex, n, ThreeMaxima<T>{v.data()}, acc.data(), "test.each");
+    for (std::size_t i = 0; i < n; ++i) {
+      want[0] = std::max(want[0], std::fabs(hv[i]));
+      want[1] = std::max(want[1], std::fabs(hv[i]) / T(2));
+      if (i % 3 == 2)
+        want[2] = std::max(want[2], T(i));
+    }
+    EXPECT_EQ(acc.to_host(), want) << "n = " << n;
+  }
+}
+
+TEST_P(ExecTest, MaxIntoEachIsExactPerValue) {
+  check_max_into_each<float>(ex(), b());
+  check_max_into_each<double>(ex(), b());
+}
+
 // transform_reduce_to writes what transform_reduce returns (the same tree), init included, and
 // init alone for no elements.
 TEST_P(ExecTest, TransformReduceToWritesTheReduction) {

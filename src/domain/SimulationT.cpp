@@ -315,13 +315,12 @@ template <typename T>
 void SimulationT<T>::init_coupling() {
   const CouplingParams<T> p = coupling_params<T>(scene_, knit_->longest_spacing());
   const double reach = std::max(double(p.reach), p.capillary ? h_ : 0.0);
-  // The coupling walks the fluid's grid, which "verlet" lists sort only now and then: it finds
-  // every particle within h + skin / 2 of a point (SphLists), so the reach must fit in that.
-  if (skin_ > 0 && reach > h_ + 0.5 * skin_)
+  // The coupling walks the fluid's grid, which "verlet" lists sort only now and then: a walk
+  // finds every particle within h of a point (SphLists), so the reach must fit in that.
+  if (skin_ > 0 && reach > h_)
     throw Error("solver.neighbour_list = \"verlet\": the knit-fluid coupling reaches " +
-                std::to_string(reach) + " m, more than the support plus half the skin (" +
-                std::to_string(h_ + 0.5 * skin_) +
-                " m); raise solver.neighbour_skin or use neighbour_list = \"off\"");
+                std::to_string(reach) + " m, more than the fluid's support (" + std::to_string(h_) +
+                " m); use neighbour_list = \"off\"");
   // Cells 50% over the reach: a third of the margin is the grid's skin (it is sorted again when a
   // point moved that far), two thirds the per-step lists' (KnitFluidCoupling).
   coupling_.emplace(ex_.backend, scene_.solver.kernel, p,

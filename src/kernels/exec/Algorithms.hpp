@@ -339,18 +339,72 @@ __device__ KF_INLINE void atomic_max_nonnegative(double* p, double v) {
   atomicMax(reinterpret_cast<unsigned long long*>(p),
             static_cast<unsigned long long>(__double_as_longlong(v)));
 }
+#endif
 
+/// K non-negative values, reduced element by element (max_into_each).
+template <typename T, unsigned K>
+struct Maxima {
+  T v[K];
+};
+/// Adapts a single-value functor to max_into_each.
 template <typename T, typename F>
-__global__ void __launch_bounds__(kReduceThreads) max_into_kernel(std::size_t n, F f, T* acc) {
+struct OneMaximum {
+  F f;
+  KF_HD KF_INLINE Maxima<T, 1> operator()(std::size_t i) const { return {{f(i)}}; }
+};
+struct EachMaxOp {
+  template <typename T, unsigned K>
+  KF_HD KF_INLINE Maxima<T, K> operator()(const Maxima<T, K>& a, const Maxima<T, K>& b) const {
+    Maxima<T, K> m;
+    for (unsigned k = 0; k < K; ++k)
+      m.v[k] = a.v[k] < b.v[k] ? b.v[k] : a.v[k];
+    return m;
+  }
+};
+
+#if defined(__CUDACC__)
+template <typename T, unsigned K, typename F>
+__global__ void __launch_bounds__(kReduceThreads) max_into_each_kernel(std::size_t n, F f, T* acc) {
   using BlockReduce = cub::BlockReduce<T, kReduceThreads>;
   __shared__ typename BlockReduce::TempStorage tmp;
   const std::size_t i = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
-  const T v = i < n ? f(i) : T(0);
-  const T block = BlockReduce(tmp).Reduce(v, MaxOp{});
-  if (threadIdx.x == 0)
-    atomic_max_nonnegative(acc, block);
+  Maxima<T, K> m{};
+  if (i < n)
+    m = f(i);
+  for (unsigned k = 0; k < K; ++k) {
+    const T block = BlockReduce(tmp).Reduce(m.v[k], MaxOp{});
+    if (threadIdx.x == 0)
+      atomic_max_nonnegative(acc + k, block);
+    __syncthreads(); // tmp is reused by the next value
+  }
 }
 #endif
+
+/// max_into for K values at once: acc[k] = max(acc[k], f(i).v[k] over [0, n)), f returning
+/// Maxima<T, K> of non-negative values (NaN mapped to a large value by f). One pass.
+template <typename T, unsigned K, typename F>
+void max_into_each(const Exec& ex, std::size_t n, const F& f, T* acc, const char* label) {
+  static_assert(std::is_floating_point_v<T>, "max_into_each: float or double values");
+  if (n == 0)
+    return;
+  if (ex.backend == Backend::Cuda) {
+#if defined(__CUDACC__)
+    const std::size_t grid = (n + kReduceThreads - 1) / kReduceThreads;
+    KernelTimeScope timed(label);
+    max_into_each_kernel<T, K, F><<<static_cast<unsigned>(grid), kReduceThreads>>>(n, f, acc);
+    KF_CHECK_LAUNCH(label, n);
+    return;
+#else
+    throw_not_compiled_for_cuda(label);
+#endif
+  }
+  Maxima<T, K> init;
+  for (unsigned k = 0; k < K; ++k)
+    init.v[k] = acc[k];
+  const Maxima<T, K> m = host_transform_reduce(n, init, EachMaxOp{}, f);
+  for (unsigned k = 0; k < K; ++k)
+    acc[k] = m.v[k];
+}
 
 /// *acc = max(*acc, f(i) over [0, n)) for values f(i) >= 0 (+0, never -0; f maps a NaN to a
 /// large value itself), where acc points to memory on ex.backend. One pass, f called once per i
@@ -359,21 +413,7 @@ __global__ void __launch_bounds__(kReduceThreads) max_into_kernel(std::size_t n,
 /// order. Nothing waits.
 template <typename T, typename F>
 void max_into(const Exec& ex, std::size_t n, const F& f, T* acc, const char* label) {
-  static_assert(std::is_floating_point_v<T>, "max_into: float or double values");
-  if (n == 0)
-    return;
-  if (ex.backend == Backend::Cuda) {
-#if defined(__CUDACC__)
-    const std::size_t grid = (n + kReduceThreads - 1) / kReduceThreads;
-    KernelTimeScope timed(label);
-    max_into_kernel<T, F><<<static_cast<unsigned>(grid), kReduceThreads>>>(n, f, acc);
-    KF_CHECK_LAUNCH(label, n);
-    return;
-#else
-    throw_not_compiled_for_cuda(label);
-#endif
-  }
-  *acc = host_transform_reduce(n, *acc, MaxOp{}, f);
+  max_into_each<T, 1>(ex, n, OneMaximum<T, F>{f}, acc, label);
 }
 
 /// Stable ascending sort of keys (only the low `key_bits` bits are looked at), carrying values.

@@ -69,20 +69,6 @@ public:
       rebuild();
     bound_ += motion;
   }
-  /// After the points moved, by at most `motion` since the last call (a true bound, not an
-  /// estimate: no kernel checks this structure; infinity when unknown): calls rebuild() (which
-  /// must reset() the watch) when some point may be past the skin. The host's bound answers
-  /// without waiting while it stays within the skin; past it the device is read. `force`
-  /// rebuilds without asking. Returns whether it rebuilt.
-  template <typename Rebuild>
-  bool after_motion(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x, T motion,
-                    bool force, Rebuild&& rebuild) {
-    bound_ += motion;
-    if (!force && !may_exceed(ex, x, skin_))
-      return false;
-    rebuild();
-    return true;
-  }
   /// Device side, nothing waits: the recorded squared motion takes the largest displacement now.
   void observe(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x) {
     if (x0_.size() != x.size()) { // never reset for this count: stale

@@ -2,13 +2,38 @@
 
 #include "kernels/sph/SphNeighbours_K.hpp"
 
+#include <cmath>
 #include <string>
 
 namespace kf {
 
+namespace {
+
+/// What the rule needs of particle i's displacement d since the build: |d|^2 and the six
+/// one-sided components (a NaN reads as the largest value, so it rebuilds and then shows).
+template <typename T>
+struct Displacement {
+  const Vec3<T>* x;
+  const Vec3<T>* x0;
+  KF_HD KF_INLINE exec::Maxima<T, 7> operator()(std::size_t i) const {
+    const Vec3<T> d = x[i] - x0[i];
+    const T d2 = norm2(d);
+    if (!(d2 == d2))
+      return {{std::numeric_limits<T>::max(), std::numeric_limits<T>::max(),
+               std::numeric_limits<T>::max(), std::numeric_limits<T>::max(),
+               std::numeric_limits<T>::max(), std::numeric_limits<T>::max(),
+               std::numeric_limits<T>::max()}};
+    const T zero = T(0);
+    return {{d2, d.x > zero ? d.x : zero, d.x < zero ? -d.x : zero, d.y > zero ? d.y : zero,
+             d.y < zero ? -d.y : zero, d.z > zero ? d.z : zero, d.z < zero ? -d.z : zero}};
+  }
+};
+
+} // namespace
+
 template <typename T>
 SphLists<T>::SphLists(exec::Backend b, T skin)
-    : skin_(skin), lists_(b), watch_(b, T(0.5) * skin, "fluid.moved") {}
+    : skin_(skin), lists_(b), x0_(b, 0, "fluid.listed_x"), moved_(b, 7, "fluid.moved") {}
 
 template <typename T>
 void SphLists<T>::build(const exec::Exec& ex, const FluidSet<T>& f, const CellView<T>& cells,
@@ -24,15 +49,33 @@ void SphLists<T>::build(const exec::Exec& ex, const FluidSet<T>& f, const CellVi
   // per build with one lane, 7.8 with 4, 5.6 with 8, 5.2 with 16, 5.1 with 32; 16 leaves fewer
   // lanes idle at the default support's ~40 candidates a row.
   lists_.template build_with<16>(ex, n, make, "neighbours.build");
-  if (skin_ > T(0))
-    watch_.reset(ex, f.x);
+  if (skin_ > T(0)) {
+    x0_.resize(n);
+    x0_.copy_from(f.x, n);
+    bound_ = T(0);
+  }
 }
 
 template <typename T>
 bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force) {
-  if (!(skin_ > T(0)))
+  if (!(skin_ > T(0)) || force || x0_.size() != f.size())
     return true;
-  return watch_.after_motion(ex, f.x, motion, force, [] {});
+  bound_ += motion;
+  if (bound_ <= T(0.5) * skin_)
+    return false; // every |d| within s / 2: no need to look
+  exec::fill(ex, moved_, T(0), "fluid.moved");
+  exec::max_into_each<T, 7>(ex, f.size(), Displacement<T>{f.x.data(), x0_.data()}, moved_.data(),
+                            "fluid.moved");
+  const std::vector<T> m = moved_.to_host();
+  const double largest = std::sqrt(double(m[0]));
+  const double bx = double(m[1]) + double(m[2]), by = double(m[3]) + double(m[4]),
+               bz = double(m[5]) + double(m[6]);
+  const double diagonal = std::sqrt(bx * bx + by * by + bz * bz);
+  const double s = double(skin_);
+  bound_ = static_cast<T>(largest);
+  // The box holds the origin, so a diagonal within s also keeps every |d| within s.
+  const bool holds = 2 * largest <= s || diagonal <= s;
+  return !holds;
 }
 
 template class SphLists<float>;
