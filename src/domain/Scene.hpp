@@ -127,7 +127,7 @@ struct Scene {
     // P4); "verlet" lists everything within the support plus a skin of neighbour_skin * h and
     // keeps the lists (and the fluid's order) until some particle has moved half the skin.
     enum class NeighbourLists { On, Off, Verlet } neighbour_list = NeighbourLists::Off;
-    double neighbour_skin = 0.15; // "verlet" lists' skin, in units of the support h
+    double neighbour_skin = 0.1; // "verlet" lists' skin, in units of the support h (measured best)
   } solver;
 
   // [fluid]

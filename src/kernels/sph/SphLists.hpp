@@ -9,7 +9,8 @@
 //    common vector u, so either every |d_i| <= s / 2, or the box of all displacements d_i
 //    (origin included) has a diagonal within s (u its centre); the origin in the box makes the
 //    first condition follow. The box lets a fluid that moves together (a falling column, a
-//    surge) keep its lists longer: the dam break test sorts 11 times in 300 steps, not 19.
+//    surge) keep its lists longer: the dam break test (skin 0.15) sorts 11 times in 300 steps,
+//    not 19.
 #include "kernels/grid/NeighbourList.hpp"
 #include "kernels/sph/Sph.hpp"
 
