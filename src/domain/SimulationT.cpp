@@ -152,7 +152,6 @@ private:
   // kept, with the fluid's order and grid, over steps (SphLists).
   std::optional<SphLists<T>> fluid_list_;
   double skin_ = 0;
-  bool fluid_relist_ = false;      // the fluid arrays were replaced: list again before using
   MotionBounds<T> fluid_bounds_{}; // the fluid's speed and acceleration bounds at step start
   double fluid_step_motion() const;
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
@@ -240,7 +239,7 @@ void SimulationT<T>::init_particles() {
     next_fluid_id_ = ids.size();
     const int span = static_cast<int>(scene_.solver.cell_span);
     // Cells reach the support plus the lists' skin: a walk of the grid then stays exact between
-    // the lists' builds (no point has moved more than half the skin since the sort).
+    // the lists' builds (no point has moved more than the skin since the sort; SphLists).
     fluid_grid_.emplace(ex_.backend,
                         NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span), span);
     if (scene_.solver.neighbour_list != Scene::Solver::NeighbourLists::Off)
@@ -429,13 +428,12 @@ void SimulationT<T>::build_pipeline() {
     const Lists lists = scene_.solver.neighbour_list;
     if (lists == Lists::Verlet)
       pipeline_.add("grid.fluid", "fluid",
-                    "sort fluid by cell, cell ranges, neighbour lists with a skin, when a particle "
-                    "may have moved half the skin since",
+                    "sort fluid by cell, cell ranges, neighbour lists with a skin, when the "
+                    "lists might miss a pair",
                     [this] {
                       // Moving solids are sorted every step: their list entries would not last.
                       if (fluid_list_->stale_after(ex_, *fluid_,
-                                                   static_cast<T>(fluid_step_motion()),
-                                                   fluid_relist_ || moving_))
+                                                   static_cast<T>(fluid_step_motion()), moving_))
                         sort_fluid();
                     });
     else
@@ -477,7 +475,6 @@ void SimulationT<T>::sort_fluid() {
   if (fluid_list_)
     fluid_list_->build(ex_, *fluid_, fluid_grid_->view(), boundary_neighbours(),
                        static_cast<T>(h_));
-  fluid_relist_ = false;
 }
 
 template <typename T>
@@ -742,7 +739,8 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   // The fluid order is kept as written; the next step's sort starts from it as the
   // uninterrupted run did. The grid tables are rebuilt by that sort. With "verlet" lists the
   // next step lists again (the run it continues kept older lists: rounding may differ).
-  fluid_relist_ = true;
+  if (fluid_list_)
+    fluid_list_->forget();
 }
 
 template <typename T>

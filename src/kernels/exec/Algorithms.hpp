@@ -51,8 +51,7 @@ struct Lanes {
   template <typename V>
   KF_HD KF_INLINE V sum(V v) const {
 #if defined(__CUDA_ARCH__)
-    const unsigned first = (threadIdx.x & 31u) & ~(size - 1u);
-    const unsigned mask = (size == 32u ? 0xFFFFFFFFu : ((1u << size) - 1u)) << first;
+    const unsigned mask = group_mask();
     for (unsigned off = size / 2; off > 0; off /= 2)
       v += shuffle_xor(mask, v, off);
 #endif
@@ -63,8 +62,7 @@ struct Lanes {
   /// group's total goes to *total. Every lane of the group must call it together.
   KF_HD KF_INLINE unsigned count_below(bool hit, unsigned* total) const {
 #if defined(__CUDA_ARCH__)
-    const unsigned me = threadIdx.x & 31u, first = me & ~(size - 1u);
-    const unsigned mask = (size == 32u ? 0xFFFFFFFFu : ((1u << size) - 1u)) << first;
+    const unsigned me = threadIdx.x & 31u, mask = group_mask();
     const unsigned b = __ballot_sync(mask, hit) & mask;
     *total = static_cast<unsigned>(__popc(b));
     return static_cast<unsigned>(__popc(b & ((1u << me) - 1u)));
@@ -76,6 +74,11 @@ struct Lanes {
 
 private:
 #if defined(__CUDA_ARCH__)
+  /// This group's lanes within the warp.
+  __device__ unsigned group_mask() const {
+    const unsigned first = (threadIdx.x & 31u) & ~(size - 1u);
+    return (size == 32u ? 0xFFFFFFFFu : ((1u << size) - 1u)) << first;
+  }
   template <typename V>
   __device__ static V shuffle_xor(unsigned mask, const V& v, unsigned off) {
     if constexpr (std::is_arithmetic_v<V>) {

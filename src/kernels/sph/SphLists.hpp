@@ -32,6 +32,8 @@ public:
   /// unknown), whether the lists may have missed a pair and must be built again. Reads the
   /// device only when the host's bound has used half the skin up. `force`: true, unasked.
   bool stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force);
+  /// The fluid's arrays were replaced (a restart): the next stale_after says so.
+  void forget() { x0_.resize(0); }
 
   ListView<T> view() const { return lists_.view(); }
   T skin() const { return skin_; }
