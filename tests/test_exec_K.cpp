@@ -152,6 +152,53 @@ void lane_sums(const Exec& ex, DeviceBuffer<double>& out, DeviceBuffer<std::uint
   kf::exec::for_each_lanes<G>(ex, out.size(), LaneSum{out.data(), visits.data()}, "test.lanes");
 }
 
+/// for_each_chunk: every element of [0, n) is some lane's first + lane, once; per element the
+/// group queries over its chunk: the first lane whose element is 3 mod 5, that lane's element
+/// (broadcast), and the smallest and largest element mod 97 over the chunk's lanes.
+struct ChunkQueries {
+  std::size_t n;
+  std::int32_t* out; // 4 per element
+  KF_HD void operator()(std::size_t first, kf::exec::Lanes g) const {
+    const std::size_t e = first + g.lane;
+    const bool mine = e < n;
+    const unsigned lead = g.first_set(mine && e % 5 == 3);
+    const int from = g.broadcast(mine ? int(e) : -1, lead < g.size ? lead : 0);
+    const int lo = g.min(mine ? int(e % 97) : 1000), hi = g.max(mine ? int(e % 97) : -1);
+    const bool any = g.any(mine && e % 5 == 3);
+    if (mine) {
+      out[4 * e] = int(lead) + (any ? 0 : 100);
+      out[4 * e + 1] = lead < g.size ? from : -2;
+      out[4 * e + 2] = lo;
+      out[4 * e + 3] = hi;
+    }
+  }
+};
+template <unsigned G>
+void check_chunks(const Exec& ex, Backend b) {
+  for (std::size_t n : {std::size_t(1), std::size_t(31), std::size_t(1000), std::size_t(4099)}) {
+    DeviceBuffer<std::int32_t> out(b, 4 * n, "test.chunks");
+    out.poison();
+    kf::exec::for_each_chunk<G>(ex, n, ChunkQueries{n, out.data()}, "test.chunks");
+    const auto o = out.to_host();
+    const std::size_t size = b == Backend::Cuda ? G : 1; // lanes a chunk
+    for (std::size_t e = 0; e < n; ++e) {
+      const std::size_t first = e / size * size, last = std::min(n, first + size);
+      std::size_t lead = size;
+      int lo = 1000, hi = -1;
+      for (std::size_t k = first; k < last; ++k) {
+        if (lead == size && k % 5 == 3)
+          lead = k - first;
+        lo = std::min(lo, int(k % 97));
+        hi = std::max(hi, int(k % 97));
+      }
+      ASSERT_EQ(o[4 * e], int(lead) + (lead < size ? 0 : 100)) << "G " << G << " e " << e;
+      ASSERT_EQ(o[4 * e + 1], lead < size ? int(first + lead) : -2) << "G " << G << " e " << e;
+      ASSERT_EQ(o[4 * e + 2], lo) << "G " << G << " e " << e;
+      ASSERT_EQ(o[4 * e + 3], hi) << "G " << G << " e " << e;
+    }
+  }
+}
+
 } // namespace kf_exec_test
 
 namespace {
@@ -374,6 +421,11 @@ TEST_P(ExecTest, ForEachLanesSplitsAndSumsEveryElement) {
   check_lanes<4>(ex(), b());
   check_lanes<8>(ex(), b());
   check_lanes<32>(ex(), b());
+}
+
+TEST_P(ExecTest, ForEachChunkCoversEveryElementAndAnswersGroupQueries) {
+  check_chunks<8>(ex(), b());
+  check_chunks<32>(ex(), b());
 }
 
 TEST_P(ExecTest, TransformReduceIsDeterministic) {

@@ -2,6 +2,7 @@
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/grid/NeighbourList.hpp"
+#include "kernels/sph/SphNeighbours_K.hpp"
 
 #include <gtest/gtest.h>
 
@@ -260,6 +261,112 @@ TEST(NeighbourList, MatchesTheCpuListsCuda) {
       ASSERT_EQ(got[0][n + slot_of.slot(i, s)], got[1][n + slot_of.slot(i, s)])
           << "particle " << i << " slot " << s;
   }
+}
+
+// The SPH lists built by chunks of particles (SphChunkListBuilder: on the GPU a warp walks the
+// union of 32 particles' cell rows; on the CPU a chunk is one particle) hold exactly the rows
+// built a particle at a time (SphListBuilder): the same entries in the same order, fluid then
+// boundary, and each row is the brute-force set within the radius. ~18 points a cell, so a
+// warp's particles span several cells and often two rows of cells. Boundary points fill a
+// floor slab, so rows near it mix both kinds and rows far from it skip the boundary walk.
+template <typename T>
+void check_sph_chunk_builder(exec::Backend backend) {
+  const double h = 0.1;
+  const Vec3d lo{0, 0, 0}, hi{1.0, 0.3, 0.55};
+  const auto fluid = test_points<T>(3000, h, lo, hi, 5);
+  std::vector<Vec3<T>> wall;
+  for (double z = -0.05; z < 0.0; z += 0.025)
+    for (double y = 0.0; y <= 0.3; y += 0.025)
+      for (double xx = 0.0; xx <= 1.0; xx += 0.025)
+        wall.push_back(vec_cast<T>(Vec3d{xx, y, z}));
+  exec::Exec ex{backend};
+  const auto geo = NeighbourGrid<T>::cover(lo, hi, h);
+  auto sorted_by = [&](NeighbourGrid<T>& g, const std::vector<Vec3<T>>& pts) {
+    exec::DeviceBuffer<Vec3<T>> x(backend);
+    x.assign(pts);
+    g.build(ex, x.data(), pts.size());
+    const auto perm = g.permutation().to_host();
+    std::vector<Vec3<T>> s(pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      s[i] = pts[perm[i]];
+    return s;
+  };
+  NeighbourGrid<T> fgrid(backend, geo), bgrid(backend, geo);
+  const auto xf = sorted_by(fgrid, fluid), xb = sorted_by(bgrid, wall);
+  std::vector<Vec4<T>> xm_host;
+  for (const auto& p : xf)
+    xm_host.push_back({p.x, p.y, p.z, T(1)});
+  exec::DeviceBuffer<Vec3<T>> dx(backend), dxb(backend);
+  exec::DeviceBuffer<Vec4<T>> dxm(backend);
+  dx.assign(xf);
+  dxb.assign(xb);
+  dxm.assign(xm_host);
+  exec::DeviceBuffer<std::uint8_t> near(backend, 0, "near");
+  bgrid.occupied_around(ex, near);
+  BoundaryNeighbours<T> b;
+  b.x = dxb.data();
+  b.cells = bgrid.view();
+  b.n = xb.size();
+  b.near = near.data();
+  const T r2 = static_cast<T>(0.9 * h * 0.9 * h);
+  const std::size_t n = xf.size();
+  const CellView<T> cells = fgrid.view();
+  NeighbourList<T> by_particle(backend), by_chunk(backend);
+  by_particle.template build_with<16>(
+      ex, n,
+      [&](const ListSink& o) {
+        return SphListBuilder<T>{dx.data(), cells, b, r2, o};
+      },
+      "test.by_particle");
+  by_chunk.template build_chunked<32>(
+      ex, n,
+      [&](const ListSink& o) { return SphChunkListBuilder<T>{dxm.data(), cells, b, r2, o, n}; },
+      "test.by_chunk");
+  auto rows = [&](const NeighbourList<T>& l) {
+    const ListView<T> v = l.view();
+    std::vector<std::uint32_t> c(n), s(std::size_t(l.capacity()) * n);
+    exec::copy_bytes(c.data(), exec::Backend::Cpu, v.count, backend, n * sizeof(std::uint32_t));
+    exec::copy_bytes(s.data(), exec::Backend::Cpu, v.list, backend,
+                     s.size() * sizeof(std::uint32_t));
+    std::vector<std::vector<std::uint32_t>> r(n);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::uint32_t k = 0; k < c[i] && k < l.capacity(); ++k)
+        r[i].push_back(s[v.slot(i, k)]);
+    return std::pair{c, r};
+  };
+  const auto [cp, rp] = rows(by_particle);
+  const auto [cc, rc] = rows(by_chunk);
+  std::size_t mixed = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_EQ(cc[i], cp[i]) << "count of particle " << i;
+    ASSERT_EQ(rc[i], rp[i]) << "row of particle " << i;
+    std::vector<std::uint32_t> want;
+    for (std::uint32_t j = 0; j < n; ++j)
+      if (norm2(xf[i] - xf[j]) < r2)
+        want.push_back(j);
+    for (std::uint32_t k = 0; k < xb.size(); ++k)
+      if (norm2(xf[i] - xb[k]) < r2)
+        want.push_back(k | kBoundaryEntry);
+    auto got = rc[i];
+    std::sort(got.begin(), got.end());
+    std::sort(want.begin(), want.end());
+    ASSERT_EQ(got, want) << "particle " << i;
+    mixed += !want.empty() && (want.back() & kBoundaryEntry) && !(want.front() & kBoundaryEntry);
+  }
+  EXPECT_GT(mixed, 100u) << "rows must mix fluid and boundary entries";
+  EXPECT_GT(by_chunk.most(), 32u) << "the capacity must grow";
+}
+
+TEST(SphLists, ChunkBuilderEqualsParticleBuilderCpu) {
+  check_sph_chunk_builder<float>(exec::Backend::Cpu);
+  check_sph_chunk_builder<double>(exec::Backend::Cpu);
+}
+
+TEST(SphLists, ChunkBuilderEqualsParticleBuilderCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check_sph_chunk_builder<float>(exec::Backend::Cuda);
+  check_sph_chunk_builder<double>(exec::Backend::Cuda);
 }
 
 TEST(NeighbourGrid, OccupiedAroundFlagsExactlyTheCellsWithCandidates) {

@@ -8,3 +8,10 @@
 #define KF_HD
 #define KF_INLINE inline
 #endif
+
+// KF_UNROLL before a loop of fixed trip count: unrolled in device code, left to the host compiler.
+#if defined(__CUDA_ARCH__)
+#define KF_UNROLL _Pragma("unroll")
+#else
+#define KF_UNROLL
+#endif

@@ -72,6 +72,51 @@ struct Lanes {
 #endif
   }
 
+  /// The lowest lane of the group whose `p` is true, or `size` when none is (all lanes call).
+  KF_HD KF_INLINE unsigned first_set(bool p) const {
+#if defined(__CUDA_ARCH__)
+    const unsigned mask = group_mask();
+    const unsigned b = (__ballot_sync(mask, p) & mask) >> ((threadIdx.x & 31u) & ~(size - 1u));
+    return b ? static_cast<unsigned>(__ffs(b) - 1) : size;
+#else
+    return p ? 0u : 1u;
+#endif
+  }
+  /// Whether `p` is true on some lane of the group (all lanes call).
+  KF_HD KF_INLINE bool any(bool p) const {
+    return first_set(p) < size;
+  }
+  /// Lane `from`'s v, to every lane of the group (all lanes call).
+  KF_HD KF_INLINE int broadcast(int v, unsigned from) const {
+#if defined(__CUDA_ARCH__)
+    return __shfl_sync(group_mask(), v, static_cast<int>(from), static_cast<int>(size));
+#else
+    (void)from;
+    return v;
+#endif
+  }
+  /// Smallest and largest v over the group, to every lane (all lanes call).
+  KF_HD KF_INLINE int min(int v) const {
+#if defined(__CUDA_ARCH__)
+    const unsigned mask = group_mask();
+    for (unsigned off = size / 2; off > 0; off /= 2) {
+      const int o = __shfl_xor_sync(mask, v, static_cast<int>(off));
+      v = o < v ? o : v;
+    }
+#endif
+    return v;
+  }
+  KF_HD KF_INLINE int max(int v) const {
+#if defined(__CUDA_ARCH__)
+    const unsigned mask = group_mask();
+    for (unsigned off = size / 2; off > 0; off /= 2) {
+      const int o = __shfl_xor_sync(mask, v, static_cast<int>(off));
+      v = o > v ? o : v;
+    }
+#endif
+    return v;
+  }
+
 private:
 #if defined(__CUDA_ARCH__)
   /// This group's lanes within the warp.
@@ -127,6 +172,21 @@ void for_each_lanes(const Exec& ex, std::size_t n, const F& f, const char* label
     for (std::int64_t i = 0; i < m; ++i)
       f(static_cast<std::size_t>(i), Lanes{});
   }
+}
+
+/// Calls f(first, lanes) for chunks of consecutive elements of [0, n): on the GPU chunks of G,
+/// lane l of a group taking element first + l (which may be n or past it: the functor checks);
+/// on the CPU chunks of one (first = i, a single lane). For loops whose lanes share work, such
+/// as a candidate walk common to neighbouring particles.
+template <unsigned G, typename F>
+struct ChunkOf {
+  F f;
+  KF_HD KF_INLINE void operator()(std::size_t item, Lanes g) const { f(item * g.size, g); }
+};
+template <unsigned G, unsigned Block = 128, typename F>
+void for_each_chunk(const Exec& ex, std::size_t n, const F& f, const char* label) {
+  const std::size_t items = ex.backend == Backend::Cuda ? (n + G - 1) / G : n;
+  for_each_lanes<G, Block>(ex, items, ChunkOf<G, F>{f}, label);
 }
 
 /// Adapts a per-element functor f(i) to for_each_lanes.

@@ -56,9 +56,16 @@ struct CellView {
   KF_HD KF_INLINE void for_each_row(const Vec3<T>& x, F&& row) const {
     int cx, cy, cz;
     geo.coords(x, cx, cy, cz);
+    for_each_row(cx, cx, cy, cz, row);
+  }
+  /// The same around the cells cx0 .. cx1 of the row (cy, cz): the rows of every cell within
+  /// span of one of them, in the same (z, y) order, each from cx0 - span to cx1 + span.
+  template <typename F>
+  KF_HD KF_INLINE void for_each_row(int cx0, int cx1, int cy, int cz, F&& row) const {
     const int z0 = cz > span ? cz - span : 0, z1 = cz < geo.nz - 1 - span ? cz + span : geo.nz - 1;
     const int y0 = cy > span ? cy - span : 0, y1 = cy < geo.ny - 1 - span ? cy + span : geo.ny - 1;
-    const int x0 = cx > span ? cx - span : 0, x1 = cx < geo.nx - 1 - span ? cx + span : geo.nx - 1;
+    const int x0 = cx0 > span ? cx0 - span : 0,
+              x1 = cx1 < geo.nx - 1 - span ? cx1 + span : geo.nx - 1;
     const std::uint32_t width = static_cast<std::uint32_t>(x1 - x0);
     for (int z = z0; z <= z1; ++z)
       for (int y = y0; y <= y1; ++y)
@@ -89,7 +96,14 @@ struct CellView {
   /// order for_each_candidate visits them.
   template <typename F>
   KF_HD KF_INLINE void for_each_row_range(const Vec3<T>& x, F&& range) const {
-    for_each_row(x, [&](std::uint32_t c0, std::uint32_t width) {
+    int cx, cy, cz;
+    geo.coords(x, cx, cy, cz);
+    for_each_row_range(cx, cx, cy, cz, range);
+  }
+  /// The same around the cells cx0 .. cx1 of the row (cy, cz) (for_each_row).
+  template <typename F>
+  KF_HD KF_INLINE void for_each_row_range(int cx0, int cx1, int cy, int cz, F&& range) const {
+    for_each_row(cx0, cx1, cy, cz, [&](std::uint32_t c0, std::uint32_t width) {
       // Empty cells read (0, 0); the row's range runs from its first non-empty cell's start
       // to its last non-empty cell's end.
       std::uint32_t lo = 0xFFFFFFFFu, hi = 0;

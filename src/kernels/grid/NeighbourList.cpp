@@ -32,8 +32,8 @@ bool NeighbourList<T>::fits(const exec::Exec& ex, std::size_t n) {
                                  "neighbours.most");
   if (most_ <= capacity_)
     return true;
-  // Room for the density to rise before the next growth; a multiple of 4 (16-byte groups).
-  capacity_ = (most_ + most_ / 4 + 4 + 3) / 4 * 4;
+  // Room for the density to rise before the next growth; whole groups.
+  capacity_ = (most_ + most_ / 4 + kListGroup + kListGroup - 1) / kListGroup * kListGroup;
   return false;
 }
 

@@ -14,20 +14,25 @@
 
 namespace kf {
 
+/// Slots per group in the lists' layout: 8 indices, one 32-byte memory sector.
+constexpr std::uint32_t kListGroup = 8;
+
 /// Read-only view of the lists, passed by value into kernels. Slot k of particle i sits at
-/// slot(i, k): slots go in groups of four, group-major ((k / 4) * rows + i) * 4 + k % 4, so that
-/// the lanes of a warp, each reading its own particle's next group with one 16-byte load, read
+/// slot(i, k): slots go in groups of eight, group-major ((k / 8) * rows + i) * 8 + k % 8, so that
+/// the lanes of a warp, each reading its own particle's next slots with 16-byte loads, read
 /// one contiguous block (rows of one particle each made every lane's load its own transaction),
-/// and the build still writes four indices with one 16-byte store (RowAppender).
+/// and the build writes whole 32-byte sectors (RowAppender): with groups of four, two lanes
+/// shared a sector and wrote their halves at different times, and a build in the splash of the
+/// DualSPHysics column moved 3x the list's bytes through DRAM (ncu, H100).
 template <typename T>
 struct ListView {
   const std::uint32_t* count = nullptr;
   const std::uint32_t* list = nullptr;
-  std::size_t capacity = 0; // slots per particle, a multiple of 4
+  std::size_t capacity = 0; // slots per particle, a multiple of kListGroup
   std::size_t rows = 0;     // particles
 
   KF_HD KF_INLINE std::size_t slot(std::size_t i, std::size_t k) const {
-    return ((k >> 2) * rows + i) * 4 + (k & 3u);
+    return ((k / kListGroup) * rows + i) * kListGroup + k % kListGroup;
   }
   /// Whether row i holds all its neighbours (build_for's rows may overflow).
   KF_HD KF_INLINE bool complete(std::size_t i) const { return count[i] <= capacity; }
@@ -35,26 +40,28 @@ struct ListView {
   template <typename F>
   KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>&, F&& f) const {
     const std::uint32_t c = count[i];
-    std::uint32_t k = 0;
-    for (; k + 4 <= c; k += 4) {
+    for (std::uint32_t k = 0; k < c; k += kListGroup) {
+      // A whole group, 32 bytes, with two back-to-back loads (the last group too: capacity is
+      // whole groups). Read in halves one iteration apart, the second half often missed.
+      std::uint32_t e[kListGroup];
+      const std::uint32_t* g = list + slot(i, k);
+      const std::uint32_t m = c - k < kListGroup ? c - k : kListGroup;
 #if defined(__CUDA_ARCH__)
       // Streamed (evict first): each slot is read once per pass; the neighbours' data that
       // the pass gathers should keep the caches.
-      const uint4 g = __ldcs(reinterpret_cast<const uint4*>(list + slot(i, k)));
-      f(g.x);
-      f(g.y);
-      f(g.z);
-      f(g.w);
+      const uint4 a = __ldcs(reinterpret_cast<const uint4*>(g));
+      const uint4 b = __ldcs(reinterpret_cast<const uint4*>(g) + 1);
+      e[0] = a.x, e[1] = a.y, e[2] = a.z, e[3] = a.w, e[4] = b.x, e[5] = b.y, e[6] = b.z,
+      e[7] = b.w;
 #else
-      const std::uint32_t* g = list + slot(i, k);
-      f(g[0]);
-      f(g[1]);
-      f(g[2]);
-      f(g[3]);
+      for (std::uint32_t u = 0; u < m; ++u)
+        e[u] = g[u];
 #endif
+      KF_UNROLL
+      for (std::uint32_t u = 0; u < kListGroup; ++u)
+        if (u < m)
+          f(e[u]);
     }
-    for (; k < c; ++k)
-      f(list[slot(i, k)]);
   }
   /// The same shared by `stride` lanes: this one takes every stride-th from `lane` on.
   template <typename F>
@@ -70,11 +77,11 @@ struct ListView {
 struct ListSink {
   std::uint32_t* count = nullptr;
   std::uint32_t* list = nullptr;
-  std::size_t capacity = 0; // a multiple of 4
+  std::size_t capacity = 0; // a multiple of kListGroup
   std::size_t rows = 0;
   /// Where slot k of row i goes (ListView::slot).
   KF_HD KF_INLINE std::uint32_t* slot(std::size_t i, std::size_t k) const {
-    return list + ((k >> 2) * rows + i) * 4 + (k & 3u);
+    return list + ((k / kListGroup) * rows + i) * kListGroup + k % kListGroup;
   }
 };
 
@@ -111,48 +118,62 @@ KF_HD KF_INLINE void store4(std::uint32_t* p, std::uint32_t a, std::uint32_t b, 
 } // namespace list_detail
 
 /// Appends one particle's neighbours to its row while they fit and counts all of them (a count
-/// over the capacity marks an overflow). Neighbours are held in registers and written four at a
-/// time: lanes of a warp find neighbours at different candidates, so single-index stores each
-/// became their own memory transaction, and the build cost 2.5x a density pass (measured).
+/// over the capacity marks an overflow). Neighbours are held in registers and written eight at
+/// a time, a whole group: lanes of a warp find neighbours at different candidates, so
+/// single-index stores each became their own memory transaction, and the build cost 2.5x a
+/// density pass (measured).
 class RowAppender {
 public:
   KF_HD KF_INLINE RowAppender(const ListSink& out, std::size_t i) : out_(out), i_(i) {}
   KF_HD KF_INLINE void push(std::uint32_t j) {
-    switch (c_ & 3u) {
-    case 0:
-      b0_ = j;
-      break;
-    case 1:
-      b1_ = j;
-      break;
-    case 2:
-      b2_ = j;
-      break;
-    default:
-      if (c_ < out_.capacity)
-        list_detail::store4(group(c_), b0_, b1_, b2_, j);
+    // Selects, not a switch: the lanes of a warp push at different slots, and a switch made
+    // them take different branches. A full quad waits in q until the group's second one.
+    const std::uint32_t s = c_ & 3u;
+    b0_ = s == 0 ? j : b0_;
+    b1_ = s == 1 ? j : b1_;
+    b2_ = s == 2 ? j : b2_;
+    if (s == 3) {
+      if ((c_ & 4u) == 0) {
+        q0_ = b0_;
+        q1_ = b1_;
+        q2_ = b2_;
+        q3_ = j;
+      } else if (c_ < out_.capacity) {
+        std::uint32_t* g = group(c_);
+        list_detail::store4(g, q0_, q1_, q2_, q3_);
+        list_detail::store4(g + 4, b0_, b1_, b2_, j);
+      }
     }
     ++c_;
   }
-  /// Writes the last 1-3 neighbours and the count.
+  /// Writes the last 1-7 neighbours and the count.
   KF_HD KF_INLINE void finish() {
-    const std::uint32_t tail = c_ & ~3u;
+    const std::uint32_t tail = c_ & ~(kListGroup - 1); // the group not yet written
     if (tail < out_.capacity && tail < c_) {
       std::uint32_t* g = group(tail);
-      g[0] = b0_;
-      if (tail + 1 < c_)
+      std::uint32_t k = tail;
+      if (c_ - tail >= 4) {
+        list_detail::store4(g, q0_, q1_, q2_, q3_);
+        g += 4;
+        k += 4;
+      }
+      if (k < c_)
+        g[0] = b0_;
+      if (k + 1 < c_)
         g[1] = b1_;
-      if (tail + 2 < c_)
+      if (k + 2 < c_)
         g[2] = b2_;
     }
     out_.count[i_] = c_;
   }
 
 private:
-  KF_HD KF_INLINE std::uint32_t* group(std::uint32_t k) const { return out_.slot(i_, k & ~3u); }
+  KF_HD KF_INLINE std::uint32_t* group(std::uint32_t k) const {
+    return out_.slot(i_, k & ~(kListGroup - 1));
+  }
   ListSink out_;
   std::size_t i_;
-  std::uint32_t c_ = 0, b0_ = 0, b1_ = 0, b2_ = 0;
+  std::uint32_t c_ = 0, b0_ = 0, b1_ = 0, b2_ = 0, q0_ = 0, q1_ = 0, q2_ = 0, q3_ = 0;
 };
 
 namespace list_detail {
@@ -199,19 +220,20 @@ public:
   /// A functor taking (i, exec::Lanes) runs with G lanes per row (for_each_lanes).
   template <unsigned G = 1, typename Make>
   void build_with(const exec::Exec& ex, std::size_t n, Make&& make, const char* label) {
-    count_.resize(n);
-    if (capacity_ == 0)
-      capacity_ = 32;
-    do {
-      list_.resize(std::size_t(capacity_) * n);
-      // One thread per particle (for_each), then the largest count: a reduction's fixed grid
-      // of strided threads would walk the candidates with a third of the GPU's threads.
-      auto f = make(sink(n));
+    build_rows(ex, n, [&](const ListSink& out) {
+      auto f = make(out);
       if constexpr (std::is_invocable_v<decltype(f), std::size_t, exec::Lanes>)
         exec::for_each_lanes<G>(ex, n, f, label);
       else
         exec::for_each(ex, n, f, label);
-    } while (!fits(ex, n));
+    });
+  }
+  /// The same with a functor f(first, exec::Lanes) that fills the rows of a chunk of G
+  /// consecutive particles, one a lane (exec::for_each_chunk; SphChunkListBuilder).
+  template <unsigned G, typename Make>
+  void build_chunked(const exec::Exec& ex, std::size_t n, Make&& make, const char* label) {
+    build_rows(ex, n,
+               [&](const ListSink& out) { exec::for_each_chunk<G>(ex, n, make(out), label); });
   }
   /// Lists, for each of n query points q (the inactive ones, active[i] == 0, get none), the
   /// candidates j of `cells` (positions x) with |q_i - x_j|^2 < radius2, in the order the cell
@@ -222,7 +244,7 @@ public:
   void build_for(const exec::Exec& ex, const Vec3<T>* q, const std::uint32_t* active, std::size_t n,
                  const Vec3<T>* x, const CellView<T>& cells, T radius2, std::uint32_t capacity,
                  Pred keep = {}) {
-    capacity_ = (capacity + 3) / 4 * 4;
+    capacity_ = (capacity + kListGroup - 1) / kListGroup * kListGroup;
     count_.resize(n);
     list_.resize(std::size_t(capacity_) * n);
     exec::for_each(ex, n,
@@ -238,6 +260,17 @@ public:
 
 private:
   ListSink sink(std::size_t n) { return {count_.data(), list_.data(), capacity_, n}; }
+  /// launch(sink) fills every row; repeated with a larger capacity until every row fits.
+  template <typename Launch>
+  void build_rows(const exec::Exec& ex, std::size_t n, Launch&& launch) {
+    count_.resize(n);
+    if (capacity_ == 0)
+      capacity_ = 32;
+    do {
+      list_.resize(std::size_t(capacity_) * n);
+      launch(sink(n));
+    } while (!fits(ex, n));
+  }
   /// Reads the largest count; false (and a larger capacity) when some row overflowed.
   bool fits(const exec::Exec& ex, std::size_t n);
 

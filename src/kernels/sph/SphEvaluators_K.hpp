@@ -8,16 +8,6 @@ namespace kf {
 
 // N: where a particle's neighbours come from (SphNeighbours_K.hpp): SphCellWalk (the grids'
 // candidates) or SphList (lists); both meet the neighbours in the same order, so sums agree.
-/// The density pass's neighbour copy: xm[i] = (x_i, m_i).
-template <typename T>
-struct PackPositionMass {
-  FluidView<T> f;
-  KF_HD KF_INLINE void operator()(std::size_t i) const {
-    const Vec3<T> x = f.x[i];
-    f.xm[i] = {x.x, x.y, x.z, f.m[i]};
-  }
-};
-
 template <typename T, typename K, typename N>
 struct DensityEvaluator {
   K kernel;

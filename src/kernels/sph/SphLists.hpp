@@ -26,7 +26,7 @@ public:
 
   /// Lists every particle of f (sorted as `cells` describes) against f and the boundary b,
   /// within the support h plus the skin, and takes the positions now as the reference.
-  void build(const exec::Exec& ex, const FluidSet<T>& f, const CellView<T>& cells,
+  void build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>& cells,
              const BoundaryNeighbours<T>& b, T h);
   /// After the fluid moved by at most `motion` since the last call (a true bound; infinity:
   /// unknown), whether the lists may have missed a pair and must be built again. Reads the

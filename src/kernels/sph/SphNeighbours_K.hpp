@@ -9,6 +9,16 @@
 
 namespace kf {
 
+/// The neighbour copy xm[i] = (x_i, m_i) the density pass and the cell list builder read.
+template <typename T>
+struct PackPositionMass {
+  FluidView<T> f;
+  KF_HD KF_INLINE void operator()(std::size_t i) const {
+    const Vec3<T> x = f.x[i];
+    f.xm[i] = {x.x, x.y, x.z, f.m[i]};
+  }
+};
+
 /// Marks a list entry as a boundary particle's index (fluid counts stay below 2^31).
 constexpr std::uint32_t kBoundaryEntry = 0x80000000u;
 
@@ -74,6 +84,66 @@ struct SphListBuilder {
       scan(b.x, b.cells, kBoundaryEntry);
     if (g.lane == 0)
       out.count[i] = c;
+  }
+};
+
+/// The same rows, built by groups of lanes over consecutive particles (exec::for_each_chunk,
+/// lane l taking particle first + l). The group's particles whose cells share a row (y, z) walk
+/// that row's cells together: the union of their candidate rows, each candidate read once from
+/// one address for all lanes. A lane keeps its hits among 32 candidates as bits and appends
+/// them in order. Cells are as wide as the radius, so a particle's neighbours lie in its own
+/// (2 span + 1)^3 cells; the union visits the rows in the same order, each a range holding the
+/// particle's own, so the rows equal SphListBuilder's entry for entry. Why: SphListBuilder's
+/// lanes ran a ballot and a scattered store per candidate (ncu: issue-bound at ~50
+/// instructions a candidate); a warp per cell left most lanes idle where the fluid thins out.
+/// Requires the boundary grid of the same geometry as the fluid's, and x sorted as `cells`
+/// describes.
+template <typename T>
+struct SphChunkListBuilder {
+  const Vec4<T>* xm; // fluid (x, m): one 16-byte load a candidate
+  CellView<T> cells;
+  BoundaryNeighbours<T> b;
+  T radius2;
+  ListSink out;
+  std::size_t n;
+
+  KF_HD void operator()(std::size_t first, exec::Lanes g) const {
+    const std::size_t i = first + g.lane;
+    const bool mine = i < n; // lanes past the end walk along, appending nothing
+    const Vec3<T> xi = xm[mine ? i : first].xyz();
+    int cx, cy, cz;
+    cells.geo.coords(xi, cx, cy, cz);
+    const bool near = mine && b.around(xi);
+    RowAppender row(out, i);
+    // Appends, in order, the candidates in [lo, hi) within the radius (on lanes that `take`).
+    auto scan = [&](std::uint32_t lo, std::uint32_t hi, bool take, std::uint32_t tag,
+                    auto&& position) {
+      for (std::uint32_t base = lo; base < hi; base += 32) {
+        const std::uint32_t m = hi - base < 32 ? hi - base : 32;
+        std::uint32_t hits = 0;
+        for (std::uint32_t t = 0; t < m; ++t)
+          hits |= (norm2(xi - position(base + t)) < radius2 ? 1u : 0u) << t;
+        for (hits = take ? hits : 0u; hits != 0; hits &= hits - 1)
+          row.push((base + lowest_bit(hits)) | tag);
+      }
+    };
+    bool pending = mine;
+    for (unsigned lead = g.first_set(pending); lead < g.size; lead = g.first_set(pending)) {
+      // The lanes in the lead lane's row of cells, and the cells along x they span.
+      const int ry = g.broadcast(cy, lead), rz = g.broadcast(cz, lead);
+      const bool active = pending && cy == ry && cz == rz;
+      const int x0 = g.min(active ? cx : cells.geo.nx), x1 = g.max(active ? cx : -1);
+      cells.for_each_row_range(x0, x1, ry, rz, [&](std::uint32_t lo, std::uint32_t hi) {
+        scan(lo, hi, active, 0u, [&](std::uint32_t j) { return xm[j].xyz(); });
+      });
+      if (g.any(active && near))
+        b.cells.for_each_row_range(x0, x1, ry, rz, [&](std::uint32_t lo, std::uint32_t hi) {
+          scan(lo, hi, active && near, kBoundaryEntry, [&](std::uint32_t k) { return b.x[k]; });
+        });
+      pending = pending && !active;
+    }
+    if (mine)
+      row.finish();
   }
 };
 
