@@ -116,16 +116,25 @@ struct SphChunkListBuilder {
     const bool near = mine && b.around(xi);
     RowAppender row(out, i);
     // Appends, in order, the candidates in [lo, hi) within the radius (on lanes that `take`).
+    // Whole blocks of 32 are unrolled: constant shifts and 32 loads in flight.
     auto scan = [&](std::uint32_t lo, std::uint32_t hi, bool take, std::uint32_t tag,
                     auto&& position) {
-      for (std::uint32_t base = lo; base < hi; base += 32) {
-        const std::uint32_t m = hi - base < 32 ? hi - base : 32;
-        std::uint32_t hits = 0;
-        for (std::uint32_t t = 0; t < m; ++t)
-          hits |= (norm2(xi - position(base + t)) < radius2 ? 1u : 0u) << t;
+      auto append = [&](std::uint32_t base, std::uint32_t hits) {
         for (hits = take ? hits : 0u; hits != 0; hits &= hits - 1)
           row.push((base + lowest_bit(hits)) | tag);
+      };
+      std::uint32_t base = lo;
+      for (; base + 32 <= hi; base += 32) {
+        std::uint32_t hits = 0;
+        KF_UNROLL
+        for (std::uint32_t t = 0; t < 32; ++t)
+          hits |= (norm2(xi - position(base + t)) < radius2 ? 1u : 0u) << t;
+        append(base, hits);
       }
+      std::uint32_t hits = 0;
+      for (std::uint32_t t = 0; base + t < hi; ++t)
+        hits |= (norm2(xi - position(base + t)) < radius2 ? 1u : 0u) << t;
+      append(base, hits);
     };
     bool pending = mine;
     for (unsigned lead = g.first_set(pending); lead < g.size; lead = g.first_set(pending)) {
