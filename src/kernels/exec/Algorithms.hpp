@@ -50,26 +50,7 @@ struct Lanes {
   /// fixed order: deterministic; it differs from a sequential sum by rounding).
   template <typename V>
   KF_HD KF_INLINE V sum(V v) const {
-#if defined(__CUDA_ARCH__)
-    const unsigned mask = group_mask();
-    for (unsigned off = size / 2; off > 0; off /= 2)
-      v += shuffle_xor(mask, v, off);
-#endif
-    return v;
-  }
-
-  /// For appending in lane order: how many lanes of the group below this one have `hit`; the
-  /// group's total goes to *total. Every lane of the group must call it together.
-  KF_HD KF_INLINE unsigned count_below(bool hit, unsigned* total) const {
-#if defined(__CUDA_ARCH__)
-    const unsigned me = threadIdx.x & 31u, mask = group_mask();
-    const unsigned b = __ballot_sync(mask, hit) & mask;
-    *total = static_cast<unsigned>(__popc(b));
-    return static_cast<unsigned>(__popc(b & ((1u << me) - 1u)));
-#else
-    *total = hit ? 1u : 0u;
-    return 0u;
-#endif
+    return butterfly(v, [](const V& a, const V& b) { return a + b; });
   }
 
   /// The lowest lane of the group whose `p` is true, or `size` when none is (all lanes call).
@@ -97,27 +78,25 @@ struct Lanes {
   }
   /// Smallest and largest v over the group, to every lane (all lanes call).
   KF_HD KF_INLINE int min(int v) const {
-#if defined(__CUDA_ARCH__)
-    const unsigned mask = group_mask();
-    for (unsigned off = size / 2; off > 0; off /= 2) {
-      const int o = __shfl_xor_sync(mask, v, static_cast<int>(off));
-      v = o < v ? o : v;
-    }
-#endif
-    return v;
+    return butterfly(v, [](int a, int b) { return b < a ? b : a; });
   }
   KF_HD KF_INLINE int max(int v) const {
-#if defined(__CUDA_ARCH__)
-    const unsigned mask = group_mask();
-    for (unsigned off = size / 2; off > 0; off /= 2) {
-      const int o = __shfl_xor_sync(mask, v, static_cast<int>(off));
-      v = o > v ? o : v;
-    }
-#endif
-    return v;
+    return butterfly(v, [](int a, int b) { return a < b ? b : a; });
   }
 
 private:
+  /// op over the group's lanes in a butterfly of warp shuffles, the result on every lane.
+  template <typename V, typename Op>
+  KF_HD KF_INLINE V butterfly(V v, Op op) const {
+#if defined(__CUDA_ARCH__)
+    const unsigned mask = group_mask();
+    for (unsigned off = size / 2; off > 0; off /= 2)
+      v = op(v, shuffle_xor(mask, v, off));
+#else
+    (void)op;
+#endif
+    return v;
+  }
 #if defined(__CUDA_ARCH__)
   /// This group's lanes within the warp.
   __device__ unsigned group_mask() const {

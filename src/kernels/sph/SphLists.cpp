@@ -49,23 +49,19 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
     throw Error("SPH neighbour lists: " + std::to_string(n) + " fluid and " + std::to_string(b.n) +
                 " boundary particles; at most 2^31 - 1 of each fit a list");
   const T r2 = (h + skin_) * (h + skin_);
-  if (b.n == 0 || same_geometry(cells.geo, b.cells.geo)) {
-    // A warp per 32 particles (SphChunkListBuilder). Measured on an H100, column dp 3.5 mm,
-    // mean per build over its first 0.35 s (1,318 builds): 6.6 ms with 16 lanes a particle
-    // (SphListBuilder), 6.6 with this builder and 4-slot groups, 4.2 with 8-slot groups.
-    const FluidView<T> fv = f.view();
-    exec::for_each(ex, n, PackPositionMass<T>{fv}, "neighbours.pack");
-    auto make = [&](const ListSink& out) {
-      return SphChunkListBuilder<T>{fv.xm, cells, b, r2, out, n};
-    };
-    lists_.template build_chunked<32>(ex, n, make, "neighbours.build");
-  } else {
-    const Vec3<T>* x = f.x.data();
-    auto make = [&](const ListSink& out) { return SphListBuilder<T>{x, cells, b, r2, out}; };
-    // 16 lanes per particle: measured on an H100 (column, 1,100 candidates a particle) 25.6 ms
-    // per build with one lane, 7.8 with 4, 5.6 with 8, 5.2 with 16, 5.1 with 32.
-    lists_.template build_with<16>(ex, n, make, "neighbours.build");
-  }
+  // The builder walks both grids from one cell's coordinates.
+  if (b.n > 0 && !same_geometry(cells.geo, b.cells.geo))
+    throw Error("SPH neighbour lists: the boundary grid's cells differ from the fluid grid's; "
+                "both must cover the same domain with the same cell");
+  // A warp per 32 particles (SphChunkListBuilder). Measured on an H100, column dp 3.5 mm, mean
+  // per build over its first 0.35 s (1,318 builds): 6.6 ms with 16 lanes a particle and ballot
+  // appends, 6.6 with this builder and 4-slot groups, 4.2 with 8-slot groups.
+  const FluidView<T> fv = f.view();
+  exec::for_each(ex, n, PackPositionMass<T>{fv}, "neighbours.pack");
+  auto make = [&](const ListSink& out) {
+    return SphChunkListBuilder<T>{fv.xm, cells, b, r2, out, n};
+  };
+  lists_.template build_chunked<32>(ex, n, make, "neighbours.build");
   if (skin_ > T(0)) {
     x0_.resize(n);
     x0_.copy_from(f.x, n);

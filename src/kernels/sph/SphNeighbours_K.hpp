@@ -1,7 +1,7 @@
 #pragma once
 // Where an SPH particle's neighbours come from, for the evaluators: its fluid and boundary
 // neighbours through one interface, either walked in the grids (SphCellWalk) or read from one
-// list per particle holding both (SphList), built by SphListBuilder. Both call the fluid
+// list per particle holding both (SphList), built by SphChunkListBuilder. Both call the fluid
 // callback for the fluid grid's candidates in cell order, then the boundary callback for the
 // boundary grid's, so a list built this step gives the same sums bit for bit.
 #include "kernels/grid/NeighbourList.hpp"
@@ -50,54 +50,18 @@ struct SphList {
   }
 };
 
-/// Row i: the fluid particles, then the boundary particles, within sqrt(radius2) of x[i], in the
-/// grids' candidate order. The lanes of a group test consecutive candidates of a row together
-/// and append their hits in lane order (Lanes::count_below), so the order is the one-lane walk's:
-/// a lone thread walking ~1,700 candidates with its own appends made the build cost as much as
-/// two passes over the lists (measured, H100).
-template <typename T>
-struct SphListBuilder {
-  const Vec3<T>* x;
-  CellView<T> cells;
-  BoundaryNeighbours<T> b;
-  T radius2;
-  ListSink out;
-
-  KF_HD void operator()(std::size_t i, exec::Lanes g) const {
-    const Vec3<T> xi = x[i];
-    std::uint32_t c = 0;
-    auto scan = [&](const Vec3<T>* y, const CellView<T>& cv, std::uint32_t tag) {
-      cv.for_each_row_range(xi, [&](std::uint32_t lo, std::uint32_t hi) {
-        for (std::uint32_t base = lo; base < hi; base += g.size) {
-          const std::uint32_t j = base + g.lane;
-          const bool hit = j < hi && norm2(xi - y[j]) < radius2;
-          unsigned total;
-          const std::uint32_t k = c + g.count_below(hit, &total);
-          if (hit && k < out.capacity)
-            *out.slot(i, k) = j | tag;
-          c += total;
-        }
-      });
-    };
-    scan(x, cells, 0u);
-    if (b.around(xi))
-      scan(b.x, b.cells, kBoundaryEntry);
-    if (g.lane == 0)
-      out.count[i] = c;
-  }
-};
-
-/// The same rows, built by groups of lanes over consecutive particles (exec::for_each_chunk,
-/// lane l taking particle first + l). The group's particles whose cells share a row (y, z) walk
-/// that row's cells together: the union of their candidate rows, each candidate read once from
-/// one address for all lanes. A lane keeps its hits among 32 candidates as bits and appends
-/// them in order. Cells are as wide as the radius, so a particle's neighbours lie in its own
-/// (2 span + 1)^3 cells; the union visits the rows in the same order, each a range holding the
-/// particle's own, so the rows equal SphListBuilder's entry for entry. Why: SphListBuilder's
-/// lanes ran a ballot and a scattered store per candidate (ncu: issue-bound at ~50
-/// instructions a candidate); a warp per cell left most lanes idle where the fluid thins out.
-/// Requires the boundary grid of the same geometry as the fluid's, and x sorted as `cells`
-/// describes.
+/// Row i: the fluid particles, then the boundary particles, within sqrt(radius2) of particle i,
+/// in the grids' candidate order (the one-lane walk's), built by groups of lanes over
+/// consecutive particles (exec::for_each_chunk, lane l taking particle first + l). The group's
+/// particles whose cells share a row (y, z) walk that row's cells together: the union of their
+/// candidate rows, each candidate read once from one address for all lanes. A lane keeps its hits
+/// among 32 candidates as bits and appends them in order. Cells are as wide as the radius, so a
+/// particle's neighbours lie in its own (2 span + 1)^3 cells; the union visits the rows in the same
+/// order, each a range holding the particle's own, so each row is the one-lane walk's entry for
+/// entry. Why: the builder before, 16 lanes a particle, ran a ballot and a scattered store per
+/// candidate (ncu: issue-bound at ~50 instructions a candidate); a warp per cell left most lanes
+/// idle where the fluid thins. Requires the boundary grid of the same geometry as the fluid's, and
+/// x sorted as `cells` describes.
 template <typename T>
 struct SphChunkListBuilder {
   const Vec4<T>* xm; // fluid (x, m): one 16-byte load a candidate
