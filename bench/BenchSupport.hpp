@@ -123,5 +123,10 @@ inline double bytes_per_step(std::size_t fluid, std::size_t boundary, bool dbl) 
 /// itemised 24 B and 40 B above), for per-stage floors.
 constexpr double kDensityBytesPerFluid = 24.0;
 constexpr double kForcesBytesPerFluid = 40.0;
+/// Under solver.density = "continuity": the predictor streams x m v rho drho drho_prev in and p
+/// xm vp vol out (80 B, no neighbours); the forces pass also reads rho drho drho_prev and writes
+/// them (24 B more).
+constexpr double kPredictBytesPerFluid = 80.0;
+constexpr double kContinuityForcesBytesPerFluid = kForcesBytesPerFluid + 24.0;
 
 } // namespace kf::bench

@@ -321,7 +321,8 @@ SearchModel search_model(const std::string& path) {
 /// (list_reach: the lists' radius over the support; 0 without lists) each pass reads its list
 /// from memory (4 B an entry) and tests the entries instead of the cells' candidates.
 std::vector<Row> floor_rows(const std::string& what, exec::Backend be, const Timing& t,
-                            const SearchModel& m, const Options& opt, double list_reach = 0) {
+                            const SearchModel& m, const Options& opt, double list_reach,
+                            DensityModel density) {
   const double per_cell = m.candidates / std::pow(2.0 * m.span + 1, 3); // particles in a cell
   // Surface and wall particles have fewer fluid candidates; the measured neighbour count scales
   // the lattice's (fluid and boundary candidates together stay about a full lattice near walls).
@@ -333,15 +334,23 @@ std::vector<Row> floor_rows(const std::string& what, exec::Backend be, const Tim
   struct StageModel {
     const char* name;
     double bytes, flops_per_neighbour;
+    bool gathers = true; // false: a streaming pass (the continuity predictor), ~20 flop
   };
+  // Continuity: the density stage predicts without neighbours; the forces pass adds the density
+  // rate and diffusion, ~15 flop a neighbour.
+  const bool cont = density == DensityModel::Continuity;
+  const StageModel stages[2] = {
+      cont ? StageModel{"sph.density", bench::kPredictBytesPerFluid, 0.0, false}
+           : StageModel{"sph.density", bench::kDensityBytesPerFluid, 15.0},
+      cont ? StageModel{"sph.forces", bench::kContinuityForcesBytesPerFluid, 75.0}
+           : StageModel{"sph.forces", bench::kForcesBytesPerFluid, 60.0}};
   std::vector<Row> rows;
-  for (const StageModel& sm : {StageModel{"sph.density", bench::kDensityBytesPerFluid, 15.0},
-                               StageModel{"sph.forces", bench::kForcesBytesPerFluid, 60.0}}) {
+  for (const StageModel& sm : stages) {
     const double seconds = t.stage(sm.name);
     if (std::isnan(seconds))
       continue;
-    const double bytes = sm.bytes + cell_bytes;
-    const double flops = 9.0 * candidates + sm.flops_per_neighbour * neighbours;
+    const double bytes = sm.bytes + (sm.gathers ? cell_bytes : 0.0);
+    const double flops = sm.gathers ? 9.0 * candidates + sm.flops_per_neighbour * neighbours : 20.0;
     const double n = double(t.fluid);
     Row r;
     r.kind = "floor";
@@ -531,7 +540,8 @@ int main(int argc, char** argv) {
           if (t.fluid >= 3.5e6) // P4: 1e9 fluid particle-steps/s at 4M and above
             r.goal_ms = 1e3 * double(t.fluid) / 1e9;
           emit(r);
-          for (const Row& f : floor_rows("dambreak " + what, be, t, *model, opt, list_reach(s)))
+          for (const Row& f :
+               floor_rows("dambreak " + what, be, t, *model, opt, list_reach(s), s.solver.density))
             floors.push_back(f);
           if (mode == "off" && (!largest_fluid_only || t.fluid > largest_fluid_only->second.fluid))
             largest_fluid_only = {"dam break " + what, t};
@@ -558,6 +568,7 @@ int main(int argc, char** argv) {
             model = search_model(column);
           const Scene s = load(column, {bench::spacing_override(dp), no_output,
                                         "solver.neighbour_list=\"" + mode + "\""});
+          what += s.solver.density == DensityModel::Continuity ? " continuity" : " summation";
           const Timing t = time_scene(s, be, opt, 5, 0, column_start <= 0, column_start);
           Row r = row_from("column", what, be, t);
           r.floor_ms = 1e3 * bench::bytes_per_step(t.fluid, t.boundary, false) / opt.bandwidth;
@@ -569,8 +580,8 @@ int main(int argc, char** argv) {
                                  : "; ref: DualSPHysics 5.4 on an H100, 2.14M particles";
           }
           emit(r);
-          for (const Row& f :
-               floor_rows(std::string("column ") + what, be, t, *model, opt, list_reach(s)))
+          for (const Row& f : floor_rows(std::string("column ") + what, be, t, *model, opt,
+                                         list_reach(s), s.solver.density))
             floors.push_back(f);
         } catch (const std::exception& e) {
           failed("column", what, be, e);

@@ -55,7 +55,18 @@ double interpolate(const std::vector<std::pair<double, double>>& t, double x) {
 
 } // namespace
 
-TEST(DamBreak, SurgeFrontAndResidualHeightFollowMartinMoyce) {
+class DamBreak : public ::testing::TestWithParam<DensityModel> {};
+
+// Summation density (the paper's Eq. 2) and the continuity equation with delta-SPH diffusion
+// (solver.density = "continuity") must both follow the experiment.
+INSTANTIATE_TEST_SUITE_P(Density, DamBreak,
+                         ::testing::Values(DensityModel::Summation, DensityModel::Continuity),
+                         [](const auto& info) {
+                           return info.param == DensityModel::Summation ? "Summation"
+                                                                        : "Continuity";
+                         });
+
+TEST_P(DamBreak, SurgeFrontAndResidualHeightFollowMartinMoyce) {
   const auto front_data = read_csv((test::data_dir() / "martin_moyce_1952.csv").string());
   const auto height_data = read_csv((test::data_dir() / "martin_moyce_1952_height.csv").string());
   ASSERT_GE(front_data.size(), 10u);
@@ -67,6 +78,7 @@ TEST(DamBreak, SurgeFrontAndResidualHeightFollowMartinMoyce) {
   s.fluid.eos = EosType::Tait;
   s.fluid.speed_of_sound = 10 * std::sqrt(2 * g * 2 * a); // Mach 0.1 at the largest speed
   s.fluid.viscosity = 0.005;
+  s.solver.density = GetParam();
   ASSERT_TRUE(s.fluid.no_slip);
   auto sim = Simulation::create(s, exec::Backend::Cpu);
 

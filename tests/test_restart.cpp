@@ -46,9 +46,10 @@ class Restart : public ::testing::TestWithParam<Precision> {};
 
 } // namespace
 
-TEST_P(Restart, ContinuesBitForBit) {
-  const Scene s = small_scene(GetParam());
-  const auto dir = test::scratch_dir(std::string("restart_") + std::string(to_string(GetParam())));
+namespace {
+
+void expect_restart_continues(const Scene& s, const std::string& name) {
+  const auto dir = test::scratch_dir("restart_" + name);
   // Uninterrupted: 60 steps, with a snapshot after step 25.
   auto full = Simulation::create(s, exec::Backend::Cpu);
   io::SnapshotWriter writer(MPI_COMM_WORLD, dir.string());
@@ -70,6 +71,33 @@ TEST_P(Restart, ContinuesBitForBit) {
   for (int k = 25; k < 60; ++k)
     resumed->step(1e9);
   expect_frames_equal(full->frame(), resumed->frame());
+}
+
+} // namespace
+
+TEST_P(Restart, ContinuesBitForBit) {
+  expect_restart_continues(small_scene(GetParam()), std::string(to_string(GetParam())));
+}
+
+// Under the continuity equation the density and its last two rates are state: the snapshot
+// carries them (density_rate, density_rate_previous).
+TEST(Restart, ContinuityContinuesBitForBit) {
+  Scene s = small_scene(Precision::Float);
+  s.solver.density = DensityModel::Continuity;
+  expect_restart_continues(s, "continuity");
+}
+
+TEST(Restart, ContinuityRefusesASummationSnapshot) {
+  Scene s = small_scene(Precision::Float);
+  auto a = Simulation::create(s, exec::Backend::Cpu);
+  s.solver.density = DensityModel::Continuity;
+  auto b = Simulation::create(s, exec::Backend::Cpu);
+  try {
+    b->restore(a->frame());
+    FAIL() << "a summation snapshot restarted a continuity run";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("density_rate"), std::string::npos) << e.what();
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Precisions, Restart,

@@ -409,5 +409,20 @@ TEST(Scene, NeighbourSearchOptions) {
   EXPECT_NE(list.find("\"on\""), std::string::npos) << list;
 }
 
+TEST(Scene, DensityModelOptions) {
+  const Scene d = load_scene(scene_file("minimal.toml"));
+  EXPECT_EQ(d.solver.density, DensityModel::Summation);
+  EXPECT_DOUBLE_EQ(d.solver.density_diffusion, 0.1);
+  const Scene s = load_scene(scene_file("minimal.toml"),
+                             {"solver.density=\"continuity\"", "solver.density_diffusion=0.05"});
+  EXPECT_EQ(s.solver.density, DensityModel::Continuity);
+  EXPECT_DOUBLE_EQ(s.solver.density_diffusion, 0.05);
+  const std::string model = load_error(scene_file("minimal.toml"), {"solver.density=\"sum\""});
+  EXPECT_NE(model.find("solver.density"), std::string::npos) << model;
+  EXPECT_NE(model.find("\"continuity\""), std::string::npos) << model;
+  const std::string delta = load_error(scene_file("minimal.toml"), {"solver.density_diffusion=-1"});
+  EXPECT_NE(delta.find("solver.density_diffusion"), std::string::npos) << delta;
+}
+
 } // namespace
 } // namespace kf

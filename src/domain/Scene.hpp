@@ -128,6 +128,9 @@ struct Scene {
     // keeps the lists (and the fluid's order) until some particle has moved half the skin.
     enum class NeighbourLists { On, Off, Verlet } neighbour_list = NeighbourLists::Off;
     double neighbour_skin = 0.1; // "verlet" lists' skin, in units of the support h (measured best)
+    // "summation" (Eq. 2) or "continuity" (drho/dt with delta-SPH diffusion; docs/PHYSICS.md).
+    DensityModel density = DensityModel::Summation;
+    double density_diffusion = 0.1; // continuity: delta of the diffusion term (0: none)
   } solver;
 
   // [fluid]

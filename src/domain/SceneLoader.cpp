@@ -44,6 +44,8 @@ constexpr std::array kNeighbourLists{
     Choice<Scene::Solver::NeighbourLists>{"on", Scene::Solver::NeighbourLists::On},
     Choice<Scene::Solver::NeighbourLists>{"off", Scene::Solver::NeighbourLists::Off},
     Choice<Scene::Solver::NeighbourLists>{"verlet", Scene::Solver::NeighbourLists::Verlet}};
+constexpr std::array kDensityModels{Choice<DensityModel>{"summation", DensityModel::Summation},
+                                    Choice<DensityModel>{"continuity", DensityModel::Continuity}};
 constexpr std::array kEos{Choice<EosType>{"linear", EosType::Linear},
                           Choice<EosType>{"tait", EosType::Tait}};
 constexpr std::array kShapes{Choice<ObstacleShape>{"plane", ObstacleShape::Plane},
@@ -146,10 +148,13 @@ void read_output(const TableReader& t, Scene& s) {
 
 void read_solver(const TableReader& t, Scene::Solver& sv) {
   t.allow_only({"kernel", "cfl", "force_factor", "viscous_factor", "dt_max", "dt_min", "max_steps",
-                "damping", "damping_until", "cell_span", "neighbour_list", "neighbour_skin"});
+                "damping", "damping_until", "cell_span", "neighbour_list", "neighbour_skin",
+                "density", "density_diffusion"});
   t.read("kernel", sv.kernel, kKernels);
   t.read("neighbour_list", sv.neighbour_list, kNeighbourLists);
   t.read("neighbour_skin", sv.neighbour_skin, Range::above_up_to(0, 1));
+  t.read("density", sv.density, kDensityModels);
+  t.read("density_diffusion", sv.density_diffusion, Range::at_least(0));
   t.read("cfl", sv.cfl, Range::above_up_to(0, 1));
   t.read("force_factor", sv.force_factor, Range::above_up_to(0, 1));
   t.read("viscous_factor", sv.viscous_factor, Range::above_up_to(0, 1));

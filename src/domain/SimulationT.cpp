@@ -105,6 +105,7 @@ private:
   void sort_fluid();
   void sort_boundary();
   void compute_forces();
+  bool continuity() const { return scene_.solver.density == DensityModel::Continuity; }
   BoundaryNeighbours<T> boundary_neighbours();
   void extrapolate_boundary_pressure();
   /// Velocity factor of one half kick of a step h: exp(-zeta h / 2) while settling, else 1.
@@ -194,6 +195,9 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   sph_.viscosity = static_cast<T>(scene.fluid.viscosity);
   sph_.no_slip = scene.fluid.no_slip;
   sph_.gravity = vec_cast<T>(scene.gravity);
+  sph_.density = scene.solver.density;
+  sph_.diffusion =
+      static_cast<T>(scene.solver.density_diffusion * 0.5 * h_ * scene.fluid.speed_of_sound);
 
   build_pipeline();
   if (plan_only)
@@ -235,6 +239,10 @@ void SimulationT<T>::init_particles() {
     fluid_->v.assign(vs);
     fluid_->a.assign(std::vector<Vec3<T>>(x.size(), Vec3<T>{}));
     fluid_->m.assign(std::vector<T>(x.size(), static_cast<T>(m)));
+    // The continuity equation starts from rest density (summation recomputes it).
+    fluid_->rho.assign(std::vector<T>(x.size(), static_cast<T>(scene_.fluid.rest_density)));
+    fluid_->drho.assign(std::vector<T>(x.size(), T(0)));
+    fluid_->drho_prev.assign(std::vector<T>(x.size(), T(0)));
     fluid_->id.assign(ids);
     next_fluid_id_ = ids.size();
     const int span = static_cast<int>(scene_.solver.cell_span);
@@ -441,17 +449,27 @@ void SimulationT<T>::build_pipeline() {
                     lists == Lists::On ? "sort fluid by cell, cell ranges, neighbour lists"
                                        : "sort fluid by cell, cell ranges",
                     [this] { sort_fluid(); });
-    pipeline_.add("sph.density", "fluid", "density (Eq. 2) and pressure (EOS)", [this] {
-      sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
-                  fluid_list_view());
-    });
+    if (continuity())
+      pipeline_.add(
+          "sph.density", "fluid",
+          "density predicted from the continuity equation's last rate, pressure (EOS)",
+          [this] { sph_density_predict(ex_, sph_, fluid_->view(), static_cast<T>(dt_)); });
+    else
+      pipeline_.add("sph.density", "fluid", "density (Eq. 2) and pressure (EOS)", [this] {
+        sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+                    fluid_list_view());
+      });
     if (boundary_on_)
       pipeline_.add("boundary.pressure", "boundary", "wall pressure from the fluid (Adami 2012)",
                     [this] { extrapolate_boundary_pressure(); });
-    pipeline_.add("sph.forces", "fluid", "pressure (Eq. 3), viscosity (Eq. 4), gravity", [this] {
-      sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
-                 fluid_list_view());
-    });
+    pipeline_.add("sph.forces", "fluid",
+                  continuity() ? "pressure (Eq. 3), viscosity (Eq. 4), gravity; density rate "
+                                 "(continuity, delta-SPH diffusion) and the density's step"
+                               : "pressure (Eq. 3), viscosity (Eq. 4), gravity",
+                  [this] {
+                    sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(),
+                               boundary_neighbours(), fluid_list_view(), static_cast<T>(dt_));
+                  });
     pipeline_.add("integrate.kick", "fluid", "velocity Verlet: half kick", [this] {
       auto f = fluid_->view();
       kick(ex_, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_), "integrate.kick");
@@ -513,17 +531,23 @@ BoundaryNeighbours<T> SimulationT<T>::boundary_neighbours() {
           sph_.no_slip ? boundary_->v.data() : nullptr,
           boundary_grid_->view(),
           boundary_->size(),
-          boundary_near_.data()};
+          boundary_near_.data(),
+          continuity() ? boundary_->obstacle.data() : nullptr,
+          continuity() && moving_ ? shapes_.data() : nullptr};
 }
 
 template <typename T>
 void SimulationT<T>::compute_forces() {
-  sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
-              fluid_list_view());
+  // dt 0: the density stays as it is (continuity), only its rate and the forces are evaluated.
+  if (continuity())
+    sph_density_predict(ex_, sph_, fluid_->view(), T(0));
+  else
+    sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+                fluid_list_view());
   if (boundary_on_)
     extrapolate_boundary_pressure();
   sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
-             fluid_list_view());
+             fluid_list_view(), T(0));
 }
 
 template <typename T>
@@ -639,6 +663,11 @@ io::Frame SimulationT<T>::frame() const {
     p.fields.push_back(io::Field::from("mass", fluid_->m.to_host(), 1));
     p.fields.push_back(io::Field::from("density", fluid_->rho.to_host(), 1));
     p.fields.push_back(io::Field::from("pressure", fluid_->p.to_host(), 1));
+    if (continuity()) // state the next step needs, like the acceleration
+    {
+      p.fields.push_back(io::Field::from("density_rate", fluid_->drho.to_host(), 1));
+      p.fields.push_back(io::Field::from("density_rate_previous", fluid_->drho_prev.to_host(), 1));
+    }
     p.fields.push_back(io::Field::from("id", fluid_->id.to_host(), 1));
     fr.phases.push_back(std::move(p));
   }
@@ -707,6 +736,18 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     fluid_->m.assign(require(*p, "mass").as<T>());
     fluid_->rho.assign(require(*p, "density").as<T>());
     fluid_->p.assign(require(*p, "pressure").as<T>());
+    if (continuity()) {
+      const io::Field* r = p->find("density_rate");
+      if (!r)
+        throw Error("restart: the snapshot's fluid has no density_rate but the scene integrates "
+                    "the density (solver.density = \"continuity\"); it was written with "
+                    "\"summation\"");
+      fluid_->drho.assign(r->as<T>());
+      fluid_->drho_prev.assign(require(*p, "density_rate_previous").as<T>());
+    } else {
+      fluid_->drho.assign(std::vector<T>(x.size(), T(0)));
+      fluid_->drho_prev.assign(std::vector<T>(x.size(), T(0)));
+    }
     fluid_->id.assign(require(*p, "id").as<std::uint64_t>());
   }
   if (boundary_on_) {

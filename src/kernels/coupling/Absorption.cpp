@@ -217,6 +217,8 @@ std::size_t ConservingAbsorption<T>::emit(const exec::Exec& ex, KnitSet<T>& knit
         f.m[j] = drop;
         f.rho[j] = prm.rho0;
         f.p[j] = T(0);
+        f.drho[j] = T(0);
+        f.drho_prev[j] = T(0);
         f.id[j] = id0 + o[i];
       },
       "absorb.emit");

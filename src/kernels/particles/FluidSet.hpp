@@ -16,6 +16,10 @@ struct FluidView {
   T* rho;
   T* p;
   std::uint64_t* id; // global id, never changes
+  // drho/dt of this step and of the last (solver.density = "continuity"; else unused): kept
+  // across steps like a, since the next step's density predictor extrapolates from both.
+  T* drho;
+  T* drho_prev;
   std::size_t n;
   // Copies the SPH passes gather from neighbours, packed so that a neighbour costs few loads
   // (the passes were bound by load instructions, docs/PERFORMANCE.md): (x, m) written before
@@ -33,8 +37,8 @@ public:
 
   std::size_t size() const { return x.size(); }
   void resize(std::size_t n);
-  /// Reorders the state carried across steps (x, v, a, m, id); rho and p are recomputed after a
-  /// sort.
+  /// Reorders the state carried across steps (x, v, a, m, rho, drho, drho_prev, id); p is
+  /// recomputed after a sort.
   void reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm);
   FluidView<T> view();
   /// Keeps the particles whose flag is nonzero (flags: one per particle), in their order, with
@@ -44,7 +48,7 @@ public:
   static std::size_t bytes_per_particle();
 
   exec::DeviceBuffer<Vec3<T>> x, v, a;
-  exec::DeviceBuffer<T> m, rho, p;
+  exec::DeviceBuffer<T> m, rho, p, drho, drho_prev;
   exec::DeviceBuffer<std::uint64_t> id;
   // Per-step gather copies (FluidView::xm, vp, vol): recomputed every step, never reordered;
   // view() keeps them as long as the particle count.

@@ -9,7 +9,8 @@ namespace kf {
 template <typename T>
 FluidSet<T>::FluidSet(exec::Backend b)
     : x(b, 0, "fluid.x"), v(b, 0, "fluid.v"), a(b, 0, "fluid.a"), m(b, 0, "fluid.m"),
-      rho(b, 0, "fluid.rho"), p(b, 0, "fluid.p"), id(b, 0, "fluid.id"), xm(b, 0, "fluid.xm"),
+      rho(b, 0, "fluid.rho"), p(b, 0, "fluid.p"), drho(b, 0, "fluid.drho"),
+      drho_prev(b, 0, "fluid.drho_prev"), id(b, 0, "fluid.id"), xm(b, 0, "fluid.xm"),
       vp(b, 0, "fluid.vp"), vol(b, 0, "fluid.vol"), scratch_v3_(b, 0, "fluid.scratch"),
       scratch_t_(b, 0, "fluid.scratch"), scratch_id_(b, 0, "fluid.scratch"),
       offsets_(b, 0, "fluid.keep_offsets"), kept_(b, 0, "fluid.kept") {}
@@ -25,7 +26,6 @@ std::size_t FluidSet<T>::keep_flagged(const exec::Exec& ex,
   if (kept == n)
     return 0;
   reorder(ex, kept_);
-  permute(ex, kept_, rho, scratch_t_, "fluid.keep");
   permute(ex, kept_, p, scratch_t_, "fluid.keep");
   return n - kept;
 }
@@ -38,6 +38,8 @@ void FluidSet<T>::resize(std::size_t n) {
   m.resize(n);
   rho.resize(n);
   p.resize(n);
+  drho.resize(n);
+  drho_prev.resize(n);
   id.resize(n);
 }
 
@@ -47,6 +49,11 @@ void FluidSet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::ui
   permute(ex, perm, v, scratch_v3_, "fluid.reorder");
   permute(ex, perm, a, scratch_v3_, "fluid.reorder");
   permute(ex, perm, m, scratch_t_, "fluid.reorder");
+  // rho and its rates are state under the continuity equation; summation recomputes rho (3 x 4 B
+  // a particle more per sort, which lists sort seldom).
+  permute(ex, perm, rho, scratch_t_, "fluid.reorder");
+  permute(ex, perm, drho, scratch_t_, "fluid.reorder");
+  permute(ex, perm, drho_prev, scratch_t_, "fluid.reorder");
   permute(ex, perm, id, scratch_id_, "fluid.reorder");
 }
 
@@ -58,15 +65,15 @@ FluidView<T> FluidSet<T>::view() {
     vp.resize(n);
     vol.resize(n);
   }
-  return {x.data(),  v.data(), a.data(),  m.data(),  rho.data(), p.data(),
-          id.data(), n,        xm.data(), vp.data(), vol.data()};
+  return {x.data(),    v.data(),         a.data(), m.data(),  rho.data(), p.data(),  id.data(),
+          drho.data(), drho_prev.data(), n,        xm.data(), vp.data(),  vol.data()};
 }
 
 template <typename T>
 std::size_t FluidSet<T>::bytes_per_particle() {
-  // x v a + scratch (Vec3), m rho p + scratch (T), id + scratch, grid keys + permutation, the
-  // SPH gather copies (xm, vp, vol).
-  return 4 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint64_t) +
+  // x v a + scratch (Vec3), m rho p drho drho_prev + scratch (T), id + scratch, grid keys +
+  // permutation, the SPH gather copies (xm, vp, vol).
+  return 4 * sizeof(Vec3<T>) + 6 * sizeof(T) + 2 * sizeof(std::uint64_t) +
          2 * sizeof(std::uint32_t) + 2 * sizeof(Vec4<T>) + sizeof(T);
 }
 

@@ -3,6 +3,8 @@
 #include "kernels/sph/SmoothingKernels.hpp"
 #include "kernels/sph/SphEvaluators_K.hpp"
 
+#include <type_traits>
+
 namespace kf {
 
 template <typename T>
@@ -32,15 +34,28 @@ void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryVi
 }
 
 template <typename T>
+void sph_density_predict(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, T dt) {
+  exec::for_each(ex, f.n, DensityPredictor<T>{prm.eos, f, dt}, "sph.predict");
+}
+
+template <typename T>
 void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                const BoundaryNeighbours<T>& b, const ListView<T>& list) {
-  with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
+                const BoundaryNeighbours<T>& b, const ListView<T>& list, T dt) {
+  auto run = [&](auto k, auto continuity) {
     using K = decltype(k);
+    constexpr bool C = decltype(continuity)::value;
     if (list.count)
-      exec::for_each(ex, f.n, ForceEvaluator<T, K, SphList<T>>{k, prm, f, {list}, b}, "sph.forces");
-    else
-      exec::for_each(ex, f.n, ForceEvaluator<T, K, SphCellWalk<T>>{k, prm, f, {cells, b}, b},
+      exec::for_each(ex, f.n, ForceEvaluator<T, K, SphList<T>, C>{k, prm, f, {list}, b, dt},
                      "sph.forces");
+    else
+      exec::for_each(ex, f.n, ForceEvaluator<T, K, SphCellWalk<T>, C>{k, prm, f, {cells, b}, b, dt},
+                     "sph.forces");
+  };
+  with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
+    if (prm.density == DensityModel::Continuity)
+      run(k, std::true_type{});
+    else
+      run(k, std::false_type{});
   });
 }
 
@@ -49,8 +64,9 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
                                const BoundaryNeighbours<T>&, const ListView<T>&);                  \
   template void boundary_pressure<T>(const exec::Exec&, const SphParams<T>&, BoundaryView<T>,      \
                                      const FluidView<T>&, CellView<T>, const RigidShape<T>*);      \
+  template void sph_density_predict<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, T);   \
   template void sph_forces<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,   \
-                              const BoundaryNeighbours<T>&, const ListView<T>&);
+                              const BoundaryNeighbours<T>&, const ListView<T>&, T);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

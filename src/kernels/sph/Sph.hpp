@@ -19,6 +19,10 @@ struct SphParams {
   T viscosity = T(1e-3); // dynamic viscosity mu
   bool no_slip = true;   // walls carry viscous stress (Eq. 4 with the wall particles' velocity)
   Vec3<T> gravity{T(0), T(0), T(-9.81)};
+  DensityModel density = DensityModel::Summation;
+  // Continuity: the delta-SPH diffusion coefficient delta h c0, with h the smoothing length (half
+  // the support, DualSPHysics's h for its kernels of support 2h).
+  T diffusion = T(0);
 };
 
 /// Boundary particles seen by fluid kernels (empty when the scene has no boundary module).
@@ -34,6 +38,17 @@ struct BoundaryNeighbours {
   // Per linear cell of `cells`' geometry: 1 where boundary particles lie around (null: walk
   // every cell). Most fluid lies far from any wall; this saves its empty boundary-cell walks.
   const std::uint8_t* near = nullptr;
+  // The solids' own velocity, which the continuity equation sees (the no-slip v above is a ghost
+  // velocity for the viscous term only): shapes[obstacle[k]], walls at rest. Null: all at rest.
+  const std::uint32_t* obstacle = nullptr;
+  const RigidShape<T>* shapes = nullptr;
+
+  KF_HD KF_INLINE Vec3<T> wall_velocity(std::uint32_t k) const {
+    if (!shapes)
+      return {T(0), T(0), T(0)};
+    const std::uint32_t o = obstacle[k];
+    return o == kWallObstacle ? Vec3<T>{T(0), T(0), T(0)} : shapes[o].velocity;
+  }
 
   /// Whether the boundary loop from x can find anything.
   KF_HD KF_INLINE bool around(const Vec3<T>& x) const {
@@ -64,10 +79,18 @@ template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
                        const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes);
 
+/// The continuity equation's part of a step before the neighbour pass (prm.density =
+/// Continuity): the pressure of the density predicted for the step's end, rho + dt (2 drho -
+/// drho_prev), and the gather copies, for every fluid particle.
+template <typename T>
+void sph_density_predict(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, T dt);
+
 /// a_i = g + pressure (Eq. 3) + viscosity (Eq. 4) + boundary pressure, for every fluid particle.
-/// After sph_density at the same positions (it reads the gather copies that pass wrote).
+/// After sph_density (or sph_density_predict, with the same dt) at the same positions: it reads
+/// the gather copies that pass wrote. Under the continuity equation the same pass also gives
+/// drho_i/dt and takes the density's step, rho += dt drho (dt 0: the rate at t = 0 only).
 template <typename T>
 void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                const BoundaryNeighbours<T>& b, const ListView<T>& list = {});
+                const BoundaryNeighbours<T>& b, const ListView<T>& list = {}, T dt = T(0));
 
 } // namespace kf

@@ -6,6 +6,27 @@
 
 namespace kf {
 
+/// Particle i's pressure from its density rho, and the forces pass's neighbour copies:
+/// (v, m P / rho^2) and m / rho (rho > 0).
+template <typename T>
+KF_HD KF_INLINE void write_pressure(const FluidView<T>& f, std::size_t i, const Eos<T>& eos, T rho,
+                                    T m) {
+  const T p = eos.pressure(rho);
+  f.p[i] = p;
+  const T inv_rho = krcp(rho);
+  const Vec3<T> v = f.v[i];
+  f.vp[i] = {v.x, v.y, v.z, m * p * inv_rho * inv_rho};
+  f.vol[i] = m * inv_rho;
+}
+
+/// Continuity: the density a step of dt is predicted to reach, rho + dt (2 drho - drho_prev), the
+/// rate extrapolated from the last two steps (docs/PHYSICS.md: with the last rate alone the
+/// scheme amplifies sound waves; this one damps them slightly).
+template <typename T>
+KF_HD KF_INLINE T predicted_density(const FluidView<T>& f, std::size_t i, T dt) {
+  return f.rho[i] + dt * (T(2) * f.drho[i] - f.drho_prev[i]);
+}
+
 // N: where a particle's neighbours come from (SphNeighbours_K.hpp): SphCellWalk (the grids'
 // candidates) or SphList (lists); both meet the neighbours in the same order, so sums agree.
 template <typename T, typename K, typename N>
@@ -34,14 +55,24 @@ struct DensityEvaluator {
             vol += b.volume[k] * kernel.W(ksqrt(r2));
         });
     rho += eos.rho0 * vol; // psi_b = rho0 V_b
-    const T p = eos.pressure(rho);
     f.rho[i] = rho;
-    f.p[i] = p;
-    // The forces pass's neighbour copies: (v, m P / rho^2) and m / rho (rho > 0: the i term).
-    const T inv_rho = krcp(rho), m = f.m[i];
-    const Vec3<T> v = f.v[i];
-    f.vp[i] = {v.x, v.y, v.z, m * p * inv_rho * inv_rho};
-    f.vol[i] = m * inv_rho;
+    write_pressure(f, i, eos, rho, f.m[i]);
+  }
+};
+
+/// Continuity equation, before the neighbour pass: the pressure of the density predicted over the
+/// step and the gather copies (rho itself changes in the forces pass).
+template <typename T>
+struct DensityPredictor {
+  Eos<T> eos;
+  FluidView<T> f;
+  T dt;
+
+  KF_HD void operator()(std::size_t i) const {
+    const Vec3<T> x = f.x[i];
+    const T m = f.m[i];
+    f.xm[i] = {x.x, x.y, x.z, m};
+    write_pressure(f, i, eos, predicted_density(f, i, dt), m);
   }
 };
 
@@ -85,27 +116,43 @@ struct BoundaryPressureEvaluator {
   }
 };
 
-template <typename T, typename K, typename N>
+// Continuity: the same pass also sums drho_i/dt (see operator()) and ends the density's step.
+template <typename T, typename K, typename N, bool Continuity = false>
 struct ForceEvaluator {
   K kernel;
   SphParams<T> prm;
   FluidView<T> f;
   N nb;
   BoundaryNeighbours<T> b;
+  T dt = T(0); // Continuity: the step, rho += dt drho (0: the forces at t = 0, rho kept)
 
   // On the GPU the lanes of a warp walk their candidates together and ~85% of candidates are
   // out of range, so whenever one lane has a neighbour the whole warp runs the pair code: its
   // cost is paid per candidate. It is written with one reciprocal square root and two
   // reciprocals (no divisions): grad W = r_ij dW/dr / r, and r . grad W = r^2 dW/dr / r.
+  //
+  // Continuity (DualSPHysics's form, with Fourtakas et al. 2019's diffusion):
+  //   drho_i/dt = rho_i sum_j V_j v_ij . grad W_ij
+  //             + 2 delta h c0 sum_j V_j (rho_j - rho_i - (rho^H_j - rho^H_i)) (-r^2 dW/dr / r)
+  //               / (r^2 + eta^2),
+  // V_j = m_j / rho_j, so V_j (rho_j - rho_i) = m_j - V_j rho_i: no division. rho^H is the
+  // hydrostatic density, rho^H_j - rho^H_i = -rho0 g . r_ij / c^2 (the EOS linearised at rho0):
+  // without it the diffusion would drive a column at rest towards uniform density. The
+  // diffusion acts between fluid particles only; walls enter the rate with their own velocity.
   KF_HD void operator()(std::size_t i) const {
     const Vec3<T> xi = f.x[i];
     const Vec3<T> vi = f.v[i];
     const T h2 = kernel.h * kernel.h;
     const T eta2 = T(0.01) * h2; // keeps the viscous term finite as r -> 0 (Morris et al. 1997)
-    const T inv_rho_i = krcp(f.rho[i]);
+    const T rho_i = Continuity ? predicted_density(f, i, dt) : f.rho[i];
+    const T inv_rho_i = krcp(rho_i);
     const T pi = f.p[i] * inv_rho_i * inv_rho_i;
     const T mu2 = T(2) * prm.viscosity;
     Vec3<T> acc = prm.gravity;
+    // Continuity: sum V_j v_ij . grad W, and the diffusion's sum.
+    [[maybe_unused]] T rate = T(0), diffuse = T(0);
+    // rho^H_j - rho^H_i = -hydro . r_ij.
+    [[maybe_unused]] const Vec3<T> hydro = prm.gravity * (prm.eos.rho0 * krcp(prm.eos.c2));
     // Boundary particles act as fluid particles of mass psi_b = rho0 V_b and pressure P_b. Both
     // sources meet every fluid neighbour before any boundary one, so the sums keep one order.
     const T rho0 = prm.eos.rho0;
@@ -120,12 +167,18 @@ struct ForceEvaluator {
           const T inv_r = krsqrt(r2);
           const T dw = kernel.dWdr(r2 * inv_r) * inv_r; // grad W = rij dw
           const Vec4<T> vpj = f.vp[j];                  // (v_j, m_j P_j / rho_j^2)
+          const T vol_j = f.vol[j];                     // m_j / rho_j
           // Eq. 3: pressure, symmetric in i and j so pair forces cancel.
           const T press = xmj.w * pi + vpj.w;
           // Eq. 4 (Morris form): mu_i + mu_j, relative velocity, (r . grad W) / (r^2 + eta^2),
           // with m_j / rho_j from the density pass.
-          const T visc = mu2 * inv_rho_i * f.vol[j] * (r2 * dw) * krcp(r2 + eta2);
-          acc += (vi - vpj.xyz()) * visc - rij * (dw * press);
+          const T lap = (r2 * dw) * krcp(r2 + eta2);
+          const Vec3<T> vij = vi - vpj.xyz();
+          acc += vij * (mu2 * inv_rho_i * vol_j * lap) - rij * (dw * press);
+          if constexpr (Continuity) {
+            rate += vol_j * dw * dot(vij, rij);
+            diffuse -= (xmj.w - vol_j * (rho_i - dot(hydro, rij))) * lap;
+          }
         },
         [&](std::uint32_t k) {
           const Vec3<T> rik = xi - b.x[k];
@@ -135,12 +188,23 @@ struct ForceEvaluator {
           const T inv_r = krsqrt(r2);
           const T dw = kernel.dWdr(r2 * inv_r) * inv_r;
           const T inv_rho_k = krcp(b.rho[k]);
-          const T mk = rho0 * b.volume[k];
+          const T vk = b.volume[k];
+          const T mk = rho0 * vk;
           acc -= rik * (dw * mk * (pi + b.p[k] * inv_rho_k * inv_rho_k));
           if (b.v)
             acc += (vi - b.v[k]) * (mk * mu2 * inv_rho_i * inv_rho_k * (r2 * dw) * krcp(r2 + eta2));
+          if constexpr (Continuity)
+            rate += vk * dw * dot(vi - b.wall_velocity(k), rik);
         });
     f.a[i] = acc;
+    if constexpr (Continuity) {
+      // rho^{n+1} = rho^n + dt drho(x^{n+1}, v^{n+1/2}), like x^{n+1} = x^n + dt v^{n+1/2}; the
+      // forces above used the predicted density. dt 0 (t = 0): no history, the rate is its own.
+      const T drho = rho_i * rate + T(2) * prm.diffusion * diffuse;
+      f.rho[i] += dt * drho;
+      f.drho_prev[i] = dt > T(0) ? f.drho[i] : drho;
+      f.drho[i] = drho;
+    }
   }
 };
 
