@@ -156,6 +156,7 @@ private:
   MotionBounds<T> fluid_bounds_{}; // the fluid's speed and acceleration bounds at step start
   double fluid_step_motion() const;
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
+  exec::DeviceBuffer<std::uint8_t> fluid_near_{exec::Backend::Cpu, 0, "fluid.near"};
   exec::DeviceBuffer<MotionBounds<T>> bounds_{exec::Backend::Cpu, 0, "integrate.dt"}; // knit, fluid
   ListView<T> fluid_list_view() const { return fluid_list_ ? fluid_list_->view() : ListView<T>{}; }
   RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
@@ -167,8 +168,8 @@ template <typename T>
 SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only)
     : scene_(scene), ex_{backend}, guard_count_(backend, 0, "boundary.guard_count"),
       flags_(backend, 0, "fluid.flags"), boundary_near_(backend, 0, "boundary.near"),
-      bounds_(backend, 2, "integrate.dt"), solids_(scene, backend),
-      shapes_(backend, 0, "rigid.shapes") {
+      fluid_near_(backend, 0, "fluid.near"), bounds_(backend, 2, "integrate.dt"),
+      solids_(scene, backend), shapes_(backend, 0, "rigid.shapes") {
   guard_count_.assign(std::vector<std::uint64_t>{0});
   fluid_on_ = scene.has(Module::Fluid);
   boundary_on_ = scene.has(Module::Boundary);
@@ -490,6 +491,8 @@ void SimulationT<T>::sort_fluid() {
   ++fluid_sorts_;
   fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
   fluid_->reorder(ex_, fluid_grid_->permutation());
+  if (boundary_on_) // for boundary.pressure, which walks this grid until the next sort
+    fluid_grid_->occupied_around(ex_, fluid_near_);
   if (fluid_list_)
     fluid_list_->build(ex_, *fluid_, fluid_grid_->view(), boundary_neighbours(),
                        static_cast<T>(h_));
@@ -555,7 +558,7 @@ void SimulationT<T>::extrapolate_boundary_pressure() {
   if (boundary_->size() == 0)
     return;
   boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
-                    shapes_.data());
+                    shapes_.data(), fluid_near_.data());
 }
 
 template <typename T>
@@ -862,7 +865,7 @@ std::size_t SimulationT<T>::memory_bytes() const {
          (fluid_list_ ? fluid_list_->bytes() : 0);
   if (boundary_)
     b += boundary_->size() * BoundarySet<T>::bytes_per_particle() + boundary_grid_->bytes() +
-         boundary_near_.capacity_bytes();
+         boundary_near_.capacity_bytes() + fluid_near_.capacity_bytes();
   if (knit_)
     b += knit_->bytes();
   return b;

@@ -13,7 +13,7 @@ template <typename T>
 struct Eos {
   EosType type = EosType::Tait;
   T rho0 = T(1000);
-  T c2 = T(400);  // speed of sound squared
+  T c2 = T(400); // speed of sound squared
   T gamma = T(7);
   bool clamp_negative = true; // free surfaces: no tension, which would clump particles
 
@@ -29,7 +29,8 @@ struct Eos {
   }
   /// The density at which the EOS gives pressure p (inverse of pressure() for p >= 0).
   KF_HD KF_INLINE T density(T p) const {
-    if (type == EosType::Linear) return rho0 + p / c2;
+    if (type == EosType::Linear)
+      return rho0 + p / c2;
     const T B = rho0 * c2 / gamma;
     return rho0 * kpow(p / B + T(1), T(1) / gamma);
   }

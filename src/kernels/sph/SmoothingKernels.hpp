@@ -12,7 +12,8 @@ struct KernelBase {
   /// Gradient with respect to the first particle's position, for r_vec = x_i - x_j.
   template <typename K>
   KF_HD KF_INLINE static Vec3<T> grad_of(const K& k, const Vec3<T>& r_vec, T r) {
-    if (r <= T(0) || r >= k.h) return {T(0), T(0), T(0)};
+    if (r <= T(0) || r >= k.h)
+      return {T(0), T(0), T(0)};
     return r_vec * (k.dWdr(r) / r);
   }
 };
@@ -25,16 +26,20 @@ struct SpikyKernel : KernelBase<T> {
   KF_HD explicit SpikyKernel(T h_) : h(h_), c(T(15) / (T(3.14159265358979323846) * pow6(h_))) {}
   KF_HD KF_INLINE static T pow6(T x) { return x * x * x * x * x * x; }
   KF_HD KF_INLINE T W(T r) const {
-    if (r >= h) return T(0);
+    if (r >= h)
+      return T(0);
     const T d = h - r;
     return c * d * d * d;
   }
   KF_HD KF_INLINE T dWdr(T r) const {
-    if (r >= h) return T(0);
+    if (r >= h)
+      return T(0);
     const T d = h - r;
     return T(-3) * c * d * d;
   }
-  KF_HD KF_INLINE Vec3<T> grad(const Vec3<T>& r_vec, T r) const { return this->grad_of(*this, r_vec, r); }
+  KF_HD KF_INLINE Vec3<T> grad(const Vec3<T>& r_vec, T r) const {
+    return this->grad_of(*this, r_vec, r);
+  }
 };
 
 /// Cubic B-spline (Monaghan 1992) written with support h (smoothing length h/2).
@@ -45,19 +50,25 @@ struct CubicSplineKernel : KernelBase<T> {
       : h(h_), inv_h(T(1) / h_), c(T(8) / (T(3.14159265358979323846) * h_ * h_ * h_)) {}
   KF_HD KF_INLINE T W(T r) const {
     const T q = r * inv_h;
-    if (q >= T(1)) return T(0);
-    if (q <= T(0.5)) return c * (T(6) * (q * q * q - q * q) + T(1));
+    if (q >= T(1))
+      return T(0);
+    if (q <= T(0.5))
+      return c * (T(6) * (q * q * q - q * q) + T(1));
     const T d = T(1) - q;
     return c * T(2) * d * d * d;
   }
   KF_HD KF_INLINE T dWdr(T r) const {
     const T q = r * inv_h;
-    if (q >= T(1)) return T(0);
-    if (q <= T(0.5)) return c * inv_h * T(6) * (T(3) * q * q - T(2) * q);
+    if (q >= T(1))
+      return T(0);
+    if (q <= T(0.5))
+      return c * inv_h * T(6) * (T(3) * q * q - T(2) * q);
     const T d = T(1) - q;
     return c * inv_h * T(-6) * d * d;
   }
-  KF_HD KF_INLINE Vec3<T> grad(const Vec3<T>& r_vec, T r) const { return this->grad_of(*this, r_vec, r); }
+  KF_HD KF_INLINE Vec3<T> grad(const Vec3<T>& r_vec, T r) const {
+    return this->grad_of(*this, r_vec, r);
+  }
 };
 
 /// Wendland C2 (Wendland 1995; Dehnen & Aly 2012) in 3D with support h.
@@ -68,27 +79,34 @@ struct WendlandC2Kernel : KernelBase<T> {
       : h(h_), inv_h(T(1) / h_), c(T(21) / (T(2) * T(3.14159265358979323846) * h_ * h_ * h_)) {}
   KF_HD KF_INLINE T W(T r) const {
     const T q = r * inv_h;
-    if (q >= T(1)) return T(0);
+    if (q >= T(1))
+      return T(0);
     const T d = T(1) - q;
     const T d2 = d * d;
     return c * d2 * d2 * (T(1) + T(4) * q);
   }
   KF_HD KF_INLINE T dWdr(T r) const {
     const T q = r * inv_h;
-    if (q >= T(1)) return T(0);
+    if (q >= T(1))
+      return T(0);
     const T d = T(1) - q;
     return c * inv_h * T(-20) * q * d * d * d;
   }
-  KF_HD KF_INLINE Vec3<T> grad(const Vec3<T>& r_vec, T r) const { return this->grad_of(*this, r_vec, r); }
+  KF_HD KF_INLINE Vec3<T> grad(const Vec3<T>& r_vec, T r) const {
+    return this->grad_of(*this, r_vec, r);
+  }
 };
 
 /// Calls f(kernel) with the kernel object the scene selected: one switch instead of one per stage.
 template <typename T, typename F>
 decltype(auto) with_kernel(KernelType type, T h, F&& f) {
   switch (type) {
-  case KernelType::CubicSpline: return f(CubicSplineKernel<T>(h));
-  case KernelType::WendlandC2: return f(WendlandC2Kernel<T>(h));
-  case KernelType::Spiky: break;
+  case KernelType::CubicSpline:
+    return f(CubicSplineKernel<T>(h));
+  case KernelType::WendlandC2:
+    return f(WendlandC2Kernel<T>(h));
+  case KernelType::Spiky:
+    break;
   }
   return f(SpikyKernel<T>(h));
 }

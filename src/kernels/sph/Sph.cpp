@@ -24,11 +24,12 @@ void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, 
 
 template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
-                       const FluidView<T>& f, CellView<T> fluid_cells,
-                       const RigidShape<T>* shapes) {
+                       const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes,
+                       const std::uint8_t* fluid_near) {
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
     using K = decltype(k);
-    exec::for_each(ex, b.n, BoundaryPressureEvaluator<T, K>{k, prm, b, f, fluid_cells, shapes},
+    exec::for_each(ex, b.n,
+                   BoundaryPressureEvaluator<T, K>{k, prm, b, f, fluid_cells, shapes, fluid_near},
                    "boundary.pressure");
   });
 }
@@ -63,7 +64,8 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
   template void sph_density<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,  \
                                const BoundaryNeighbours<T>&, const ListView<T>&);                  \
   template void boundary_pressure<T>(const exec::Exec&, const SphParams<T>&, BoundaryView<T>,      \
-                                     const FluidView<T>&, CellView<T>, const RigidShape<T>*);      \
+                                     const FluidView<T>&, CellView<T>, const RigidShape<T>*,       \
+                                     const std::uint8_t*);                                         \
   template void sph_density_predict<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, T);   \
   template void sph_forces<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,   \
                               const BoundaryNeighbours<T>&, const ListView<T>&, T);

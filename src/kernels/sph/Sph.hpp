@@ -75,9 +75,12 @@ void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, 
 /// Static and constant-velocity solids have a_b = 0. With prm.no_slip it also sets the velocity
 /// the viscous term sees, v_b = 2 v_wall - sum_f v_f W / sum_f W, so the fluid's velocity
 /// extrapolates to the wall's at the wall surface. shapes[obstacle] gives v_wall (walls: 0).
+/// `fluid_near` (NeighbourGrid::occupied_around of the fluid grid, or null): a boundary particle
+/// whose cell has no fluid candidate around skips the walk, which would find nothing (P_b = 0).
 template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
-                       const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes);
+                       const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes,
+                       const std::uint8_t* fluid_near = nullptr);
 
 /// The continuity equation's part of a step before the neighbour pass (prm.density =
 /// Continuity): the pressure of the density predicted for the step's end, rho + dt (2 drho -

@@ -84,23 +84,32 @@ struct BoundaryPressureEvaluator {
   FluidView<T> f;
   CellView<T> cells;
   const RigidShape<T>* shapes;
+  const std::uint8_t* near; // per fluid cell: fluid candidates around it (null: walk every cell)
 
   KF_HD void operator()(std::size_t k) const {
     const Vec3<T> xb = b.x[k];
     const T h2 = kernel.h * kernel.h;
     T sum_w = T(0), sum_p = T(0);
     Vec3<T> sum_rho_r{T(0), T(0), T(0)}, sum_v{T(0), T(0), T(0)};
-    cells.for_each_candidate(xb, [&](std::uint32_t j) {
-      const Vec3<T> r = xb - f.x[j];
-      const T r2 = norm2(r);
-      if (r2 >= h2)
-        return;
-      const T w = kernel.W(ksqrt(r2));
-      sum_w += w;
-      sum_p += f.p[j] * w;
-      sum_rho_r += r * (f.rho[j] * w);
-      sum_v += f.v[j] * w;
-    });
+    // Most of a tank's wall particles are dry: their walk would find nothing.
+    bool walk = true;
+    if (near) {
+      int cx, cy, cz;
+      cells.geo.coords(xb, cx, cy, cz);
+      walk = near[cells.geo.linear(cx, cy, cz)] != 0;
+    }
+    if (walk)
+      cells.for_each_candidate(xb, [&](std::uint32_t j) {
+        const Vec3<T> r = xb - f.x[j];
+        const T r2 = norm2(r);
+        if (r2 >= h2)
+          return;
+        const T w = kernel.W(ksqrt(r2));
+        sum_w += w;
+        sum_p += f.p[j] * w;
+        sum_rho_r += r * (f.rho[j] * w);
+        sum_v += f.v[j] * w;
+      });
     T p = T(0);
     if (sum_w > T(0))
       p = (sum_p + dot(prm.gravity, sum_rho_r)) / sum_w;
@@ -201,7 +210,11 @@ struct ForceEvaluator {
       // rho^{n+1} = rho^n + dt drho(x^{n+1}, v^{n+1/2}), like x^{n+1} = x^n + dt v^{n+1/2}; the
       // forces above used the predicted density. dt 0 (t = 0): no history, the rate is its own.
       const T drho = rho_i * rate + T(2) * prm.diffusion * diffuse;
-      f.rho[i] += dt * drho;
+      const T rho = f.rho[i] + dt * drho;
+      // Below rest density the pressure is clamped to zero; the density itself is kept there
+      // too, else spray that expanded would re-enter the water (or hit a wall) without pressure
+      // until it had compressed back (docs/PHYSICS.md: the column blew up at a wall without it).
+      f.rho[i] = prm.eos.clamp_negative && rho < prm.eos.rho0 ? prm.eos.rho0 : rho;
       f.drho_prev[i] = dt > T(0) ? f.drho[i] : drho;
       f.drho[i] = drho;
     }
