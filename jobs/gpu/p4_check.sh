@@ -30,6 +30,11 @@ echo "bench_gpu rc=$?"
 bench_gpu --device cuda --cases column --column-dp 0.0035 --column-start 0.3 --max-seconds 8 \
   --csv "$out/bench_column_surge.csv" > "$out/bench_column_surge.log" 2>&1
 echo "column surge rc=$?"
+# The column with the paper's summation density (the scene integrates it, as DualSPHysics).
+bench_gpu --device cuda --cases column --column-dp 0.0035 --lists verlet \
+  --set 'solver.density="summation"' --csv "$out/bench_column_summation.csv" \
+  > "$out/bench_column_summation.log" 2>&1
+echo "column summation rc=$?"
 # DualSPHysics's figure is a mean over its whole run (1.5 s, ~48k steps, 4 minutes here): opt in.
 if [ "${P4_WHOLE_COLUMN:-0}" = 1 ]; then
   KF_KERNEL_TIMES=1 knitflow run scenes/bench/dambreak_column.toml --device cuda \
