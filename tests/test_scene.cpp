@@ -422,6 +422,13 @@ TEST(Scene, DensityModelOptions) {
   EXPECT_NE(model.find("\"continuity\""), std::string::npos) << model;
   const std::string delta = load_error(scene_file("minimal.toml"), {"solver.density_diffusion=-1"});
   EXPECT_NE(delta.find("solver.density_diffusion"), std::string::npos) << delta;
+  const Scene h = load_scene(scene_file("minimal.toml"), {"solver.density=\"continuity\"",
+                                                          "fluid.initial_density=\"hydrostatic\""});
+  EXPECT_EQ(h.fluid.initial_density, Scene::Fluid::InitialDensity::Hydrostatic);
+  const std::string start =
+      load_error(scene_file("minimal.toml"), {"fluid.initial_density=\"weight\""});
+  EXPECT_NE(start.find("fluid.initial_density"), std::string::npos) << start;
+  EXPECT_NE(start.find("\"hydrostatic\""), std::string::npos) << start;
 }
 
 } // namespace

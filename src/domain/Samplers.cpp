@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <utility>
 
 namespace kf {
 
@@ -53,6 +55,40 @@ FluidSamples sample_fluid(const Scene& scene) {
       out.v.push_back(b.velocity);
     }
   return out;
+}
+
+std::vector<double> hydrostatic_density(const FluidSamples& fs, const Vec3d& gravity, double dp,
+                                        const Eos<double>& eos) {
+  std::vector<double> rho(fs.size(), eos.rho0);
+  const double g = norm(gravity);
+  if (!(g > 0))
+    return rho;
+  const Vec3d down = gravity * (1.0 / g);
+  const Vec3d any = std::abs(down.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
+  Vec3d e1 = cross(down, any);
+  e1 = e1 * (1.0 / norm(e1));
+  const Vec3d e2 = cross(down, e1);
+  // Lattice points sit at cell centres, so floor() bins a column without ties.
+  std::map<std::pair<long long, long long>, std::vector<std::size_t>> columns;
+  for (std::size_t i = 0; i < fs.size(); ++i)
+    if (fs.v[i].x == 0 && fs.v[i].y == 0 && fs.v[i].z == 0)
+      columns[{static_cast<long long>(std::floor(dot(fs.x[i], e1) / dp)),
+               static_cast<long long>(std::floor(dot(fs.x[i], e2) / dp))}]
+          .push_back(i);
+  for (auto& [key, members] : columns) {
+    auto depth = [&](std::size_t i) { return dot(fs.x[i], down); };
+    std::sort(members.begin(), members.end(),
+              [&](std::size_t a, std::size_t b) { return depth(a) < depth(b); });
+    double surface = depth(members.front()) - 0.5 * dp, previous = depth(members.front());
+    for (std::size_t i : members) {
+      const double d = depth(i);
+      if (d - previous > 1.5 * dp)
+        surface = d - 0.5 * dp; // a new body of fluid below a gap
+      previous = d;
+      rho[i] = eos.density(eos.rho0 * g * (d - surface));
+    }
+  }
+  return rho;
 }
 
 double lattice_particle_mass(KernelType kernel, double support, double dp, double rho0) {

@@ -5,6 +5,7 @@
 #include "core/SolverOptions.hpp"
 #include "core/Vec3.hpp"
 #include "domain/Scene.hpp"
+#include "kernels/sph/Eos.hpp"
 
 #include <cstdint>
 #include <vector>
@@ -21,6 +22,14 @@ struct FluidSamples {
 
 /// All fluid particles of the scene, blocks in order, less the lattice points in or at a solid.
 FluidSamples sample_fluid(const Scene& scene);
+
+/// The density each fluid sample starts with under the weight of the fluid above it (continuity
+/// density, fluid.initial_density = "hydrostatic"): samples at rest (v = 0) are binned in columns
+/// dp wide along gravity; each contiguous run of a column (a gap over 1.5 dp starts a new one)
+/// has its top sample dp / 2 below the surface, and a sample at depth d below that surface has
+/// P = rho0 |g| d and the EOS's density. Moving samples, and all without gravity, start at rho0.
+std::vector<double> hydrostatic_density(const FluidSamples& fs, const Vec3d& gravity, double dp,
+                                        const Eos<double>& eos);
 
 /// Particle mass that makes an interior particle of a perfect lattice sit at rest density with
 /// the chosen kernel (so a fluid at rest starts without a pressure jolt).

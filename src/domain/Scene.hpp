@@ -144,6 +144,10 @@ struct Scene {
     double viscosity = 1e-3;      // dynamic viscosity mu [Pa s], Eq. 4
     bool clamp_negative_pressure = true;
     bool no_slip = true; // walls and obstacles hold the fluid by viscosity (else free slip)
+    // The density fluid starts with under continuity (summation ignores it). "rest": rho0;
+    // "hydrostatic": fluid at rest starts at the EOS density of the weight of the fluid above it
+    // (as DualSPHysics starts).
+    enum class InitialDensity { Rest, Hydrostatic } initial_density = InitialDensity::Rest;
     std::vector<FluidBlock> blocks;
   } fluid;
 

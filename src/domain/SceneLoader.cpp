@@ -46,6 +46,9 @@ constexpr std::array kNeighbourLists{
     Choice<Scene::Solver::NeighbourLists>{"verlet", Scene::Solver::NeighbourLists::Verlet}};
 constexpr std::array kDensityModels{Choice<DensityModel>{"summation", DensityModel::Summation},
                                     Choice<DensityModel>{"continuity", DensityModel::Continuity}};
+constexpr std::array kInitialDensities{
+    Choice<Scene::Fluid::InitialDensity>{"rest", Scene::Fluid::InitialDensity::Rest},
+    Choice<Scene::Fluid::InitialDensity>{"hydrostatic", Scene::Fluid::InitialDensity::Hydrostatic}};
 constexpr std::array kEos{Choice<EosType>{"linear", EosType::Linear},
                           Choice<EosType>{"tait", EosType::Tait}};
 constexpr std::array kShapes{Choice<ObstacleShape>{"plane", ObstacleShape::Plane},
@@ -215,7 +218,8 @@ FluidBlock read_block(const TableReader& t, const Scene::Domain& d) {
 
 void read_fluid(const TableReader& t, Scene& s) {
   t.allow_only({"spacing", "support", "rest_density", "eos", "speed_of_sound", "stiffness",
-                "tait_exponent", "viscosity", "clamp_negative_pressure", "no_slip", "block"});
+                "tait_exponent", "viscosity", "clamp_negative_pressure", "no_slip",
+                "initial_density", "block"});
   Scene::Fluid& f = s.fluid;
   t.read("spacing", f.spacing, Range::positive());
   t.read("support", f.support, Range::closed(1.0, 4.0));
@@ -226,6 +230,9 @@ void read_fluid(const TableReader& t, Scene& s) {
   t.read("viscosity", f.viscosity, Range::at_least(0));
   t.read("clamp_negative_pressure", f.clamp_negative_pressure);
   t.read("no_slip", f.no_slip);
+  // Read under summation too, which computes the density from the particles and so ignores it:
+  // a scene keeps its start when a run switches the density model (--set solver.density=...).
+  t.read("initial_density", f.initial_density, kInitialDensities);
   for (const TableReader& b : t.array_of_tables("block"))
     f.blocks.push_back(read_block(b, s.domain));
 }

@@ -240,8 +240,17 @@ void SimulationT<T>::init_particles() {
     fluid_->v.assign(vs);
     fluid_->a.assign(std::vector<Vec3<T>>(x.size(), Vec3<T>{}));
     fluid_->m.assign(std::vector<T>(x.size(), static_cast<T>(m)));
-    // The continuity equation starts from rest density (summation recomputes it).
-    fluid_->rho.assign(std::vector<T>(x.size(), static_cast<T>(scene_.fluid.rest_density)));
+    // The continuity equation's start (summation recomputes the density).
+    std::vector<T> rho(x.size(), static_cast<T>(scene_.fluid.rest_density));
+    if (continuity() && scene_.fluid.initial_density == Scene::Fluid::InitialDensity::Hydrostatic) {
+      const Eos<double> eos{scene_.fluid.eos, scene_.fluid.rest_density,
+                            scene_.fluid.speed_of_sound * scene_.fluid.speed_of_sound,
+                            scene_.fluid.tait_exponent, scene_.fluid.clamp_negative_pressure};
+      const auto h = hydrostatic_density(fs, scene_.gravity, scene_.fluid.spacing, eos);
+      for (std::size_t i = 0; i < h.size(); ++i)
+        rho[i] = static_cast<T>(h[i]);
+    }
+    fluid_->rho.assign(rho);
     fluid_->drho.assign(std::vector<T>(x.size(), T(0)));
     fluid_->drho_prev.assign(std::vector<T>(x.size(), T(0)));
     fluid_->id.assign(ids);
