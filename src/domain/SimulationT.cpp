@@ -61,6 +61,14 @@ CouplingParams<T> coupling_params(const Scene& s, double knit_spacing) {
   return p;
 }
 
+/// The scene's equation of state, in the precision U.
+template <typename U>
+Eos<U> scene_eos(const Scene& s) {
+  return {s.fluid.eos, static_cast<U>(s.fluid.rest_density),
+          static_cast<U>(s.fluid.speed_of_sound * s.fluid.speed_of_sound),
+          static_cast<U>(s.fluid.tait_exponent), s.fluid.clamp_negative_pressure};
+}
+
 /// Explicit contact: the knit's substep and the fluid's step each resolve the contact's
 /// oscillation for their own mass, with up to kMaxContacts partners at once.
 struct CouplingLimits {
@@ -105,6 +113,9 @@ private:
   void sort_fluid();
   void sort_boundary();
   void compute_forces();
+  /// The sph.density and sph.forces stages for a step of dt (0: at t = 0).
+  void fluid_density(T dt);
+  void fluid_forces(T dt);
   bool continuity() const { return scene_.solver.density == DensityModel::Continuity; }
   BoundaryNeighbours<T> boundary_neighbours();
   void extrapolate_boundary_pressure();
@@ -188,11 +199,7 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
 
   sph_.kernel = scene.solver.kernel;
   sph_.h = static_cast<T>(h_);
-  sph_.eos.type = scene.fluid.eos;
-  sph_.eos.rho0 = static_cast<T>(scene.fluid.rest_density);
-  sph_.eos.c2 = static_cast<T>(scene.fluid.speed_of_sound * scene.fluid.speed_of_sound);
-  sph_.eos.gamma = static_cast<T>(scene.fluid.tait_exponent);
-  sph_.eos.clamp_negative = scene.fluid.clamp_negative_pressure;
+  sph_.eos = scene_eos<T>(scene);
   sph_.viscosity = static_cast<T>(scene.fluid.viscosity);
   sph_.no_slip = scene.fluid.no_slip;
   sph_.gravity = vec_cast<T>(scene.gravity);
@@ -243,10 +250,8 @@ void SimulationT<T>::init_particles() {
     // The continuity equation's start (summation recomputes the density).
     std::vector<T> rho(x.size(), static_cast<T>(scene_.fluid.rest_density));
     if (continuity() && scene_.fluid.initial_density == Scene::Fluid::InitialDensity::Hydrostatic) {
-      const Eos<double> eos{scene_.fluid.eos, scene_.fluid.rest_density,
-                            scene_.fluid.speed_of_sound * scene_.fluid.speed_of_sound,
-                            scene_.fluid.tait_exponent, scene_.fluid.clamp_negative_pressure};
-      const auto h = hydrostatic_density(fs, scene_.gravity, scene_.fluid.spacing, eos);
+      const auto h =
+          hydrostatic_density(fs, scene_.gravity, scene_.fluid.spacing, scene_eos<double>(scene_));
       for (std::size_t i = 0; i < h.size(); ++i)
         rho[i] = static_cast<T>(h[i]);
     }
@@ -459,16 +464,11 @@ void SimulationT<T>::build_pipeline() {
                     lists == Lists::On ? "sort fluid by cell, cell ranges, neighbour lists"
                                        : "sort fluid by cell, cell ranges",
                     [this] { sort_fluid(); });
-    if (continuity())
-      pipeline_.add(
-          "sph.density", "fluid",
-          "density predicted from the continuity equation's last rate, pressure (EOS)",
-          [this] { sph_density_predict(ex_, sph_, fluid_->view(), static_cast<T>(dt_)); });
-    else
-      pipeline_.add("sph.density", "fluid", "density (Eq. 2) and pressure (EOS)", [this] {
-        sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
-                    fluid_list_view());
-      });
+    pipeline_.add("sph.density", "fluid",
+                  continuity() ? "pressure (EOS) of the density predicted for the step's end "
+                                 "from the last two rates (continuity)"
+                               : "density (Eq. 2) and pressure (EOS)",
+                  [this] { fluid_density(static_cast<T>(dt_)); });
     if (boundary_on_)
       pipeline_.add("boundary.pressure", "boundary", "wall pressure from the fluid (Adami 2012)",
                     [this] { extrapolate_boundary_pressure(); });
@@ -476,10 +476,7 @@ void SimulationT<T>::build_pipeline() {
                   continuity() ? "pressure (Eq. 3), viscosity (Eq. 4), gravity; density rate "
                                  "(continuity, delta-SPH diffusion) and the density's step"
                                : "pressure (Eq. 3), viscosity (Eq. 4), gravity",
-                  [this] {
-                    sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(),
-                               boundary_neighbours(), fluid_list_view(), static_cast<T>(dt_));
-                  });
+                  [this] { fluid_forces(static_cast<T>(dt_)); });
     pipeline_.add("integrate.kick", "fluid", "velocity Verlet: half kick", [this] {
       auto f = fluid_->view();
       kick(ex_, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_), "integrate.kick");
@@ -549,17 +546,27 @@ BoundaryNeighbours<T> SimulationT<T>::boundary_neighbours() {
 }
 
 template <typename T>
-void SimulationT<T>::compute_forces() {
-  // dt 0: the density stays as it is (continuity), only its rate and the forces are evaluated.
+void SimulationT<T>::fluid_density(T dt) {
   if (continuity())
-    sph_density_predict(ex_, sph_, fluid_->view(), T(0));
+    sph_density_predict(ex_, sph_, fluid_->view(), dt);
   else
     sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
                 fluid_list_view());
+}
+
+template <typename T>
+void SimulationT<T>::fluid_forces(T dt) {
+  sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+             fluid_list_view(), dt);
+}
+
+template <typename T>
+void SimulationT<T>::compute_forces() {
+  // dt 0: the density stays as it is (continuity), only its rate and the forces are evaluated.
+  fluid_density(T(0));
   if (boundary_on_)
     extrapolate_boundary_pressure();
-  sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
-             fluid_list_view(), T(0));
+  fluid_forces(T(0));
 }
 
 template <typename T>
@@ -675,8 +682,8 @@ io::Frame SimulationT<T>::frame() const {
     p.fields.push_back(io::Field::from("mass", fluid_->m.to_host(), 1));
     p.fields.push_back(io::Field::from("density", fluid_->rho.to_host(), 1));
     p.fields.push_back(io::Field::from("pressure", fluid_->p.to_host(), 1));
-    if (continuity()) // state the next step needs, like the acceleration
-    {
+    // Under continuity the density's rates are state the next step needs, like a.
+    if (continuity()) {
       p.fields.push_back(io::Field::from("density_rate", fluid_->drho.to_host(), 1));
       p.fields.push_back(io::Field::from("density_rate_previous", fluid_->drho_prev.to_host(), 1));
     }

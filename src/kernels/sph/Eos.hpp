@@ -27,6 +27,11 @@ struct Eos {
     }
     return (clamp_negative && p < T(0)) ? T(0) : p;
   }
+  /// The density a particle keeps when its density is integrated (continuity): where the
+  /// pressure is clamped, at least rho0. Below rho0 it would have no pressure anyway, and spray
+  /// that expanded would come back (into the water, onto a wall) without pressure until it had
+  /// compressed again (docs/PHYSICS.md).
+  KF_HD KF_INLINE T kept_density(T rho) const { return clamp_negative && rho < rho0 ? rho0 : rho; }
   /// The density at which the EOS gives pressure p (inverse of pressure() for p >= 0).
   KF_HD KF_INLINE T density(T p) const {
     if (type == EosType::Linear)

@@ -210,11 +210,7 @@ struct ForceEvaluator {
       // rho^{n+1} = rho^n + dt drho(x^{n+1}, v^{n+1/2}), like x^{n+1} = x^n + dt v^{n+1/2}; the
       // forces above used the predicted density. dt 0 (t = 0): no history, the rate is its own.
       const T drho = rho_i * rate + T(2) * prm.diffusion * diffuse;
-      const T rho = f.rho[i] + dt * drho;
-      // Below rest density the pressure is clamped to zero; the density itself is kept there
-      // too, else spray that expanded would re-enter the water (or hit a wall) without pressure
-      // until it had compressed back (docs/PHYSICS.md: the column blew up at a wall without it).
-      f.rho[i] = prm.eos.clamp_negative && rho < prm.eos.rho0 ? prm.eos.rho0 : rho;
+      f.rho[i] = prm.eos.kept_density(f.rho[i] + dt * drho);
       f.drho_prev[i] = dt > T(0) ? f.drho[i] : drho;
       f.drho[i] = drho;
     }
