@@ -106,7 +106,9 @@ namespace list_detail {
 KF_HD KF_INLINE void store4(std::uint32_t* p, std::uint32_t a, std::uint32_t b, std::uint32_t c,
                             std::uint32_t d) {
 #if defined(__CUDA_ARCH__)
-  *reinterpret_cast<uint4*>(p) = make_uint4(a, b, c, d);
+  // Streamed (evict first): the list is read once per pass much later, while the particle data
+  // the build gathers should stay in L2 (stage 4's ncu: 70% L2 hits in a build).
+  __stcs(reinterpret_cast<uint4*>(p), make_uint4(a, b, c, d));
 #else
   p[0] = a;
   p[1] = b;

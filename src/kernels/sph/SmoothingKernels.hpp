@@ -58,13 +58,14 @@ struct CubicSplineKernel : KernelBase<T> {
     return c * T(2) * d * d * d;
   }
   KF_HD KF_INLINE T dWdr(T r) const {
+    // Both pieces and selects, no branches: in a neighbour loop the lanes of a warp fall on
+    // different pieces, and branches made them take both in turn.
     const T q = r * inv_h;
-    if (q >= T(1))
-      return T(0);
-    if (q <= T(0.5))
-      return c * inv_h * T(6) * (T(3) * q * q - T(2) * q);
     const T d = T(1) - q;
-    return c * inv_h * T(-6) * d * d;
+    const T inner = c * inv_h * T(6) * (T(3) * q * q - T(2) * q);
+    const T outer = c * inv_h * T(-6) * d * d;
+    const T v = q <= T(0.5) ? inner : outer;
+    return q >= T(1) ? T(0) : v;
   }
   KF_HD KF_INLINE Vec3<T> grad(const Vec3<T>& r_vec, T r) const {
     return this->grad_of(*this, r_vec, r);

@@ -149,6 +149,15 @@ struct ForceEvaluator {
   // without it the diffusion would drive a column at rest towards uniform density. The
   // diffusion acts between fluid particles only; walls enter the rate with their own velocity.
   KF_HD void operator()(std::size_t i) const {
+    // On the GPU with lists, ~75% of entries are in range, so a warp runs the pair code for
+    // nearly every entry anyway: computing it without a branch lets the three gathers of an
+    // entry issue together (behind the range test, the compiler sank the second and third into
+    // the branch, after the first's latency). Elsewhere, out-of-range candidates return early.
+#if defined(__CUDA_ARCH__)
+    constexpr bool kBranchFree = N::kListed;
+#else
+    constexpr bool kBranchFree = false;
+#endif
     const Vec3<T> xi = f.x[i];
     const Vec3<T> vi = f.v[i];
     const T h2 = kernel.h * kernel.h;
@@ -169,19 +178,26 @@ struct ForceEvaluator {
         i, xi,
         [&](std::uint32_t j) {
           const Vec4<T> xmj = f.xm[j]; // (x_j, m_j)
+          const Vec4<T> vpj = f.vp[j]; // (v_j, m_j P_j / rho_j^2)
+          const T vol_j = f.vol[j];    // m_j / rho_j
           const Vec3<T> rij = xi - xmj.xyz();
           const T r2 = norm2(rij);
-          if (r2 >= h2 || r2 <= T(0)) // r = 0: j == i (or a coincident particle: no direction)
-            return;
-          const T inv_r = krsqrt(r2);
-          const T dw = kernel.dWdr(r2 * inv_r) * inv_r; // grad W = rij dw
-          const Vec4<T> vpj = f.vp[j];                  // (v_j, m_j P_j / rho_j^2)
-          const T vol_j = f.vol[j];                     // m_j / rho_j
+          // r = 0: j == i (or a coincident particle: no direction).
+          const bool pair = r2 < h2 && r2 > T(0);
+          if constexpr (!kBranchFree) {
+            if (!pair)
+              return;
+          }
+          // Branch-free, a lane out of range computes at r = h with dw = 0: every term below
+          // is a multiple of dw, so it adds exact zeros.
+          const T r2p = pair ? r2 : h2;
+          const T inv_r = krsqrt(r2p);
+          const T dw = pair ? kernel.dWdr(r2p * inv_r) * inv_r : T(0); // grad W = rij dw
           // Eq. 3: pressure, symmetric in i and j so pair forces cancel.
           const T press = xmj.w * pi + vpj.w;
           // Eq. 4 (Morris form): mu_i + mu_j, relative velocity, (r . grad W) / (r^2 + eta^2),
           // with m_j / rho_j from the density pass.
-          const T lap = (r2 * dw) * krcp(r2 + eta2);
+          const T lap = (r2 * dw) * krcp_fast(r2 + eta2);
           const Vec3<T> vij = vi - vpj.xyz();
           acc += vij * (mu2 * inv_rho_i * vol_j * lap) - rij * (dw * press);
           if constexpr (Continuity) {
@@ -201,7 +217,8 @@ struct ForceEvaluator {
           const T mk = rho0 * vk;
           acc -= rik * (dw * mk * (pi + b.p[k] * inv_rho_k * inv_rho_k));
           if (b.v)
-            acc += (vi - b.v[k]) * (mk * mu2 * inv_rho_i * inv_rho_k * (r2 * dw) * krcp(r2 + eta2));
+            acc += (vi - b.v[k]) *
+                   (mk * mu2 * inv_rho_i * inv_rho_k * (r2 * dw) * krcp_fast(r2 + eta2));
           if constexpr (Continuity)
             rate += vk * dw * dot(vi - b.wall_velocity(k), rik);
         });

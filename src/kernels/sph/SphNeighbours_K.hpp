@@ -24,6 +24,7 @@ constexpr std::uint32_t kBoundaryEntry = 0x80000000u;
 
 template <typename T>
 struct SphCellWalk {
+  static constexpr bool kListed = false; // most candidates are out of range (~85%)
   CellView<T> cells;
   BoundaryNeighbours<T> b;
   template <typename FF, typename FB>
@@ -37,6 +38,7 @@ struct SphCellWalk {
 
 template <typename T>
 struct SphList {
+  static constexpr bool kListed = true; // most entries are in range (all but the skin's shell)
   ListView<T> list;
   template <typename FF, typename FB>
   KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>& x, FF&& fluid,
