@@ -2,11 +2,15 @@
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/grid/NeighbourList.hpp"
+#include "kernels/particles/FluidSet.hpp"
+#include "kernels/sph/SphLists.hpp"
 #include "kernels/sph/SphNeighbours_K.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <random>
 #include <set>
 #include <vector>
@@ -375,6 +379,129 @@ void check_sph_chunk_builder(exec::Backend backend) {
   }
   EXPECT_GT(mixed, 100u) << "rows must mix fluid and boundary entries";
   EXPECT_GT(by_chunk.most(), 32u) << "the capacity must grow";
+}
+
+/// SphLists::stale_after's local rule (SphLists.hpp). Its bound must equal a brute-force union
+/// of the displacement boxes of the cells within 2 of each cell; a smooth displacement field that
+/// the global rules reject (2 max |d| and the box diagonal over s) must keep the lists, which
+/// must still hold every pair within h; a slip plane (relative displacement 1.8 s) and a
+/// translation past s (the grid's walks) must rebuild.
+template <typename T>
+void check_local_rule(exec::Backend backend) {
+  const double h = 0.1, s = 0.02, dp = 0.03;
+  const Vec3d lo{0, 0, 0}, hi{2.0, 0.3, 0.3};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> jitter(-0.2 * dp, 0.2 * dp);
+  std::vector<Vec3<T>> pts;
+  for (double z = 0.5 * dp; z < hi.z; z += dp)
+    for (double y = 0.5 * dp; y < hi.y; y += dp)
+      for (double xx = 0.5 * dp; xx < hi.x; xx += dp)
+        pts.push_back(vec_cast<T>(Vec3d{xx + jitter(rng), y + jitter(rng), z + jitter(rng)}));
+  const std::size_t n = pts.size();
+  exec::Exec ex{backend};
+  FluidSet<T> f(backend);
+  f.resize(n);
+  f.x.assign(pts);
+  f.m.assign(std::vector<T>(n, T(1)));
+  NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(lo, hi, h + s));
+  grid.build(ex, f.x.data(), n);
+  f.reorder(ex, grid.permutation());
+  SphLists<T> lists(backend, T(s));
+  lists.build(ex, f, grid.view(), BoundaryNeighbours<T>{}, T(h));
+  const std::vector<Vec3<T>> x0 = f.x.to_host();
+  const GridGeometry<T> geo = grid.geometry();
+  auto move = [&](auto&& d) {
+    std::vector<Vec3<T>> x(n);
+    for (std::size_t i = 0; i < n; ++i)
+      x[i] = x0[i] + vec_cast<T>(d(vec_cast<double>(x0[i])));
+    f.x.assign(x);
+    return x;
+  };
+  // The reference: per cell (of the listed positions) the box of d, then over each cell's
+  // 5^3 neighbourhood the union's diagonal, the largest over the cells.
+  auto local_reference = [&](const std::vector<Vec3<T>>& x) {
+    const double big = std::numeric_limits<double>::max();
+    std::vector<Vec3d> blo(geo.cells(), Vec3d{big, big, big}),
+        bhi(geo.cells(), Vec3d{-big, -big, -big});
+    for (std::size_t i = 0; i < n; ++i) {
+      int cx, cy, cz;
+      geo.coords(x0[i], cx, cy, cz);
+      const Vec3d d = vec_cast<double>(Vec3<T>(x[i] - x0[i]));
+      const std::uint32_t c = geo.linear(cx, cy, cz);
+      blo[c] = {std::min(blo[c].x, d.x), std::min(blo[c].y, d.y), std::min(blo[c].z, d.z)};
+      bhi[c] = {std::max(bhi[c].x, d.x), std::max(bhi[c].y, d.y), std::max(bhi[c].z, d.z)};
+    }
+    double worst = 0;
+    for (int z = 0; z < geo.nz; ++z)
+      for (int y = 0; y < geo.ny; ++y)
+        for (int xx = 0; xx < geo.nx; ++xx) {
+          Vec3d ulo{big, big, big}, uhi{-big, -big, -big};
+          for (int c = std::max(z - 2, 0); c <= std::min(z + 2, geo.nz - 1); ++c)
+            for (int b = std::max(y - 2, 0); b <= std::min(y + 2, geo.ny - 1); ++b)
+              for (int a = std::max(xx - 2, 0); a <= std::min(xx + 2, geo.nx - 1); ++a) {
+                const std::uint32_t k = geo.linear(a, b, c);
+                ulo = {std::min(ulo.x, blo[k].x), std::min(ulo.y, blo[k].y),
+                       std::min(ulo.z, blo[k].z)};
+                uhi = {std::max(uhi.x, bhi[k].x), std::max(uhi.y, bhi[k].y),
+                       std::max(uhi.z, bhi[k].z)};
+              }
+          const double ex2 = std::max(uhi.x - ulo.x, 0.0), ey = std::max(uhi.y - ulo.y, 0.0),
+                       ez = std::max(uhi.z - ulo.z, 0.0);
+          worst = std::max(worst, std::sqrt(ex2 * ex2 + ey * ey + ez * ez));
+        }
+    return worst;
+  };
+  const T inf = std::numeric_limits<T>::infinity();
+  const double tol = 1e-5 * s;
+
+  // 1. d_x from +0.95 s to -0.95 s along the 2 m: globally 1.9 s apart, locally ~0.6 s.
+  auto x = move([&](const Vec3d& p) { return Vec3d{s * (0.95 - 0.95 * p.x), 0, 0}; });
+  EXPECT_FALSE(lists.stale_after(ex, f, inf, false)) << "the smooth field must keep the lists";
+  const double local = local_reference(x);
+  EXPECT_NEAR(lists.last_local(), local, tol);
+  EXPECT_LT(local, 0.8 * s);
+  EXPECT_GT(local, 0.4 * s);
+  EXPECT_GT(2 * lists.last_largest(), 1.8 * s) << "the global rules alone would rebuild";
+  EXPECT_NEAR(lists.last_pair_bound(), local, tol);
+  if (backend == exec::Backend::Cpu) { // the lists' arrays are host memory
+    const ListView<T> v = lists.view();
+    std::size_t pairs = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      std::set<std::uint32_t> listed;
+      ASSERT_TRUE(v.complete(i));
+      for (std::uint32_t k = 0; k < v.count[i]; ++k)
+        listed.insert(v.list[v.slot(i, k)]);
+      for (std::size_t j = 0; j < n; ++j)
+        if (j != i && double(norm2(x[i] - x[j])) < h * h) {
+          ++pairs;
+          ASSERT_TRUE(listed.count(static_cast<std::uint32_t>(j))) << i << " misses " << j;
+        }
+    }
+    EXPECT_GT(pairs, 20 * n) << "too few pairs to mean anything";
+  }
+
+  // 2. A slip plane at z = 0.15: |d| = 0.9 s on both sides, 1.8 s apart across it.
+  x = move([&](const Vec3d& p) { return Vec3d{p.z < 0.15 ? -0.9 * s : 0.9 * s, 0, 0}; });
+  EXPECT_TRUE(lists.stale_after(ex, f, inf, false)) << "the slip plane must rebuild";
+  EXPECT_NEAR(lists.last_local(), local_reference(x), tol);
+  EXPECT_NEAR(lists.last_local(), 1.8 * s, tol);
+
+  // 3. Everything translated by 1.5 s: no pair closes in, but the grid's walks need |d| <= s.
+  x = move([&](const Vec3d&) { return Vec3d{0, 1.5 * s, 0}; });
+  EXPECT_TRUE(lists.stale_after(ex, f, inf, false)) << "a translation past s must rebuild";
+  EXPECT_NEAR(lists.last_local(), 0.0, tol);
+}
+
+TEST(SphLists, LocalRuleCpu) {
+  check_local_rule<float>(exec::Backend::Cpu);
+  check_local_rule<double>(exec::Backend::Cpu);
+}
+
+TEST(SphLists, LocalRuleCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check_local_rule<float>(exec::Backend::Cuda);
+  check_local_rule<double>(exec::Backend::Cuda);
 }
 
 TEST(SphLists, ChunkBuilderEqualsOneParticleWalkCpu) {

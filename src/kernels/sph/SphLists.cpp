@@ -2,6 +2,7 @@
 
 #include "kernels/sph/SphNeighbours_K.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -30,6 +31,78 @@ struct Displacement {
 };
 
 template <typename T>
+using Box = typename SphLists<T>::Box;
+
+/// The box of the displacements since the build of the particles the build put in cell c
+/// (linear index); the fluid keeps its order until the next build.
+template <typename T>
+struct CellDisplacementBox {
+  CellView<T> cells;
+  const Vec3<T>* x;
+  const Vec3<T>* x0;
+  Box<T>* out;
+  KF_HD void operator()(std::size_t c) const {
+    const T big = std::numeric_limits<T>::max();
+    Vec3<T> lo{big, big, big}, hi{-big, -big, -big};
+    const std::uint32_t r = cells.rank[c];
+    for (std::uint32_t k = cells.start[r]; k < cells.end[r]; ++k) {
+      const Vec3<T> d = x[k] - x0[k]; // a NaN drops out here; the global rule catches it
+      lo = {d.x < lo.x ? d.x : lo.x, d.y < lo.y ? d.y : lo.y, d.z < lo.z ? d.z : lo.z};
+      hi = {d.x > hi.x ? d.x : hi.x, d.y > hi.y ? d.y : hi.y, d.z > hi.z ? d.z : hi.z};
+    }
+    out[c] = {lo, hi};
+  }
+};
+
+/// The union of the boxes of the cells within `reach` of cell c along one axis (0, 1, 2): three
+/// passes, one an axis, give the union over the (2 reach + 1)^3 cells around c.
+template <typename T>
+struct SpreadBoxes {
+  GridGeometry<T> geo;
+  int axis;
+  int reach;
+  const Box<T>* in;
+  KF_HD KF_INLINE Box<T> around(std::size_t c) const {
+    const std::size_t nx = std::size_t(geo.nx), nxy = nx * std::size_t(geo.ny);
+    const int at = axis == 0   ? int(c % nx)
+                   : axis == 1 ? int(c / nx % std::size_t(geo.ny))
+                               : int(c / nxy);
+    const int n = axis == 0 ? geo.nx : axis == 1 ? geo.ny : geo.nz;
+    const std::size_t stride = axis == 0 ? 1 : axis == 1 ? nx : nxy;
+    const int k0 = at > reach ? at - reach : 0, k1 = at + reach < n ? at + reach : n - 1;
+    Box<T> u = in[c - std::size_t(at - k0) * stride];
+    for (int k = k0 + 1; k <= k1; ++k) {
+      const Box<T> b = in[c + std::size_t(k) * stride - std::size_t(at) * stride];
+      u.lo = {b.lo.x < u.lo.x ? b.lo.x : u.lo.x, b.lo.y < u.lo.y ? b.lo.y : u.lo.y,
+              b.lo.z < u.lo.z ? b.lo.z : u.lo.z};
+      u.hi = {b.hi.x > u.hi.x ? b.hi.x : u.hi.x, b.hi.y > u.hi.y ? b.hi.y : u.hi.y,
+              b.hi.z > u.hi.z ? b.hi.z : u.hi.z};
+    }
+    return u;
+  }
+};
+
+template <typename T>
+struct SpreadInto {
+  SpreadBoxes<T> s;
+  Box<T>* out;
+  KF_HD void operator()(std::size_t c) const { out[c] = s.around(c); }
+};
+
+/// The last axis's pass, reduced: the squared diagonal of cell c's union box (0 when empty).
+template <typename T>
+struct SpreadDiagonal {
+  SpreadBoxes<T> s;
+  KF_HD KF_INLINE exec::Maxima<T, 1> operator()(std::size_t c) const {
+    const Box<T> u = s.around(c);
+    const T zero = T(0);
+    const T dx = u.hi.x - u.lo.x, dy = u.hi.y - u.lo.y, dz = u.hi.z - u.lo.z;
+    const T ex = dx > zero ? dx : zero, ey = dy > zero ? dy : zero, ez = dz > zero ? dz : zero;
+    return {{ex * ex + ey * ey + ez * ez}};
+  }
+};
+
+template <typename T>
 bool same_geometry(const GridGeometry<T>& a, const GridGeometry<T>& b) {
   return a.origin.x == b.origin.x && a.origin.y == b.origin.y && a.origin.z == b.origin.z &&
          a.cell == b.cell && a.nx == b.nx && a.ny == b.ny && a.nz == b.nz;
@@ -39,7 +112,8 @@ bool same_geometry(const GridGeometry<T>& a, const GridGeometry<T>& b) {
 
 template <typename T>
 SphLists<T>::SphLists(exec::Backend b, T skin)
-    : skin_(skin), lists_(b), x0_(b, 0, "fluid.listed_x"), moved_(b, 7, "fluid.moved") {}
+    : skin_(skin), lists_(b), x0_(b, 0, "fluid.listed_x"), moved_(b, 8, "fluid.moved"),
+      box_(b, 0, "fluid.moved_box"), spread_(b, 0, "fluid.moved_box") {}
 
 template <typename T>
 void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>& cells,
@@ -66,6 +140,10 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
     x0_.resize(n);
     x0_.copy_from(f.x, n);
     bound_ = T(0);
+    pair_ = T(0);
+    cells_ = cells;
+    box_.resize(cells.geo.cells());
+    spread_.resize(cells.geo.cells());
   }
 }
 
@@ -74,21 +152,38 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
   if (!(skin_ > T(0)) || force || x0_.size() != f.size())
     return true;
   bound_ += motion;
-  if (bound_ <= T(0.5) * skin_)
-    return false; // every |d| within s / 2: no need to look
+  pair_ += T(2) * motion;
+  if (bound_ <= T(0.5) * skin_ || (bound_ <= skin_ && pair_ <= skin_))
+    return false; // the rules hold on the host's bounds alone: no need to look
+  const std::size_t n = f.size();
   exec::fill(ex, moved_, T(0), "fluid.moved");
-  exec::max_into_each<T, 7>(ex, f.size(), Displacement<T>{f.x.data(), x0_.data()}, moved_.data(),
+  exec::max_into_each<T, 7>(ex, n, Displacement<T>{f.x.data(), x0_.data()}, moved_.data(),
                             "fluid.moved");
+  // The local bound: boxes per cell, spread along x, y, then z and reduced.
+  const std::size_t cells = cells_.geo.cells();
+  const int reach = 2 * cells_.span;
+  exec::for_each(ex, cells, CellDisplacementBox<T>{cells_, f.x.data(), x0_.data(), box_.data()},
+                 "fluid.moved_box");
+  exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 0, reach, box_.data()}, spread_.data()},
+                 "fluid.moved_box");
+  exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 1, reach, spread_.data()}, box_.data()},
+                 "fluid.moved_box");
+  exec::max_into_each<T, 1>(ex, cells, SpreadDiagonal<T>{{cells_.geo, 2, reach, box_.data()}},
+                            moved_.data() + 7, "fluid.moved_box");
   const std::vector<T> m = moved_.to_host();
   const double largest = std::sqrt(double(m[0]));
   const double bx = double(m[1]) + double(m[2]), by = double(m[3]) + double(m[4]),
                bz = double(m[5]) + double(m[6]);
   const double diagonal = std::sqrt(bx * bx + by * by + bz * bz);
-  const double s = double(skin_);
+  const double local = std::sqrt(double(m[7]));
+  const double pair = std::min({2 * largest, diagonal, local});
   bound_ = static_cast<T>(largest);
-  // The box holds the origin, so a diagonal within s also keeps every |d| within s.
-  const bool holds = 2 * largest <= s || diagonal <= s;
-  return !holds;
+  pair_ = static_cast<T>(pair);
+  last_largest_ = bound_;
+  last_pair_ = pair_;
+  last_local_ = static_cast<T>(local);
+  const double s = double(skin_);
+  return !(largest <= s && pair <= s);
 }
 
 template class SphLists<float>;

@@ -5,12 +5,19 @@
 //  - every particle is within s of where it was listed: a boundary particle (which stays put)
 //    within h now was within h + s then, and a walk of the grid, whose cells reach h + s, still
 //    finds every particle within h of a point;
-//  - two fluid particles closed in by at most s: |d_i - d_j| <= |d_i - u| + |d_j - u| for any
-//    common vector u, so either every |d_i| <= s / 2, or the box of all displacements d_i
-//    (origin included) has a diagonal within s (u its centre); the origin in the box makes the
-//    first condition follow. The box lets a fluid that moves together (a falling column, a
-//    surge) keep its lists longer: the dam break test (skin 0.15) sorts 11 times in 300 steps,
-//    not 19.
+//  - two fluid particles closed in by at most s: |d_i - d_j| <= s for every pair that could
+//    have come within h. Three bounds, the smallest kept:
+//    - 2 max |d_i|;
+//    - the diagonal of the box of all displacements d_i (origin included): a fluid that moves
+//      together (a falling column) keeps its lists (the dam break test, skin 0.15, sorts 11
+//      times in 300 steps, not 19);
+//    - the local one: the largest diagonal, over the cells c of the grid of the build, of the
+//      box of the displacements of the particles listed in the cells within 2 span of c (the
+//      cells' edge is (h + s) / span). A pair within h now was within h + 2s < 2 (h + s) when
+//      listed (every |d| <= s), so its two cells are within 2 span of each other along each
+//      axis, and both displacements lie in the first one's box. A flow's neighbours move alike
+//      even where it is fast: the lists last until the flow shears by s, not until its fastest
+//      particle has moved s / 2 (the column's surge: docs/PERFORMANCE.md).
 #include "kernels/grid/NeighbourList.hpp"
 #include "kernels/sph/Sph.hpp"
 
@@ -30,7 +37,8 @@ public:
              const BoundaryNeighbours<T>& b, T h);
   /// After the fluid moved by at most `motion` since the last call (a true bound; infinity:
   /// unknown), whether the lists may have missed a pair and must be built again. Reads the
-  /// device only when the host's bound has used half the skin up. `force`: true, unasked.
+  /// device only when the host's bounds (on max |d| and on the pairs' |d_i - d_j|, each grown
+  /// by the motion since the last reading) leave the rules unsure. `force`: true, unasked.
   bool stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force);
   /// The fluid's arrays were replaced (a restart): the next stale_after says so.
   void forget() { x0_.resize(0); }
@@ -39,16 +47,32 @@ public:
   T skin() const { return skin_; }
   std::uint32_t capacity() const { return lists_.capacity(); }
   std::size_t bytes() const {
-    return lists_.bytes() + x0_.capacity_bytes() + moved_.capacity_bytes();
+    return lists_.bytes() + x0_.capacity_bytes() + moved_.capacity_bytes() + box_.capacity_bytes() +
+           spread_.capacity_bytes();
   }
+  /// The last device reading: max |d| and the bound on |d_i - d_j| it gave (the smallest of
+  /// the three), and the local bound alone (for tests).
+  T last_largest() const { return last_largest_; }
+  T last_pair_bound() const { return last_pair_; }
+  T last_local() const { return last_local_; }
+
+  /// One cell's box of displacements (empty: lo > hi).
+  struct Box {
+    Vec3<T> lo, hi;
+  };
 
 private:
   T skin_;
   NeighbourList<T> lists_;
   exec::DeviceBuffer<Vec3<T>> x0_;
-  // Since the build: max |d|^2, then max(d_c, 0) and max(-d_c, 0) for c = x, y, z.
+  // Since the build: max |d|^2, then max(d_c, 0) and max(-d_c, 0) for c = x, y, z, then the
+  // local bound squared.
   exec::DeviceBuffer<T> moved_;
+  CellView<T> cells_; // the grid of the build (its tables stay until the next sort)
+  exec::DeviceBuffer<Box> box_, spread_;
   T bound_ = std::numeric_limits<T>::infinity(); // host bound on max |d| since the build
+  T pair_ = std::numeric_limits<T>::infinity();  // host bound on the pairs' |d_i - d_j|
+  T last_largest_ = 0, last_pair_ = 0, last_local_ = 0;
 };
 
 } // namespace kf
