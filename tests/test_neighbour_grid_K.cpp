@@ -489,7 +489,14 @@ void check_local_rule(exec::Backend backend) {
   // 3. Everything translated by 1.5 s: no pair closes in, but the grid's walks need |d| <= s.
   x = move([&](const Vec3d&) { return Vec3d{0, 1.5 * s, 0}; });
   EXPECT_TRUE(lists.stale_after(ex, f, inf, false)) << "a translation past s must rebuild";
-  EXPECT_NEAR(lists.last_local(), 0.0, tol);
+  EXPECT_NEAR(lists.last_largest(), 1.5 * s, tol);
+  EXPECT_TRUE(std::isinf(lists.last_local())) << "the global reading decided: no local pass";
+
+  // 4. Translated by 0.8 s: the box diagonal keeps the lists without the local pass.
+  x = move([&](const Vec3d&) { return Vec3d{0.8 * s, 0, 0}; });
+  EXPECT_FALSE(lists.stale_after(ex, f, inf, false)) << "a translation within s keeps the lists";
+  EXPECT_NEAR(lists.last_pair_bound(), 0.8 * s, tol);
+  EXPECT_TRUE(std::isinf(lists.last_local()));
 }
 
 TEST(SphLists, LocalRuleCpu) {

@@ -159,30 +159,36 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
   exec::fill(ex, moved_, T(0), "fluid.moved");
   exec::max_into_each<T, 7>(ex, n, Displacement<T>{f.x.data(), x0_.data()}, moved_.data(),
                             "fluid.moved");
-  // The local bound: boxes per cell, spread along x, y, then z and reduced.
-  const std::size_t cells = cells_.geo.cells();
-  const int reach = 2 * cells_.span;
-  exec::for_each(ex, cells, CellDisplacementBox<T>{cells_, f.x.data(), x0_.data(), box_.data()},
-                 "fluid.moved_box");
-  exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 0, reach, box_.data()}, spread_.data()},
-                 "fluid.moved_box");
-  exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 1, reach, spread_.data()}, box_.data()},
-                 "fluid.moved_box");
-  exec::max_into_each<T, 1>(ex, cells, SpreadDiagonal<T>{{cells_.geo, 2, reach, box_.data()}},
-                            moved_.data() + 7, "fluid.moved_box");
-  const std::vector<T> m = moved_.to_host();
+  std::vector<T> m = moved_.to_host();
+  const double s = double(skin_);
   const double largest = std::sqrt(double(m[0]));
   const double bx = double(m[1]) + double(m[2]), by = double(m[3]) + double(m[4]),
                bz = double(m[5]) + double(m[6]);
   const double diagonal = std::sqrt(bx * bx + by * by + bz * bz);
-  const double local = std::sqrt(double(m[7]));
-  const double pair = std::min({2 * largest, diagonal, local});
+  double pair = std::min(2 * largest, diagonal);
+  double local = std::numeric_limits<double>::infinity();
+  // The local bound only when the global ones fail and could be rescued (a second reading:
+  // its four passes over the cells cost more than the pour's whole step saves otherwise).
+  if (largest <= s && pair > s) {
+    const std::size_t cells = cells_.geo.cells();
+    const int reach = 2 * cells_.span;
+    exec::for_each(ex, cells, CellDisplacementBox<T>{cells_, f.x.data(), x0_.data(), box_.data()},
+                   "fluid.moved_box");
+    exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 0, reach, box_.data()}, spread_.data()},
+                   "fluid.moved_box");
+    exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 1, reach, spread_.data()}, box_.data()},
+                   "fluid.moved_box");
+    exec::max_into_each<T, 1>(ex, cells, SpreadDiagonal<T>{{cells_.geo, 2, reach, box_.data()}},
+                              moved_.data() + 7, "fluid.moved_box");
+    m = moved_.to_host();
+    local = std::sqrt(double(m[7]));
+    pair = std::min(pair, local);
+  }
   bound_ = static_cast<T>(largest);
   pair_ = static_cast<T>(pair);
   last_largest_ = bound_;
   last_pair_ = pair_;
   last_local_ = static_cast<T>(local);
-  const double s = double(skin_);
   return !(largest <= s && pair <= s);
 }
 

@@ -51,7 +51,8 @@ public:
            spread_.capacity_bytes();
   }
   /// The last device reading: max |d| and the bound on |d_i - d_j| it gave (the smallest of
-  /// the three), and the local bound alone (for tests).
+  /// the three), and the local bound alone (for tests; infinity when the global bounds decided
+  /// without it).
   T last_largest() const { return last_largest_; }
   T last_pair_bound() const { return last_pair_; }
   T last_local() const { return last_local_; }
