@@ -42,15 +42,11 @@ struct CellDisplacementBox {
   const Vec3<T>* x0;
   Box<T>* out;
   KF_HD void operator()(std::size_t c) const {
-    const T big = std::numeric_limits<T>::max();
-    Vec3<T> lo{big, big, big}, hi{-big, -big, -big};
+    Box<T> b = Box<T>::empty();
     const std::uint32_t r = cells.rank[c];
-    for (std::uint32_t k = cells.start[r]; k < cells.end[r]; ++k) {
-      const Vec3<T> d = x[k] - x0[k]; // a NaN drops out here; the global rule catches it
-      lo = {d.x < lo.x ? d.x : lo.x, d.y < lo.y ? d.y : lo.y, d.z < lo.z ? d.z : lo.z};
-      hi = {d.x > hi.x ? d.x : hi.x, d.y > hi.y ? d.y : hi.y, d.z > hi.z ? d.z : hi.z};
-    }
-    out[c] = {lo, hi};
+    for (std::uint32_t k = cells.start[r]; k < cells.end[r]; ++k)
+      b.add(Vec3<T>(x[k] - x0[k]));
+    out[c] = b;
   }
 };
 
@@ -71,13 +67,8 @@ struct SpreadBoxes {
     const std::size_t stride = axis == 0 ? 1 : axis == 1 ? nx : nxy;
     const int k0 = at > reach ? at - reach : 0, k1 = at + reach < n ? at + reach : n - 1;
     Box<T> u = in[c - std::size_t(at - k0) * stride];
-    for (int k = k0 + 1; k <= k1; ++k) {
-      const Box<T> b = in[c + std::size_t(k) * stride - std::size_t(at) * stride];
-      u.lo = {b.lo.x < u.lo.x ? b.lo.x : u.lo.x, b.lo.y < u.lo.y ? b.lo.y : u.lo.y,
-              b.lo.z < u.lo.z ? b.lo.z : u.lo.z};
-      u.hi = {b.hi.x > u.hi.x ? b.hi.x : u.hi.x, b.hi.y > u.hi.y ? b.hi.y : u.hi.y,
-              b.hi.z > u.hi.z ? b.hi.z : u.hi.z};
-    }
+    for (int k = k0 + 1; k <= k1; ++k)
+      u.add(in[c + std::size_t(k) * stride - std::size_t(at) * stride]);
     return u;
   }
 };

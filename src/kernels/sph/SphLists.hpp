@@ -57,9 +57,21 @@ public:
   T last_pair_bound() const { return last_pair_; }
   T last_local() const { return last_local_; }
 
-  /// One cell's box of displacements (empty: lo > hi).
+  /// One cell's box of displacements (empty: lo > hi). A NaN never widens it (the global
+  /// reading catches NaNs).
   struct Box {
     Vec3<T> lo, hi;
+    KF_HD KF_INLINE static Box empty() {
+      const T big = std::numeric_limits<T>::max();
+      return {{big, big, big}, {-big, -big, -big}};
+    }
+    KF_HD KF_INLINE void add(const Box& b) {
+      lo = {b.lo.x < lo.x ? b.lo.x : lo.x, b.lo.y < lo.y ? b.lo.y : lo.y,
+            b.lo.z < lo.z ? b.lo.z : lo.z};
+      hi = {b.hi.x > hi.x ? b.hi.x : hi.x, b.hi.y > hi.y ? b.hi.y : hi.y,
+            b.hi.z > hi.z ? b.hi.z : hi.z};
+    }
+    KF_HD KF_INLINE void add(const Vec3<T>& d) { add(Box{d, d}); }
   };
 
 private:
