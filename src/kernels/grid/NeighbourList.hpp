@@ -36,32 +36,49 @@ struct ListView {
   }
   /// Whether row i holds all its neighbours (build_for's rows may overflow).
   KF_HD KF_INLINE bool complete(std::size_t i) const { return count[i] <= capacity; }
-  /// Calls f(j) for the neighbours of i found at build time, in the grid's candidate order.
-  template <typename F>
-  KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>&, F&& f) const {
+  /// Calls g(e, m) for each group of row i in order: e holds the group's eight slots, the first
+  /// m (1-8) of them neighbours (only a row's last group may hold fewer than eight).
+  template <typename G>
+  KF_HD KF_INLINE void for_each_group(std::size_t i, G&& g) const {
     const std::uint32_t c = count[i];
     for (std::uint32_t k = 0; k < c; k += kListGroup) {
       // A whole group, 32 bytes, with two back-to-back loads (the last group too: capacity is
       // whole groups). Read in halves one iteration apart, the second half often missed.
       std::uint32_t e[kListGroup];
-      const std::uint32_t* g = list + slot(i, k);
+      const std::uint32_t* p = list + slot(i, k);
       const std::uint32_t m = c - k < kListGroup ? c - k : kListGroup;
 #if defined(__CUDA_ARCH__)
       // Streamed (evict first): each slot is read once per pass; the neighbours' data that
       // the pass gathers should keep the caches.
-      const uint4 a = __ldcs(reinterpret_cast<const uint4*>(g));
-      const uint4 b = __ldcs(reinterpret_cast<const uint4*>(g) + 1);
+      const uint4 a = __ldcs(reinterpret_cast<const uint4*>(p));
+      const uint4 b = __ldcs(reinterpret_cast<const uint4*>(p) + 1);
       e[0] = a.x, e[1] = a.y, e[2] = a.z, e[3] = a.w, e[4] = b.x, e[5] = b.y, e[6] = b.z,
       e[7] = b.w;
 #else
-      for (std::uint32_t u = 0; u < m; ++u)
-        e[u] = g[u];
-#endif
-      KF_UNROLL
       for (std::uint32_t u = 0; u < kListGroup; ++u)
-        if (u < m)
-          f(e[u]);
+        e[u] = u < m ? p[u] : 0u;
+#endif
+      g(e, m);
     }
+  }
+  /// Calls f(j) for the neighbours of i found at build time, in the grid's candidate order.
+  template <typename F>
+  KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>&, F&& f) const {
+    for_each_group(i, [&](const std::uint32_t(&e)[kListGroup], std::uint32_t m) {
+      if (m == kListGroup) {
+        // A full group without a test between entries: the compiler may issue the gathers of
+        // several entries before the first one's arithmetic (with a test per entry, each
+        // entry's loads waited behind the previous entry's work: the SASS of the forces pass).
+        KF_UNROLL
+        for (std::uint32_t u = 0; u < kListGroup; ++u)
+          f(e[u]);
+      } else {
+        KF_UNROLL
+        for (std::uint32_t u = 0; u < kListGroup; ++u)
+          if (u < m)
+            f(e[u]);
+      }
+    });
   }
   /// The same shared by `stride` lanes: this one takes every stride-th from `lane` on.
   template <typename F>

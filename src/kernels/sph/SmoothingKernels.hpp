@@ -25,17 +25,15 @@ struct SpikyKernel : KernelBase<T> {
   T h, c; // c = 15 / (pi h^6)
   KF_HD explicit SpikyKernel(T h_) : h(h_), c(T(15) / (T(3.14159265358979323846) * pow6(h_))) {}
   KF_HD KF_INLINE static T pow6(T x) { return x * x * x * x * x * x; }
+  // Selects, not branches (here and below): in a neighbour loop the lanes of a warp fall on
+  // different sides, and branches made them take both in turn.
   KF_HD KF_INLINE T W(T r) const {
-    if (r >= h)
-      return T(0);
     const T d = h - r;
-    return c * d * d * d;
+    return r >= h ? T(0) : c * d * d * d;
   }
   KF_HD KF_INLINE T dWdr(T r) const {
-    if (r >= h)
-      return T(0);
     const T d = h - r;
-    return T(-3) * c * d * d;
+    return r >= h ? T(0) : T(-3) * c * d * d;
   }
   KF_HD KF_INLINE Vec3<T> grad(const Vec3<T>& r_vec, T r) const {
     return this->grad_of(*this, r_vec, r);
@@ -50,16 +48,13 @@ struct CubicSplineKernel : KernelBase<T> {
       : h(h_), inv_h(T(1) / h_), c(T(8) / (T(3.14159265358979323846) * h_ * h_ * h_)) {}
   KF_HD KF_INLINE T W(T r) const {
     const T q = r * inv_h;
-    if (q >= T(1))
-      return T(0);
-    if (q <= T(0.5))
-      return c * (T(6) * (q * q * q - q * q) + T(1));
     const T d = T(1) - q;
-    return c * T(2) * d * d * d;
+    const T inner = c * (T(6) * (q * q * q - q * q) + T(1));
+    const T outer = c * T(2) * d * d * d;
+    const T v = q <= T(0.5) ? inner : outer;
+    return q >= T(1) ? T(0) : v;
   }
   KF_HD KF_INLINE T dWdr(T r) const {
-    // Both pieces and selects, no branches: in a neighbour loop the lanes of a warp fall on
-    // different pieces, and branches made them take both in turn.
     const T q = r * inv_h;
     const T d = T(1) - q;
     const T inner = c * inv_h * T(6) * (T(3) * q * q - T(2) * q);
@@ -80,18 +75,14 @@ struct WendlandC2Kernel : KernelBase<T> {
       : h(h_), inv_h(T(1) / h_), c(T(21) / (T(2) * T(3.14159265358979323846) * h_ * h_ * h_)) {}
   KF_HD KF_INLINE T W(T r) const {
     const T q = r * inv_h;
-    if (q >= T(1))
-      return T(0);
     const T d = T(1) - q;
     const T d2 = d * d;
-    return c * d2 * d2 * (T(1) + T(4) * q);
+    return q >= T(1) ? T(0) : c * d2 * d2 * (T(1) + T(4) * q);
   }
   KF_HD KF_INLINE T dWdr(T r) const {
     const T q = r * inv_h;
-    if (q >= T(1))
-      return T(0);
     const T d = T(1) - q;
-    return c * inv_h * T(-20) * q * d * d * d;
+    return q >= T(1) ? T(0) : c * inv_h * T(-20) * q * d * d * d;
   }
   KF_HD KF_INLINE Vec3<T> grad(const Vec3<T>& r_vec, T r) const {
     return this->grad_of(*this, r_vec, r);

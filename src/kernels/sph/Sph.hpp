@@ -77,6 +77,8 @@ void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, 
 /// extrapolates to the wall's at the wall surface. shapes[obstacle] gives v_wall (walls: 0).
 /// `fluid_near` (NeighbourGrid::occupied_around of the fluid grid, or null): a boundary particle
 /// whose cell has no fluid candidate around skips the walk, which would find nothing (P_b = 0).
+/// Reads the fluid's gather copies (xm, vp): after sph_density or sph_density_predict at the same
+/// positions.
 template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
                        const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes,

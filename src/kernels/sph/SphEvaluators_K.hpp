@@ -81,7 +81,7 @@ struct BoundaryPressureEvaluator {
   K kernel;
   SphParams<T> prm;
   BoundaryView<T> b;
-  FluidView<T> f;
+  FluidView<T> f; // reads the gather copies xm and vp (x and v: one 16-byte load each)
   CellView<T> cells;
   const RigidShape<T>* shapes;
   const std::uint8_t* near; // per fluid cell: fluid candidates around it (null: walk every cell)
@@ -100,7 +100,7 @@ struct BoundaryPressureEvaluator {
     }
     if (walk)
       cells.for_each_candidate(xb, [&](std::uint32_t j) {
-        const Vec3<T> r = xb - f.x[j];
+        const Vec3<T> r = xb - f.xm[j].xyz();
         const T r2 = norm2(r);
         if (r2 >= h2)
           return;
@@ -108,7 +108,7 @@ struct BoundaryPressureEvaluator {
         sum_w += w;
         sum_p += f.p[j] * w;
         sum_rho_r += r * (f.rho[j] * w);
-        sum_v += f.v[j] * w;
+        sum_v += f.vp[j].xyz() * w;
       });
     T p = T(0);
     if (sum_w > T(0))
@@ -166,6 +166,7 @@ struct ForceEvaluator {
     const T inv_rho_i = krcp(rho_i);
     const T pi = f.p[i] * inv_rho_i * inv_rho_i;
     const T mu2 = T(2) * prm.viscosity;
+    const T visc_i = mu2 * inv_rho_i;
     Vec3<T> acc = prm.gravity;
     // Continuity: sum V_j v_ij . grad W, and the diffusion's sum.
     [[maybe_unused]] T rate = T(0), diffuse = T(0);
@@ -198,11 +199,16 @@ struct ForceEvaluator {
           // Eq. 4 (Morris form): mu_i + mu_j, relative velocity, (r . grad W) / (r^2 + eta^2),
           // with m_j / rho_j from the density pass.
           const T lap = (r2 * dw) * krcp_fast(r2 + eta2);
+          const T vol_lap = vol_j * lap;
           const Vec3<T> vij = vi - vpj.xyz();
-          acc += vij * (mu2 * inv_rho_i * vol_j * lap) - rij * (dw * press);
+          // Two updates, each a fused multiply-add a component (one sum of both terms took a
+          // multiply, a multiply-add and an add).
+          acc += vij * (visc_i * vol_lap);
+          acc -= rij * (dw * press);
           if constexpr (Continuity) {
             rate += vol_j * dw * dot(vij, rij);
-            diffuse -= (xmj.w - vol_j * (rho_i - dot(hydro, rij))) * lap;
+            diffuse += vol_lap * (rho_i - dot(hydro, rij));
+            diffuse -= xmj.w * lap;
           }
         },
         [&](std::uint32_t k) {

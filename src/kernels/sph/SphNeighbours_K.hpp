@@ -41,13 +41,28 @@ struct SphList {
   static constexpr bool kListed = true; // most entries are in range (all but the skin's shell)
   ListView<T> list;
   template <typename FF, typename FB>
-  KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>& x, FF&& fluid,
+  KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>&, FF&& fluid,
                                           FB&& boundary) const {
-    list.for_each_neighbour(i, x, [&](std::uint32_t j) {
+    auto one = [&](std::uint32_t j) {
       if (j & kBoundaryEntry)
         boundary(j & ~kBoundaryEntry);
       else
         fluid(j);
+    };
+    list.for_each_group(i, [&](const std::uint32_t(&e)[kListGroup], std::uint32_t m) {
+      // A row lists its fluid neighbours before its boundary ones, so a full group whose last
+      // entry is fluid is all fluid: its entries run without a test between them, and the
+      // compiler may issue several entries' gathers together (ListView::for_each_neighbour).
+      if (m == kListGroup && (e[kListGroup - 1] & kBoundaryEntry) == 0) {
+        KF_UNROLL
+        for (std::uint32_t u = 0; u < kListGroup; ++u)
+          fluid(e[u]);
+      } else {
+        KF_UNROLL
+        for (std::uint32_t u = 0; u < kListGroup; ++u)
+          if (u < m)
+            one(e[u]);
+      }
     });
   }
 };
