@@ -170,6 +170,9 @@ private:
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
   exec::DeviceBuffer<std::uint8_t> fluid_near_{exec::Backend::Cpu, 0, "fluid.near"};
   exec::DeviceBuffer<MotionBounds<T>> bounds_{exec::Backend::Cpu, 0, "integrate.dt"}; // knit, fluid
+  // bounds_[1] holds the fluid's bounds now, written by the last step's kick (kick_bounds): the
+  // next stable_dt reads them instead of a pass of its own. Cleared when a step starts.
+  bool fluid_bounds_ready_ = false;
   ListView<T> fluid_list_view() const { return fluid_list_ ? fluid_list_->view() : ListView<T>{}; }
   RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
   exec::DeviceBuffer<RigidShape<T>> shapes_;
@@ -414,7 +417,20 @@ void SimulationT<T>::build_pipeline() {
     pipeline_.add("coupling.impulse", coupling_module,
                   "the fluid takes the opposite of the knit's coupling impulse (two-way)",
                   [this] { coupling_->apply_impulses(ex_, fluid_->view()); });
-  if (fluid_on_)
+  // With solids at rest the guard runs in the same pass as the drift (one read of x and v).
+  const bool guard_fused = fluid_on_ && !solids_.empty() && !moving_;
+  if (guard_fused)
+    pipeline_.add("integrate.kick_drift", "fluid",
+                  "velocity Verlet: half kick, drift; put back particles crossing into a solid "
+                  "(counted)",
+                  [this] {
+                    auto f = fluid_->view();
+                    kick_drift_contact(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_),
+                                       damping_keep(dt_), false, Prescribed<T>{}, shapes_.data(),
+                                       shapes_.size(), static_cast<T>(margin_), T(0),
+                                       guard_count_.data(), "integrate.kick_drift");
+                  });
+  else if (fluid_on_)
     pipeline_.add("integrate.kick_drift", "fluid", "velocity Verlet: half kick, drift", [this] {
       auto f = fluid_->view();
       kick_drift(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_),
@@ -428,7 +444,7 @@ void SimulationT<T>::build_pipeline() {
     pipeline_.add("grid.boundary", "boundary", "sort boundary particles by cell",
                   [this] { sort_boundary(); });
   }
-  if (fluid_on_ && !solids_.empty())
+  if (fluid_on_ && !solids_.empty() && !guard_fused)
     pipeline_.add("boundary.guard", "boundary",
                   "put back particles crossing into a solid (counted)", [this] {
                     auto f = fluid_->view();
@@ -482,10 +498,21 @@ void SimulationT<T>::build_pipeline() {
                                  "(continuity, delta-SPH diffusion) and the density's step"
                                : "pressure (Eq. 3), viscosity (Eq. 4), gravity",
                   [this] { fluid_forces(static_cast<T>(dt_)); });
-    pipeline_.add("integrate.kick", "fluid", "velocity Verlet: half kick", [this] {
-      auto f = fluid_->view();
-      kick(ex_, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_), "integrate.kick");
-    });
+    if (knit_on_) // the knit's coupling changes the fluid's velocities before the next dt
+      pipeline_.add("integrate.kick", "fluid", "velocity Verlet: half kick", [this] {
+        auto f = fluid_->view();
+        kick(ex_, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_), "integrate.kick");
+      });
+    else
+      pipeline_.add("integrate.kick", "fluid",
+                    "velocity Verlet: half kick, and the bounds on speed and acceleration the next "
+                    "step's size takes",
+                    [this] {
+                      auto f = fluid_->view();
+                      kick_bounds(ex_, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_),
+                                  bounds_.data() + 1, "integrate.kick");
+                      fluid_bounds_ready_ = true;
+                    });
   }
 }
 
@@ -605,6 +632,8 @@ double SimulationT<T>::stable_dt() {
     const auto both = bounds_.to_host();
     dt = std::min(dt, knit_->stable_dt(both[0]));
     mb = both[1];
+  } else if (fluid_bounds_ready_) {
+    mb = bounds_.to_host()[1];
   } else {
     mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
   }
@@ -639,6 +668,7 @@ double SimulationT<T>::step(double t_limit) {
     dt = 0.5 * remaining;
   }
   dt_ = dt;
+  fluid_bounds_ready_ = false; // the stages change v and a; the step's last kick writes them
   pipeline_.run(profiling_ ? std::function<void()>([this] { exec::synchronize(ex_.backend); })
                            : std::function<void()>());
   time_ = lands ? t_limit : time_ + dt;
@@ -742,6 +772,7 @@ io::Frame SimulationT<T>::frame() const {
 
 template <typename T>
 void SimulationT<T>::restore(const io::Frame& fr) {
+  fluid_bounds_ready_ = false;
   if (fr.precision != to_string(scene_.precision))
     throw Error("restart: the snapshot holds " + fr.precision + " data but the scene asks for " +
                 std::string(to_string(scene_.precision)));

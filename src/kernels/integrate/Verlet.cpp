@@ -55,6 +55,25 @@ void motion_bounds_to(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a, 
   exec::transform_reduce_to(ex, n, MotionBounds<T>{}, NanMaxOp{}, MotionOf<T>{v, a}, out, label);
 }
 
+template <typename T>
+struct KickMotion {
+  Vec3<T>* v;
+  const Vec3<T>* a;
+  T half, keep;
+  KF_HD KF_INLINE MotionBounds<T> operator()(std::size_t i) const {
+    const Vec3<T> vn = half_kick(i, v, a, half, keep, Prescribed<T>{});
+    v[i] = vn; // each index is visited exactly once on either backend
+    return {norm2(vn), norm2(a[i])};
+  }
+};
+
+template <typename T>
+void kick_bounds(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt, T keep,
+                 MotionBounds<T>* out, const char* label) {
+  exec::transform_reduce_to(ex, n, MotionBounds<T>{}, NanMaxOp{},
+                            KickMotion<T>{v, a, T(0.5) * dt, keep}, out, label);
+}
+
 #define KF_INSTANTIATE(T)                                                                          \
   template void kick_drift<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, const Vec3<T>*, std::size_t,  \
                               T, T, const char*, Prescribed<T>);                                   \
@@ -63,7 +82,9 @@ void motion_bounds_to(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a, 
   template MotionBounds<T> motion_bounds<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,     \
                                             std::size_t, const char*);                             \
   template void motion_bounds_to<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,             \
-                                    std::size_t, MotionBounds<T>*, const char*);
+                                    std::size_t, MotionBounds<T>*, const char*);                   \
+  template void kick_bounds<T>(const exec::Exec&, Vec3<T>*, const Vec3<T>*, std::size_t, T, T,     \
+                               MotionBounds<T>*, const char*);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

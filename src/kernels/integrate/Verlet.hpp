@@ -47,5 +47,10 @@ MotionBounds<T> motion_bounds(const exec::Exec& ex, const Vec3<T>* v, const Vec3
 template <typename T>
 void motion_bounds_to(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a, std::size_t n,
                       MotionBounds<T>* out, const char* label);
+/// kick, and the motion bounds of the kicked velocities written to *out, in one pass: the step's
+/// last stage and the next step's time-step reduction read the same arrays (fused: one read).
+template <typename T>
+void kick_bounds(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt, T keep,
+                 MotionBounds<T>* out, const char* label);
 
 } // namespace kf
