@@ -105,6 +105,15 @@ std::string format_summary(const RunSummary& s) {
         d.fluid, d.boundary, d.max_speed, 100 * d.max_density_error, 100 * d.mean_density_error,
         d.min_rigid_distance, static_cast<unsigned long long>(d.guard_corrections));
     o << buf;
+    if (d.list_ends_far || d.list_ends_sheared) {
+      std::snprintf(buf, sizeof buf,
+                    "neighbour lists: %llu sorts, %llu after a particle moved over %.3g m, %llu "
+                    "after pairs may have closed in by over the skin\n",
+                    static_cast<unsigned long long>(d.fluid_sorts),
+                    static_cast<unsigned long long>(d.list_ends_far), d.list_far_limit,
+                    static_cast<unsigned long long>(d.list_ends_sheared));
+      o << buf;
+    }
     if (d.outflow_particles) {
       std::snprintf(buf, sizeof buf, "outflow: %llu fluid particles (%.4g kg) left the domain\n",
                     static_cast<unsigned long long>(d.outflow_particles), d.outflow_mass);

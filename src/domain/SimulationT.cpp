@@ -853,6 +853,12 @@ Diagnostics SimulationT<T>::diagnostics() const {
   Diagnostics d;
   d.guard_corrections = guard_corrections();
   d.fluid_sorts = fluid_sorts_;
+  if (fluid_list_ && skin_ > 0) {
+    const auto& e = fluid_list_->ends();
+    d.list_ends_far = e.far;
+    d.list_ends_sheared = e.sheared;
+    d.list_far_limit = static_cast<double>(fluid_list_->skin());
+  }
   if (boundary_on_)
     d.boundary = boundary_->size();
   if (knit_on_) {

@@ -140,8 +140,10 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
 
 template <typename T>
 bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force) {
-  if (!(skin_ > T(0)) || force || x0_.size() != f.size())
+  if (!(skin_ > T(0)) || force || x0_.size() != f.size()) {
+    ++ends_.forced;
     return true;
+  }
   bound_ += motion;
   pair_ += T(2) * motion;
   if (bound_ <= T(0.5) * skin_ || (bound_ <= skin_ && pair_ <= skin_))
@@ -162,7 +164,7 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
   // its four passes over the cells cost more than the pour's whole step saves otherwise).
   if (largest <= s && pair > s) {
     const std::size_t cells = cells_.geo.cells();
-    const int reach = 2 * cells_.span;
+    const int reach = cells_.span; // around the pair's midpoint cell (SphLists.hpp)
     exec::for_each(ex, cells, CellDisplacementBox<T>{cells_, f.x.data(), x0_.data(), box_.data()},
                    "fluid.moved_box");
     exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 0, reach, box_.data()}, spread_.data()},
@@ -180,7 +182,10 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
   last_largest_ = bound_;
   last_pair_ = pair_;
   last_local_ = static_cast<T>(local);
-  return !(largest <= s && pair <= s);
+  const bool holds = largest <= s && pair <= s;
+  if (!holds)
+    ++(largest > s ? ends_.far : ends_.sheared);
+  return !holds;
 }
 
 template class SphLists<float>;

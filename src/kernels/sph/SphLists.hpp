@@ -11,13 +11,16 @@
 //    - the diagonal of the box of all displacements d_i (origin included): a fluid that moves
 //      together (a falling column) keeps its lists (the dam break test, skin 0.15, sorts 11
 //      times in 300 steps, not 19);
-//    - the local one: the largest diagonal, over the cells c of the grid of the build, of the
-//      box of the displacements of the particles listed in the cells within 2 span of c (the
+//    - the local one: the largest diagonal, over the cells m of the grid of the build, of the
+//      box of the displacements of the particles listed in the cells within span of m (the
 //      cells' edge is (h + s) / span). A pair within h now was within h + 2s < 2 (h + s) when
-//      listed (every |d| <= s), so its two cells are within 2 span of each other along each
-//      axis, and both displacements lie in the first one's box. A flow's neighbours move alike
-//      even where it is fast: the lists last until the flow shears by s, not until its fastest
-//      particle has moved s / 2 (the column's surge: docs/PERFORMANCE.md).
+//      listed (every |d| <= s), so its two cells a, b are within 2 span of each other along
+//      each axis; the cell m halfway, m = floor((a + b) / 2) per axis, is within span of both,
+//      so both displacements lie in m's box. A flow's neighbours move alike even where it is
+//      fast: the lists last until the flow shears by s, not until its fastest particle has moved
+//      s / 2 (the column's surge: docs/PERFORMANCE.md). The midpoint halves the boxes' reach
+//      (2 span around the pair's first cell before): 3 cells a side instead of 5, a bound 5/3
+//      tighter for a smooth flow.
 #include "kernels/grid/NeighbourList.hpp"
 #include "kernels/sph/Sph.hpp"
 
@@ -42,6 +45,14 @@ public:
   bool stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force);
   /// The fluid's arrays were replaced (a restart): the next stale_after says so.
   void forget() { x0_.resize(0); }
+
+  /// Why the lists were built again, counted over the run (stale_after's answers of true).
+  struct Ends {
+    std::uint64_t forced = 0;  // asked for, the first build, or a restart
+    std::uint64_t far = 0;     // a particle moved farther than s
+    std::uint64_t sheared = 0; // none did, but pairs may have closed in by more than s
+  };
+  const Ends& ends() const { return ends_; }
 
   ListView<T> view() const { return lists_.view(); }
   T skin() const { return skin_; }
@@ -86,6 +97,7 @@ private:
   T bound_ = std::numeric_limits<T>::infinity(); // host bound on max |d| since the build
   T pair_ = std::numeric_limits<T>::infinity();  // host bound on the pairs' |d_i - d_j|
   T last_largest_ = 0, last_pair_ = 0, last_local_ = 0;
+  Ends ends_;
 };
 
 } // namespace kf
