@@ -17,6 +17,25 @@ namespace kf {
 /// Slots per group in the lists' layout: 8 indices, one 32-byte memory sector.
 constexpr std::uint32_t kListGroup = 8;
 
+/// Calls each(e[u]) for the eight slots of a group when `whole`, without a test between them:
+/// the compiler may then issue several entries' gathers before the first one's arithmetic (with
+/// a test per entry, each entry's loads waited behind the previous entry's work: the SASS of the
+/// forces pass). Else calls one(e[u]) for the first m.
+template <typename F, typename G>
+KF_HD KF_INLINE void visit_group(const std::uint32_t (&e)[kListGroup], std::uint32_t m, bool whole,
+                                 F&& each, G&& one) {
+  if (whole) {
+    KF_UNROLL
+    for (std::uint32_t u = 0; u < kListGroup; ++u)
+      each(e[u]);
+  } else {
+    KF_UNROLL
+    for (std::uint32_t u = 0; u < kListGroup; ++u)
+      if (u < m)
+        one(e[u]);
+  }
+}
+
 /// Read-only view of the lists, passed by value into kernels. Slot k of particle i sits at
 /// slot(i, k): slots go in groups of eight, group-major ((k / 8) * rows + i) * 8 + k % 8, so that
 /// the lanes of a warp, each reading its own particle's next slots with 16-byte loads, read
@@ -65,19 +84,7 @@ struct ListView {
   template <typename F>
   KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>&, F&& f) const {
     for_each_group(i, [&](const std::uint32_t(&e)[kListGroup], std::uint32_t m) {
-      if (m == kListGroup) {
-        // A full group without a test between entries: the compiler may issue the gathers of
-        // several entries before the first one's arithmetic (with a test per entry, each
-        // entry's loads waited behind the previous entry's work: the SASS of the forces pass).
-        KF_UNROLL
-        for (std::uint32_t u = 0; u < kListGroup; ++u)
-          f(e[u]);
-      } else {
-        KF_UNROLL
-        for (std::uint32_t u = 0; u < kListGroup; ++u)
-          if (u < m)
-            f(e[u]);
-      }
+      visit_group(e, m, m == kListGroup, f, f);
     });
   }
   /// The same shared by `stride` lanes: this one takes every stride-th from `lane` on.

@@ -51,18 +51,8 @@ struct SphList {
     };
     list.for_each_group(i, [&](const std::uint32_t(&e)[kListGroup], std::uint32_t m) {
       // A row lists its fluid neighbours before its boundary ones, so a full group whose last
-      // entry is fluid is all fluid: its entries run without a test between them, and the
-      // compiler may issue several entries' gathers together (ListView::for_each_neighbour).
-      if (m == kListGroup && (e[kListGroup - 1] & kBoundaryEntry) == 0) {
-        KF_UNROLL
-        for (std::uint32_t u = 0; u < kListGroup; ++u)
-          fluid(e[u]);
-      } else {
-        KF_UNROLL
-        for (std::uint32_t u = 0; u < kListGroup; ++u)
-          if (u < m)
-            one(e[u]);
-      }
+      // entry is fluid is all fluid: its entries run without a test between them.
+      visit_group(e, m, m == kListGroup && (e[kListGroup - 1] & kBoundaryEntry) == 0, fluid, one);
     });
   }
 };
