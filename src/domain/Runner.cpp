@@ -110,7 +110,7 @@ std::string format_summary(const RunSummary& s) {
                     "neighbour lists: %llu sorts, %llu after a particle moved over %.3g m, %llu "
                     "after pairs may have closed in by over the skin\n",
                     static_cast<unsigned long long>(d.fluid_sorts),
-                    static_cast<unsigned long long>(d.list_ends_far), d.list_far_limit,
+                    static_cast<unsigned long long>(d.list_ends_far), d.list_skin,
                     static_cast<unsigned long long>(d.list_ends_sheared));
       o << buf;
     }

@@ -28,10 +28,10 @@ struct Diagnostics {
       0;                         // fluid removed after leaving through an open side, whole run
   double outflow_mass = 0;       // their mass [kg]
   std::uint64_t fluid_sorts = 0; // fluid grid sorts (with "verlet" lists: list builds), whole run
-  // "verlet" lists, whole run: builds because a particle moved farther than list_far_limit [m]
-  // (the skin), and because pairs may have closed in by more than it (the rest: forced, first).
+  // "verlet" lists, whole run: builds because a particle moved farther than the skin [m], and
+  // because pairs may have closed in by more than it (the rest: forced, or the first).
   std::uint64_t list_ends_far = 0, list_ends_sheared = 0;
-  double list_far_limit = 0;
+  double list_skin = 0;
   // Knit (zero when the scene has none).
   std::size_t knit = 0;
   double knit_kinetic_energy = 0, knit_elastic_energy = 0, knit_potential_energy = 0; // [J]

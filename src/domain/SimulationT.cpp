@@ -857,7 +857,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
     const auto& e = fluid_list_->ends();
     d.list_ends_far = e.far;
     d.list_ends_sheared = e.sheared;
-    d.list_far_limit = static_cast<double>(fluid_list_->skin());
+    d.list_skin = static_cast<double>(fluid_list_->skin());
   }
   if (boundary_on_)
     d.boundary = boundary_->size();

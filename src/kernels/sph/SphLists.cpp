@@ -140,10 +140,8 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
 
 template <typename T>
 bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force) {
-  if (!(skin_ > T(0)) || force || x0_.size() != f.size()) {
-    ++ends_.forced;
+  if (!(skin_ > T(0)) || force || x0_.size() != f.size())
     return true;
-  }
   bound_ += motion;
   pair_ += T(2) * motion;
   if (bound_ <= T(0.5) * skin_ || (bound_ <= skin_ && pair_ <= skin_))

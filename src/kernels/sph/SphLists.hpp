@@ -18,9 +18,8 @@
 //      each axis; the cell m halfway, m = floor((a + b) / 2) per axis, is within span of both,
 //      so both displacements lie in m's box. A flow's neighbours move alike even where it is
 //      fast: the lists last until the flow shears by s, not until its fastest particle has moved
-//      s / 2 (the column's surge: docs/PERFORMANCE.md). The midpoint halves the boxes' reach
-//      (2 span around the pair's first cell before): 3 cells a side instead of 5, a bound 5/3
-//      tighter for a smooth flow.
+//      s / 2 (the column's surge: docs/PERFORMANCE.md). Around the midpoint the boxes span 3
+//      cells a side, not the 5 around the pair's first cell: a bound 5/3 tighter.
 #include "kernels/grid/NeighbourList.hpp"
 #include "kernels/sph/Sph.hpp"
 
@@ -46,9 +45,9 @@ public:
   /// The fluid's arrays were replaced (a restart): the next stale_after says so.
   void forget() { x0_.resize(0); }
 
-  /// Why the lists were built again, counted over the run (stale_after's answers of true).
+  /// Why the rules ended the lists, counted over the run (stale_after's readings that answered
+  /// true; forced builds are not counted).
   struct Ends {
-    std::uint64_t forced = 0;  // asked for, the first build, or a restart
     std::uint64_t far = 0;     // a particle moved farther than s
     std::uint64_t sheared = 0; // none did, but pairs may have closed in by more than s
   };
