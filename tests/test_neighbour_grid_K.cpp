@@ -2,6 +2,7 @@
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/grid/NeighbourList.hpp"
+#include "kernels/grid/StagedRowAppender.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/sph/SphLists.hpp"
 #include "kernels/sph/SphNeighbours_K.hpp"
@@ -499,6 +500,64 @@ void check_local_rule(exec::Backend backend) {
   EXPECT_FALSE(lists.stale_after(ex, f, inf, false)) << "a translation within s keeps the lists";
   EXPECT_NEAR(lists.last_pair_bound(), 0.8 * s, tol);
   EXPECT_TRUE(std::isinf(lists.last_local()));
+}
+
+// The staged appender against the plain one (RowAppender, entry by entry): random hit masks
+// over 32-candidate blocks, pushed 16 bits at a time with a flush after each, as the chunk
+// builder does; rows that fit, rows that overflow their capacity, empty rows. The rows are
+// poisoned first; the last group's slots past the count must hold kNoEntry.
+TEST(StagedRowAppender, MatchesEntryByEntryAppends) {
+  constexpr std::uint32_t kPoison = 0xDEADBEEFu;
+  std::mt19937 rng(7);
+  for (const std::uint32_t capacity : {8u, 40u, 96u}) {
+    for (int trial = 0; trial < 200; ++trial) {
+      const int blocks = static_cast<int>(rng() % 9);
+      const double density = (rng() % 100) / 100.0; // from empty blocks to full ones
+      std::vector<std::uint32_t> base(blocks), hits(blocks);
+      for (int b = 0; b < blocks; ++b) {
+        base[b] = static_cast<std::uint32_t>(rng() % 100000) | (rng() % 2 ? kBoundaryEntry : 0u);
+        for (int t = 0; t < 32; ++t)
+          hits[b] |= (std::uniform_real_distribution<double>(0, 1)(rng) < density ? 1u : 0u) << t;
+      }
+      const std::size_t rows = 3, i = 1; // a row between others: slot() strides over rows
+      std::vector<std::uint32_t> count_ref(rows, kPoison), list_ref(rows * capacity, kPoison);
+      std::vector<std::uint32_t> count(rows, kPoison), list(rows * capacity, kPoison);
+      RowAppender ref({count_ref.data(), list_ref.data(), capacity, rows}, i);
+      std::uint32_t ring[kStageSlots];
+      StagedRowAppender<1> staged({count.data(), list.data(), capacity, rows}, i, ring);
+      std::vector<std::uint32_t> expected;
+      for (int b = 0; b < blocks; ++b) {
+        for (int t = 0; t < 32; ++t)
+          if (hits[b] >> t & 1u) {
+            ref.push(base[b] + t);
+            expected.push_back(base[b] + t);
+          }
+        staged.push_bits(base[b], hits[b] & 0xFFFFu);
+        staged.flush();
+        staged.push_bits(base[b] + 16, hits[b] >> 16);
+        staged.flush();
+      }
+      ref.finish();
+      staged.finish();
+      const ListView<float> view{count.data(), list.data(), capacity, rows};
+      ASSERT_EQ(count[i], expected.size());
+      EXPECT_EQ(count[i], count_ref[i]);
+      const std::size_t stored = std::min<std::size_t>(expected.size(), capacity);
+      for (std::size_t k = 0; k < stored; ++k)
+        ASSERT_EQ(list[view.slot(i, k)], expected[k]) << "capacity " << capacity << " slot " << k;
+      // The last written group is padded; groups past it and other rows stay untouched.
+      const std::size_t padded = (stored + kListGroup - 1) / kListGroup * kListGroup;
+      for (std::size_t k = stored; k < padded; ++k)
+        EXPECT_EQ(list[view.slot(i, k)], kNoEntry) << "slot " << k;
+      for (std::size_t k = padded; k < capacity; ++k)
+        EXPECT_EQ(list[view.slot(i, k)], kPoison) << "slot " << k;
+      for (std::size_t r : {std::size_t(0), std::size_t(2)}) {
+        EXPECT_EQ(count[r], kPoison);
+        for (std::size_t k = 0; k < capacity; ++k)
+          EXPECT_EQ(list[view.slot(r, k)], kPoison);
+      }
+    }
+  }
 }
 
 TEST(SphLists, LocalRuleCpu) {

@@ -45,6 +45,34 @@ KF_HD KF_INLINE unsigned lowest_bit(unsigned w) {
   return static_cast<unsigned>(__builtin_ctz(w));
 #endif
 }
+/// Index of the highest set bit of a nonzero word (one FLO on the GPU).
+KF_HD KF_INLINE unsigned highest_bit(unsigned w) {
+#if defined(__CUDA_ARCH__)
+  return static_cast<unsigned>(31 - __clz(static_cast<int>(w)));
+#else
+  return static_cast<unsigned>(31 - __builtin_clz(w));
+#endif
+}
+/// Number of set bits.
+KF_HD KF_INLINE unsigned popcount(unsigned w) {
+#if defined(__CUDA_ARCH__)
+  return static_cast<unsigned>(__popc(w));
+#else
+  return static_cast<unsigned>(__builtin_popcount(w));
+#endif
+}
+/// The word's bits in reverse order (bit k to bit 31 - k).
+KF_HD KF_INLINE unsigned reverse_bits(unsigned w) {
+#if defined(__CUDA_ARCH__)
+  return __brev(w);
+#else
+  w = ((w >> 1) & 0x55555555u) | ((w & 0x55555555u) << 1);
+  w = ((w >> 2) & 0x33333333u) | ((w & 0x33333333u) << 2);
+  w = ((w >> 4) & 0x0F0F0F0Fu) | ((w & 0x0F0F0F0Fu) << 4);
+  w = ((w >> 8) & 0x00FF00FFu) | ((w & 0x00FF00FFu) << 8);
+  return (w >> 16) | (w << 16);
+#endif
+}
 /// 1 / x, correctly rounded on both backends (cheaper than a general division on the GPU).
 KF_HD KF_INLINE float krcp(float x) {
 #if defined(__CUDA_ARCH__)

@@ -162,7 +162,9 @@ struct ChunkOf {
   F f;
   KF_HD KF_INLINE void operator()(std::size_t item, Lanes g) const { f(item * g.size, g); }
 };
-template <unsigned G, unsigned Block = 128, typename F>
+/// Threads per CUDA block of for_each_chunk: a functor sizing per-block shared memory by it.
+constexpr unsigned kChunkBlock = 128;
+template <unsigned G, unsigned Block = kChunkBlock, typename F>
 void for_each_chunk(const Exec& ex, std::size_t n, const F& f, const char* label) {
   const std::size_t items = ex.backend == Backend::Cuda ? (n + G - 1) / G : n;
   for_each_lanes<G, Block>(ex, items, ChunkOf<G, F>{f}, label);

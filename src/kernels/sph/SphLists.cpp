@@ -110,9 +110,10 @@ template <typename T>
 void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>& cells,
                         const BoundaryNeighbours<T>& b, T h) {
   const std::size_t n = f.size();
-  if (n >= kBoundaryEntry || b.n >= kBoundaryEntry)
+  // Under 2^31 - 32: a 32-candidate block's last index must not carry into the boundary tag.
+  if (n + 32 >= kBoundaryEntry || b.n + 32 >= kBoundaryEntry)
     throw Error("SPH neighbour lists: " + std::to_string(n) + " fluid and " + std::to_string(b.n) +
-                " boundary particles; at most 2^31 - 1 of each fit a list");
+                " boundary particles; fewer than 2^31 - 32 of each fit a list");
   const T r2 = (h + skin_) * (h + skin_);
   // The builder walks both grids from one cell's coordinates.
   if (b.n > 0 && !same_geometry(cells.geo, b.cells.geo))

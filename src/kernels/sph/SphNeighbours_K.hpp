@@ -5,6 +5,7 @@
 // callback for the fluid grid's candidates in cell order, then the boundary callback for the
 // boundary grid's, so a list built this step gives the same sums bit for bit.
 #include "kernels/grid/NeighbourList.hpp"
+#include "kernels/grid/StagedRowAppender.hpp"
 #include "kernels/sph/Sph.hpp"
 
 namespace kf {
@@ -62,13 +63,14 @@ struct SphList {
 /// consecutive particles (exec::for_each_chunk, lane l taking particle first + l). The group's
 /// particles whose cells share a row (y, z) walk that row's cells together: the union of their
 /// candidate rows, each candidate read once from one address for all lanes. A lane keeps its hits
-/// among 32 candidates as bits and appends them in order. Cells are as wide as the radius, so a
-/// particle's neighbours lie in its own (2 span + 1)^3 cells; the union visits the rows in the same
-/// order, each a range holding the particle's own, so each row is the one-lane walk's entry for
-/// entry. Why: the builder before, 16 lanes a particle, ran a ballot and a scattered store per
-/// candidate (ncu: issue-bound at ~50 instructions a candidate); a warp per cell left most lanes
-/// idle where the fluid thins. Requires the boundary grid of the same geometry as the fluid's, and
-/// x sorted as `cells` describes.
+/// among 32 candidates as bits and appends them in order through a ring (StagedRowAppender, in
+/// shared memory on the GPU). Cells are as wide as the radius, so a particle's neighbours lie in
+/// its own (2 span + 1)^3 cells; the union visits the rows in the same order, each a range
+/// holding the particle's own, so each row is the one-lane walk's entry for entry. Why: the
+/// builder before, 16 lanes a particle, ran a ballot and a scattered store per candidate (ncu:
+/// issue-bound at ~50 instructions a candidate); a warp per cell left most lanes idle where the
+/// fluid thins. Requires the boundary grid of the same geometry as the fluid's, and x sorted as
+/// `cells` describes.
 template <typename T>
 struct SphChunkListBuilder {
   const Vec4<T>* xm; // fluid (x, m): one 16-byte load a candidate
@@ -78,34 +80,51 @@ struct SphChunkListBuilder {
   ListSink out;
   std::size_t n;
 
+  KF_HD KF_INLINE static Vec3<T> at(const Vec4<T>& p) { return p.xyz(); }
+  KF_HD KF_INLINE static Vec3<T> at(const Vec3<T>& p) { return p; }
+
   KF_HD void operator()(std::size_t first, exec::Lanes g) const {
+#if defined(__CUDA_ARCH__)
+    constexpr std::uint32_t kStride = 32; // lanes of a warp
+    __shared__ std::uint32_t ring[exec::kChunkBlock * kStageSlots];
+    std::uint32_t* slots = ring + (threadIdx.x / 32u) * (32u * kStageSlots) + (threadIdx.x % 32u);
+#else
+    constexpr std::uint32_t kStride = 1;
+    std::uint32_t ring[kStageSlots];
+    std::uint32_t* slots = ring;
+#endif
     const std::size_t i = first + g.lane;
     const bool mine = i < n; // lanes past the end walk along, appending nothing
     const Vec3<T> xi = xm[mine ? i : first].xyz();
     int cx, cy, cz;
     cells.geo.coords(xi, cx, cy, cz);
     const bool near = mine && b.around(xi);
-    RowAppender row(out, i);
-    // Appends, in order, the candidates in [lo, hi) within the radius (on lanes that `take`).
-    // Whole blocks of 32 are unrolled: constant shifts and 32 loads in flight.
+    StagedRowAppender<kStride> row(out, i, slots);
+    // Appends the hits among 32 candidates from `base` (tagged), 16 at a time: the ring holds
+    // 7 unwritten entries at most before a push.
+    auto append = [&](std::uint32_t base, std::uint32_t hits) {
+      row.push_bits(base, hits & 0xFFFFu);
+      row.flush();
+      row.push_bits(base + 16u, hits >> 16);
+      row.flush();
+    };
+    // Appends, in order, the candidates pts[lo, hi) within the radius (on lanes that `take`).
+    // Whole blocks of 32 are unrolled from one pointer: constant offsets, 32 loads in flight.
     auto scan = [&](std::uint32_t lo, std::uint32_t hi, bool take, std::uint32_t tag,
-                    auto&& position) {
-      auto append = [&](std::uint32_t base, std::uint32_t hits) {
-        for (hits = take ? hits : 0u; hits != 0; hits &= hits - 1)
-          row.push((base + lowest_bit(hits)) | tag);
-      };
+                    const auto* pts) {
       std::uint32_t base = lo;
       for (; base + 32 <= hi; base += 32) {
+        const auto* p = pts + base;
         std::uint32_t hits = 0;
         KF_UNROLL
         for (std::uint32_t t = 0; t < 32; ++t)
-          hits |= (norm2(xi - position(base + t)) < radius2 ? 1u : 0u) << t;
-        append(base, hits);
+          hits |= (norm2(xi - at(p[t])) < radius2 ? 1u : 0u) << t;
+        append(base | tag, take ? hits : 0u);
       }
       std::uint32_t hits = 0;
       for (std::uint32_t t = 0; base + t < hi; ++t)
-        hits |= (norm2(xi - position(base + t)) < radius2 ? 1u : 0u) << t;
-      append(base, hits);
+        hits |= (norm2(xi - at(pts[base + t])) < radius2 ? 1u : 0u) << t;
+      append(base | tag, take ? hits : 0u);
     };
     bool pending = mine;
     for (unsigned lead = g.first_set(pending); lead < g.size; lead = g.first_set(pending)) {
@@ -114,11 +133,11 @@ struct SphChunkListBuilder {
       const bool active = pending && cy == ry && cz == rz;
       const int x0 = g.min(active ? cx : cells.geo.nx), x1 = g.max(active ? cx : -1);
       cells.for_each_row_range(x0, x1, ry, rz, [&](std::uint32_t lo, std::uint32_t hi) {
-        scan(lo, hi, active, 0u, [&](std::uint32_t j) { return xm[j].xyz(); });
+        scan(lo, hi, active, 0u, xm);
       });
       if (g.any(active && near))
         b.cells.for_each_row_range(x0, x1, ry, rz, [&](std::uint32_t lo, std::uint32_t hi) {
-          scan(lo, hi, active && near, kBoundaryEntry, [&](std::uint32_t k) { return b.x[k]; });
+          scan(lo, hi, active && near, kBoundaryEntry, b.x);
         });
       pending = pending && !active;
     }
