@@ -8,6 +8,8 @@
 #include "kernels/grid/StagedRowAppender.hpp"
 #include "kernels/sph/Sph.hpp"
 
+#include <type_traits>
+
 namespace kf {
 
 /// The neighbour copy xm[i] = (x_i, m_i) the density pass and the cell list builder read.
@@ -62,15 +64,15 @@ struct SphList {
 /// in the grids' candidate order (the one-lane walk's), built by groups of lanes over
 /// consecutive particles (exec::for_each_chunk, lane l taking particle first + l). The group's
 /// particles whose cells share a row (y, z) walk that row's cells together: the union of their
-/// candidate rows, each candidate read once from one address for all lanes. A lane keeps its hits
-/// among 32 candidates as bits and appends them in order through a ring (StagedRowAppender, in
-/// shared memory on the GPU). Cells are as wide as the radius, so a particle's neighbours lie in
-/// its own (2 span + 1)^3 cells; the union visits the rows in the same order, each a range
-/// holding the particle's own, so each row is the one-lane walk's entry for entry. Why: the
-/// builder before, 16 lanes a particle, ran a ballot and a scattered store per candidate (ncu:
-/// issue-bound at ~50 instructions a candidate); a warp per cell left most lanes idle where the
-/// fluid thins. Requires the boundary grid of the same geometry as the fluid's, and x sorted as
-/// `cells` describes.
+/// candidate rows, each candidate loaded once for all lanes (a shared tile on the GPU). A lane
+/// keeps its hits among 32 candidates as bits and appends them in order through a ring
+/// (StagedRowAppender, in shared memory on the GPU). Cells are as wide as the radius, so a
+/// particle's neighbours lie in its own (2 span + 1)^3 cells; the union visits the rows in the same
+/// order, each a range holding the particle's own, so each row is the one-lane walk's entry for
+/// entry. Why: the builder before, 16 lanes a particle, ran a ballot and a scattered store per
+/// candidate (ncu: issue-bound at ~50 instructions a candidate); a warp per cell left most lanes
+/// idle where the fluid thins. Requires the boundary grid of the same geometry as the fluid's, and
+/// x sorted as `cells` describes.
 template <typename T>
 struct SphChunkListBuilder {
   const Vec4<T>* xm; // fluid (x, m): one 16-byte load a candidate
@@ -88,6 +90,8 @@ struct SphChunkListBuilder {
     constexpr std::uint32_t kStride = 32; // lanes of a warp
     __shared__ std::uint32_t ring[exec::kChunkBlock * kStageSlots];
     std::uint32_t* slots = ring + (threadIdx.x / 32u) * (32u * kStageSlots) + (threadIdx.x % 32u);
+    __shared__ alignas(16) T tiles[exec::kChunkBlock * 4]; // a warp's block: 32 x (x, y, z, -)
+    T* tile = tiles + (threadIdx.x / 32u) * (32u * 4u);
 #else
     constexpr std::uint32_t kStride = 1;
     std::uint32_t ring[kStageSlots];
@@ -108,23 +112,43 @@ struct SphChunkListBuilder {
       row.push_bits(base + 16u, hits >> 16);
       row.flush();
     };
-    // Appends, in order, the candidates pts[lo, hi) within the radius (on lanes that `take`).
-    // Whole blocks of 32 are unrolled from one pointer: constant offsets, 32 loads in flight.
+    // Appends, in order, the candidates pts[lo, hi) within the radius (on lanes that `take`),
+    // tested 32 at a time (a block, unrolled). Past hi a block holds positions no lane is near.
+    // On the GPU the warp first loads the block into its shared tile, a lane a candidate, one
+    // block ahead: ncu put 74% of the tests' stalls on their loads when every lane read all 32
+    // candidates from L1 or L2 just as it tested them.
+    const T far = T(1e30); // its square overflows a float to infinity: never within the radius
     auto scan = [&](std::uint32_t lo, std::uint32_t hi, bool take, std::uint32_t tag,
                     const auto* pts) {
-      std::uint32_t base = lo;
-      for (; base + 32 <= hi; base += 32) {
-        const auto* p = pts + base;
+      auto fetch = [&](std::uint32_t j) { return j < hi ? at(pts[j]) : Vec3<T>{far, far, far}; };
+#if defined(__CUDA_ARCH__)
+      Vec3<T> next = fetch(lo + g.lane);
+#endif
+      for (std::uint32_t base = lo; base < hi; base += 32) {
+#if defined(__CUDA_ARCH__)
+        __syncwarp(); // every lane is done with the last block
+        tile[4 * g.lane] = next.x;
+        tile[4 * g.lane + 1] = next.y;
+        tile[4 * g.lane + 2] = next.z;
+        __syncwarp();
+        next = fetch(base + 32 + g.lane);
+        auto position = [&](std::uint32_t t) {
+          if constexpr (std::is_same_v<T, float>) {
+            const float4 p = reinterpret_cast<const float4*>(tile)[t];
+            return Vec3<T>{p.x, p.y, p.z};
+          } else {
+            return Vec3<T>{tile[4 * t], tile[4 * t + 1], tile[4 * t + 2]};
+          }
+        };
+#else
+        auto position = [&](std::uint32_t t) { return fetch(base + t); };
+#endif
         std::uint32_t hits = 0;
         KF_UNROLL
         for (std::uint32_t t = 0; t < 32; ++t)
-          hits |= (norm2(xi - at(p[t])) < radius2 ? 1u : 0u) << t;
+          hits |= (norm2(xi - position(t)) < radius2 ? 1u : 0u) << t;
         append(base | tag, take ? hits : 0u);
       }
-      std::uint32_t hits = 0;
-      for (std::uint32_t t = 0; base + t < hi; ++t)
-        hits |= (norm2(xi - at(pts[base + t])) < radius2 ? 1u : 0u) << t;
-      append(base | tag, take ? hits : 0u);
     };
     bool pending = mine;
     for (unsigned lead = g.first_set(pending); lead < g.size; lead = g.first_set(pending)) {
