@@ -37,14 +37,6 @@ KF_HD KF_INLINE double krsqrt(double x) {
   return 1.0 / std::sqrt(x);
 #endif
 }
-/// Index of the lowest set bit of a nonzero word.
-KF_HD KF_INLINE unsigned lowest_bit(unsigned w) {
-#if defined(__CUDA_ARCH__)
-  return static_cast<unsigned>(__ffs(w) - 1);
-#else
-  return static_cast<unsigned>(__builtin_ctz(w));
-#endif
-}
 /// Index of the highest set bit of a nonzero word (one FLO on the GPU).
 KF_HD KF_INLINE unsigned highest_bit(unsigned w) {
 #if defined(__CUDA_ARCH__)

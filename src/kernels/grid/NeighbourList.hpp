@@ -40,9 +40,9 @@ KF_HD KF_INLINE void visit_group(const std::uint32_t (&e)[kListGroup], std::uint
 /// slot(i, k): slots go in groups of eight, group-major ((k / 8) * rows + i) * 8 + k % 8, so that
 /// the lanes of a warp, each reading its own particle's next slots with 16-byte loads, read
 /// one contiguous block (rows of one particle each made every lane's load its own transaction),
-/// and the build writes whole 32-byte sectors (RowAppender): with groups of four, two lanes
-/// shared a sector and wrote their halves at different times, and a build in the splash of the
-/// DualSPHysics column moved 3x the list's bytes through DRAM (ncu, H100).
+/// and the build writes whole 32-byte sectors (RowAppender, StagedRowAppender): with groups of
+/// four, two lanes shared a sector and wrote their halves at different times, and a build in the
+/// splash of the DualSPHysics column moved 3x the list's bytes through DRAM (ncu, H100).
 template <typename T>
 struct ListView {
   const std::uint32_t* count = nullptr;
@@ -147,7 +147,8 @@ KF_HD KF_INLINE void store4(std::uint32_t* p, std::uint32_t a, std::uint32_t b, 
 /// over the capacity marks an overflow). Neighbours are held in registers and written eight at
 /// a time, a whole group: lanes of a warp find neighbours at different candidates, so
 /// single-index stores each became their own memory transaction, and the build cost 2.5x a
-/// density pass (measured).
+/// density pass (measured). For one lane a row (ListBuilder); the SPH chunk builder, whose lanes
+/// append at different rates, stages its rows in shared memory instead (StagedRowAppender).
 class RowAppender {
 public:
   KF_HD KF_INLINE RowAppender(const ListSink& out, std::size_t i) : out_(out), i_(i) {}
