@@ -1,4 +1,5 @@
 // The neighbour grid returns exactly the brute-force neighbour sets, on every backend.
+#include "core/Error.hpp"
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/grid/NeighbourList.hpp"
@@ -44,14 +45,16 @@ std::vector<Vec3<T>> test_points(std::size_t n, double h, const Vec3d& lo, const
   return x;
 }
 
-// span: cells of h / span searched span cells on each side (the fluid's solver.cell_span).
+// span: cells of h / span searched span cells on each side (the fluid's solver.cell_span);
+// levels: sub-cell order within the cells (solver.cell_order).
 template <typename T>
-void check_against_brute_force(exec::Backend backend, int span = 1) {
+void check_against_brute_force(exec::Backend backend, int span = 1, int levels = 0) {
   const double h = 0.1;
   const Vec3d lo{0, 0, 0}, hi{1.0, 0.3, 0.55};
   auto host = test_points<T>(3000, h, lo, hi, 42);
   const std::size_t n = host.size();
-  NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(lo, hi, h / span, span), span);
+  NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(lo, hi, h / span, span), span, levels);
+  ASSERT_EQ(grid.order_levels(), levels);
   exec::DeviceBuffer<Vec3<T>> x(backend);
   exec::Exec ex{backend};
   // A first build with other points (more of them, elsewhere): the second build must leave none
@@ -165,6 +168,16 @@ TEST(NeighbourGrid, MatchesBruteForceCudaFloat) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
   check_against_brute_force<float>(exec::Backend::Cuda);
+}
+TEST(NeighbourGrid, SubCellOrderMatchesBruteForceCpu) {
+  check_against_brute_force<float>(exec::Backend::Cpu, 1, 1);
+  check_against_brute_force<double>(exec::Backend::Cpu, 1, 2);
+  check_against_brute_force<float>(exec::Backend::Cpu, 2, 2);
+}
+TEST(NeighbourGrid, SubCellOrderMatchesBruteForceCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check_against_brute_force<float>(exec::Backend::Cuda, 1, 2);
 }
 TEST(NeighbourGrid, HalfCellsMatchBruteForceCpu) {
   check_against_brute_force<float>(exec::Backend::Cpu, 2);
@@ -665,4 +678,57 @@ TEST(NeighbourGrid, ParticlesSortedInCellRankOrder) {
     EXPECT_GE(i, v.start[r]);
     EXPECT_LT(i, v.end[r]);
   }
+}
+
+// With order levels L, particles go by cell rank and within a cell by the Morton code of their
+// sub-cell (2^L a side), computed here in double from the position, bit by bit.
+static void check_sub_cell_order(exec::Backend backend) {
+  const double h = 0.1;
+  const int levels = 2, n = 1 << levels;
+  const Vec3d lo{0, 0, 0}, hi{0.8, 0.6, 0.7};
+  auto host = test_points<double>(5000, h, lo, hi, 11);
+  NeighbourGrid<double> grid(backend, NeighbourGrid<double>::cover(lo, hi, h), 1, levels);
+  exec::DeviceBuffer<Vec3<double>> x(backend);
+  x.assign(host);
+  grid.build({backend}, x.data(), host.size());
+  const auto perm = grid.permutation().to_host();
+  NeighbourGrid<double> plain(exec::Backend::Cpu, NeighbourGrid<double>::cover(lo, hi, h));
+  const auto geo = plain.geometry();
+  const auto v = plain.view(); // ranks do not depend on the order levels
+  auto sub = [&](const Vec3d& p, int axis, int c) {
+    const double o = axis == 0 ? geo.origin.x : axis == 1 ? geo.origin.y : geo.origin.z;
+    const double q = axis == 0 ? p.x : axis == 1 ? p.y : p.z;
+    const int s = static_cast<int>(std::floor((q - o) / geo.cell * n)) - c * n;
+    return std::clamp(s, 0, n - 1);
+  };
+  std::uint64_t prev = 0;
+  std::size_t distinct = 0;
+  for (std::size_t i = 0; i < perm.size(); ++i) {
+    const Vec3d p = host[perm[i]];
+    int cx, cy, cz;
+    geo.coords(p, cx, cy, cz);
+    const int s[3] = {sub(p, 0, cx), sub(p, 1, cy), sub(p, 2, cz)};
+    std::uint64_t code = 0;
+    for (int b = 0; b < levels; ++b)
+      for (int a = 0; a < 3; ++a)
+        code |= std::uint64_t((s[a] >> b) & 1) << (3 * b + a);
+    const std::uint64_t key = std::uint64_t(v.rank[geo.linear(cx, cy, cz)]) << 6 | code;
+    ASSERT_GE(key, prev) << "sorted position " << i;
+    distinct += key != prev;
+    prev = key;
+  }
+  EXPECT_GT(distinct, perm.size() / 4); // the sub-cells did split the cells
+}
+
+TEST(NeighbourGrid, SubCellOrderWithinCellsCpu) { check_sub_cell_order(exec::Backend::Cpu); }
+TEST(NeighbourGrid, SubCellOrderWithinCellsCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check_sub_cell_order(exec::Backend::Cuda);
+}
+
+TEST(NeighbourGrid, OrderLevelsOutOfRangeAreRefused) {
+  const auto geo = NeighbourGrid<double>::cover({0, 0, 0}, {1, 1, 1}, 0.1);
+  EXPECT_THROW(NeighbourGrid<double>(exec::Backend::Cpu, geo, 1, 3), Error);
+  EXPECT_THROW(NeighbourGrid<double>(exec::Backend::Cpu, geo, 1, -1), Error);
 }

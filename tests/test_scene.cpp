@@ -404,6 +404,12 @@ TEST(Scene, NeighbourSearchOptions) {
   EXPECT_NE(span.find("key 'solver.cell_span': expected an integer from 1 to 3, got 4"),
             std::string::npos)
       << span;
+  EXPECT_EQ(d.solver.cell_order, 2);
+  EXPECT_EQ(load_scene(scene_file("minimal.toml"), {"solver.cell_order=0"}).solver.cell_order, 0);
+  const std::string order = load_error(scene_file("minimal.toml"), {"solver.cell_order=3"});
+  EXPECT_NE(order.find("key 'solver.cell_order': expected an integer from 0 to 2, got 3"),
+            std::string::npos)
+      << order;
   const std::string list = load_error(scene_file("minimal.toml"), {"solver.neighbour_list=yes"});
   EXPECT_NE(list.find("solver.neighbour_list"), std::string::npos) << list;
   EXPECT_NE(list.find("\"on\""), std::string::npos) << list;

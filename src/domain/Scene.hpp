@@ -122,6 +122,9 @@ struct Scene {
     // each side. 1: 27 cells of h (27 h^3 of candidates); 2: 125 cells of h/2 (15.6 h^3) but
     // 5x the cell-table reads. docs/PERFORMANCE.md has the measured trade-off.
     long cell_span = 1;
+    // Fluid and boundary particles also go in Morton order of 2^cell_order sub-cells a side
+    // within each cell (0-2): gathers by nearby lanes then read nearby memory. docs/PERFORMANCE.md.
+    long cell_order = 2;
     // Fluid neighbour lists (NeighbourList, fluid and boundary neighbours of each fluid
     // particle): "on" builds them every step (costs more than it saves: docs/PERFORMANCE.md,
     // P4); "verlet" lists everything within the support plus a skin of neighbour_skin * h and

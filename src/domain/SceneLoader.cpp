@@ -151,7 +151,7 @@ void read_output(const TableReader& t, Scene& s) {
 
 void read_solver(const TableReader& t, Scene::Solver& sv) {
   t.allow_only({"kernel", "cfl", "force_factor", "viscous_factor", "dt_max", "dt_min", "max_steps",
-                "damping", "damping_until", "cell_span", "neighbour_list", "neighbour_skin",
+                "damping", "damping_until", "cell_span", "cell_order", "neighbour_list", "neighbour_skin",
                 "density", "density_diffusion"});
   t.read("kernel", sv.kernel, kKernels);
   t.read("neighbour_list", sv.neighbour_list, kNeighbourLists);
@@ -179,6 +179,9 @@ void read_solver(const TableReader& t, Scene::Solver& sv) {
   if (t.read_integer("cell_span", sv.cell_span, 1) && sv.cell_span > 3)
     t.fail_key(*t.node("cell_span"), "cell_span", "an integer from 1 to 3",
                std::to_string(sv.cell_span));
+  if (t.read_integer("cell_order", sv.cell_order, 0) && sv.cell_order > 2) // kMaxOrderLevels
+    t.fail_key(*t.node("cell_order"), "cell_order", "an integer from 0 to 2",
+               std::to_string(sv.cell_order));
   t.read("damping", sv.damping, Range::at_least(0));
   t.read("damping_until", sv.damping_until, Range::at_least(0));
 }

@@ -268,7 +268,8 @@ void SimulationT<T>::init_particles() {
     // Cells reach the support plus the lists' skin: a walk of the grid then stays exact between
     // the lists' builds (no point has moved more than the skin since the sort; SphLists).
     fluid_grid_.emplace(ex_.backend,
-                        NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span), span);
+                        NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span), span,
+                        static_cast<int>(scene_.solver.cell_order));
     if (scene_.solver.neighbour_list != Scene::Solver::NeighbourLists::Off)
       fluid_list_.emplace(ex_.backend, static_cast<T>(skin_));
   }
@@ -294,7 +295,8 @@ void SimulationT<T>::init_particles() {
     boundary_->id.assign(ids);
     const int span = static_cast<int>(scene_.solver.cell_span);
     boundary_grid_.emplace(ex_.backend,
-                           NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span), span);
+                           NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span), span,
+                           static_cast<int>(scene_.solver.cell_order));
   }
   if (coupling_on_)
     init_coupling();

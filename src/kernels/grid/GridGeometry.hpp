@@ -11,6 +11,9 @@
 
 namespace kf {
 
+/// Most levels of sub-cell order a grid sorts by (NeighbourGrid).
+constexpr int kMaxOrderLevels = 2;
+
 template <typename T>
 struct GridGeometry {
   Vec3<T> origin{};
@@ -30,6 +33,22 @@ struct GridGeometry {
     ix = clampi(static_cast<int>(kfloor((x.x - origin.x) * inv_cell)), 0, nx - 1);
     iy = clampi(static_cast<int>(kfloor((x.y - origin.y) * inv_cell)), 0, ny - 1);
     iz = clampi(static_cast<int>(kfloor((x.z - origin.z) * inv_cell)), 0, nz - 1);
+  }
+  /// Morton code (x lowest) of the sub-cell of x in cell (ix, iy, iz) when the cell is split
+  /// into 2^levels a side (levels 0-2; points outside the grid take the nearest sub-cell).
+  KF_HD KF_INLINE std::uint32_t sub_cell_code(const Vec3<T>& x, int ix, int iy, int iz,
+                                              int levels) const {
+    const int n = 1 << levels;
+    const T scale = inv_cell * T(n);
+    const int sx = clampi(static_cast<int>(kfloor((x.x - origin.x) * scale)) - ix * n, 0, n - 1);
+    const int sy = clampi(static_cast<int>(kfloor((x.y - origin.y) * scale)) - iy * n, 0, n - 1);
+    const int sz = clampi(static_cast<int>(kfloor((x.z - origin.z) * scale)) - iz * n, 0, n - 1);
+    std::uint32_t code = 0;
+    for (int b = 0; b < levels; ++b)
+      code |= ((std::uint32_t(sx) >> b & 1u) | (std::uint32_t(sy) >> b & 1u) << 1 |
+               (std::uint32_t(sz) >> b & 1u) << 2)
+              << (3 * b);
+    return code;
   }
   KF_HD KF_INLINE std::uint32_t linear(int ix, int iy, int iz) const {
     return (static_cast<std::uint32_t>(iz) * static_cast<std::uint32_t>(ny) +

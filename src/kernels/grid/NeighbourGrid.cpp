@@ -50,11 +50,14 @@ GridGeometry<T> NeighbourGrid<T>::cover(const Vec3d& lo, const Vec3d& hi, double
 }
 
 template <typename T>
-NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span)
+NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span,
+                                int order_levels)
     : geo_(geo), span_(span), rank_(b, 0, "grid.rank"), start_(b, 0, "grid.start"),
       end_(b, 0, "grid.end"), keys_(b, 0, "grid.keys"), perm_(b, 0, "grid.permutation") {
   if (span < 1)
     throw Error("neighbour grid: span must be at least one cell");
+  if (order_levels < 0 || order_levels > kMaxOrderLevels)
+    throw Error("neighbour grid: order levels must be 0 to " + std::to_string(kMaxOrderLevels));
   const std::uint32_t n = geo.cells();
   // Rank of each cell, computed once: rows of cells along x in Morton order of (y, z), and x
   // running within a row. Sorting particles by rank groups each cell's particles and keeps
@@ -82,6 +85,10 @@ NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int
   end_.resize(n);
   while (key_bits_ < 32 && (std::uint64_t(1) << key_bits_) < n)
     ++key_bits_;
+  levels_ = order_levels;
+  while (levels_ > 0 && key_bits_ + 3 * levels_ > 32)
+    --levels_;
+  key_bits_ += 3 * levels_;
 }
 
 template <typename T>
@@ -97,8 +104,10 @@ void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
     const std::uint32_t* old = keys_.data();
     std::uint32_t* st = start_.data();
     std::uint32_t* en = end_.data();
+    const int sub = 3 * levels_;
     exec::for_each(
-        ex, keys_.size(), [=] KF_HD(std::size_t i) { st[old[i]] = en[old[i]] = 0u; }, "grid.clear");
+        ex, keys_.size(), [=] KF_HD(std::size_t i) { st[old[i] >> sub] = en[old[i] >> sub] = 0u; },
+        "grid.clear");
   }
   keys_.resize(n);
   perm_.resize(n);
@@ -106,25 +115,28 @@ void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
   const std::uint32_t* rank = rank_.data();
   std::uint32_t* keys = keys_.data();
   std::uint32_t* perm = perm_.data();
+  const int levels = levels_;
   exec::for_each(
       ex, n,
       [=] KF_HD(std::size_t i) {
         int cx, cy, cz;
         geo.coords(x[i], cx, cy, cz);
-        keys[i] = rank[geo.linear(cx, cy, cz)];
+        keys[i] = rank[geo.linear(cx, cy, cz)] << (3 * levels) |
+                  geo.sub_cell_code(x[i], cx, cy, cz, levels);
         perm[i] = static_cast<std::uint32_t>(i);
       },
       "grid.keys");
   exec::sort_by_key(ex, keys_, perm_, key_bits_, "grid.sort");
   std::uint32_t* start = start_.data();
   std::uint32_t* end = end_.data();
+  const int sub = 3 * levels_;
   exec::for_each(
       ex, n,
       [=] KF_HD(std::size_t i) {
-        const std::uint32_t k = keys[i];
-        if (i == 0 || keys[i - 1] != k)
+        const std::uint32_t k = keys[i] >> sub;
+        if (i == 0 || keys[i - 1] >> sub != k)
           start[k] = static_cast<std::uint32_t>(i);
-        if (i + 1 == n || keys[i + 1] != k)
+        if (i + 1 == n || keys[i + 1] >> sub != k)
           end[k] = static_cast<std::uint32_t>(i + 1);
       },
       "grid.ranges");

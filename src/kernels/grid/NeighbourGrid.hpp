@@ -20,20 +20,26 @@ struct SquaredDisplacement {
   }
 };
 
-/// Sorts one particle set by cell (rows along x, Morton order over y, z) and keeps the cell tables
+/// Sorts one particle set by cell (rows along x, Morton order over y, z; optionally by sub-cell
+/// within each cell) and keeps the cell tables
 /// for neighbour loops. After build(), permutation()[i] is the old index of the particle now at i;
 /// the owner reorders its fields with it so that positions and tables agree.
 template <typename T>
 class NeighbourGrid {
 public:
   /// span: cells searched on each side of a particle's cell (the interaction radius is span
-  /// cell edges; see CellView).
-  NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span = 1);
+  /// cell edges; see CellView). order_levels (0-2): within each cell the particles also go in
+  /// Morton order of 2^levels sub-cells a side, as far as the sort key's 32 bits allow (fewer
+  /// levels on a grid of more than 2^(32 - 3 levels) cells); neighbour passes that gather by
+  /// particle then read nearby memory for nearby lanes. Cells and their ranges do not change.
+  NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span = 1, int order_levels = 0);
 
   /// Grid covering [lo, hi] with cells of edge `cell` plus `pad` cells of padding on every side.
   static GridGeometry<T> cover(const Vec3d& lo, const Vec3d& hi, double cell, int pad = 1);
 
   void build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n);
+  /// Levels of sub-cell order in use (order_levels, or fewer where the key lacks bits).
+  int order_levels() const { return levels_; }
   /// flag[linear cell index] = 1 when some particle of this grid lies in the cells a neighbour
   /// loop from that cell visits, else 0: a point of another set (on a grid of the same
   /// geometry) in a 0 cell has no candidates here and can skip the loop. After build().
@@ -46,7 +52,8 @@ public:
 private:
   GridGeometry<T> geo_;
   int span_ = 1;
-  int key_bits_ = 1;
+  int key_bits_ = 1; // of the sort key: the cell's rank, then 3 levels_ bits of sub-cell
+  int levels_ = 0;
   bool cleared_ = false; // start/end zeroed once; later builds clear only the cells last used
   exec::DeviceBuffer<std::uint32_t> rank_, start_, end_, keys_, perm_;
 };
