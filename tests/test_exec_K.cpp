@@ -360,7 +360,9 @@ void check_max_into_each(const Exec& ex, Backend b) {
   DeviceBuffer<T> acc(b, 0, "acc");
   acc.assign(std::vector<T>{T(0.25), T(1e30), T(0)});
   std::vector<T> want{T(0.25), T(1e30), T(0)};
-  for (std::size_t n : {std::size_t(1), std::size_t(257), std::size_t(100003), std::size_t(0)}) {
+  // Up to several elements a GPU thread (the kernel strides over more than one grid).
+  for (std::size_t n : {std::size_t(1), std::size_t(257), std::size_t(100003),
+                        (std::size_t(1) << 21) + 7, std::size_t(0)}) {
     const auto hd = random_f64(n, 53 + static_cast<std::uint32_t>(n));
     std::vector<T> hv(hd.begin(), hd.end());
     DeviceBuffer<T> v(b, 0, "v");
