@@ -720,11 +720,30 @@ static void check_sub_cell_order(exec::Backend backend) {
   EXPECT_GT(distinct, perm.size() / 4); // the sub-cells did split the cells
 }
 
-TEST(NeighbourGrid, SubCellOrderWithinCellsCpu) { check_sub_cell_order(exec::Backend::Cpu); }
+TEST(NeighbourGrid, SubCellOrderWithinCellsCpu) {
+  check_sub_cell_order(exec::Backend::Cpu);
+}
 TEST(NeighbourGrid, SubCellOrderWithinCellsCuda) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
   check_sub_cell_order(exec::Backend::Cuda);
+}
+
+TEST(NeighbourGrid, OrderLevelsFitTheSortKey) {
+  using G = NeighbourGrid<float>;
+  EXPECT_EQ(G::rank_bits(1), 1);
+  EXPECT_EQ(G::rank_bits(2), 1);
+  EXPECT_EQ(G::rank_bits(3), 2);
+  EXPECT_EQ(G::rank_bits(1u << 20), 20);
+  EXPECT_EQ(G::rank_bits((1u << 20) + 1), 21);
+  // Ranks of up to 26 bits leave room for two levels (6 bits), 27-29 for one, 30 and more none.
+  EXPECT_EQ(G::usable_order_levels(1u << 26, 2), 2);
+  EXPECT_EQ(G::usable_order_levels((1u << 26) + 1, 2), 1);
+  EXPECT_EQ(G::usable_order_levels(1u << 29, 2), 1);
+  EXPECT_EQ(G::usable_order_levels((1u << 29) + 1, 2), 0);
+  EXPECT_EQ(G::usable_order_levels(2000000000u, 1), 0);
+  EXPECT_EQ(G::usable_order_levels(1000, 0), 0);
+  EXPECT_EQ(G::usable_order_levels(1000, 1), 1);
 }
 
 TEST(NeighbourGrid, OrderLevelsOutOfRangeAreRefused) {

@@ -83,12 +83,24 @@ NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int
   rank_.assign(rank);
   start_.resize(n);
   end_.resize(n);
-  while (key_bits_ < 32 && (std::uint64_t(1) << key_bits_) < n)
-    ++key_bits_;
-  levels_ = order_levels;
-  while (levels_ > 0 && key_bits_ + 3 * levels_ > 32)
-    --levels_;
-  key_bits_ += 3 * levels_;
+  levels_ = usable_order_levels(n, order_levels);
+  key_bits_ = rank_bits(n) + 3 * levels_;
+}
+
+template <typename T>
+int NeighbourGrid<T>::rank_bits(std::uint32_t cells) {
+  int bits = 1;
+  while (bits < 32 && (std::uint64_t(1) << bits) < cells)
+    ++bits;
+  return bits;
+}
+
+template <typename T>
+int NeighbourGrid<T>::usable_order_levels(std::uint32_t cells, int order_levels) {
+  int levels = order_levels;
+  while (levels > 0 && rank_bits(cells) + 3 * levels > 32)
+    --levels;
+  return levels;
 }
 
 template <typename T>

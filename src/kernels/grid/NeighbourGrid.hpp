@@ -40,6 +40,10 @@ public:
   void build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n);
   /// Levels of sub-cell order in use (order_levels, or fewer where the key lacks bits).
   int order_levels() const { return levels_; }
+  /// Bits of a cell's rank on a grid of `cells` cells (at least 1), and the levels of sub-cell
+  /// order (at most order_levels) that fit beside them in the 32-bit sort key.
+  static int rank_bits(std::uint32_t cells);
+  static int usable_order_levels(std::uint32_t cells, int order_levels);
   /// flag[linear cell index] = 1 when some particle of this grid lies in the cells a neighbour
   /// loop from that cell visits, else 0: a point of another set (on a grid of the same
   /// geometry) in a 0 cell has no candidates here and can skip the loop. After build().
