@@ -7,6 +7,7 @@
 #include "domain/Scene.hpp"
 #include "domain/SceneOverrides.hpp"
 #include "domain/SceneReader.hpp"
+#include "kernels/grid/GridGeometry.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -151,8 +152,8 @@ void read_output(const TableReader& t, Scene& s) {
 
 void read_solver(const TableReader& t, Scene::Solver& sv) {
   t.allow_only({"kernel", "cfl", "force_factor", "viscous_factor", "dt_max", "dt_min", "max_steps",
-                "damping", "damping_until", "cell_span", "cell_order", "neighbour_list", "neighbour_skin",
-                "density", "density_diffusion"});
+                "damping", "damping_until", "cell_span", "cell_order", "neighbour_list",
+                "neighbour_skin", "density", "density_diffusion"});
   t.read("kernel", sv.kernel, kKernels);
   t.read("neighbour_list", sv.neighbour_list, kNeighbourLists);
   t.read("neighbour_skin", sv.neighbour_skin, Range::above_up_to(0, 1));
@@ -179,8 +180,9 @@ void read_solver(const TableReader& t, Scene::Solver& sv) {
   if (t.read_integer("cell_span", sv.cell_span, 1) && sv.cell_span > 3)
     t.fail_key(*t.node("cell_span"), "cell_span", "an integer from 1 to 3",
                std::to_string(sv.cell_span));
-  if (t.read_integer("cell_order", sv.cell_order, 0) && sv.cell_order > 2) // kMaxOrderLevels
-    t.fail_key(*t.node("cell_order"), "cell_order", "an integer from 0 to 2",
+  if (t.read_integer("cell_order", sv.cell_order, 0) && sv.cell_order > kMaxOrderLevels)
+    t.fail_key(*t.node("cell_order"), "cell_order",
+               "an integer from 0 to " + std::to_string(kMaxOrderLevels),
                std::to_string(sv.cell_order));
   t.read("damping", sv.damping, Range::at_least(0));
   t.read("damping_until", sv.damping_until, Range::at_least(0));

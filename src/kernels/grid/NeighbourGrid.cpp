@@ -108,6 +108,8 @@ void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
   // Empty cells must read start = end = 0. Clearing the whole table costs O(cells) per build,
   // which dominates when the particles occupy few cells (a cloth in a room); after the first
   // build only the cells the previous build filled (its keys) are cleared.
+  // A key is the cell's rank shifted past `sub` bits of sub-cell code (order_levels).
+  const int levels = levels_, sub = 3 * levels_;
   if (!cleared_) {
     exec::fill(ex, start_, 0u, "grid.clear");
     exec::fill(ex, end_, 0u, "grid.clear");
@@ -116,7 +118,6 @@ void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
     const std::uint32_t* old = keys_.data();
     std::uint32_t* st = start_.data();
     std::uint32_t* en = end_.data();
-    const int sub = 3 * levels_;
     exec::for_each(
         ex, keys_.size(), [=] KF_HD(std::size_t i) { st[old[i] >> sub] = en[old[i] >> sub] = 0u; },
         "grid.clear");
@@ -127,21 +128,18 @@ void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
   const std::uint32_t* rank = rank_.data();
   std::uint32_t* keys = keys_.data();
   std::uint32_t* perm = perm_.data();
-  const int levels = levels_;
   exec::for_each(
       ex, n,
       [=] KF_HD(std::size_t i) {
         int cx, cy, cz;
         geo.coords(x[i], cx, cy, cz);
-        keys[i] = rank[geo.linear(cx, cy, cz)] << (3 * levels) |
-                  geo.sub_cell_code(x[i], cx, cy, cz, levels);
+        keys[i] = rank[geo.linear(cx, cy, cz)] << sub | geo.sub_cell_code(x[i], cx, cy, cz, levels);
         perm[i] = static_cast<std::uint32_t>(i);
       },
       "grid.keys");
   exec::sort_by_key(ex, keys_, perm_, key_bits_, "grid.sort");
   std::uint32_t* start = start_.data();
   std::uint32_t* end = end_.data();
-  const int sub = 3 * levels_;
   exec::for_each(
       ex, n,
       [=] KF_HD(std::size_t i) {
