@@ -288,7 +288,7 @@ TEST(NeighbourList, MatchesTheCpuListsCuda) {
 // a warp's particles span several cells and often two rows of cells. Boundary points fill a floor
 // slab, so rows near it mix both kinds and rows far from it skip the boundary walk.
 template <typename T>
-void check_sph_chunk_builder(exec::Backend backend) {
+void check_sph_chunk_builder(exec::Backend backend, int span) {
   const double h = 0.1;
   const Vec3d lo{0, 0, 0}, hi{1.0, 0.3, 0.55};
   const auto fluid = test_points<T>(3000, h, lo, hi, 5);
@@ -298,7 +298,9 @@ void check_sph_chunk_builder(exec::Backend backend) {
       for (double xx = 0.0; xx <= 1.0; xx += 0.025)
         wall.push_back(vec_cast<T>(Vec3d{xx, y, z}));
   exec::Exec ex{backend};
-  const auto geo = NeighbourGrid<T>::cover(lo, hi, h);
+  // Cells of h / span searched span cells on: (2 span + 1)^2 rows a group, 49 (more than a
+  // warp's lanes) with span 3.
+  const auto geo = NeighbourGrid<T>::cover(lo, hi, h / span, span);
   auto sorted_by = [&](NeighbourGrid<T>& g, const std::vector<Vec3<T>>& pts) {
     exec::DeviceBuffer<Vec3<T>> x(backend);
     x.assign(pts);
@@ -309,7 +311,7 @@ void check_sph_chunk_builder(exec::Backend backend) {
       s[i] = pts[perm[i]];
     return s;
   };
-  NeighbourGrid<T> fgrid(backend, geo), bgrid(backend, geo);
+  NeighbourGrid<T> fgrid(backend, geo, span), bgrid(backend, geo, span);
   const auto xf = sorted_by(fgrid, fluid), xb = sorted_by(bgrid, wall);
   std::vector<Vec4<T>> xm_host;
   for (const auto& p : xf)
@@ -336,7 +338,7 @@ void check_sph_chunk_builder(exec::Backend backend) {
   // The reference: host grids of the same geometry (the same order as the backend's, checked),
   // each particle walking its own cell rows, fluid then boundary.
   const exec::Exec host{exec::Backend::Cpu};
-  NeighbourGrid<T> hf(exec::Backend::Cpu, geo), hb(exec::Backend::Cpu, geo);
+  NeighbourGrid<T> hf(exec::Backend::Cpu, geo, span), hb(exec::Backend::Cpu, geo, span);
   {
     exec::DeviceBuffer<Vec3<T>> xs(exec::Backend::Cpu);
     xs.assign(fluid);
@@ -586,15 +588,22 @@ TEST(SphLists, LocalRuleCuda) {
 }
 
 TEST(SphLists, ChunkBuilderEqualsOneParticleWalkCpu) {
-  check_sph_chunk_builder<float>(exec::Backend::Cpu);
-  check_sph_chunk_builder<double>(exec::Backend::Cpu);
+  for (int span = 1; span <= 3; ++span) {
+    SCOPED_TRACE("cell_span " + std::to_string(span));
+    check_sph_chunk_builder<float>(exec::Backend::Cpu, span);
+    check_sph_chunk_builder<double>(exec::Backend::Cpu, span);
+  }
 }
 
+// Groups of lanes walk the union of their rows; with cells of h / span, (2 span + 1)^2 rows.
 TEST(SphLists, ChunkBuilderEqualsOneParticleWalkCuda) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
-  check_sph_chunk_builder<float>(exec::Backend::Cuda);
-  check_sph_chunk_builder<double>(exec::Backend::Cuda);
+  for (int span = 1; span <= 3; ++span) {
+    SCOPED_TRACE("cell_span " + std::to_string(span));
+    check_sph_chunk_builder<float>(exec::Backend::Cuda, span);
+    check_sph_chunk_builder<double>(exec::Backend::Cuda, span);
+  }
 }
 
 TEST(NeighbourGrid, OccupiedAroundFlagsExactlyTheCellsWithCandidates) {
