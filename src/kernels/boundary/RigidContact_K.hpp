@@ -21,6 +21,8 @@ struct RigidContact {
       return 0;
     std::uint64_t hits = 0;
     for (std::size_t s = 0; s < n_shapes; ++s) {
+      if (shapes[s].clear_by(x[i], margin))
+        continue;
       Vec3<T> nrm;
       const T d = shapes[s].distance(x[i], nrm);
       if (d >= margin)

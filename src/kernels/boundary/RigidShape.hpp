@@ -24,8 +24,8 @@ struct RigidShape {
   Vec3<T> b{};     // plane: unit normal, box/container: max, mesh: last grid node
   T radius = T(0); // sphere
   std::uint32_t walls = 0x3F; // container: bit k set = wall k closed (x-, x+, y-, y+, z-, z+)
-  Vec3<T> velocity{}; // prescribed translation
-  Vec3<T> offset{};   // translation at the current time (velocity * t)
+  Vec3<T> velocity{};         // prescribed translation
+  Vec3<T> offset{};           // translation at the current time (velocity * t)
 
   const T* sdf = nullptr;            // mesh: signed distance at the grid nodes, x fastest
   T cell = T(0);                     // mesh: grid spacing
@@ -43,12 +43,45 @@ struct RigidShape {
       normal = r > T(0) ? d * (T(1) / r) : Vec3<T>{T(0), T(0), T(1)};
       return r - radius;
     }
-    case ShapeKind::Box: return box_distance(x, normal);
-    case ShapeKind::Container: return container_distance(x, normal);
-    case ShapeKind::Mesh: return grid_distance(x, normal);
+    case ShapeKind::Box:
+      return box_distance(x, normal);
+    case ShapeKind::Container:
+      return container_distance(x, normal);
+    case ShapeKind::Mesh:
+      return grid_distance(x, normal);
     }
     normal = {T(0), T(0), T(1)};
     return T(1);
+  }
+
+  /// Whether x lies at least `margin` outside the solid, from a bound cheaper than
+  /// distance(): true means distance(x) >= margin; false means maybe not. Why: the fluid's
+  /// contact test (RigidContact) runs for every particle and shape at every step, and nearly all
+  /// are far from every solid; distance() pays a square root and a division for the normal.
+  KF_HD KF_INLINE bool clear_by(const Vec3<T>& x_world, T margin) const {
+    const Vec3<T> x = x_world - offset;
+    switch (kind) {
+    case ShapeKind::Plane:
+      return dot(x - a, b) >= margin;
+    case ShapeKind::Sphere: {
+      const T reach = radius + margin;
+      return reach <= T(0) || norm2(x - a) >= reach * reach;
+    }
+    case ShapeKind::Box: { // outside along one axis by q: at least q away
+      const Vec3<T> c = (a + b) * T(0.5), half = (b - a) * T(0.5), p = x - c;
+      return kmax(kmax(kabs(p.x) - half.x, kabs(p.y) - half.y), kabs(p.z) - half.z) >= margin;
+    }
+    case ShapeKind::Container: { // the nearest closed wall
+      const T d[6] = {x.x - a.x, b.x - x.x, x.y - a.y, b.y - x.y, x.z - a.z, b.z - x.z};
+      bool clear = true;
+      for (int w = 0; w < 6; ++w)
+        clear = clear && (!(walls >> w & 1u) || d[w] >= margin);
+      return clear;
+    }
+    case ShapeKind::Mesh:
+      return false;
+    }
+    return false;
   }
 
 private:
