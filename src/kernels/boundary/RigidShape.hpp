@@ -68,11 +68,12 @@ struct RigidShape {
       return reach <= T(0) || norm2(x - a) >= reach * reach;
     }
     case ShapeKind::Box: { // outside along one axis by q: at least q away
-      const Vec3<T> c = (a + b) * T(0.5), half = (b - a) * T(0.5), p = x - c;
-      return kmax(kmax(kabs(p.x) - half.x, kabs(p.y) - half.y), kabs(p.z) - half.z) >= margin;
+      const Vec3<T> q = box_excess(x);
+      return kmax(kmax(q.x, q.y), q.z) >= margin;
     }
     case ShapeKind::Container: { // the nearest closed wall
-      const T d[6] = {x.x - a.x, b.x - x.x, x.y - a.y, b.y - x.y, x.z - a.z, b.z - x.z};
+      T d[6];
+      wall_gaps(x, d);
       bool clear = true;
       for (int w = 0; w < 6; ++w)
         clear = clear && (!(walls >> w & 1u) || d[w] >= margin);
@@ -131,9 +132,19 @@ private:
     return d;
   }
 
+  /// How far x lies beyond a box's faces along each axis (negative inside).
+  KF_HD KF_INLINE Vec3<T> box_excess(const Vec3<T>& x) const {
+    const Vec3<T> half = (b - a) * T(0.5), p = x - (a + b) * T(0.5);
+    return {kabs(p.x) - half.x, kabs(p.y) - half.y, kabs(p.z) - half.z};
+  }
+  /// x's distances to a container's six wall planes (x-, x+, y-, y+, z-, z+), positive inside.
+  KF_HD KF_INLINE void wall_gaps(const Vec3<T>& x, T (&d)[6]) const {
+    d[0] = x.x - a.x, d[1] = b.x - x.x, d[2] = x.y - a.y;
+    d[3] = b.y - x.y, d[4] = x.z - a.z, d[5] = b.z - x.z;
+  }
   KF_HD KF_INLINE T box_distance(const Vec3<T>& x, Vec3<T>& normal) const {
-    const Vec3<T> c = (a + b) * T(0.5), half = (b - a) * T(0.5), p = x - c;
-    const T q[3] = {kabs(p.x) - half.x, kabs(p.y) - half.y, kabs(p.z) - half.z};
+    const Vec3<T> p = x - (a + b) * T(0.5), e = box_excess(x);
+    const T q[3] = {e.x, e.y, e.z};
     const T s[3] = {p.x < T(0) ? T(-1) : T(1), p.y < T(0) ? T(-1) : T(1),
                     p.z < T(0) ? T(-1) : T(1)};
     if (q[0] <= T(0) && q[1] <= T(0) && q[2] <= T(0)) { // inside: leave by the nearest face
@@ -148,7 +159,8 @@ private:
     return d;
   }
   KF_HD KF_INLINE T container_distance(const Vec3<T>& x, Vec3<T>& normal) const {
-    const T d[6] = {x.x - a.x, b.x - x.x, x.y - a.y, b.y - x.y, x.z - a.z, b.z - x.z};
+    T d[6];
+    wall_gaps(x, d);
     T best = T(1e30);
     int k = -1;
     for (int w = 0; w < 6; ++w)

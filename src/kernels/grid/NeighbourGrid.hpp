@@ -21,9 +21,9 @@ struct SquaredDisplacement {
 };
 
 /// Sorts one particle set by cell (rows along x, Morton order over y, z; optionally by sub-cell
-/// within each cell) and keeps the cell tables
-/// for neighbour loops. After build(), permutation()[i] is the old index of the particle now at i;
-/// the owner reorders its fields with it so that positions and tables agree.
+/// within each cell) and keeps the cell tables for neighbour loops. After build(),
+/// permutation()[i] is the old index of the particle now at i; the owner reorders its fields
+/// with it so that positions and tables agree.
 template <typename T>
 class NeighbourGrid {
 public:
