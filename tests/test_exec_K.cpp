@@ -154,10 +154,13 @@ void lane_sums(const Exec& ex, DeviceBuffer<double>& out, DeviceBuffer<std::uint
 
 /// for_each_chunk: every element of [0, n) is some lane's first + lane, once; per element the
 /// group queries over its chunk: the first lane whose element is 3 mod 5, that lane's element
-/// (broadcast), and the smallest and largest element mod 97 over the chunk's lanes.
+/// (broadcast), the smallest and largest element mod 97 over the chunk's lanes, the ballot of
+/// the lanes whose element is even (its bit count, and the bits below this lane), and the box
+/// of the points (e mod 97, -(e mod 89), e mod 13) over the chunk's lanes (min_each, max_each).
+constexpr std::size_t kChunkAnswers = 8;
 struct ChunkQueries {
   std::size_t n;
-  std::int32_t* out; // 4 per element
+  std::int32_t* out; // kChunkAnswers per element
   KF_HD void operator()(std::size_t first, kf::exec::Lanes g) const {
     const std::size_t e = first + g.lane;
     const bool mine = e < n;
@@ -165,18 +168,28 @@ struct ChunkQueries {
     const int from = g.broadcast(mine ? int(e) : -1, lead < g.size ? lead : 0);
     const int lo = g.min(mine ? int(e % 97) : 1000), hi = g.max(mine ? int(e % 97) : -1);
     const bool any = g.any(mine && e % 5 == 3);
+    const unsigned even = g.ballot(mine && e % 2 == 0);
+    const float big = 1e30f;
+    const kf::Vec3<float> p{float(e % 97), -float(e % 89), float(e % 13)};
+    const kf::Vec3<float> blo = g.min_each(mine ? p : kf::Vec3<float>{big, big, big});
+    const kf::Vec3<float> bhi = g.max_each(mine ? p : kf::Vec3<float>{-big, -big, -big});
     if (mine) {
-      out[4 * e] = int(lead) + (any ? 0 : 100);
-      out[4 * e + 1] = lead < g.size ? from : -2;
-      out[4 * e + 2] = lo;
-      out[4 * e + 3] = hi;
+      std::int32_t* o = out + kChunkAnswers * e;
+      o[0] = int(lead) + (any ? 0 : 100);
+      o[1] = lead < g.size ? from : -2;
+      o[2] = lo;
+      o[3] = hi;
+      o[4] = int(kf::popcount(even));
+      o[5] = int(kf::popcount(even & ((1u << g.lane) - 1u)));
+      o[6] = int(blo.x) * 10000 + int(-blo.y) * 100 + int(blo.z);
+      o[7] = int(bhi.x) * 10000 + int(-bhi.y) * 100 + int(bhi.z);
     }
   }
 };
 template <unsigned G>
 void check_chunks(const Exec& ex, Backend b) {
   for (std::size_t n : {std::size_t(1), std::size_t(31), std::size_t(1000), std::size_t(4099)}) {
-    DeviceBuffer<std::int32_t> out(b, 4 * n, "test.chunks");
+    DeviceBuffer<std::int32_t> out(b, kChunkAnswers * n, "test.chunks");
     out.poison();
     kf::exec::for_each_chunk<G>(ex, n, ChunkQueries{n, out.data()}, "test.chunks");
     const auto o = out.to_host();
@@ -184,17 +197,31 @@ void check_chunks(const Exec& ex, Backend b) {
     for (std::size_t e = 0; e < n; ++e) {
       const std::size_t first = e / size * size, last = std::min(n, first + size);
       std::size_t lead = size;
-      int lo = 1000, hi = -1;
+      int lo = 1000, hi = -1, evens = 0, evens_below = 0;
+      int box_lo[3] = {1000, 1000, 1000}, box_hi[3] = {-1, -1, -1}; // x, -y, z
       for (std::size_t k = first; k < last; ++k) {
         if (lead == size && k % 5 == 3)
           lead = k - first;
         lo = std::min(lo, int(k % 97));
         hi = std::max(hi, int(k % 97));
+        evens += k % 2 == 0;
+        evens_below += k % 2 == 0 && k < e;
+        const int c[3] = {int(k % 97), int(k % 89), int(k % 13)};
+        for (int a = 0; a < 3; ++a) {
+          box_lo[a] = std::min(box_lo[a], c[a]);
+          box_hi[a] = std::max(box_hi[a], c[a]);
+        }
       }
-      ASSERT_EQ(o[4 * e], int(lead) + (lead < size ? 0 : 100)) << "G " << G << " e " << e;
-      ASSERT_EQ(o[4 * e + 1], lead < size ? int(first + lead) : -2) << "G " << G << " e " << e;
-      ASSERT_EQ(o[4 * e + 2], lo) << "G " << G << " e " << e;
-      ASSERT_EQ(o[4 * e + 3], hi) << "G " << G << " e " << e;
+      const std::int32_t* r = o.data() + kChunkAnswers * e;
+      ASSERT_EQ(r[0], int(lead) + (lead < size ? 0 : 100)) << "G " << G << " e " << e;
+      ASSERT_EQ(r[1], lead < size ? int(first + lead) : -2) << "G " << G << " e " << e;
+      ASSERT_EQ(r[2], lo) << "G " << G << " e " << e;
+      ASSERT_EQ(r[3], hi) << "G " << G << " e " << e;
+      ASSERT_EQ(r[4], evens) << "G " << G << " e " << e;
+      ASSERT_EQ(r[5], evens_below) << "G " << G << " e " << e;
+      // min over x and z, and over y = -(k mod 89): the largest k mod 89, and the reverse.
+      ASSERT_EQ(r[6], box_lo[0] * 10000 + box_hi[1] * 100 + box_lo[2]) << "G " << G << " e " << e;
+      ASSERT_EQ(r[7], box_hi[0] * 10000 + box_lo[1] * 100 + box_hi[2]) << "G " << G << " e " << e;
     }
   }
 }

@@ -45,6 +45,14 @@ KF_HD KF_INLINE unsigned highest_bit(unsigned w) {
   return static_cast<unsigned>(31 - __builtin_clz(w));
 #endif
 }
+/// Index of the lowest set bit of a nonzero word.
+KF_HD KF_INLINE unsigned lowest_bit(unsigned w) {
+#if defined(__CUDA_ARCH__)
+  return static_cast<unsigned>(__ffs(static_cast<int>(w)) - 1);
+#else
+  return static_cast<unsigned>(__builtin_ctz(w));
+#endif
+}
 /// Number of set bits.
 KF_HD KF_INLINE unsigned popcount(unsigned w) {
 #if defined(__CUDA_ARCH__)

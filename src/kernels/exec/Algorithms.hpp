@@ -4,6 +4,7 @@
 // including file is compiled as CUDA; on a CPU build the same call runs an OpenMP loop.
 #include "core/Error.hpp"
 #include "core/HostDevice.hpp"
+#include "core/Vec3.hpp"
 #include "kernels/exec/Backend.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
 
@@ -55,18 +56,11 @@ struct Lanes {
 
   /// The lowest lane of the group whose `p` is true, or `size` when none is (all lanes call).
   KF_HD KF_INLINE unsigned first_set(bool p) const {
-#if defined(__CUDA_ARCH__)
-    const unsigned mask = group_mask();
-    const unsigned b = (__ballot_sync(mask, p) & mask) >> ((threadIdx.x & 31u) & ~(size - 1u));
-    return b ? static_cast<unsigned>(__ffs(b) - 1) : size;
-#else
-    return p ? 0u : 1u;
-#endif
+    const unsigned b = ballot(p);
+    return b ? lowest_bit(b) : size;
   }
   /// Whether `p` is true on some lane of the group (all lanes call).
-  KF_HD KF_INLINE bool any(bool p) const {
-    return first_set(p) < size;
-  }
+  KF_HD KF_INLINE bool any(bool p) const { return first_set(p) < size; }
   /// Lane `from`'s v, to every lane of the group (all lanes call).
   KF_HD KF_INLINE int broadcast(int v, unsigned from) const {
 #if defined(__CUDA_ARCH__)
@@ -82,6 +76,29 @@ struct Lanes {
   }
   KF_HD KF_INLINE int max(int v) const {
     return butterfly(v, [](int a, int b) { return a < b ? b : a; });
+  }
+  /// Component-wise smallest and largest v over the group: the box of the lanes' points.
+  template <typename T>
+  KF_HD KF_INLINE Vec3<T> min_each(const Vec3<T>& v) const {
+    return butterfly(v, [](const Vec3<T>& a, const Vec3<T>& b) {
+      return Vec3<T>{b.x < a.x ? b.x : a.x, b.y < a.y ? b.y : a.y, b.z < a.z ? b.z : a.z};
+    });
+  }
+  template <typename T>
+  KF_HD KF_INLINE Vec3<T> max_each(const Vec3<T>& v) const {
+    return butterfly(v, [](const Vec3<T>& a, const Vec3<T>& b) {
+      return Vec3<T>{a.x < b.x ? b.x : a.x, a.y < b.y ? b.y : a.y, a.z < b.z ? b.z : a.z};
+    });
+  }
+  /// The group's bits of the lanes whose p is true, lane 0 of the group at bit 0 (all lanes
+  /// call; one lane on the CPU).
+  KF_HD KF_INLINE unsigned ballot(bool p) const {
+#if defined(__CUDA_ARCH__)
+    const unsigned mask = group_mask();
+    return (__ballot_sync(mask, p) & mask) >> ((threadIdx.x & 31u) & ~(size - 1u));
+#else
+    return p ? 1u : 0u;
+#endif
   }
 
 private:

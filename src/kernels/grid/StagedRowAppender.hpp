@@ -31,15 +31,19 @@ public:
   /// Appends base + k for each bit k set in `bits`, in increasing k; at most 16 bits set (so a
   /// flush() after each call keeps the ring from wrapping onto unwritten slots).
   KF_HD KF_INLINE void push_bits(std::uint32_t base, std::uint32_t bits) {
+    // base + k never carries into a tag in the top bit: indices stay below 2^31 - 32.
+    push_each(bits, [base](unsigned k) { return base + k; });
+  }
+  /// Appends entry(k) for each bit k set in `bits`, in increasing k (as push_bits).
+  template <typename E>
+  KF_HD KF_INLINE void push_each(std::uint32_t bits, E&& entry) {
     // The reversed mask walked from its top bit: one FLO a push (the lowest bit costs a BREV
-    // too). base + k never carries into a tag in the top bit: indices stay below 2^31 - 32.
-    // The slot offset runs on with a wrap (two instructions; from the count, four) and the
-    // count moves once per call.
-    const std::uint32_t last = base + 31u;
+    // too). The slot offset runs on with a wrap (two instructions; from the count, four) and
+    // the count moves once per call.
     std::uint32_t o = (c_ % kStageSlots) * Stride;
     for (std::uint32_t r = reverse_bits(bits); r != 0u;) {
       const unsigned top = highest_bit(r);
-      ring_[o] = last - top;
+      ring_[o] = entry(31u - top);
       o = (o + Stride) % (kStageSlots * Stride);
       r ^= 1u << top;
     }
