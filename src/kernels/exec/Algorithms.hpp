@@ -81,13 +81,13 @@ struct Lanes {
   template <typename T>
   KF_HD KF_INLINE Vec3<T> min_each(const Vec3<T>& v) const {
     return butterfly(v, [](const Vec3<T>& a, const Vec3<T>& b) {
-      return Vec3<T>{b.x < a.x ? b.x : a.x, b.y < a.y ? b.y : a.y, b.z < a.z ? b.z : a.z};
+      return Vec3<T>{kmin(a.x, b.x), kmin(a.y, b.y), kmin(a.z, b.z)};
     });
   }
   template <typename T>
   KF_HD KF_INLINE Vec3<T> max_each(const Vec3<T>& v) const {
     return butterfly(v, [](const Vec3<T>& a, const Vec3<T>& b) {
-      return Vec3<T>{a.x < b.x ? b.x : a.x, a.y < b.y ? b.y : a.y, a.z < b.z ? b.z : a.z};
+      return Vec3<T>{kmax(a.x, b.x), kmax(a.y, b.y), kmax(a.z, b.z)};
     });
   }
   /// The group's bits of the lanes whose p is true, lane 0 of the group at bit 0 (all lanes

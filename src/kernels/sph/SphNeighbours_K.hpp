@@ -64,7 +64,8 @@ struct SphList {
 /// in the grids' candidate order (the one-lane walk's), built by groups of lanes over
 /// consecutive particles (exec::for_each_chunk, lane l taking particle first + l). The group's
 /// particles whose cells share a row (y, z) walk that row's cells together: the union of their
-/// candidate rows, each candidate loaded once for all lanes (a shared tile on the GPU). A lane
+/// candidate rows, each candidate loaded once for all lanes (on the GPU, those within reach of
+/// the lanes' box, through a shared ring). A lane
 /// keeps its hits among 32 candidates as bits and appends them in order through a ring
 /// (StagedRowAppender, in shared memory on the GPU). Cells are as wide as the radius, so a
 /// particle's neighbours lie in its own (2 span + 1)^3 cells; the union visits the rows in the same
@@ -107,6 +108,14 @@ struct SphChunkListBuilder {
     cells.geo.coords(xi, cx, cy, cz);
     const bool near = mine && b.around(xi);
     StagedRowAppender<kStride> row(out, i, slots);
+    // Appends this lane's hits among 32 candidates, entry(k) for candidate k, 16 at a time: the
+    // ring holds 7 unwritten entries at most before a push.
+    auto append = [&](std::uint32_t hits, auto&& entry) {
+      row.push_each(hits & 0xFFFFu, entry);
+      row.flush();
+      row.push_each(hits >> 16, [&](unsigned k) { return entry(16u + k); });
+      row.flush();
+    };
 #if defined(__CUDA_ARCH__)
     const T far = T(1e30); // its square overflows a float to infinity: never within the radius
     // The warp streams the candidates of a row group's rows through a shared ring, keeping
@@ -131,8 +140,7 @@ struct SphChunkListBuilder {
       }
     };
     // Tests the 32 kept candidates from `tested` on, of which the first `count` are real, and
-    // appends this lane's hits in order, 16 at a time (the ring holds 7 unwritten entries at
-    // most before a push).
+    // appends this lane's hits in order.
     auto test_tile = [&](std::uint32_t count, bool take) {
       __syncwarp(); // every lane's kept candidate is in the ring
       const T* tile = tiles_of_warp + 4u * (tested % 64u);
@@ -143,11 +151,7 @@ struct SphChunkListBuilder {
         hits |= (norm2(xi - position(tile, t)) < radius2 ? 1u : 0u) << t;
       if (count < 32)
         hits &= (1u << count) - 1u;
-      hits = take ? hits : 0u;
-      row.push_each(hits & 0xFFFFu, [&](unsigned k) { return entries[k]; });
-      row.flush();
-      row.push_each(hits >> 16, [&](unsigned k) { return entries[16u + k]; });
-      row.flush();
+      append(take ? hits : 0u, [&](unsigned k) { return entries[k]; });
       tested += 32;
       __syncwarp(); // every lane is done with these 32 before the ring reuses their slots
     };
@@ -198,11 +202,8 @@ struct SphChunkListBuilder {
         std::uint32_t hits = 0;
         for (std::uint32_t t = 0; t < 32 && base + t < to; ++t)
           hits |= (norm2(xi - at(pts[base + t])) < radius2 ? 1u : 0u) << t;
-        hits = take ? hits : 0u;
-        row.push_bits(base | tag, hits & 0xFFFFu);
-        row.flush();
-        row.push_bits((base + 16u) | tag, hits >> 16);
-        row.flush();
+        // base + k never carries into the tag: indices stay below 2^31 - 32.
+        append(take ? hits : 0u, [&](unsigned k) { return (base + k) | tag; });
       }
     };
     auto end_scan = [](bool) {};
