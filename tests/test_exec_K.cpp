@@ -6,6 +6,8 @@
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/exec/Backend.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
+#include "kernels/exec/PendingRead.hpp"
+#include "kernels/integrate/StepSize.hpp"
 
 #if defined(KF_WITH_CUDA) && defined(__CUDACC__)
 #include "kernels/exec/CudaCheck.hpp"
@@ -16,6 +18,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <string>
@@ -226,6 +230,22 @@ void check_chunks(const Exec& ex, Backend b) {
   }
 }
 
+/// p[i] = value for i < n (a kernel queued behind a pending read).
+void set_all(const Exec& ex, DeviceBuffer<double>& buf, double value) {
+  kf::exec::for_each(ex, buf.size(), kf::exec::FillWith<double>{buf.data(), value}, "test.set");
+}
+
+/// The step plan of the device, for bounds and a remainder, read back.
+kf::StepPlan<float> plan_on(const Exec& ex, const kf::FluidStepRule& rule,
+                            kf::MotionBounds<float> mb, double remaining) {
+  DeviceBuffer<kf::MotionBounds<float>> bounds(ex.backend, 0, "bounds");
+  bounds.assign(std::vector<kf::MotionBounds<float>>{mb});
+  DeviceBuffer<kf::StepPlan<float>> plan(ex.backend, 1, "plan");
+  plan.poison();
+  kf::plan_fluid_step(ex, rule, bounds.data(), remaining, plan.data());
+  return plan.to_host()[0];
+}
+
 } // namespace kf_exec_test
 
 namespace {
@@ -408,6 +428,79 @@ void check_max_into_each(const Exec& ex, Backend b) {
 TEST_P(ExecTest, MaxIntoEachIsExactPerValue) {
   check_max_into_each<float>(ex(), b());
   check_max_into_each<double>(ex(), b());
+}
+
+// A pending read returns what the buffer held when it was started, even though work queued
+// after the start overwrites the buffer; the host can queue that work before it waits.
+TEST_P(ExecTest, PendingReadSeesTheBufferAsItWasWhenStarted) {
+  DeviceBuffer<double> buf(b(), 3, "buf");
+  kf::exec::PendingRead<double> read(b(), 3, "test.read");
+  EXPECT_FALSE(read.pending());
+  EXPECT_THROW(read.wait(), kf::Error);
+  for (double value : {1.5, -2.25}) {
+    set_all(ex(), buf, value);
+    read.start(buf.data());
+    EXPECT_TRUE(read.pending());
+    set_all(ex(), buf, 99.0); // queued behind the copy
+    const auto got = read.wait();
+    ASSERT_EQ(got.size(), 3u);
+    for (double g : got)
+      EXPECT_EQ(g, value);
+    EXPECT_FALSE(read.pending());
+    EXPECT_EQ(buf.to_host(), std::vector<double>(3, 99.0));
+  }
+  read.start(buf.data(), 1);
+  EXPECT_EQ(read.wait().size(), 1u);
+  EXPECT_THROW(read.start(buf.data(), 4), kf::Error); // more than the slot holds
+}
+
+// The fluid's step planned on the backend, against the rule written out here in double:
+// dt = min(limit, cfl h / (c + vmax), F sqrt(h / amax)), landed on the remainder; dt 0 (and
+// not landing) when the bounds are not finite or the stable step is below dt_min. Bit for bit.
+TEST_P(ExecTest, StepPlanIsTheHostRuleBitForBit) {
+  kf::FluidStepRule rule;
+  rule.limit = 1e-3;
+  rule.cfl = 0.1;
+  rule.h = 0.0121;
+  rule.sound = 34.3;
+  rule.force_factor = 0.25;
+  rule.dt_min = 1e-9;
+  const float inf = std::numeric_limits<float>::infinity();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  struct Case {
+    float v2, a2;
+    double remaining;
+  };
+  const Case cases[] = {{0.f, 0.f, 1.0},     {27.5f, 3.1e4f, 1.0}, {1e-8f, 9.81f * 9.81f, 0.01},
+                        {4.f, 96.f, 3.0e-5}, {4.f, 96.f, 4.5e-5},  {4.f, 96.f, 1.0e-6},
+                        {25.f, 1e20f, 1.0},  {inf, 1.f, 1.0},      {1.f, nan, 1.0},
+                        {1e30f, 1e30f, 1.0}, {0.f, 0.f, 0.0}};
+  for (const Case& c : cases) {
+    const double vmax = std::sqrt(double(c.v2)), amax = std::sqrt(double(c.a2));
+    double stable = std::min(rule.limit, rule.cfl * rule.h / (rule.sound + vmax));
+    if (amax > 0)
+      stable = std::min(stable, rule.force_factor * std::sqrt(rule.h / amax));
+    const bool finite = std::isfinite(double(c.v2)) && std::isfinite(double(c.a2));
+    const bool ok = finite && !(stable < rule.dt_min);
+    double dt = stable;
+    bool lands = false;
+    if (c.remaining <= stable * (1 + 1e-9)) {
+      dt = c.remaining;
+      lands = true;
+    } else if (c.remaining < 2 * stable) {
+      dt = 0.5 * c.remaining;
+    }
+    const kf::StepPlan<float> p = plan_on(ex(), rule, {c.v2, c.a2}, c.remaining);
+    const std::string what = "v2 " + std::to_string(c.v2) + ", a2 " + std::to_string(c.a2) +
+                             ", remaining " + std::to_string(c.remaining);
+    EXPECT_EQ(p.finite != 0, finite) << what;
+    EXPECT_EQ(p.dt, ok ? dt : 0.0) << what;
+    EXPECT_EQ(p.lands != 0, ok && lands) << what;
+    if (finite) {
+      EXPECT_EQ(p.stable_dt, stable) << what;
+    }
+    EXPECT_EQ(std::memcmp(&p.bounds, &c, sizeof(p.bounds)), 0) << what; // v2, a2 as given
+  }
 }
 
 // transform_reduce_to writes what transform_reduce returns (the same tree), init included, and

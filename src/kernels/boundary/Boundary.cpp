@@ -37,14 +37,16 @@ struct KickDriftContact {
   bool close_previous;
   Prescribed<T> fixed;
   RigidContact<T> contact;
+  const double* dt_device;
 
   KF_HD std::uint64_t operator()(std::size_t i) const {
-    const T half = T(0.5) * dt;
+    const T step = dt_device ? static_cast<T>(*dt_device) : dt;
+    const T half = T(0.5) * step;
     if (close_previous)
       v[i] = half_kick(i, v, a, half, keep, fixed);
     const Vec3<T> vh = half_kick(i, v, a, half, keep, fixed);
     v[i] = vh;
-    x[i] += vh * dt;
+    x[i] += vh * step;
     return contact.n_shapes ? contact(i) : 0;
   }
 };
@@ -55,11 +57,12 @@ template <typename T>
 void kick_drift_contact(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a,
                         std::size_t n, T dt, T keep, bool close_previous, Prescribed<T> fixed,
                         const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
-                        std::uint64_t* count, const char* label) {
+                        std::uint64_t* count, const char* label, const double* dt_device) {
   exec::transform_reduce_into(
       ex, n, exec::SumOp{},
       KickDriftContact<T>{x, v, a, dt, keep, close_previous, fixed,
-                          RigidContact<T>{x, v, shapes, n_shapes, margin, friction, fixed.handle}},
+                          RigidContact<T>{x, v, shapes, n_shapes, margin, friction, fixed.handle},
+                          dt_device},
       count, label);
 }
 
@@ -85,9 +88,10 @@ T min_rigid_distance(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
   template void enforce_rigid_shapes<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, std::size_t,        \
                                         const RigidShape<T>*, std::size_t, T, T,                   \
                                         const std::uint32_t*, std::uint64_t*, const char*);        \
-  template void kick_drift_contact<T>(                                                             \
-      const exec::Exec&, Vec3<T>*, Vec3<T>*, const Vec3<T>*, std::size_t, T, T, bool,              \
-      Prescribed<T>, const RigidShape<T>*, std::size_t, T, T, std::uint64_t*, const char*);        \
+  template void kick_drift_contact<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, const Vec3<T>*,       \
+                                      std::size_t, T, T, bool, Prescribed<T>,                      \
+                                      const RigidShape<T>*, std::size_t, T, T, std::uint64_t*,     \
+                                      const char*, const double*);                                 \
   template T min_rigid_distance<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                 \
                                    const RigidShape<T>*, std::size_t);
 KF_INSTANTIATE(float)

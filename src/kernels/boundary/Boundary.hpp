@@ -27,12 +27,13 @@ void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::siz
 /// close_previous, the previous substep's closing half kick (the same a); then kick_drift; then
 /// enforce_rigid_shapes (margin, friction, counting into *count). The same arithmetic as the
 /// three calls in a row (bit for bit): a prescribed point's velocity is set by the second kick
-/// whatever the first left, so `fixed` may already hold this substep's velocities.
+/// whatever the first left, so `fixed` may already hold this substep's velocities. With
+/// dt_device, dt is T(*dt_device), read on the device (a step planned there, StepSize_K.hpp).
 template <typename T>
 void kick_drift_contact(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a,
                         std::size_t n, T dt, T keep, bool close_previous, Prescribed<T> fixed,
                         const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
-                        std::uint64_t* count, const char* label);
+                        std::uint64_t* count, const char* label, const double* dt_device = nullptr);
 
 /// Smallest signed distance of any of the n points to any shape (negative: inside a solid),
 /// used by tests and diagnostics.

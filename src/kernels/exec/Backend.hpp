@@ -8,7 +8,9 @@ namespace kf::exec {
 /// Where data lives and kernels run. Every build has Cpu; Cuda exists when built with nvcc.
 enum class Backend { Cpu, Cuda };
 
-inline std::string_view to_string(Backend b) { return b == Backend::Cpu ? "cpu" : "cuda"; }
+inline std::string_view to_string(Backend b) {
+  return b == Backend::Cpu ? "cpu" : "cuda";
+}
 
 /// True when this binary was built with the CUDA backend.
 bool cuda_compiled();
@@ -16,7 +18,8 @@ bool cuda_compiled();
 bool cuda_available();
 /// Selects the CUDA device this process uses (rank-local index); no-op on CPU builds.
 void cuda_select_device(int device);
-/// One-line description of the device in use ("NVIDIA H100 80GB HBM3, 132 SMs" or "CPU, 2 threads").
+/// One-line description of the device in use ("NVIDIA H100 80GB HBM3, 132 SMs" or "CPU, 2
+/// threads").
 std::string describe(Backend b);
 
 /// Raw memory on a backend. All host<->device traffic goes through copy_bytes.
@@ -25,5 +28,16 @@ void free_bytes(Backend b, void* p) noexcept;
 void copy_bytes(void* dst, Backend dst_b, const void* src, Backend src_b, std::size_t bytes);
 /// Waits until all work queued on the backend is finished (no-op on CPU).
 void synchronize(Backend b);
+
+/// A small device-to-host read that the host collects later (PendingRead.hpp wraps it): page-
+/// locked staging memory the copy lands in and an event marking its arrival. On the CPU the copy
+/// is made at once.
+struct ReadSlot;
+ReadSlot* open_read_slot(Backend b, std::size_t bytes, const char* what);
+void close_read_slot(ReadSlot* s) noexcept;
+/// Queues a copy of `bytes` (at most the slot's) from src, behind the work queued so far.
+void start_read(ReadSlot* s, const void* src, std::size_t bytes, const char* label);
+/// Waits for the copy start_read queued and returns the staging memory holding it.
+const void* finish_read(ReadSlot* s, const char* label);
 
 } // namespace kf::exec

@@ -22,6 +22,13 @@ void* cuda_alloc(std::size_t bytes, const char* what);
 void cuda_free(void* p) noexcept;
 void cuda_copy(void* dst, bool dst_dev, const void* src, bool src_dev, std::size_t bytes);
 void cuda_synchronize();
+void* cuda_alloc_pinned(std::size_t bytes, const char* what);
+void cuda_free_pinned(void* p) noexcept;
+void* cuda_event_create(const char* what);
+void cuda_event_destroy(void* e) noexcept;
+void cuda_copy_to_host_async(void* dst, const void* src, std::size_t bytes, void* event,
+                             const char* label);
+void cuda_event_wait(void* e, const char* label);
 bool cuda_device_present();
 void cuda_set_device(int device);
 std::string cuda_describe();
@@ -130,6 +137,76 @@ void synchronize(Backend b) {
 #else
   (void)b;
 #endif
+}
+
+struct ReadSlot {
+  Backend backend;
+  std::size_t bytes;
+  void* host = nullptr;
+  void* event = nullptr; // CUDA: marks the copy's arrival
+  bool pending = false;
+};
+
+ReadSlot* open_read_slot(Backend b, std::size_t bytes, const char* what) {
+  auto* s = new ReadSlot{b, bytes};
+  try {
+    if (b == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+      s->host = cuda_alloc_pinned(bytes, what);
+      s->event = cuda_event_create(what);
+#else
+      no_cuda(what);
+#endif
+    } else {
+      s->host = alloc_bytes(Backend::Cpu, bytes, what);
+    }
+  } catch (...) {
+    close_read_slot(s);
+    throw;
+  }
+  return s;
+}
+
+void close_read_slot(ReadSlot* s) noexcept {
+  if (!s)
+    return;
+#if defined(KF_WITH_CUDA)
+  if (s->backend == Backend::Cuda) {
+    cuda_event_destroy(s->event);
+    cuda_free_pinned(s->host);
+    delete s;
+    return;
+  }
+#endif
+  free_bytes(Backend::Cpu, s->host);
+  delete s;
+}
+
+void start_read(ReadSlot* s, const void* src, std::size_t bytes, const char* label) {
+  if (bytes > s->bytes)
+    throw Error(std::string(label) + ": a read of " + std::to_string(bytes) +
+                " bytes into a slot of " + std::to_string(s->bytes));
+  if (s->backend == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    cuda_copy_to_host_async(s->host, src, bytes, s->event, label);
+#else
+    no_cuda(label);
+#endif
+  } else if (bytes) {
+    std::memcpy(s->host, src, bytes);
+  }
+  s->pending = true;
+}
+
+const void* finish_read(ReadSlot* s, const char* label) {
+  if (!s->pending)
+    throw Error(std::string(label) + ": waiting for a device read that was never started");
+#if defined(KF_WITH_CUDA)
+  if (s->backend == Backend::Cuda)
+    cuda_event_wait(s->event, label);
+#endif
+  s->pending = false;
+  return s->host;
 }
 
 // LSD radix sort, 8 bits a pass, per-thread histograms: stable, O(n) per pass. The particle

@@ -322,6 +322,46 @@ void cuda_copy(void* dst, bool dst_dev, const void* src, bool src_dev, std::size
                                                  (dst_dev ? "device" : "host"));
 }
 
+void* cuda_alloc_pinned(std::size_t bytes, const char* what) {
+  void* p = nullptr;
+  KF_CUDA(cudaMallocHost(&p, bytes), std::string("allocating ") + std::to_string(bytes) +
+                                         " bytes of page-locked host memory for '" + what + "'");
+  return p;
+}
+
+void cuda_free_pinned(void* p) noexcept {
+  if (p && cudaFreeHost(p) != cudaSuccess)
+    (void)cudaGetLastError();
+}
+
+void* cuda_event_create(const char* what) {
+  cudaEvent_t e = nullptr;
+  KF_CUDA(cudaEventCreateWithFlags(&e, cudaEventDisableTiming),
+          std::string("creating an event for '") + what + "'");
+  return e;
+}
+
+void cuda_event_destroy(void* e) noexcept {
+  if (e && cudaEventDestroy(static_cast<cudaEvent_t>(e)) != cudaSuccess)
+    (void)cudaGetLastError();
+}
+
+void cuda_copy_to_host_async(void* dst, const void* src, std::size_t bytes, void* event,
+                             const char* label) {
+  if (bytes)
+    KF_CUDA(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, 0),
+            std::string(label) + ": queueing a " + std::to_string(bytes) + "-byte read");
+  KF_CUDA(cudaEventRecord(static_cast<cudaEvent_t>(event), 0),
+          std::string(label) + ": marking a read");
+}
+
+void cuda_event_wait(void* e, const char* label) {
+  KF_CUDA(cudaEventSynchronize(static_cast<cudaEvent_t>(e)),
+          std::string(label) +
+              ": waiting for a read from the device (a kernel queued earlier may have failed; "
+              "run with KF_CUDA_SYNC_CHECK=1 to name it)");
+}
+
 // ---- scratch ------------------------------------------------------------------------------------
 
 namespace {

@@ -4,14 +4,14 @@ namespace kf {
 
 template <typename T>
 void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt,
-                T keep, const char* label, Prescribed<T> fixed) {
-  const T half = T(0.5) * dt;
+                T keep, const char* label, Prescribed<T> fixed, const double* dt_device) {
   exec::for_each(
       ex, n,
       [=] KF_HD(std::size_t i) {
-        const Vec3<T> vh = half_kick(i, v, a, half, keep, fixed);
+        const T step = dt_device ? static_cast<T>(*dt_device) : dt;
+        const Vec3<T> vh = half_kick(i, v, a, T(0.5) * step, keep, fixed);
         v[i] = vh;
-        x[i] += vh * dt;
+        x[i] += vh * step;
       },
       label);
 }
@@ -76,7 +76,7 @@ void kick_bounds(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t
 
 #define KF_INSTANTIATE(T)                                                                          \
   template void kick_drift<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, const Vec3<T>*, std::size_t,  \
-                              T, T, const char*, Prescribed<T>);                                   \
+                              T, T, const char*, Prescribed<T>, const double*);                    \
   template void kick<T>(const exec::Exec&, Vec3<T>*, const Vec3<T>*, std::size_t, T, T,            \
                         const char*, Prescribed<T>);                                               \
   template MotionBounds<T> motion_bounds<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,     \

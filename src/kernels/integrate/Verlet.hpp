@@ -26,9 +26,11 @@ KF_HD KF_INLINE Vec3<T> half_kick(std::size_t i, const Vec3<T>* v, const Vec3<T>
 }
 
 /// v = keep (v + a dt/2), then x += v dt. keep = exp(-zeta dt/2) < 1 damps (settling); 1 does not.
+/// With dt_device, dt is T(*dt_device), read on the device (a step planned there, StepSize_K.hpp).
 template <typename T>
 void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt,
-                T keep, const char* label, Prescribed<T> fixed = {});
+                T keep, const char* label, Prescribed<T> fixed = {},
+                const double* dt_device = nullptr);
 /// v = keep (v + a dt/2).
 template <typename T>
 void kick(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt, T keep,
