@@ -424,6 +424,9 @@ void check_local_rule(exec::Backend backend) {
   f.reorder(ex, grid.permutation());
   SphLists<T> lists(backend, T(s));
   lists.build(ex, f, grid.view(), BoundaryNeighbours<T>{}, T(h));
+  EXPECT_THROW(lists.view(), Error); // not settled yet
+  lists.settle(ex);                  // rows of more than the first capacity: built again here
+  EXPECT_GT(lists.capacity(), 32u);
   const std::vector<Vec3<T>> x0 = f.x.to_host();
   const GridGeometry<T> geo = grid.geometry();
   auto move = [&](auto&& d) {
@@ -687,6 +690,86 @@ TEST(NeighbourGrid, ParticlesSortedInCellRankOrder) {
     EXPECT_GE(i, v.start[r]);
     EXPECT_LT(i, v.end[r]);
   }
+}
+
+// build_keeping: the points inside the box (and NaNs) are sorted exactly as build() sorts them
+// alone (the same order of their old indices, the same cell ranges); the ones outside follow in
+// their old order and are in no cell. After drop_outside, a later build clears the tables
+// properly (brute force again).
+static void check_build_keeping(exec::Backend backend) {
+  const double h = 0.1;
+  const Vec3d lo{0, 0, 0}, hi{0.8, 0.6, 0.7};
+  auto host = test_points<float>(3000, h, lo, hi, 17); // some points lie just outside
+  host.push_back({std::numeric_limits<float>::quiet_NaN(), 0.3f, 0.3f}); // counts as inside
+  const auto all = host;
+  const KeepBox<float> keep{{0.05f, 0.02f, 0.0f}, {0.75f, 0.6f, 0.65f}};
+  std::vector<std::uint32_t> inside, outside;
+  for (std::uint32_t i = 0; i < host.size(); ++i)
+    (keep.outside(host[i]) ? outside : inside).push_back(i);
+  ASSERT_GT(outside.size(), 100u);
+  const auto geo = NeighbourGrid<float>::cover(lo, hi, h);
+  const exec::Exec ex{backend};
+  NeighbourGrid<float> grid(backend, geo, 1, 2), alone(backend, geo, 1, 2);
+  exec::DeviceBuffer<Vec3<float>> x(backend), xin(backend);
+  // Every cell's range in a and b (the tables read back whole).
+  auto same_cells = [&](const NeighbourGrid<float>& a, const NeighbourGrid<float>& b,
+                        const char* what) {
+    const std::size_t cells = geo.cells();
+    auto table = [&](const std::uint32_t* p) {
+      std::vector<std::uint32_t> t(cells);
+      exec::copy_bytes(t.data(), exec::Backend::Cpu, p, backend, cells * sizeof(std::uint32_t));
+      return t;
+    };
+    EXPECT_EQ(table(a.view().start), table(b.view().start)) << what;
+    EXPECT_EQ(table(a.view().end), table(b.view().end)) << what;
+  };
+  for (int round = 0; round < 2; ++round) { // the second on the tables the first left
+    x.assign(host);
+    grid.build_keeping(ex, x.data(), host.size(), keep);
+    const std::size_t kept = grid.kept();
+    ASSERT_EQ(kept, inside.size());
+    EXPECT_EQ(grid.kept(), kept); // read once, kept
+    const auto perm = grid.permutation().to_host();
+    ASSERT_EQ(perm.size(), host.size());
+    std::vector<Vec3<float>> in;
+    for (std::uint32_t i : inside)
+      in.push_back(host[i]);
+    xin.assign(in);
+    alone.build(ex, xin.data(), in.size());
+    const auto perm_in = alone.permutation().to_host();
+    for (std::size_t k = 0; k < kept; ++k)
+      ASSERT_EQ(perm[k], inside[perm_in[k]]) << "round " << round << ", k " << k;
+    for (std::size_t k = kept; k < perm.size(); ++k)
+      ASSERT_EQ(perm[k], outside[k - kept]) << "round " << round << ", k " << k;
+    same_cells(grid, alone, "keeping against the inside alone");
+    grid.drop_outside(kept);
+    EXPECT_EQ(grid.permutation().size(), kept);
+    EXPECT_THROW(grid.drop_outside(kept + 1), Error);
+    host = in; // all inside now
+    inside.resize(host.size());
+    for (std::uint32_t i = 0; i < host.size(); ++i)
+      inside[i] = i;
+    outside.clear();
+  }
+  // A keeping build left as it is (its keys name the outside), then a plain one: the tables
+  // are a fresh grid's.
+  x.assign(all);
+  grid.build_keeping(ex, x.data(), all.size(), keep);
+  EXPECT_LT(grid.kept(), all.size());
+  grid.build(ex, x.data(), all.size());
+  NeighbourGrid<float> fresh(backend, geo, 1, 2);
+  fresh.build(ex, x.data(), all.size());
+  EXPECT_EQ(grid.permutation().to_host(), fresh.permutation().to_host());
+  same_cells(grid, fresh, "plain build after a keeping one");
+}
+
+TEST(NeighbourGrid, BuildKeepingSortsTheOutsideLastCpu) {
+  check_build_keeping(exec::Backend::Cpu);
+}
+TEST(NeighbourGrid, BuildKeepingSortsTheOutsideLastCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check_build_keeping(exec::Backend::Cuda);
 }
 
 // With order levels L, particles go by cell rank and within a cell by the Morton code of their

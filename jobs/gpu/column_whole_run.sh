@@ -6,6 +6,9 @@
 # the GPU time of the heaviest kernels. After `. .devrt/prelude.sh`, from the project root:
 #
 #   jobs/gpu/column_whole_run.sh knitflow knitflow_old       # logs in $OUT (default out/column)
+#
+# COLUMN_KERNEL_TIMES=0 runs without the per-kernel timing (two events around every launch),
+# as a user would: the goal's figure; the default (1) adds the table of kernels.
 set -uo pipefail
 out=${OUT:-out/column}
 mkdir -p "$out"
@@ -13,7 +16,7 @@ export PATH="$PATH:build/cuda/apps"
 [ $# -gt 0 ] || set -- knitflow
 for exe in "$@"; do
   log="$out/whole_$(basename "$exe").log"
-  KF_KERNEL_TIMES=1 timeout "${COLUMN_TIMEOUT:-280}" "$exe" run scenes/bench/dambreak_column.toml \
+  KF_KERNEL_TIMES=${COLUMN_KERNEL_TIMES:-1} timeout "${COLUMN_TIMEOUT:-280}" "$exe" run scenes/bench/dambreak_column.toml \
     --device cuda --set output.enabled=false --set 'solver.neighbour_list="verlet"' > "$log" 2>&1
   rc=$?
   echo "== $exe (rc $rc)"

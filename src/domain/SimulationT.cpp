@@ -11,8 +11,10 @@
 #include "kernels/boundary/Boundary.hpp"
 #include "kernels/coupling/Absorption.hpp"
 #include "kernels/coupling/KnitFluidCoupling.hpp"
+#include "kernels/exec/PendingRead.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/grid/NeighbourList.hpp"
+#include "kernels/integrate/StepSize.hpp"
 #include "kernels/integrate/Verlet.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/particles/Outflow.hpp"
@@ -110,11 +112,14 @@ private:
   void init_coupling();
   void init_absorption(const CouplingParams<T>& cp);
   void update_shapes(double t);
-  void sort_fluid();
+  /// remove_outflow: the fluid outside the domain is removed in the same sort (counted).
+  /// acceleration false: a is not carried (a forces pass follows before anything reads it).
+  void sort_fluid(bool remove_outflow = false, bool acceleration = true);
   void sort_boundary();
   void compute_forces();
   /// The sph.density and sph.forces stages for a step of dt (0: at t = 0).
   void fluid_density(T dt);
+  bool density_done_ = false; // this step's sph.density ran early (while the lists were read)
   void fluid_forces(T dt);
   bool continuity() const { return scene_.solver.density == DensityModel::Continuity; }
   BoundaryNeighbours<T> boundary_neighbours();
@@ -144,6 +149,10 @@ private:
   std::uint64_t guard_corrections() const { return guard_count_.to_host()[0]; }
   std::uint64_t outflow_particles_ = 0, fluid_sorts_ = 0;
   double outflow_mass_ = 0;
+  // The mass removed by sorts (sort_removing_outside), summed on the device: read with the
+  // diagnostics, not at every sort.
+  exec::DeviceBuffer<double> sorted_outflow_mass_{exec::Backend::Cpu, 0, "fluid.outflow"};
+  double outflow_mass() const { return outflow_mass_ + sorted_outflow_mass_.to_host()[0]; }
   exec::DeviceBuffer<std::uint32_t> flags_{exec::Backend::Cpu, 0, "fluid.flags"};
   bool profiling_ = false;
 
@@ -173,7 +182,22 @@ private:
   // bounds_[1] holds the fluid's bounds now, written by the last step's kick (kick_bounds): the
   // next stable_dt reads them instead of a pass of its own. Cleared when a step starts.
   bool fluid_bounds_ready_ = false;
-  ListView<T> fluid_list_view() const { return fluid_list_ ? fluid_list_->view() : ListView<T>{}; }
+  // A step planned on the device (fluid without knit, bounds from the last kick): the drift is
+  // queued with the device's dt and the host collects the plan while it runs (settle_step).
+  FluidStepRule fluid_step_rule() const;
+  bool plans_step_on_device() const;
+  void settle_step();
+  exec::DeviceBuffer<StepPlan<T>> plan_{exec::Backend::Cpu, 0, "integrate.dt"};
+  std::optional<exec::PendingRead<StepPlan<T>>> plan_read_;
+  bool step_pending_ = false, step_lands_ = false;
+  const double* planned_dt() const { return step_pending_ ? &plan_.data()->dt : nullptr; }
+  /// The fluid's lists for a neighbour pass: settled first (their check read back; SphLists).
+  ListView<T> fluid_list_view() {
+    if (!fluid_list_)
+      return {};
+    fluid_list_->settle(ex_);
+    return fluid_list_->view();
+  }
   RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
   exec::DeviceBuffer<RigidShape<T>> shapes_;
   Pipeline pipeline_;
@@ -182,10 +206,12 @@ private:
 template <typename T>
 SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only)
     : scene_(scene), ex_{backend}, guard_count_(backend, 0, "boundary.guard_count"),
-      flags_(backend, 0, "fluid.flags"), boundary_near_(backend, 0, "boundary.near"),
-      fluid_near_(backend, 0, "fluid.near"), bounds_(backend, 2, "integrate.dt"),
+      sorted_outflow_mass_(backend, 0, "fluid.outflow"), flags_(backend, 0, "fluid.flags"),
+      boundary_near_(backend, 0, "boundary.near"), fluid_near_(backend, 0, "fluid.near"),
+      bounds_(backend, 2, "integrate.dt"), plan_(backend, 1, "integrate.dt"),
       solids_(scene, backend), shapes_(backend, 0, "rigid.shapes") {
   guard_count_.assign(std::vector<std::uint64_t>{0});
+  sorted_outflow_mass_.assign(std::vector<double>{0.0});
   fluid_on_ = scene.has(Module::Fluid);
   boundary_on_ = scene.has(Module::Boundary);
   knit_on_ = scene.has(Module::Knit);
@@ -430,13 +456,15 @@ void SimulationT<T>::build_pipeline() {
                     kick_drift_contact(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_),
                                        damping_keep(dt_), false, Prescribed<T>{}, shapes_.data(),
                                        shapes_.size(), static_cast<T>(margin_), T(0),
-                                       guard_count_.data(), "integrate.kick_drift");
+                                       guard_count_.data(), "integrate.kick_drift", planned_dt());
+                    settle_step();
                   });
   else if (fluid_on_)
     pipeline_.add("integrate.kick_drift", "fluid", "velocity Verlet: half kick, drift", [this] {
       auto f = fluid_->view();
       kick_drift(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_),
-                 "integrate.kick_drift");
+                 "integrate.kick_drift", {}, planned_dt());
+      settle_step();
     });
   if (boundary_on_ && moving_) {
     pipeline_.add("boundary.move", "boundary", "translate moving obstacles", [this] {
@@ -474,24 +502,38 @@ void SimulationT<T>::build_pipeline() {
                          : "sort fluid by cell, cell ranges, neighbour lists with a skin, when "
                            "the lists might miss a pair",
                     [this, open] {
+                      // The continuity predictor reads no neighbours: the GPU runs it while the
+                      // host waits for the lists' reading (it runs again after a sort).
+                      std::function<void()> meanwhile;
+                      if (continuity())
+                        meanwhile = [this] {
+                          fluid_density(static_cast<T>(dt_));
+                          density_done_ = true;
+                        };
                       // Moving solids are sorted every step: their list entries would not last.
                       if (fluid_list_->stale_after(ex_, *fluid_,
-                                                   static_cast<T>(fluid_step_motion()), moving_)) {
-                        if (open)
-                          remove_outflow();
-                        sort_fluid();
+                                                   static_cast<T>(fluid_step_motion()), moving_,
+                                                   meanwhile)) {
+                        // Removing what left the domain in the same sort; the forces pass
+                        // writes a before anything reads it.
+                        sort_fluid(open, false);
+                        density_done_ = false;
                       }
                     });
     else
       pipeline_.add("grid.fluid", "fluid",
                     lists == Lists::On ? "sort fluid by cell, cell ranges, neighbour lists"
                                        : "sort fluid by cell, cell ranges",
-                    [this] { sort_fluid(); });
+                    [this] { sort_fluid(false, false); }); // a: the forces pass follows
     pipeline_.add("sph.density", "fluid",
                   continuity() ? "pressure (EOS) of the density predicted for the step's end "
                                  "from the last two rates (continuity)"
                                : "density (Eq. 2) and pressure (EOS)",
-                  [this] { fluid_density(static_cast<T>(dt_)); });
+                  [this] {
+                    if (!density_done_)
+                      fluid_density(static_cast<T>(dt_));
+                    density_done_ = false;
+                  });
     if (boundary_on_)
       pipeline_.add("boundary.pressure", "boundary", "wall pressure from the fluid (Adami 2012)",
                     [this] { extrapolate_boundary_pressure(); });
@@ -536,10 +578,17 @@ void SimulationT<T>::update_shapes(double t) {
 }
 
 template <typename T>
-void SimulationT<T>::sort_fluid() {
+void SimulationT<T>::sort_fluid(bool remove_outflow, bool acceleration) {
   ++fluid_sorts_;
-  fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
-  fluid_->reorder(ex_, fluid_grid_->permutation());
+  if (remove_outflow) {
+    const auto& d = scene_.domain;
+    outflow_particles_ +=
+        sort_removing_outside(ex_, *fluid_grid_, *fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max),
+                              sorted_outflow_mass_.data(), acceleration);
+  } else {
+    fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
+    fluid_->reorder(ex_, fluid_grid_->permutation(), acceleration);
+  }
   if (boundary_on_) // for boundary.pressure, which walks this grid until the next sort
     fluid_grid_->occupied_around(ex_, fluid_near_);
   if (fluid_list_)
@@ -640,42 +689,80 @@ double SimulationT<T>::stable_dt() {
     mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
   }
   fluid_bounds_ = mb;
-  dt = std::min(dt, coupling_fluid_limit_);
-  const double vmax = std::sqrt(static_cast<double>(mb.v2));
-  const double amax = std::sqrt(static_cast<double>(mb.a2));
-  if (!std::isfinite(vmax) || !std::isfinite(amax))
+  if (!(std::isfinite(double(mb.v2)) && std::isfinite(double(mb.a2))))
     report_instability("a fluid velocity or acceleration is not finite");
-  dt = std::min(dt, s.cfl * h_ / (scene_.fluid.speed_of_sound + vmax));
-  if (amax > 0)
-    dt = std::min(dt, s.force_factor * std::sqrt(h_ / amax));
+  return std::min(dt, fluid_stable_dt(fluid_step_rule(), double(mb.v2), double(mb.a2)));
+}
+
+template <typename T>
+FluidStepRule SimulationT<T>::fluid_step_rule() const {
+  const auto& s = scene_.solver;
+  FluidStepRule r;
+  r.limit = std::min(s.dt_max, coupling_fluid_limit_);
   if (scene_.fluid.viscosity > 0)
-    dt = std::min(dt,
-                  s.viscous_factor * h_ * h_ * scene_.fluid.rest_density / scene_.fluid.viscosity);
-  return dt;
+    r.limit = std::min(r.limit, s.viscous_factor * h_ * h_ * scene_.fluid.rest_density /
+                                    scene_.fluid.viscosity);
+  r.cfl = s.cfl;
+  r.h = h_;
+  r.sound = scene_.fluid.speed_of_sound;
+  r.force_factor = s.force_factor;
+  r.dt_min = s.dt_min;
+  return r;
+}
+
+template <typename T>
+bool SimulationT<T>::plans_step_on_device() const {
+  // The drift must be the step's first stage (no knit or coupling stages before it, which take
+  // dt on the host), its bounds on the device already, and no damping (keep depends on dt).
+  const auto& s = scene_.solver;
+  return fluid_on_ && !knit_on_ && !coupling_on_ && fluid_bounds_ready_ &&
+         !(s.damping > 0 && time_ < s.damping_until);
+}
+
+template <typename T>
+void SimulationT<T>::settle_step() {
+  if (!step_pending_)
+    return;
+  const StepPlan<T> p = plan_read_->wait()[0];
+  step_pending_ = false;
+  fluid_bounds_ = p.bounds;
+  // The plan's dt is 0 in both cases below: the drift queued with it moved nothing.
+  if (!p.finite)
+    report_instability("a fluid velocity or acceleration is not finite");
+  if (p.stable_dt < scene_.solver.dt_min)
+    report_instability("the stable time step " + std::to_string(p.stable_dt) +
+                       " s fell below dt_min " + std::to_string(scene_.solver.dt_min) + " s");
+  dt_ = p.dt;
+  step_lands_ = p.lands != 0;
 }
 
 template <typename T>
 double SimulationT<T>::step(double t_limit) {
-  double dt = stable_dt();
-  if (dt < scene_.solver.dt_min)
-    report_instability("the stable time step " + std::to_string(dt) + " s fell below dt_min " +
-                       std::to_string(scene_.solver.dt_min) + " s");
   // Land exactly on t_limit (output times), without leaving a sliver of a step before it.
   const double remaining = t_limit - time_;
-  bool lands = false;
-  if (remaining <= dt * (1 + 1e-9)) {
-    dt = remaining;
-    lands = true;
-  } else if (remaining < 2 * dt) {
-    dt = 0.5 * remaining;
+  if (plans_step_on_device()) {
+    if (!plan_read_)
+      plan_read_.emplace(ex_.backend, 1, "integrate.dt");
+    plan_fluid_step(ex_, fluid_step_rule(), bounds_.data() + 1, remaining, plan_.data());
+    plan_read_->start(plan_.data());
+    step_pending_ = true;
+    dt_ = std::numeric_limits<double>::quiet_NaN(); // known once the drift is queued
+  } else {
+    const double dt = stable_dt();
+    if (dt < scene_.solver.dt_min)
+      report_instability("the stable time step " + std::to_string(dt) + " s fell below dt_min " +
+                         std::to_string(scene_.solver.dt_min) + " s");
+    bool lands = false;
+    dt_ = landed_dt(dt, remaining, lands);
+    step_lands_ = lands;
   }
-  dt_ = dt;
   fluid_bounds_ready_ = false; // the stages change v and a; the step's last kick writes them
   pipeline_.run(profiling_ ? std::function<void()>([this] { exec::synchronize(ex_.backend); })
                            : std::function<void()>());
-  time_ = lands ? t_limit : time_ + dt;
+  settle_step(); // the drift stage settles it; a pipeline without one would still
+  time_ = step_lands_ ? t_limit : time_ + dt_;
   ++steps_;
-  return dt;
+  return dt_;
 }
 
 template <typename T>
@@ -718,7 +805,7 @@ io::Frame SimulationT<T>::frame() const {
   fr.precision = std::string(to_string(scene_.precision));
   fr.scalars.push_back({"guard_corrections", static_cast<double>(guard_corrections())});
   fr.scalars.push_back({"outflow_particles", static_cast<double>(outflow_particles_)});
-  fr.scalars.push_back({"outflow_mass", outflow_mass_});
+  fr.scalars.push_back({"outflow_mass", outflow_mass()});
   fr.scalars.push_back({"next_fluid_id", static_cast<double>(next_fluid_id_)});
   if (fluid_on_) {
     io::Phase p{"fluid", {}};
@@ -785,9 +872,10 @@ void SimulationT<T>::restore(const io::Frame& fr) {
       guard_count_.assign(std::vector<std::uint64_t>{static_cast<std::uint64_t>(v)});
     else if (k == "outflow_particles")
       outflow_particles_ = static_cast<std::uint64_t>(v);
-    else if (k == "outflow_mass")
+    else if (k == "outflow_mass") {
       outflow_mass_ = v;
-    else if (k == "next_fluid_id")
+      sorted_outflow_mass_.assign(std::vector<double>{0.0});
+    } else if (k == "next_fluid_id")
       next_fluid_id_ = static_cast<std::uint64_t>(v);
   update_shapes(time_);
   if (fluid_on_) {
@@ -902,7 +990,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
     return d;
   d.fluid = fluid_->size();
   d.outflow_particles = outflow_particles_;
-  d.outflow_mass = outflow_mass_;
+  d.outflow_mass = outflow_mass();
   const auto v = fluid_->v.to_host();
   const auto m = fluid_->m.to_host();
   const auto rho = fluid_->rho.to_host();

@@ -22,6 +22,71 @@ std::uint64_t spread2(std::uint64_t v) {
   return v;
 }
 
+// Empties the cells the last build filled (its keys; the outside rank is in no cell).
+struct ClearCells {
+  const std::uint32_t* keys;
+  std::uint32_t* start;
+  std::uint32_t* end;
+  int sub;
+  std::uint32_t outside;
+  KF_HD KF_INLINE void operator()(std::size_t i) const {
+    const std::uint32_t k = keys[i] >> sub;
+    if (k != outside)
+      start[k] = end[k] = 0u;
+  }
+};
+
+// Point i's sort key: its cell's rank, then its sub-cell code; the outside rank when it lies
+// outside the keep box (keeping).
+template <typename T>
+struct CellKeys {
+  const Vec3<T>* x;
+  GridGeometry<T> geo;
+  const std::uint32_t* rank;
+  std::uint32_t* keys;
+  std::uint32_t* perm;
+  int levels;
+  std::uint32_t outside;
+  bool keeping;
+  KeepBox<T> keep;
+  KF_HD KF_INLINE void operator()(std::size_t i) const {
+    const Vec3<T> q = x[i];
+    const int sub = 3 * levels;
+    int cx, cy, cz;
+    geo.coords(q, cx, cy, cz);
+    keys[i] = keeping && keep.outside(q)
+                  ? outside << sub
+                  : rank[geo.linear(cx, cy, cz)] << sub | geo.sub_cell_code(q, cx, cy, cz, levels);
+    perm[i] = static_cast<std::uint32_t>(i);
+  }
+};
+
+// Each cell's range in the sorted keys. The points outside (sorted last) are in no cell; the
+// first of them, or the end when there are none, gives the count kept (one thread writes it).
+struct CellRanges {
+  const std::uint32_t* keys;
+  std::uint32_t* start;
+  std::uint32_t* end;
+  std::uint32_t* kept;
+  std::size_t n;
+  int sub;
+  std::uint32_t outside;
+  KF_HD KF_INLINE void operator()(std::size_t i) const {
+    const std::uint32_t k = keys[i] >> sub;
+    if (k == outside) {
+      if (i == 0 || keys[i - 1] >> sub != outside)
+        *kept = static_cast<std::uint32_t>(i);
+      return;
+    }
+    if (i == 0 || keys[i - 1] >> sub != k)
+      start[k] = static_cast<std::uint32_t>(i);
+    if (i + 1 == n || keys[i + 1] >> sub != k)
+      end[k] = static_cast<std::uint32_t>(i + 1);
+    if (i + 1 == n)
+      *kept = static_cast<std::uint32_t>(n);
+  }
+};
+
 } // namespace
 
 template <typename T>
@@ -53,7 +118,8 @@ template <typename T>
 NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span,
                                 int order_levels)
     : geo_(geo), span_(span), rank_(b, 0, "grid.rank"), start_(b, 0, "grid.start"),
-      end_(b, 0, "grid.end"), keys_(b, 0, "grid.keys"), perm_(b, 0, "grid.permutation") {
+      end_(b, 0, "grid.end"), keys_(b, 0, "grid.keys"), perm_(b, 0, "grid.permutation"),
+      kept_(b, 1, "grid.kept"), kept_read_(b, 1, "grid.kept") {
   if (span < 1)
     throw Error("neighbour grid: span must be at least one cell");
   if (order_levels < 0 || order_levels > kMaxOrderLevels)
@@ -83,8 +149,8 @@ NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int
   rank_.assign(rank);
   start_.resize(n);
   end_.resize(n);
-  levels_ = usable_order_levels(n, order_levels);
-  key_bits_ = rank_bits(n) + 3 * levels_;
+  levels_ = usable_order_levels(n + 1, order_levels); // rank n: outside a KeepBox
+  key_bits_ = rank_bits(n + 1) + 3 * levels_;
 }
 
 template <typename T>
@@ -105,50 +171,61 @@ int NeighbourGrid<T>::usable_order_levels(std::uint32_t cells, int order_levels)
 
 template <typename T>
 void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n) {
+  sort(ex, x, n, nullptr);
+}
+
+template <typename T>
+void NeighbourGrid<T>::build_keeping(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
+                                     const KeepBox<T>& keep) {
+  sort(ex, x, n, &keep);
+  if (n == 0)
+    exec::fill(ex, kept_, 0u, "grid.kept");
+  kept_read_.start(kept_.data());
+}
+
+template <typename T>
+std::size_t NeighbourGrid<T>::kept() {
+  if (kept_read_.pending())
+    kept_count_ = kept_read_.wait()[0];
+  return kept_count_;
+}
+
+template <typename T>
+void NeighbourGrid<T>::drop_outside(std::size_t kept) {
+  if (kept > perm_.size())
+    throw Error("neighbour grid: drop_outside(" + std::to_string(kept) + ") of " +
+                std::to_string(perm_.size()) + " sorted points");
+  keys_.resize(kept);
+  perm_.resize(kept);
+}
+
+template <typename T>
+void NeighbourGrid<T>::sort(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
+                            const KeepBox<T>* keep) {
   // Empty cells must read start = end = 0. Clearing the whole table costs O(cells) per build,
   // which dominates when the particles occupy few cells (a cloth in a room); after the first
   // build only the cells the previous build filled (its keys) are cleared.
   // A key is the cell's rank shifted past `sub` bits of sub-cell code (order_levels).
-  const int levels = levels_, sub = 3 * levels_;
+  const int sub = 3 * levels_;
+  const std::uint32_t outside = geo_.cells(); // the rank after the last cell's
   if (!cleared_) {
     exec::fill(ex, start_, 0u, "grid.clear");
     exec::fill(ex, end_, 0u, "grid.clear");
     cleared_ = true;
   } else if (keys_.size() > 0) {
-    const std::uint32_t* old = keys_.data();
-    std::uint32_t* st = start_.data();
-    std::uint32_t* en = end_.data();
-    exec::for_each(
-        ex, keys_.size(), [=] KF_HD(std::size_t i) { st[old[i] >> sub] = en[old[i] >> sub] = 0u; },
-        "grid.clear");
+    exec::for_each(ex, keys_.size(),
+                   ClearCells{keys_.data(), start_.data(), end_.data(), sub, outside},
+                   "grid.clear");
   }
   keys_.resize(n);
   perm_.resize(n);
-  const GridGeometry<T> geo = geo_;
-  const std::uint32_t* rank = rank_.data();
-  std::uint32_t* keys = keys_.data();
-  std::uint32_t* perm = perm_.data();
-  exec::for_each(
-      ex, n,
-      [=] KF_HD(std::size_t i) {
-        int cx, cy, cz;
-        geo.coords(x[i], cx, cy, cz);
-        keys[i] = rank[geo.linear(cx, cy, cz)] << sub | geo.sub_cell_code(x[i], cx, cy, cz, levels);
-        perm[i] = static_cast<std::uint32_t>(i);
-      },
-      "grid.keys");
+  exec::for_each(ex, n,
+                 CellKeys<T>{x, geo_, rank_.data(), keys_.data(), perm_.data(), levels_, outside,
+                             keep != nullptr, keep ? *keep : KeepBox<T>{}},
+                 "grid.keys");
   exec::sort_by_key(ex, keys_, perm_, key_bits_, "grid.sort");
-  std::uint32_t* start = start_.data();
-  std::uint32_t* end = end_.data();
   exec::for_each(
-      ex, n,
-      [=] KF_HD(std::size_t i) {
-        const std::uint32_t k = keys[i] >> sub;
-        if (i == 0 || keys[i - 1] >> sub != k)
-          start[k] = static_cast<std::uint32_t>(i);
-        if (i + 1 == n || keys[i + 1] >> sub != k)
-          end[k] = static_cast<std::uint32_t>(i + 1);
-      },
+      ex, n, CellRanges{keys_.data(), start_.data(), end_.data(), kept_.data(), n, sub, outside},
       "grid.ranges");
 }
 

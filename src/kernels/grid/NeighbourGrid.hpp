@@ -1,5 +1,6 @@
 #pragma once
 #include "kernels/exec/Algorithms.hpp"
+#include "kernels/exec/PendingRead.hpp"
 #include "kernels/grid/GridGeometry.hpp"
 
 #include <limits>
@@ -17,6 +18,16 @@ struct SquaredDisplacement {
   KF_HD KF_INLINE T operator()(std::size_t i) const {
     const T d2 = norm2(x[i] - x0[i]);
     return d2 == d2 ? d2 : std::numeric_limits<T>::max();
+  }
+};
+
+/// The box a point must lie in to keep its place in a sort (NeighbourGrid::build_keeping). A
+/// NaN coordinate counts as inside: the point stays for the step-size check to report.
+template <typename T>
+struct KeepBox {
+  Vec3<T> lo, hi;
+  KF_HD KF_INLINE bool outside(const Vec3<T>& q) const {
+    return q.x < lo.x || q.x > hi.x || q.y < lo.y || q.y > hi.y || q.z < lo.z || q.z > hi.z;
   }
 };
 
@@ -38,6 +49,13 @@ public:
   static GridGeometry<T> cover(const Vec3d& lo, const Vec3d& hi, double cell, int pad = 1);
 
   void build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n);
+  /// build(), with the points outside `keep` sorted after all the others (in their order) and
+  /// in no cell. The count inside is read back behind the sort: kept() waits for it, so the
+  /// owner can queue its reorder first. permutation() lists all n until drop_outside(kept)
+  /// leaves the first kept (one sort for what was a compaction and a sort).
+  void build_keeping(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const KeepBox<T>& keep);
+  std::size_t kept();
+  void drop_outside(std::size_t kept);
   /// Levels of sub-cell order in use (order_levels, or fewer where the key lacks bits).
   int order_levels() const { return levels_; }
   /// Bits of a cell's rank on a grid of `cells` cells (at least 1), and the levels of sub-cell
@@ -54,12 +72,19 @@ public:
   std::size_t bytes() const;
 
 private:
+  void sort(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const KeepBox<T>* keep);
+
   GridGeometry<T> geo_;
   int span_ = 1;
-  int key_bits_ = 1; // of the sort key: the cell's rank, then 3 levels_ bits of sub-cell
+  // Of the sort key: the cell's rank (one rank more than the cells: points outside a KeepBox
+  // take rank cells()), then 3 levels_ bits of sub-cell.
+  int key_bits_ = 1;
   int levels_ = 0;
   bool cleared_ = false; // start/end zeroed once; later builds clear only the cells last used
   exec::DeviceBuffer<std::uint32_t> rank_, start_, end_, keys_, perm_;
+  exec::DeviceBuffer<std::uint32_t> kept_; // build_keeping's count
+  exec::PendingRead<std::uint32_t> kept_read_;
+  std::size_t kept_count_ = 0;
 };
 
 } // namespace kf

@@ -13,7 +13,8 @@ struct CountOf {
 
 template <typename T>
 NeighbourList<T>::NeighbourList(exec::Backend b)
-    : count_(b, 0, "neighbours.count"), list_(b, 0, "neighbours.list") {}
+    : count_(b, 0, "neighbours.count"), list_(b, 0, "neighbours.list"),
+      most_dev_(b, 1, "neighbours.most"), most_read_(b, 1, "neighbours.most") {}
 
 template <typename T>
 void NeighbourList<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
@@ -28,8 +29,22 @@ void NeighbourList<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
 
 template <typename T>
 bool NeighbourList<T>::fits(const exec::Exec& ex, std::size_t n) {
-  most_ = exec::transform_reduce(ex, n, std::uint32_t(0), exec::MaxOp{}, CountOf{count_.data()},
-                                 "neighbours.most");
+  start_fit(ex, n);
+  return finish_fit();
+}
+
+template <typename T>
+void NeighbourList<T>::start_fit(const exec::Exec& ex, std::size_t n) {
+  exec::transform_reduce_to(ex, n, std::uint32_t(0), exec::MaxOp{}, CountOf{count_.data()},
+                            most_dev_.data(), "neighbours.most");
+  most_read_.start(most_dev_.data());
+}
+
+template <typename T>
+bool NeighbourList<T>::finish_fit() {
+  if (!most_read_.pending())
+    return true;
+  most_ = most_read_.wait()[0];
   if (most_ <= capacity_)
     return true;
   // Room for the density to rise before the next growth; whole groups.

@@ -8,6 +8,7 @@
 // and the passes then run the pair code only for real neighbours. A build costs several passes
 // (docs/PERFORMANCE.md), so the SPH lists pay when kept over steps with a skin (SphLists).
 #include "kernels/exec/Algorithms.hpp"
+#include "kernels/exec/PendingRead.hpp"
 #include "kernels/grid/GridGeometry.hpp"
 
 #include <type_traits>
@@ -262,6 +263,20 @@ public:
     build_rows(ex, n,
                [&](const ListSink& out) { exec::for_each_chunk<G>(ex, n, make(out), label); });
   }
+  /// build_chunked without waiting: one build at the present capacity, whose check is read back
+  /// behind it. settle() then waits for the check: false (and a larger capacity) when some row
+  /// overflowed and the build must be repeated. The lists are not to be read before that.
+  template <unsigned G, typename Make>
+  void start_chunked(const exec::Exec& ex, std::size_t n, Make&& make, const char* label) {
+    count_.resize(n);
+    if (capacity_ == 0)
+      capacity_ = 32;
+    list_.resize(std::size_t(capacity_) * n);
+    exec::for_each_chunk<G>(ex, n, make(sink(n)), label);
+    start_fit(ex, n);
+  }
+  bool settle() { return finish_fit(); }
+  bool settled() const { return !most_read_.pending(); }
   /// Lists, for each of n query points q (the inactive ones, active[i] == 0, get none), the
   /// candidates j of `cells` (positions x) with |q_i - x_j|^2 < radius2, in the order the cell
   /// walk meets them. Fixed capacity and no read on the host: a count over the capacity marks a
@@ -300,9 +315,15 @@ private:
   }
   /// Reads the largest count; false (and a larger capacity) when some row overflowed.
   bool fits(const exec::Exec& ex, std::size_t n);
+  /// fits() in two halves: queue the largest count's read, then (after more work was queued)
+  /// wait for it.
+  void start_fit(const exec::Exec& ex, std::size_t n);
+  bool finish_fit();
 
   exec::DeviceBuffer<std::uint32_t> count_, list_;
   std::uint32_t capacity_ = 0, most_ = 0;
+  exec::DeviceBuffer<std::uint32_t> most_dev_;
+  exec::PendingRead<std::uint32_t> most_read_;
 };
 
 } // namespace kf

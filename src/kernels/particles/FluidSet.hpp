@@ -38,8 +38,10 @@ public:
   std::size_t size() const { return x.size(); }
   void resize(std::size_t n);
   /// Reorders the state carried across steps (x, v, a, m, rho, drho, drho_prev, id); p is
-  /// recomputed after a sort.
-  void reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm);
+  /// recomputed after a sort. Without `acceleration`, a is left as it is (stale): for a sort
+  /// that a forces pass follows before anything reads a.
+  void reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm,
+               bool acceleration = true);
   FluidView<T> view();
   /// Keeps the particles whose flag is nonzero (flags: one per particle), in their order, with
   /// all fields (rho and p too); returns how many were removed.

@@ -44,10 +44,14 @@ void FluidSet<T>::resize(std::size_t n) {
 }
 
 template <typename T>
-void FluidSet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm) {
+void FluidSet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm,
+                          bool acceleration) {
   permute(ex, perm, x, scratch_v3_, "fluid.reorder");
   permute(ex, perm, v, scratch_v3_, "fluid.reorder");
-  permute(ex, perm, a, scratch_v3_, "fluid.reorder");
+  if (acceleration)
+    permute(ex, perm, a, scratch_v3_, "fluid.reorder");
+  else
+    a.resize(perm.size()); // a compaction's size; the values wait for the forces pass
   permute(ex, perm, m, scratch_t_, "fluid.reorder");
   // rho and its rates are state under the continuity equation; summation recomputes rho (3 x 4 B
   // a particle more per sort, which lists sort seldom).

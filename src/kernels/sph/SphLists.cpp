@@ -34,19 +34,24 @@ template <typename T>
 using Box = typename SphLists<T>::Box;
 
 /// The box of the displacements since the build of the particles the build put in cell c
-/// (linear index); the fluid keeps its order until the next build.
+/// (linear index); the fluid keeps its order until the next build. The group's lanes split the
+/// cell's particles (one thread walking ~50 in a row waited on each load in turn); min and max
+/// are exact, so the box does not depend on the split.
 template <typename T>
 struct CellDisplacementBox {
   CellView<T> cells;
   const Vec3<T>* x;
   const Vec3<T>* x0;
   Box<T>* out;
-  KF_HD void operator()(std::size_t c) const {
+  KF_HD void operator()(std::size_t c, exec::Lanes g) const {
     Box<T> b = Box<T>::empty();
     const std::uint32_t r = cells.rank[c];
-    for (std::uint32_t k = cells.start[r]; k < cells.end[r]; ++k)
+    for (std::uint32_t k = cells.start[r] + g.lane; k < cells.end[r]; k += g.size)
       b.add(Vec3<T>(x[k] - x0[k]));
-    out[c] = b;
+    b.lo = g.min_each(b.lo);
+    b.hi = g.max_each(b.hi);
+    if (g.lane == 0)
+      out[c] = b;
   }
 };
 
@@ -104,7 +109,7 @@ bool same_geometry(const GridGeometry<T>& a, const GridGeometry<T>& b) {
 template <typename T>
 SphLists<T>::SphLists(exec::Backend b, T skin)
     : skin_(skin), lists_(b), x0_(b, 0, "fluid.listed_x"), moved_(b, 8, "fluid.moved"),
-      box_(b, 0, "fluid.moved_box"), spread_(b, 0, "fluid.moved_box") {}
+      read_(b, 8, "fluid.moved"), box_(b, 0, "fluid.moved_box"), spread_(b, 0, "fluid.moved_box") {}
 
 template <typename T>
 void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>& cells,
@@ -124,10 +129,11 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
   // appends, 6.6 with this builder and 4-slot groups, 4.2 with 8-slot groups.
   const FluidView<T> fv = f.view();
   exec::for_each(ex, n, PackPositionMass<T>{fv}, "neighbours.pack");
+  built_ = {fv, cells, b, r2};
   auto make = [&](const ListSink& out) {
     return SphChunkListBuilder<T>{fv.xm, cells, b, r2, out, n};
   };
-  lists_.template build_chunked<32>(ex, n, make, "neighbours.build");
+  lists_.template start_chunked<32>(ex, n, make, "neighbours.build");
   if (skin_ > T(0)) {
     x0_.resize(n);
     x0_.copy_from(f.x, n);
@@ -140,7 +146,22 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
 }
 
 template <typename T>
-bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force) {
+void SphLists<T>::settle(const exec::Exec& ex) {
+  if (lists_.settle())
+    return;
+  // A row overflowed (the capacity has grown): build again, waiting this time. The gather
+  // copies xm still hold the positions of the build (the passes since wrote none).
+  const Built& k = built_;
+  const std::size_t n = k.f.n;
+  auto make = [&](const ListSink& out) {
+    return SphChunkListBuilder<T>{k.f.xm, k.cells, k.b, k.r2, out, n};
+  };
+  lists_.template build_chunked<32>(ex, n, make, "neighbours.build");
+}
+
+template <typename T>
+bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force,
+                              const std::function<void()>& meanwhile) {
   if (!(skin_ > T(0)) || force || x0_.size() != f.size())
     return true;
   bound_ += motion;
@@ -151,7 +172,14 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
   exec::fill(ex, moved_, T(0), "fluid.moved");
   exec::max_into_each<T, 7>(ex, n, Displacement<T>{f.x.data(), x0_.data()}, moved_.data(),
                             "fluid.moved");
-  std::vector<T> m = moved_.to_host();
+  read_.start(moved_.data());
+  if (meanwhile)
+    meanwhile();
+  std::vector<T> m(8);
+  {
+    const auto r = read_.wait();
+    std::copy(r.begin(), r.end(), m.begin());
+  }
   const double s = double(skin_);
   const double largest = std::sqrt(double(m[0]));
   const double bx = double(m[1]) + double(m[2]), by = double(m[3]) + double(m[4]),
@@ -164,15 +192,17 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
   if (largest <= s && pair > s) {
     const std::size_t cells = cells_.geo.cells();
     const int reach = cells_.span; // around the pair's midpoint cell (SphLists.hpp)
-    exec::for_each(ex, cells, CellDisplacementBox<T>{cells_, f.x.data(), x0_.data(), box_.data()},
-                   "fluid.moved_box");
+    exec::for_each_lanes<8>(ex, cells,
+                            CellDisplacementBox<T>{cells_, f.x.data(), x0_.data(), box_.data()},
+                            "fluid.moved_box");
     exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 0, reach, box_.data()}, spread_.data()},
                    "fluid.moved_box");
     exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 1, reach, spread_.data()}, box_.data()},
                    "fluid.moved_box");
     exec::max_into_each<T, 1>(ex, cells, SpreadDiagonal<T>{{cells_.geo, 2, reach, box_.data()}},
                               moved_.data() + 7, "fluid.moved_box");
-    m = moved_.to_host();
+    read_.start(moved_.data());
+    m[7] = read_.wait()[7];
     local = std::sqrt(double(m[7]));
     pair = std::min(pair, local);
   }

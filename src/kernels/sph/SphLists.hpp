@@ -20,9 +20,11 @@
 //      fast: the lists last until the flow shears by s, not until its fastest particle has moved
 //      s / 2 (the column's surge: docs/PERFORMANCE.md). Around the midpoint the boxes span 3
 //      cells a side, not the 5 around the pair's first cell: a bound 5/3 tighter.
+#include "kernels/exec/PendingRead.hpp"
 #include "kernels/grid/NeighbourList.hpp"
 #include "kernels/sph/Sph.hpp"
 
+#include <functional>
 #include <limits>
 
 namespace kf {
@@ -34,14 +36,22 @@ public:
   SphLists(exec::Backend b, T skin);
 
   /// Lists every particle of f (sorted as `cells` describes) against f and the boundary b,
-  /// within the support h plus the skin, and takes the positions now as the reference.
+  /// within the support h plus the skin, and takes the positions now as the reference. The
+  /// check that every row fitted is read back behind the build: settle() waits for it (and
+  /// builds again, larger, where one did not) and must come before the lists are read; work
+  /// queued in between keeps the GPU busy while the host waits.
   void build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>& cells,
              const BoundaryNeighbours<T>& b, T h);
+  void settle(const exec::Exec& ex);
   /// After the fluid moved by at most `motion` since the last call (a true bound; infinity:
   /// unknown), whether the lists may have missed a pair and must be built again. Reads the
   /// device only when the host's bounds (on max |d| and on the pairs' |d_i - d_j|, each grown
   /// by the motion since the last reading) leave the rules unsure. `force`: true, unasked.
-  bool stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force);
+  /// `meanwhile`, when given, is called once the reading is queued and before the host waits
+  /// for it (work for the GPU that holds whatever the answer); it is not called when no reading
+  /// is needed.
+  bool stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force,
+                   const std::function<void()>& meanwhile = {});
   /// The fluid's arrays were replaced (a restart): the next stale_after says so.
   void forget() { x0_.resize(0); }
 
@@ -53,7 +63,12 @@ public:
   };
   const Ends& ends() const { return ends_; }
 
-  ListView<T> view() const { return lists_.view(); }
+  /// The lists (after settle()).
+  ListView<T> view() const {
+    if (!lists_.settled())
+      throw Error("SPH neighbour lists read before their build was settled (SphLists::settle)");
+    return lists_.view();
+  }
   T skin() const { return skin_; }
   std::uint32_t capacity() const { return lists_.capacity(); }
   std::size_t bytes() const {
@@ -91,6 +106,14 @@ private:
   // Since the build: max |d|^2, then max(d_c, 0) and max(-d_c, 0) for c = x, y, z, then the
   // local bound squared.
   exec::DeviceBuffer<T> moved_;
+  exec::PendingRead<T> read_; // moved_ on the host
+  // What the last build listed, for settle() to build again when a row overflowed.
+  struct Built {
+    FluidView<T> f;
+    CellView<T> cells;
+    BoundaryNeighbours<T> b;
+    T r2;
+  } built_{};
   CellView<T> cells_; // the grid of the build (its tables stay until the next sort)
   exec::DeviceBuffer<Box> box_, spread_;
   T bound_ = std::numeric_limits<T>::infinity(); // host bound on max |d| since the build
