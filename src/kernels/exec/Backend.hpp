@@ -8,9 +8,7 @@ namespace kf::exec {
 /// Where data lives and kernels run. Every build has Cpu; Cuda exists when built with nvcc.
 enum class Backend { Cpu, Cuda };
 
-inline std::string_view to_string(Backend b) {
-  return b == Backend::Cpu ? "cpu" : "cuda";
-}
+inline std::string_view to_string(Backend b) { return b == Backend::Cpu ? "cpu" : "cuda"; }
 
 /// True when this binary was built with the CUDA backend.
 bool cuda_compiled();
@@ -18,8 +16,7 @@ bool cuda_compiled();
 bool cuda_available();
 /// Selects the CUDA device this process uses (rank-local index); no-op on CPU builds.
 void cuda_select_device(int device);
-/// One-line description of the device in use ("NVIDIA H100 80GB HBM3, 132 SMs" or "CPU, 2
-/// threads").
+/// One-line description of the device in use ("NVIDIA H100 80GB HBM3, 132 SMs" or "CPU, 2 threads").
 std::string describe(Backend b);
 
 /// Raw memory on a backend. All host<->device traffic goes through copy_bytes.

@@ -383,8 +383,7 @@ void* pinned_staging(std::size_t bytes, const char* label) {
                 " bytes exceeds the pinned staging buffer (" + std::to_string(kPinnedBytes) +
                 " bytes)");
   if (!g_pinned)
-    KF_CUDA(cudaMallocHost(&g_pinned, kPinnedBytes),
-            std::string(label) + ": allocating the pinned result buffer");
+    g_pinned = cuda_alloc_pinned(kPinnedBytes, label);
   return g_pinned;
 }
 

@@ -119,7 +119,7 @@ NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int
                                 int order_levels)
     : geo_(geo), span_(span), rank_(b, 0, "grid.rank"), start_(b, 0, "grid.start"),
       end_(b, 0, "grid.end"), keys_(b, 0, "grid.keys"), perm_(b, 0, "grid.permutation"),
-      kept_(b, 1, "grid.kept"), kept_read_(b, 1, "grid.kept") {
+      kept_(b, 1, "grid.kept") {
   if (span < 1)
     throw Error("neighbour grid: span must be at least one cell");
   if (order_levels < 0 || order_levels > kMaxOrderLevels)
@@ -180,13 +180,15 @@ void NeighbourGrid<T>::build_keeping(const exec::Exec& ex, const Vec3<T>* x, std
   sort(ex, x, n, &keep);
   if (n == 0)
     exec::fill(ex, kept_, 0u, "grid.kept");
-  kept_read_.start(kept_.data());
+  if (!kept_read_)
+    kept_read_.emplace(kept_.backend(), 1, "grid.kept");
+  kept_read_->start(kept_.data());
 }
 
 template <typename T>
 std::size_t NeighbourGrid<T>::kept() {
-  if (kept_read_.pending())
-    kept_count_ = kept_read_.wait()[0];
+  if (kept_read_ && kept_read_->pending())
+    kept_count_ = kept_read_->wait()[0];
   return kept_count_;
 }
 

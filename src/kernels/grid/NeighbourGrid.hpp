@@ -4,6 +4,7 @@
 #include "kernels/grid/GridGeometry.hpp"
 
 #include <limits>
+#include <optional>
 
 namespace kf {
 
@@ -82,8 +83,8 @@ private:
   int levels_ = 0;
   bool cleared_ = false; // start/end zeroed once; later builds clear only the cells last used
   exec::DeviceBuffer<std::uint32_t> rank_, start_, end_, keys_, perm_;
-  exec::DeviceBuffer<std::uint32_t> kept_; // build_keeping's count
-  exec::PendingRead<std::uint32_t> kept_read_;
+  exec::DeviceBuffer<std::uint32_t> kept_;                    // build_keeping's count
+  std::optional<exec::PendingRead<std::uint32_t>> kept_read_; // opened by build_keeping
   std::size_t kept_count_ = 0;
 };
 

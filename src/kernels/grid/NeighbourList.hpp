@@ -268,11 +268,7 @@ public:
   /// overflowed and the build must be repeated. The lists are not to be read before that.
   template <unsigned G, typename Make>
   void start_chunked(const exec::Exec& ex, std::size_t n, Make&& make, const char* label) {
-    count_.resize(n);
-    if (capacity_ == 0)
-      capacity_ = 32;
-    list_.resize(std::size_t(capacity_) * n);
-    exec::for_each_chunk<G>(ex, n, make(sink(n)), label);
+    launch_rows(n, [&](const ListSink& out) { exec::for_each_chunk<G>(ex, n, make(out), label); });
     start_fit(ex, n);
   }
   bool settle() { return finish_fit(); }
@@ -302,16 +298,21 @@ public:
 
 private:
   ListSink sink(std::size_t n) { return {count_.data(), list_.data(), capacity_, n}; }
-  /// launch(sink) fills every row; repeated with a larger capacity until every row fits.
+  /// launch(sink) fills every row, at the present capacity (32 at first).
   template <typename Launch>
-  void build_rows(const exec::Exec& ex, std::size_t n, Launch&& launch) {
+  void launch_rows(std::size_t n, Launch&& launch) {
     count_.resize(n);
     if (capacity_ == 0)
       capacity_ = 32;
-    do {
-      list_.resize(std::size_t(capacity_) * n);
-      launch(sink(n));
-    } while (!fits(ex, n));
+    list_.resize(std::size_t(capacity_) * n);
+    launch(sink(n));
+  }
+  /// launch_rows, repeated with a larger capacity until every row fits.
+  template <typename Launch>
+  void build_rows(const exec::Exec& ex, std::size_t n, Launch&& launch) {
+    do
+      launch_rows(n, launch);
+    while (!fits(ex, n));
   }
   /// Reads the largest count; false (and a larger capacity) when some row overflowed.
   bool fits(const exec::Exec& ex, std::size_t n);

@@ -98,6 +98,14 @@ struct SpreadDiagonal {
   }
 };
 
+/// The list builder of a build's inputs, for each sink the lists hand it.
+template <typename T, typename Built>
+auto chunk_builders(const Built& k) {
+  return [k](const ListSink& out) {
+    return SphChunkListBuilder<T>{k.f.xm, k.cells, k.b, k.r2, out, k.f.n};
+  };
+}
+
 template <typename T>
 bool same_geometry(const GridGeometry<T>& a, const GridGeometry<T>& b) {
   return a.origin.x == b.origin.x && a.origin.y == b.origin.y && a.origin.z == b.origin.z &&
@@ -130,10 +138,7 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
   const FluidView<T> fv = f.view();
   exec::for_each(ex, n, PackPositionMass<T>{fv}, "neighbours.pack");
   built_ = {fv, cells, b, r2};
-  auto make = [&](const ListSink& out) {
-    return SphChunkListBuilder<T>{fv.xm, cells, b, r2, out, n};
-  };
-  lists_.template start_chunked<32>(ex, n, make, "neighbours.build");
+  lists_.template start_chunked<32>(ex, n, chunk_builders<T>(built_), "neighbours.build");
   if (skin_ > T(0)) {
     x0_.resize(n);
     x0_.copy_from(f.x, n);
@@ -151,12 +156,7 @@ void SphLists<T>::settle(const exec::Exec& ex) {
     return;
   // A row overflowed (the capacity has grown): build again, waiting this time. The gather
   // copies xm still hold the positions of the build (the passes since wrote none).
-  const Built& k = built_;
-  const std::size_t n = k.f.n;
-  auto make = [&](const ListSink& out) {
-    return SphChunkListBuilder<T>{k.f.xm, k.cells, k.b, k.r2, out, n};
-  };
-  lists_.template build_chunked<32>(ex, n, make, "neighbours.build");
+  lists_.template build_chunked<32>(ex, built_.f.n, chunk_builders<T>(built_), "neighbours.build");
 }
 
 template <typename T>
@@ -175,11 +175,8 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
   read_.start(moved_.data());
   if (meanwhile)
     meanwhile();
-  std::vector<T> m(8);
-  {
-    const auto r = read_.wait();
-    std::copy(r.begin(), r.end(), m.begin());
-  }
+  const auto reading = read_.wait();
+  std::vector<T> m(reading.begin(), reading.end());
   const double s = double(skin_);
   const double largest = std::sqrt(double(m[0]));
   const double bx = double(m[1]) + double(m[2]), by = double(m[3]) + double(m[4]),
