@@ -627,9 +627,10 @@ BoundaryNeighbours<T> SimulationT<T>::boundary_neighbours() {
     return {};
   return {boundary_->x.data(),
           boundary_->volume.data(),
-          boundary_->p.data(),
-          boundary_->rho.data(),
-          sph_.no_slip ? boundary_->v.data() : nullptr,
+          boundary_->xv.data(),
+          boundary_->vp.data(),
+          boundary_->inv_rho.data(),
+          sph_.no_slip,
           boundary_grid_->view(),
           boundary_->size(),
           boundary_near_.data(),

@@ -133,12 +133,33 @@ private:
 #endif
 };
 
+/// F::kBlocksPerSm when a functor declares it (0 otherwise): the blocks of a launch it asks to
+/// have resident on an SM, which caps its registers (for_each_lanes).
+template <typename F, typename = void>
+struct BlocksPerSmOf {
+  static constexpr unsigned value = 0;
+};
+template <typename F>
+struct BlocksPerSmOf<F, std::void_t<decltype(F::kBlocksPerSm)>> {
+  static constexpr unsigned value = F::kBlocksPerSm;
+};
+
 #if defined(__CUDACC__)
 template <unsigned G, typename F>
 __global__ void for_each_lanes_kernel(std::size_t n, F f) {
   const std::size_t t = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
   const std::size_t i = t / G;
   if (i < n) // all G lanes of an element agree
+    f(i, Lanes{static_cast<unsigned>(t % G), G});
+}
+/// The same for a functor that asks for a register budget: at least F::kBlocksPerSm blocks of
+/// Block threads resident on an SM (ptxas then caps the registers a thread may use).
+template <unsigned G, unsigned Block, unsigned MinBlocks, typename F>
+__global__ void __launch_bounds__(Block, MinBlocks)
+    for_each_lanes_bounded_kernel(std::size_t n, F f) {
+  const std::size_t t = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  const std::size_t i = t / G;
+  if (i < n)
     f(i, Lanes{static_cast<unsigned>(t % G), G});
 }
 #endif
@@ -157,7 +178,11 @@ void for_each_lanes(const Exec& ex, std::size_t n, const F& f, const char* label
     const std::size_t threads = n * G;
     const std::size_t grid = (threads + Block - 1) / Block;
     KernelTimeScope timed(label);
-    for_each_lanes_kernel<G><<<static_cast<unsigned>(grid), Block>>>(n, f);
+    constexpr unsigned kMin = BlocksPerSmOf<F>::value;
+    if constexpr (kMin > 0)
+      for_each_lanes_bounded_kernel<G, Block, kMin><<<static_cast<unsigned>(grid), Block>>>(n, f);
+    else
+      for_each_lanes_kernel<G><<<static_cast<unsigned>(grid), Block>>>(n, f);
     KF_CHECK_LAUNCH(label, n);
 #else
     throw_not_compiled_for_cuda(label);
@@ -190,6 +215,7 @@ void for_each_chunk(const Exec& ex, std::size_t n, const F& f, const char* label
 /// Adapts a per-element functor f(i) to for_each_lanes.
 template <typename F>
 struct WithoutLanes {
+  static constexpr unsigned kBlocksPerSm = BlocksPerSmOf<F>::value;
   F f;
   KF_HD KF_INLINE void operator()(std::size_t i, Lanes) const { f(i); }
 };

@@ -84,10 +84,10 @@ std::size_t FluidSet<T>::bytes_per_particle() {
 template <typename T>
 BoundarySet<T>::BoundarySet(exec::Backend b)
     : x(b, 0, "boundary.x"), x0(b, 0, "boundary.x0"), obstacle(b, 0, "boundary.obstacle"),
-      volume(b, 0, "boundary.volume"), p(b, 0, "boundary.p"), rho(b, 0, "boundary.rho"),
-      v(b, 0, "boundary.v"), id(b, 0, "boundary.id"), scratch_v3_(b, 0, "boundary.scratch"),
-      scratch_u32_(b, 0, "boundary.scratch"), scratch_t_(b, 0, "boundary.scratch"),
-      scratch_id_(b, 0, "boundary.scratch") {}
+      volume(b, 0, "boundary.volume"), p(b, 0, "boundary.p"), id(b, 0, "boundary.id"),
+      xv(b, 0, "boundary.xv"), vp(b, 0, "boundary.vp"), inv_rho(b, 0, "boundary.inv_rho"),
+      scratch_v3_(b, 0, "boundary.scratch"), scratch_u32_(b, 0, "boundary.scratch"),
+      scratch_t_(b, 0, "boundary.scratch"), scratch_id_(b, 0, "boundary.scratch") {}
 
 template <typename T>
 void BoundarySet<T>::resize(std::size_t n) {
@@ -96,10 +96,25 @@ void BoundarySet<T>::resize(std::size_t n) {
   obstacle.resize(n);
   volume.resize(n);
   p.resize(n);
-  rho.resize(n);
-  v.resize(n);
   id.resize(n);
+  xv.resize(n);
+  vp.resize(n);
+  inv_rho.resize(n);
 }
+
+namespace {
+/// xv[k] = (x_k, V_k).
+template <typename T>
+struct PackPositionVolume {
+  const Vec3<T>* x;
+  const T* volume;
+  Vec4<T>* xv;
+  KF_HD KF_INLINE void operator()(std::size_t k) const {
+    const Vec3<T> p = x[k];
+    xv[k] = {p.x, p.y, p.z, volume[k]};
+  }
+};
+} // namespace
 
 template <typename T>
 void BoundarySet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm) {
@@ -108,18 +123,22 @@ void BoundarySet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std:
   permute(ex, perm, obstacle, scratch_u32_, "boundary.reorder");
   permute(ex, perm, volume, scratch_t_, "boundary.reorder");
   permute(ex, perm, id, scratch_id_, "boundary.reorder");
+  exec::for_each(ex, size(), PackPositionVolume<T>{x.data(), volume.data(), xv.data()},
+                 "boundary.reorder");
 }
 
 template <typename T>
 BoundaryView<T> BoundarySet<T>::view() {
-  return {x.data(), x0.data(),  obstacle.data(), volume.data(),
-          p.data(), rho.data(), v.data(),        size()};
+  return {x.data(), x0.data(), obstacle.data(), volume.data(), p.data(),
+          size(),   xv.data(), vp.data(),       inv_rho.data()};
 }
 
 template <typename T>
 std::size_t BoundarySet<T>::bytes_per_particle() {
-  return 4 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint32_t) +
-         2 * sizeof(std::uint64_t) + 2 * sizeof(std::uint32_t);
+  // x x0 + scratch (Vec3), volume p inv_rho + scratch (T), obstacle + scratch, id + scratch,
+  // grid keys + permutation, the forces' gather copies xv and vp (Vec4).
+  return 3 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint32_t) +
+         2 * sizeof(std::uint64_t) + 2 * sizeof(std::uint32_t) + 2 * sizeof(Vec4<T>);
 }
 
 template class FluidSet<float>;

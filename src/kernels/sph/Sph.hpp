@@ -28,11 +28,12 @@ struct SphParams {
 /// Boundary particles seen by fluid kernels (empty when the scene has no boundary module).
 template <typename T>
 struct BoundaryNeighbours {
-  const Vec3<T>* x = nullptr;
-  const T* volume = nullptr;
-  const T* p = nullptr;
-  const T* rho = nullptr;
-  const Vec3<T>* v = nullptr; // no-slip velocity; nullptr: free slip (no viscous wall term)
+  const Vec3<T>* x = nullptr;  // positions: the grid's order, the lists' build
+  const T* volume = nullptr;   // V (summation density: psi = rho0 V)
+  const Vec4<T>* xv = nullptr; // the forces pass's gather copies (BoundaryView): (x, V),
+  const Vec4<T>* vp = nullptr; // (v, P / rho^2) with the no-slip v,
+  const T* inv_rho = nullptr;  // 1 / rho
+  bool no_slip = false;        // walls carry viscous stress (vp's v); else free slip
   CellView<T> cells{};
   std::size_t n = 0;
   // Per linear cell of `cells`' geometry: 1 where boundary particles lie around (null: walk
@@ -75,6 +76,7 @@ void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, 
 /// Static and constant-velocity solids have a_b = 0. With prm.no_slip it also sets the velocity
 /// the viscous term sees, v_b = 2 v_wall - sum_f v_f W / sum_f W, so the fluid's velocity
 /// extrapolates to the wall's at the wall surface. shapes[obstacle] gives v_wall (walls: 0).
+/// Writes p and the forces pass's copies (BoundaryView::vp, inv_rho).
 /// `fluid_near` (NeighbourGrid::occupied_around of the fluid grid, or null): a boundary particle
 /// whose cell has no fluid candidate around skips the walk, which would find nothing (P_b = 0).
 /// Reads the fluid's gather copies (xm, vp): after sph_density or sph_density_predict at the same

@@ -115,19 +115,27 @@ struct BoundaryPressureEvaluator {
       p = (sum_p + dot(prm.gravity, sum_rho_r)) / sum_w;
     if (p < T(0))
       p = T(0); // a wall never pulls the fluid
-    b.p[k] = p;
-    b.rho[k] = prm.eos.density(p);
+    Vec3<T> v{T(0), T(0), T(0)};
     if (prm.no_slip) {
       const std::uint32_t o = b.obstacle[k];
       const Vec3<T> vw = o == kWallObstacle ? Vec3<T>{T(0), T(0), T(0)} : shapes[o].velocity;
-      b.v[k] = sum_w > T(0) ? vw * T(2) - sum_v * (T(1) / sum_w) : vw;
+      v = sum_w > T(0) ? vw * T(2) - sum_v * (T(1) / sum_w) : vw;
     }
+    // The forces pass's copies, with rho the EOS's density of p.
+    const T inv_rho = krcp(prm.eos.density(p));
+    b.p[k] = p;
+    b.vp[k] = {v.x, v.y, v.z, p * inv_rho * inv_rho};
+    b.inv_rho[k] = inv_rho;
   }
 };
 
 // Continuity: the same pass also sums drho_i/dt (see operator()) and ends the density's step.
 template <typename T, typename K, typename N, bool Continuity = false>
 struct ForceEvaluator {
+  // Four blocks of 256 (32 warps) an SM, so at most 64 registers: left to itself ptxas took 66
+  // with the wall entries' three loads (24 warps an SM), and the column's whole run slowed by 8%
+  // (H100). Capped, it spills nothing.
+  static constexpr unsigned kBlocksPerSm = 4;
   K kernel;
   SphParams<T> prm;
   FluidView<T> f;
@@ -212,21 +220,22 @@ struct ForceEvaluator {
           }
         },
         [&](std::uint32_t k) {
-          const Vec3<T> rik = xi - b.x[k];
+          const Vec4<T> xvk = b.xv[k]; // (x_k, V_k)
+          const Vec3<T> rik = xi - xvk.xyz();
           const T r2 = norm2(rik);
           if (r2 >= h2 || r2 <= T(0))
             return;
+          const Vec4<T> vpk = b.vp[k]; // (v_k, P_k / rho_k^2)
+          const T inv_rho_k = b.inv_rho[k];
           const T inv_r = krsqrt(r2);
           const T dw = kernel.dWdr(r2 * inv_r) * inv_r;
-          const T inv_rho_k = krcp(b.rho[k]);
-          const T vk = b.volume[k];
-          const T mk = rho0 * vk;
-          acc -= rik * (dw * mk * (pi + b.p[k] * inv_rho_k * inv_rho_k));
-          if (b.v)
-            acc += (vi - b.v[k]) *
+          const T mk = rho0 * xvk.w;
+          acc -= rik * (dw * mk * (pi + vpk.w));
+          if (b.no_slip)
+            acc += (vi - vpk.xyz()) *
                    (mk * mu2 * inv_rho_i * inv_rho_k * (r2 * dw) * krcp_fast(r2 + eta2));
           if constexpr (Continuity)
-            rate += vk * dw * dot(vi - b.wall_velocity(k), rik);
+            rate += xvk.w * dw * dot(vi - b.wall_velocity(k), rik);
         });
     f.a[i] = acc;
     if constexpr (Continuity) {
