@@ -145,8 +145,40 @@ struct BlocksPerSmOf<F, std::void_t<decltype(F::kBlocksPerSm)>> {
 };
 
 #if defined(__CUDACC__)
+/// Every kernel of this layer starts here. Launched with programmatic dependent launch (sm_90),
+/// a kernel's blocks may be scheduled while the kernel before it in the stream still runs: they
+/// wait here until it has finished and its writes are visible, then let the next kernel be
+/// scheduled. Without it both instructions return at once.
+__device__ KF_INLINE void await_previous_kernel() {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  asm volatile("griddepcontrol.wait;" ::: "memory");
+  asm volatile("griddepcontrol.launch_dependents;" ::: "memory");
+#endif
+}
+
+/// kernel<<<grid, block>>>(args...) on the legacy default stream, with programmatic dependent
+/// launch when launch_overlap().
+template <typename... P, typename... A>
+void launch(void (*kernel)(P...), std::size_t grid, unsigned block, const char* label,
+            std::size_t n, A&&... args) {
+  cudaLaunchConfig_t cfg{};
+  cfg.gridDim = dim3(static_cast<unsigned>(grid));
+  cfg.blockDim = dim3(block);
+  cfg.dynamicSmemBytes = 0;
+  cfg.stream = 0;
+  cudaLaunchAttribute attr[1];
+  attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
+  attr[0].val.programmaticStreamSerializationAllowed = 1;
+  cfg.attrs = attr;
+  cfg.numAttrs = launch_overlap() ? 1 : 0;
+  const cudaError_t e = cudaLaunchKernelEx(&cfg, kernel, std::forward<A>(args)...);
+  if (e != cudaSuccess)
+    throw_launch_error(e, label, n);
+}
+
 template <unsigned G, typename F>
 __global__ void for_each_lanes_kernel(std::size_t n, F f) {
+  await_previous_kernel();
   const std::size_t t = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
   const std::size_t i = t / G;
   if (i < n) // all G lanes of an element agree
@@ -157,6 +189,7 @@ __global__ void for_each_lanes_kernel(std::size_t n, F f) {
 template <unsigned G, unsigned Block, unsigned MinBlocks, typename F>
 __global__ void __launch_bounds__(Block, MinBlocks)
     for_each_lanes_bounded_kernel(std::size_t n, F f) {
+  await_previous_kernel();
   const std::size_t t = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
   const std::size_t i = t / G;
   if (i < n)
@@ -180,9 +213,9 @@ void for_each_lanes(const Exec& ex, std::size_t n, const F& f, const char* label
     KernelTimeScope timed(label);
     constexpr unsigned kMin = BlocksPerSmOf<F>::value;
     if constexpr (kMin > 0)
-      for_each_lanes_bounded_kernel<G, Block, kMin><<<static_cast<unsigned>(grid), Block>>>(n, f);
+      launch(for_each_lanes_bounded_kernel<G, Block, kMin, F>, grid, Block, label, n, n, f);
     else
-      for_each_lanes_kernel<G><<<static_cast<unsigned>(grid), Block>>>(n, f);
+      launch(for_each_lanes_kernel<G, F>, grid, Block, label, n, n, f);
     KF_CHECK_LAUNCH(label, n);
 #else
     throw_not_compiled_for_cuda(label);
@@ -256,6 +289,7 @@ constexpr unsigned kReduceThreads = 256;
 template <typename R, typename Op, typename F>
 __global__ void __launch_bounds__(kReduceThreads)
     transform_reduce_kernel(std::size_t n, R placeholder, Op op, F f, R* partial) {
+  await_previous_kernel();
   using BlockReduce = cub::BlockReduce<R, kReduceThreads>;
   __shared__ typename BlockReduce::TempStorage tmp;
   const std::size_t first = static_cast<std::size_t>(blockIdx.x) * blockDim.x;
@@ -279,6 +313,7 @@ __global__ void __launch_bounds__(kReduceThreads)
 template <bool Into, typename R, typename Op>
 __global__ void __launch_bounds__(kReduceThreads)
     reduce_partials_kernel(unsigned nblocks, R init, Op op, const R* partial, R* out) {
+  await_previous_kernel();
   using BlockReduce = cub::BlockReduce<R, kReduceThreads>;
   __shared__ typename BlockReduce::TempStorage tmp;
   R acc = init;
@@ -304,7 +339,8 @@ R* launch_block_partials(std::size_t n, R placeholder, Op op, const F& f, unsign
       static_cast<R*>(cuda_scratch(ScratchSlot::Reduce, (kReduceBlocks + 1) * sizeof(R), label));
   const std::size_t want = (n + kReduceThreads - 1) / kReduceThreads;
   blocks = static_cast<unsigned>(want < kReduceBlocks ? want : kReduceBlocks);
-  transform_reduce_kernel<R, Op, F><<<blocks, kReduceThreads>>>(n, placeholder, op, f, partial);
+  launch(transform_reduce_kernel<R, Op, F>, blocks, kReduceThreads, label, n, n, placeholder, op, f,
+         partial);
   KF_CHECK_LAUNCH(label, n);
   return partial;
 }
@@ -359,8 +395,8 @@ R transform_reduce(const Exec& ex, std::size_t n, R init, Op op, const F& f, con
     unsigned blocks = 0;
     KernelTimeScope timed(label);
     R* partial = launch_block_partials(n, init, op, f, blocks, label);
-    reduce_partials_kernel<false, R, Op>
-        <<<1, kReduceThreads>>>(blocks, init, op, partial, partial + kReduceBlocks);
+    launch(reduce_partials_kernel<false, R, Op>, 1, kReduceThreads, label, blocks, blocks, init, op,
+           static_cast<const R*>(partial), partial + kReduceBlocks);
     KF_CHECK_LAUNCH(label, blocks);
     R out = init;
     cuda_read_result(&out, partial + kReduceBlocks, sizeof(R), label);
@@ -386,7 +422,8 @@ void transform_reduce_to(const Exec& ex, std::size_t n, R init, Op op, const F& 
     unsigned blocks = 0;
     KernelTimeScope timed(label);
     R* partial = launch_block_partials(n, init, op, f, blocks, label);
-    reduce_partials_kernel<false, R, Op><<<1, kReduceThreads>>>(blocks, init, op, partial, out);
+    launch(reduce_partials_kernel<false, R, Op>, 1, kReduceThreads, label, blocks, blocks, init, op,
+           static_cast<const R*>(partial), out);
     KF_CHECK_LAUNCH(label, blocks);
     return;
 #else
@@ -408,7 +445,8 @@ void transform_reduce_into(const Exec& ex, std::size_t n, Op op, const F& f, R* 
     unsigned blocks = 0;
     KernelTimeScope timed(label);
     R* partial = launch_block_partials(n, R{}, op, f, blocks, label);
-    reduce_partials_kernel<true, R, Op><<<1, kReduceThreads>>>(blocks, R{}, op, partial, acc);
+    launch(reduce_partials_kernel<true, R, Op>, 1, kReduceThreads, label, blocks, blocks, R{}, op,
+           static_cast<const R*>(partial), acc);
     KF_CHECK_LAUNCH(label, blocks);
     return;
 #else
@@ -456,6 +494,7 @@ struct EachMaxOp {
 // 3x its bandwidth floor (H100, the column: ~50 us for 44 MB).
 template <typename T, unsigned K, typename F>
 __global__ void __launch_bounds__(kReduceThreads) max_into_each_kernel(std::size_t n, F f, T* acc) {
+  await_previous_kernel();
   using BlockReduce = cub::BlockReduce<Maxima<T, K>, kReduceThreads>;
   __shared__ typename BlockReduce::TempStorage tmp;
   const std::size_t stride = static_cast<std::size_t>(gridDim.x) * blockDim.x;
@@ -483,7 +522,7 @@ void max_into_each(const Exec& ex, std::size_t n, const F& f, T* acc, const char
     const std::size_t want = (n + kReduceThreads - 1) / kReduceThreads;
     const std::size_t grid = want < 2 * kReduceBlocks ? want : 2 * kReduceBlocks;
     KernelTimeScope timed(label);
-    max_into_each_kernel<T, K, F><<<static_cast<unsigned>(grid), kReduceThreads>>>(n, f, acc);
+    launch(max_into_each_kernel<T, K, F>, grid, kReduceThreads, label, n, n, f, acc);
     KF_CHECK_LAUNCH(label, n);
     return;
 #else

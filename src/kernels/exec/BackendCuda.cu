@@ -83,6 +83,26 @@ void throw_cuda_error(cudaError_t e, const char* what, const char* file, int lin
               std::to_string(line) + ")");
 }
 
+bool launch_overlap() {
+  // Compute capability 9.0 and later; KF_PDL=0 in the environment turns it off (to measure it).
+  static const bool on = [] {
+    const char* v = std::getenv("KF_PDL");
+    if (v && v[0] == '0')
+      return false;
+    int device = 0, major = 0;
+    return cudaGetDevice(&device) == cudaSuccess &&
+           cudaDeviceGetAttribute(&major, cudaDevAttrComputeCapabilityMajor, device) ==
+               cudaSuccess &&
+           major >= 9;
+  }();
+  return on;
+}
+
+void throw_launch_error(cudaError_t e, const char* label, std::size_t n) {
+  throw_cuda_error(e, "cudaLaunchKernelEx", __FILE__, __LINE__,
+                   std::string(label) + " over " + std::to_string(n) + " elements");
+}
+
 void check_launch_impl(const char* label, std::size_t n, const char* file, int line) {
   // KF_CUDA_SYNC_CHECK=1: synchronise after every launch so that an asynchronous fault is
   // pinned on the kernel that caused it (slow; for debugging only). Read once per process.

@@ -27,6 +27,13 @@ enum class ScratchSlot { Sort, Scan, Reduce, Count };
 /// when a caller needs more. All work is on the legacy default stream, so a slot's next user runs
 /// after its previous one; callers must not hold the pointer across another call for the slot.
 void* cuda_scratch(ScratchSlot slot, std::size_t bytes, const char* label);
+/// Whether kernels are launched with programmatic dependent launch: on devices of compute
+/// capability 9.0 and later, unless KF_PDL=0 is in the environment. A kernel's blocks are then
+/// scheduled while the one before it finishes and wait for it on the device
+/// (await_previous_kernel), instead of the GPU draining between the two.
+bool launch_overlap();
+[[noreturn]] void throw_launch_error(cudaError_t e, const char* label, std::size_t n);
+
 /// Copies `bytes` (a small result, at most 4 KiB) from device memory into host memory `dst`
 /// through a page-locked staging buffer, and waits for it.
 void cuda_read_result(void* dst, const void* device_src, std::size_t bytes, const char* label);
