@@ -176,24 +176,25 @@ void launch(void (*kernel)(P...), std::size_t grid, unsigned block, const char* 
     throw_launch_error(e, label, n);
 }
 
+/// This thread's element and lane of for_each_lanes.
 template <unsigned G, typename F>
-__global__ void for_each_lanes_kernel(std::size_t n, F f) {
+__device__ KF_INLINE void run_lanes(std::size_t n, const F& f) {
   await_previous_kernel();
   const std::size_t t = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
   const std::size_t i = t / G;
   if (i < n) // all G lanes of an element agree
     f(i, Lanes{static_cast<unsigned>(t % G), G});
 }
+template <unsigned G, typename F>
+__global__ void for_each_lanes_kernel(std::size_t n, F f) {
+  run_lanes<G>(n, f);
+}
 /// The same for a functor that asks for a register budget: at least F::kBlocksPerSm blocks of
 /// Block threads resident on an SM (ptxas then caps the registers a thread may use).
 template <unsigned G, unsigned Block, unsigned MinBlocks, typename F>
 __global__ void __launch_bounds__(Block, MinBlocks)
     for_each_lanes_bounded_kernel(std::size_t n, F f) {
-  await_previous_kernel();
-  const std::size_t t = static_cast<std::size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
-  const std::size_t i = t / G;
-  if (i < n)
-    f(i, Lanes{static_cast<unsigned>(t % G), G});
+  run_lanes<G>(n, f);
 }
 #endif
 
