@@ -148,12 +148,11 @@ private:
   exec::DeviceBuffer<std::uint64_t> guard_count_{exec::Backend::Cpu, 0, "boundary.guard_count"};
   std::uint64_t guard_corrections() const { return guard_count_.to_host()[0]; }
   std::uint64_t outflow_particles_ = 0, fluid_sorts_ = 0;
-  double outflow_mass_ = 0;
-  // The mass removed by sorts (sort_removing_outside), summed on the device: read with the
+  double outflow_mass_ = 0; // removed before the restart this run started from (its snapshot's)
+  // The mass removed by sorts since (sort_removing_outside), summed on the device: read with the
   // diagnostics, not at every sort.
   exec::DeviceBuffer<double> sorted_outflow_mass_{exec::Backend::Cpu, 0, "fluid.outflow"};
   double outflow_mass() const { return outflow_mass_ + sorted_outflow_mass_.to_host()[0]; }
-  exec::DeviceBuffer<std::uint32_t> flags_{exec::Backend::Cpu, 0, "fluid.flags"};
   bool profiling_ = false;
 
   std::optional<KnitSystem<T>> knit_;
@@ -175,7 +174,6 @@ private:
   double skin_ = 0;
   MotionBounds<T> fluid_bounds_{}; // the fluid's speed and acceleration bounds at step start
   double fluid_step_motion() const;
-  void remove_outflow(); // fluid outside the domain's open sides, counted
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
   exec::DeviceBuffer<std::uint8_t> fluid_near_{exec::Backend::Cpu, 0, "fluid.near"};
   exec::DeviceBuffer<MotionBounds<T>> bounds_{exec::Backend::Cpu, 0, "integrate.dt"}; // knit, fluid
@@ -206,7 +204,7 @@ private:
 template <typename T>
 SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only)
     : scene_(scene), ex_{backend}, guard_count_(backend, 0, "boundary.guard_count"),
-      sorted_outflow_mass_(backend, 0, "fluid.outflow"), flags_(backend, 0, "fluid.flags"),
+      sorted_outflow_mass_(backend, 0, "fluid.outflow"),
       boundary_near_(backend, 0, "boundary.near"), fluid_near_(backend, 0, "fluid.near"),
       bounds_(backend, 2, "integrate.dt"), plan_(backend, 1, "integrate.dt"),
       solids_(scene, backend), shapes_(backend, 0, "rigid.shapes") {
@@ -486,14 +484,11 @@ void SimulationT<T>::build_pipeline() {
   const bool open = !std::all_of(walls.begin(), walls.end(), [](bool w) { return w; });
   using Lists = Scene::Solver::NeighbourLists;
   const Lists lists = scene_.solver.neighbour_list;
-  // With "verlet" lists, fluid that left is removed at the next sort instead (grid.fluid): a
-  // removal renumbers the fluid, so removing at once rebuilt the lists at every step something
-  // left (the column's whole run: ~13,000 of its 18,863 builds). Until then it is at most the
-  // skin outside (its displacement since the last sort, when it was inside, stays within s).
-  if (fluid_on_ && open && lists != Lists::Verlet)
-    pipeline_.add("fluid.outflow", "fluid",
-                  "remove fluid that left the domain through a side without a wall (counted)",
-                  [this] { remove_outflow(); });
+  // Fluid that left the domain through an open side is removed in the fluid's sort (grid.fluid,
+  // counted). With "verlet" lists that is the next sort: a removal renumbers the fluid, so
+  // removing at once rebuilt the lists at every step something left (the column's whole run:
+  // ~13,000 of its 18,863 builds). Until then it is at most the skin outside (its displacement
+  // since the last sort, when it was inside, stays within s).
   if (fluid_on_) {
     if (lists == Lists::Verlet)
       pipeline_.add("grid.fluid", "fluid",
@@ -522,9 +517,10 @@ void SimulationT<T>::build_pipeline() {
                     });
     else
       pipeline_.add("grid.fluid", "fluid",
-                    lists == Lists::On ? "sort fluid by cell, cell ranges, neighbour lists"
-                                       : "sort fluid by cell, cell ranges",
-                    [this] { sort_fluid(false, false); }); // a: the forces pass follows
+                    std::string(open ? "remove fluid that left the domain (counted), " : "") +
+                        (lists == Lists::On ? "sort fluid by cell, cell ranges, neighbour lists"
+                                            : "sort fluid by cell, cell ranges"),
+                    [this, open] { sort_fluid(open, false); }); // a: the forces pass follows
     pipeline_.add("sph.density", "fluid",
                   continuity() ? "pressure (EOS) of the density predicted for the step's end "
                                  "from the last two rates (continuity)"
@@ -558,15 +554,6 @@ void SimulationT<T>::build_pipeline() {
                       fluid_bounds_ready_ = true;
                     });
   }
-}
-
-template <typename T>
-void SimulationT<T>::remove_outflow() {
-  const auto& d = scene_.domain;
-  const OutflowResult r =
-      remove_outside(ex_, *fluid_, flags_, vec_cast<T>(d.min), vec_cast<T>(d.max));
-  outflow_particles_ += r.particles;
-  outflow_mass_ += r.mass;
 }
 
 template <typename T>

@@ -40,7 +40,7 @@ struct KickDriftContact {
   const double* dt_device;
 
   KF_HD std::uint64_t operator()(std::size_t i) const {
-    const T step = dt_device ? static_cast<T>(*dt_device) : dt;
+    const T step = drift_step(dt, dt_device);
     const T half = T(0.5) * step;
     if (close_previous)
       v[i] = half_kick(i, v, a, half, keep, fixed);

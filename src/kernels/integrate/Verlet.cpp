@@ -8,7 +8,7 @@ void kick_drift(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a, 
   exec::for_each(
       ex, n,
       [=] KF_HD(std::size_t i) {
-        const T step = dt_device ? static_cast<T>(*dt_device) : dt;
+        const T step = drift_step(dt, dt_device);
         const Vec3<T> vh = half_kick(i, v, a, T(0.5) * step, keep, fixed);
         v[i] = vh;
         x[i] += vh * step;

@@ -25,6 +25,13 @@ KF_HD KF_INLINE Vec3<T> half_kick(std::size_t i, const Vec3<T>* v, const Vec3<T>
   return (v[i] + a[i] * half) * keep;
 }
 
+/// The step a drift takes: T(*dt_device) when the step was planned on the device
+/// (StepSize_K.hpp), else dt.
+template <typename T>
+KF_HD KF_INLINE T drift_step(T dt, const double* dt_device) {
+  return dt_device ? static_cast<T>(*dt_device) : dt;
+}
+
 /// v = keep (v + a dt/2), then x += v dt. keep = exp(-zeta dt/2) < 1 damps (settling); 1 does not.
 /// With dt_device, dt is T(*dt_device), read on the device (a step planned there, StepSize_K.hpp).
 template <typename T>
