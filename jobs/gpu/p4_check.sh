@@ -9,7 +9,8 @@ out=${OUT:-out/p4}
 mkdir -p "$out"
 export PATH="$PATH:build/cuda/apps:build/cuda/bench:build/cuda/tests"
 nvidia-smi --query-gpu=name,memory.total,clocks.max.sm,clocks.max.mem --format=csv > "$out/gpu.txt" 2>&1
-for t in test_exec_K test_neighbour_grid_K test_coupling_K test_self_contact_K test_backends; do
+for t in test_exec_K test_fluid_reorder_K test_neighbour_grid_K test_coupling_K test_self_contact_K \
+  test_backends; do
   if command -v "$t" >/dev/null; then
     "$t" > "$out/$t.log" 2>&1
     echo "$t rc=$? $(grep -E '^\[  (PASSED|FAILED) ' "$out/$t.log" | tr '\n' ' ')"

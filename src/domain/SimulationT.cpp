@@ -114,7 +114,7 @@ private:
   void update_shapes(double t);
   /// remove_outflow: the fluid outside the domain is removed in the same sort (counted).
   /// acceleration false: a is not carried (a forces pass follows before anything reads it).
-  void sort_fluid(bool remove_outflow = false, bool acceleration = true);
+  void sort_fluid(bool remove_outflow = false, typename FluidSet<T>::Carry carry = {});
   void sort_boundary();
   void compute_forces();
   /// The sph.density and sph.forces stages for a step of dt (0: at t = 0).
@@ -510,9 +510,9 @@ void SimulationT<T>::build_pipeline() {
                                                    static_cast<T>(fluid_step_motion()), moving_,
                                                    meanwhile)) {
                         // Removing what left the domain in the same sort; the forces pass
-                        // writes a before anything reads it.
-                        sort_fluid(open, false);
-                        density_done_ = false;
+                        // writes a before anything reads it; the predictor's copies, when it
+                        // ran, are carried (not run again).
+                        sort_fluid(open, {false, density_done_});
                       }
                     });
     else
@@ -520,7 +520,7 @@ void SimulationT<T>::build_pipeline() {
                     std::string(open ? "remove fluid that left the domain (counted), " : "") +
                         (lists == Lists::On ? "sort fluid by cell, cell ranges, neighbour lists"
                                             : "sort fluid by cell, cell ranges"),
-                    [this, open] { sort_fluid(open, false); }); // a: the forces pass follows
+                    [this, open] { sort_fluid(open, {false}); }); // a: the forces pass follows
     pipeline_.add("sph.density", "fluid",
                   continuity() ? "pressure (EOS) of the density predicted for the step's end "
                                  "from the last two rates (continuity)"
@@ -565,22 +565,22 @@ void SimulationT<T>::update_shapes(double t) {
 }
 
 template <typename T>
-void SimulationT<T>::sort_fluid(bool remove_outflow, bool acceleration) {
+void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry carry) {
   ++fluid_sorts_;
   if (remove_outflow) {
     const auto& d = scene_.domain;
     outflow_particles_ +=
         sort_removing_outside(ex_, *fluid_grid_, *fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max),
-                              sorted_outflow_mass_.data(), acceleration);
+                              sorted_outflow_mass_.data(), carry);
   } else {
     fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
-    fluid_->reorder(ex_, fluid_grid_->permutation(), acceleration);
+    fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
   }
   if (boundary_on_) // for boundary.pressure, which walks this grid until the next sort
     fluid_grid_->occupied_around(ex_, fluid_near_);
   if (fluid_list_)
-    fluid_list_->build(ex_, *fluid_, fluid_grid_->view(), boundary_neighbours(),
-                       static_cast<T>(h_));
+    fluid_list_->build(ex_, *fluid_, fluid_grid_->view(), boundary_neighbours(), static_cast<T>(h_),
+                       boundary_on_ ? fluid_near_.data() : nullptr);
 }
 
 template <typename T>
@@ -606,6 +606,8 @@ void SimulationT<T>::sort_boundary() {
   boundary_grid_->build(ex_, boundary_->x.data(), boundary_->size());
   boundary_->reorder(ex_, boundary_grid_->permutation());
   boundary_grid_->occupied_around(ex_, boundary_near_);
+  if (fluid_list_) // the walls' lists follow the boundary's order: built again with the fluid's
+    fluid_list_->forget_walls();
 }
 
 template <typename T>
@@ -654,7 +656,8 @@ void SimulationT<T>::extrapolate_boundary_pressure() {
   if (boundary_->size() == 0)
     return;
   boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
-                    shapes_.data(), fluid_near_.data());
+                    shapes_.data(), fluid_near_.data(),
+                    fluid_list_ ? fluid_list_->walls() : ListView<T>{});
 }
 
 template <typename T>

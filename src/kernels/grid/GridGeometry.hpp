@@ -69,6 +69,16 @@ struct CellView {
   /// radius (span 2) test (5/2)^3 = 15.6 h^3 of candidates instead of 3^3 = 27 h^3.
   int span = 1;
 
+  /// Whether the walk from x may meet a candidate: `occupied` is NeighbourGrid::occupied_around
+  /// of this grid (per linear cell; null: assume so). A point of another set can skip its walk.
+  KF_HD KF_INLINE bool may_find(const std::uint8_t* occupied, const Vec3<T>& x) const {
+    if (!occupied)
+      return true;
+    int cx, cy, cz;
+    geo.coords(x, cx, cy, cz);
+    return occupied[geo.linear(cx, cy, cz)] != 0;
+  }
+
   /// Calls row(c0, width) for each row along x of the (2 span + 1)^3 cells around x: the cells
   /// c0 .. c0 + width in rank order (consecutive along x). Stops when row returns true.
   template <typename F>

@@ -282,12 +282,22 @@ public:
   void build_for(const exec::Exec& ex, const Vec3<T>* q, const std::uint32_t* active, std::size_t n,
                  const Vec3<T>* x, const CellView<T>& cells, T radius2, std::uint32_t capacity,
                  Pred keep = {}) {
+    build_fixed(
+        ex, n, capacity,
+        [&](const ListSink& out) {
+          return list_detail::ListBuilder<T, Pred>{q, x, active, cells, radius2, out, keep};
+        },
+        "neighbours.build_for");
+  }
+  /// build_for with any builder: make(sink) returns a functor that fills row i of the sink
+  /// (RowAppender, which counts past the capacity) when called with i, for i < n.
+  template <typename Make>
+  void build_fixed(const exec::Exec& ex, std::size_t n, std::uint32_t capacity, Make&& make,
+                   const char* label) {
     capacity_ = (capacity + kListGroup - 1) / kListGroup * kListGroup;
     count_.resize(n);
     list_.resize(std::size_t(capacity_) * n);
-    exec::for_each(ex, n,
-                   list_detail::ListBuilder<T, Pred>{q, x, active, cells, radius2, sink(n), keep},
-                   "neighbours.build_for");
+    exec::for_each(ex, n, make(sink(n)), label);
   }
   ListView<T> view() const { return {count_.data(), list_.data(), capacity_, count_.size()}; }
   /// Slots per particle now; most neighbours of one particle at the last build (build,

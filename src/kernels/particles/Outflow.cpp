@@ -15,10 +15,10 @@ struct MassAt {
 template <typename T>
 std::size_t sort_removing_outside(const exec::Exec& ex, NeighbourGrid<T>& grid, FluidSet<T>& fluid,
                                   const Vec3<T>& lo, const Vec3<T>& hi, double* mass,
-                                  bool acceleration) {
+                                  typename FluidSet<T>::Carry carry) {
   const std::size_t n = fluid.size();
   grid.build_keeping(ex, fluid.x.data(), n, KeepBox<T>{lo, hi});
-  fluid.reorder(ex, grid.permutation(), acceleration); // the outside ones now last, in order
+  fluid.reorder(ex, grid.permutation(), carry); // the outside ones now last, in order
   const std::size_t kept = grid.kept();
   if (kept == n)
     return 0;
@@ -31,9 +31,11 @@ std::size_t sort_removing_outside(const exec::Exec& ex, NeighbourGrid<T>& grid, 
 
 template std::size_t sort_removing_outside<float>(const exec::Exec&, NeighbourGrid<float>&,
                                                   FluidSet<float>&, const Vec3<float>&,
-                                                  const Vec3<float>&, double*, bool);
+                                                  const Vec3<float>&, double*,
+                                                  FluidSet<float>::Carry);
 template std::size_t sort_removing_outside<double>(const exec::Exec&, NeighbourGrid<double>&,
                                                    FluidSet<double>&, const Vec3<double>&,
-                                                   const Vec3<double>&, double*, bool);
+                                                   const Vec3<double>&, double*,
+                                                   FluidSet<double>::Carry);
 
 } // namespace kf

@@ -11,10 +11,10 @@ namespace kf {
 /// (NeighbourGrid::build_keeping), reorders it, and drops them; returns how many they were and
 /// adds their mass to *mass (memory on ex.backend, nothing waits for it). One sort and one
 /// reorder for what was a compaction, then both; the host waits only for the count, while the
-/// reorder runs. `acceleration`: as FluidSet::reorder.
+/// reorder runs. `carry`: as FluidSet::reorder.
 template <typename T>
 std::size_t sort_removing_outside(const exec::Exec& ex, NeighbourGrid<T>& grid, FluidSet<T>& fluid,
                                   const Vec3<T>& lo, const Vec3<T>& hi, double* mass,
-                                  bool acceleration = true);
+                                  typename FluidSet<T>::Carry carry = {});
 
 } // namespace kf

@@ -11,8 +11,7 @@ FluidSet<T>::FluidSet(exec::Backend b)
     : x(b, 0, "fluid.x"), v(b, 0, "fluid.v"), a(b, 0, "fluid.a"), m(b, 0, "fluid.m"),
       rho(b, 0, "fluid.rho"), p(b, 0, "fluid.p"), drho(b, 0, "fluid.drho"),
       drho_prev(b, 0, "fluid.drho_prev"), id(b, 0, "fluid.id"), xm(b, 0, "fluid.xm"),
-      vp(b, 0, "fluid.vp"), vol(b, 0, "fluid.vol"), scratch_v3_(b, 0, "fluid.scratch"),
-      scratch_t_(b, 0, "fluid.scratch"), scratch_id_(b, 0, "fluid.scratch"),
+      vp(b, 0, "fluid.vp"), vol(b, 0, "fluid.vol"), sorted_(b),
       offsets_(b, 0, "fluid.keep_offsets"), kept_(b, 0, "fluid.kept") {}
 
 template <typename T>
@@ -25,8 +24,7 @@ std::size_t FluidSet<T>::keep_flagged(const exec::Exec& ex,
   const std::size_t kept = exec::flagged_indices(ex, flags, offsets_, kept_, "fluid.keep");
   if (kept == n)
     return 0;
-  reorder(ex, kept_);
-  permute(ex, kept_, p, scratch_t_, "fluid.keep");
+  reorder(ex, kept_, {true, true});
   return n - kept;
 }
 
@@ -43,42 +41,114 @@ void FluidSet<T>::resize(std::size_t n) {
   id.resize(n);
 }
 
+namespace {
+/// One sorted particle i of the fluid: every carried field from particle perm[i] of `from` into
+/// `to`, and the neighbour copy xm.
+template <typename T>
+struct GatherFluid {
+  const std::uint32_t* perm;
+  FluidView<T> from, to;
+  bool acceleration, copies;
+  KF_HD KF_INLINE void operator()(std::size_t i) const {
+    const std::uint32_t j = perm[i];
+    const Vec3<T> x = from.x[j];
+    const T m = from.m[j];
+    to.x[i] = x;
+    to.m[i] = m;
+    to.xm[i] = {x.x, x.y, x.z, m};
+    to.v[i] = from.v[j];
+    if (acceleration)
+      to.a[i] = from.a[j];
+    // rho and its rates are state under the continuity equation; summation recomputes rho (3 x
+    // 4 B a particle more per sort, which lists sort seldom).
+    to.rho[i] = from.rho[j];
+    to.drho[i] = from.drho[j];
+    to.drho_prev[i] = from.drho_prev[j];
+    to.id[i] = from.id[j];
+    if (copies) {
+      to.p[i] = from.p[j];
+      to.vp[i] = from.vp[j];
+      to.vol[i] = from.vol[j];
+    }
+  }
+};
+} // namespace
+
 template <typename T>
 void FluidSet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm,
-                          bool acceleration) {
-  permute(ex, perm, x, scratch_v3_, "fluid.reorder");
-  permute(ex, perm, v, scratch_v3_, "fluid.reorder");
-  if (acceleration)
-    permute(ex, perm, a, scratch_v3_, "fluid.reorder");
+                          Carry carry) {
+  const std::size_t n = perm.size();
+  if (n > size())
+    throw Error("fluid.reorder: a permutation of " + std::to_string(n) + " for " +
+                std::to_string(size()) + " particles");
+  const FluidView<T> from = view(); // sizes xm, vp and vol
+  Sorted& s = sorted_;
+  for (auto* b : {&s.x, &s.v})
+    b->resize(n);
+  for (auto* b : {&s.m, &s.rho, &s.drho, &s.drho_prev})
+    b->resize(n);
+  s.id.resize(n);
+  if (carry.acceleration)
+    s.a.resize(n);
+  if (carry.copies) {
+    s.p.resize(n);
+    s.vol.resize(n);
+    s.vp.resize(n);
+  }
+  FluidView<T> to = from;
+  to.x = s.x.data();
+  to.v = s.v.data();
+  to.a = s.a.data();
+  to.m = s.m.data();
+  to.rho = s.rho.data();
+  to.drho = s.drho.data();
+  to.drho_prev = s.drho_prev.data();
+  to.id = s.id.data();
+  to.p = s.p.data();
+  to.vp = s.vp.data();
+  to.vol = s.vol.data();
+  to.n = n; // xm: written in place (nothing reads it here)
+  exec::for_each(ex, n, GatherFluid<T>{perm.data(), from, to, carry.acceleration, carry.copies},
+                 "fluid.reorder");
+  x.swap(s.x);
+  v.swap(s.v);
+  m.swap(s.m);
+  rho.swap(s.rho);
+  drho.swap(s.drho);
+  drho_prev.swap(s.drho_prev);
+  id.swap(s.id);
+  if (carry.acceleration)
+    a.swap(s.a);
   else
-    a.resize(perm.size()); // a compaction's size; the values wait for the forces pass
-  permute(ex, perm, m, scratch_t_, "fluid.reorder");
-  // rho and its rates are state under the continuity equation; summation recomputes rho (3 x 4 B
-  // a particle more per sort, which lists sort seldom).
-  permute(ex, perm, rho, scratch_t_, "fluid.reorder");
-  permute(ex, perm, drho, scratch_t_, "fluid.reorder");
-  permute(ex, perm, drho_prev, scratch_t_, "fluid.reorder");
-  permute(ex, perm, id, scratch_id_, "fluid.reorder");
+    a.resize(n); // a compaction's size; the values wait for the forces pass
+  if (carry.copies) {
+    p.swap(s.p);
+    vp.swap(s.vp);
+    vol.swap(s.vol);
+  } else {
+    p.resize(n);
+  }
 }
 
 template <typename T>
 FluidView<T> FluidSet<T>::view() {
   const std::size_t n = size();
-  if (xm.size() < n) {
-    xm.resize(n);
-    vp.resize(n);
+  // Each on its own: reorder() swaps vp and vol (carried copies) but not xm.
+  for (auto* b : {&xm, &vp})
+    if (b->size() < n)
+      b->resize(n);
+  if (vol.size() < n)
     vol.resize(n);
-  }
   return {x.data(),    v.data(),         a.data(), m.data(),  rho.data(), p.data(),  id.data(),
           drho.data(), drho_prev.data(), n,        xm.data(), vp.data(),  vol.data()};
 }
 
 template <typename T>
 std::size_t FluidSet<T>::bytes_per_particle() {
-  // x v a + scratch (Vec3), m rho p drho drho_prev + scratch (T), id + scratch, grid keys +
-  // permutation, the SPH gather copies (xm, vp, vol).
-  return 4 * sizeof(Vec3<T>) + 6 * sizeof(T) + 2 * sizeof(std::uint64_t) +
-         2 * sizeof(std::uint32_t) + 2 * sizeof(Vec4<T>) + sizeof(T);
+  // Each twice (reorder's sorted copies): x v a (Vec3), m rho p drho drho_prev vol (T), id, vp
+  // (Vec4); grid keys + permutation, the neighbour copy xm.
+  return 2 * (3 * sizeof(Vec3<T>) + 6 * sizeof(T) + sizeof(std::uint64_t) + sizeof(Vec4<T>)) +
+         2 * sizeof(std::uint32_t) + sizeof(Vec4<T>);
 }
 
 template <typename T>

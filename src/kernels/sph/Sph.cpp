@@ -25,12 +25,17 @@ void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, 
 template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
                        const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes,
-                       const std::uint8_t* fluid_near) {
-  with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
-    using K = decltype(k);
-    exec::for_each(ex, b.n,
-                   BoundaryPressureEvaluator<T, K>{k, prm, b, f, fluid_cells, shapes, fluid_near},
+                       const std::uint8_t* fluid_near, const ListView<T>& walls) {
+  auto run = [&](auto k, auto listed) {
+    using E = BoundaryPressureEvaluator<T, decltype(k), decltype(listed)::value>;
+    exec::for_each(ex, b.n, E{k, prm, b, f, fluid_cells, shapes, fluid_near, walls},
                    "boundary.pressure");
+  };
+  with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
+    if (walls.count)
+      run(k, std::true_type{});
+    else
+      run(k, std::false_type{});
   });
 }
 
@@ -65,7 +70,7 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
                                const BoundaryNeighbours<T>&, const ListView<T>&);                  \
   template void boundary_pressure<T>(const exec::Exec&, const SphParams<T>&, BoundaryView<T>,      \
                                      const FluidView<T>&, CellView<T>, const RigidShape<T>*,       \
-                                     const std::uint8_t*);                                         \
+                                     const std::uint8_t*, const ListView<T>&);                     \
   template void sph_density_predict<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, T);   \
   template void sph_forces<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,   \
                               const BoundaryNeighbours<T>&, const ListView<T>&, T);

@@ -52,15 +52,7 @@ struct BoundaryNeighbours {
   }
 
   /// Whether the boundary loop from x can find anything.
-  KF_HD KF_INLINE bool around(const Vec3<T>& x) const {
-    if (n == 0)
-      return false;
-    if (!near)
-      return true;
-    int cx, cy, cz;
-    cells.geo.coords(x, cx, cy, cz);
-    return near[cells.geo.linear(cx, cy, cz)] != 0;
-  }
+  KF_HD KF_INLINE bool around(const Vec3<T>& x) const { return n > 0 && cells.may_find(near, x); }
 };
 
 /// rho_i (Eq. 2, plus boundary psi_b W) and P_i from the EOS, for every fluid particle, and the
@@ -80,11 +72,12 @@ void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, 
 /// `fluid_near` (NeighbourGrid::occupied_around of the fluid grid, or null): a boundary particle
 /// whose cell has no fluid candidate around skips the walk, which would find nothing (P_b = 0).
 /// Reads the fluid's gather copies (xm, vp): after sph_density or sph_density_predict at the same
-/// positions.
+/// positions. `walls` (SphLists::walls, or empty): each boundary particle's fluid candidates,
+/// read instead of the walk where its row is complete.
 template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
                        const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes,
-                       const std::uint8_t* fluid_near = nullptr);
+                       const std::uint8_t* fluid_near = nullptr, const ListView<T>& walls = {});
 
 /// The continuity equation's part of a step before the neighbour pass (prm.density =
 /// Continuity): the pressure of the density predicted for the step's end, rho + dt (2 drho -

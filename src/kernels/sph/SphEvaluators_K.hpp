@@ -76,7 +76,9 @@ struct DensityPredictor {
   }
 };
 
-template <typename T, typename K>
+// Listed: the walls' rows of SphLists (fluid within h + s at the last sort, in the walk's
+// order, so the sums are the walk's to the bit); a row that overflowed walks the cells.
+template <typename T, typename K, bool Listed = false>
 struct BoundaryPressureEvaluator {
   K kernel;
   SphParams<T> prm;
@@ -85,31 +87,32 @@ struct BoundaryPressureEvaluator {
   CellView<T> cells;
   const RigidShape<T>* shapes;
   const std::uint8_t* near; // per fluid cell: fluid candidates around it (null: walk every cell)
+  ListView<T> walls;        // Listed: row k, boundary particle k's fluid candidates
 
   KF_HD void operator()(std::size_t k) const {
     const Vec3<T> xb = b.x[k];
     const T h2 = kernel.h * kernel.h;
     T sum_w = T(0), sum_p = T(0);
     Vec3<T> sum_rho_r{T(0), T(0), T(0)}, sum_v{T(0), T(0), T(0)};
-    // Most of a tank's wall particles are dry: their walk would find nothing.
-    bool walk = true;
-    if (near) {
-      int cx, cy, cz;
-      cells.geo.coords(xb, cx, cy, cz);
-      walk = near[cells.geo.linear(cx, cy, cz)] != 0;
+    auto add = [&](std::uint32_t j) {
+      const Vec3<T> r = xb - f.xm[j].xyz();
+      const T r2 = norm2(r);
+      if (r2 >= h2)
+        return;
+      const T w = kernel.W(ksqrt(r2));
+      sum_w += w;
+      sum_p += f.p[j] * w;
+      sum_rho_r += r * (f.rho[j] * w);
+      sum_v += f.vp[j].xyz() * w;
+    };
+    bool listed = false;
+    if constexpr (Listed) {
+      listed = walls.complete(k);
+      if (listed)
+        walls.for_each_neighbour(k, xb, add);
     }
-    if (walk)
-      cells.for_each_candidate(xb, [&](std::uint32_t j) {
-        const Vec3<T> r = xb - f.xm[j].xyz();
-        const T r2 = norm2(r);
-        if (r2 >= h2)
-          return;
-        const T w = kernel.W(ksqrt(r2));
-        sum_w += w;
-        sum_p += f.p[j] * w;
-        sum_rho_r += r * (f.rho[j] * w);
-        sum_v += f.vp[j].xyz() * w;
-      });
+    if (!listed && cells.may_find(near, xb)) // most of a tank's wall particles are dry
+      cells.for_each_candidate(xb, add);
     T p = T(0);
     if (sum_w > T(0))
       p = (sum_p + dot(prm.gravity, sum_rho_r)) / sum_w;

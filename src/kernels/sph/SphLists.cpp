@@ -116,12 +116,12 @@ bool same_geometry(const GridGeometry<T>& a, const GridGeometry<T>& b) {
 
 template <typename T>
 SphLists<T>::SphLists(exec::Backend b, T skin)
-    : skin_(skin), lists_(b), x0_(b, 0, "fluid.listed_x"), moved_(b, 8, "fluid.moved"),
+    : skin_(skin), lists_(b), walls_(b), x0_(b, 0, "fluid.listed_x"), moved_(b, 8, "fluid.moved"),
       read_(b, 8, "fluid.moved"), box_(b, 0, "fluid.moved_box"), spread_(b, 0, "fluid.moved_box") {}
 
 template <typename T>
 void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>& cells,
-                        const BoundaryNeighbours<T>& b, T h) {
+                        const BoundaryNeighbours<T>& b, T h, const std::uint8_t* fluid_near) {
   const std::size_t n = f.size();
   // Under 2^31 - 32: a 32-candidate block's last index must not carry into the boundary tag.
   if (n + 32 >= kBoundaryEntry || b.n + 32 >= kBoundaryEntry)
@@ -135,8 +135,7 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
   // A warp per 32 particles (SphChunkListBuilder). Measured on an H100, column dp 3.5 mm, mean
   // per build over its first 0.35 s (1,318 builds): 6.6 ms with 16 lanes a particle and ballot
   // appends, 6.6 with this builder and 4-slot groups, 4.2 with 8-slot groups.
-  const FluidView<T> fv = f.view();
-  exec::for_each(ex, n, PackPositionMass<T>{fv}, "neighbours.pack");
+  const FluidView<T> fv = f.view(); // xm: FluidSet::reorder wrote it
   built_ = {fv, cells, b, r2};
   lists_.template start_chunked<32>(ex, n, chunk_builders<T>(built_), "neighbours.build");
   if (skin_ > T(0)) {
@@ -147,6 +146,17 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
     cells_ = cells;
     box_.resize(cells.geo.cells());
     spread_.resize(cells.geo.cells());
+    // The walls' rows at the fluid rows' capacity (a fluid particle's row holds a whole sphere
+    // of h + s; a wall particle's fluid, at most about as many). No read back: a row that
+    // overflows is walked instead.
+    walls_listed_ = b.n > 0;
+    if (walls_listed_)
+      walls_.build_fixed(
+          ex, b.n, std::max<std::uint32_t>(lists_.capacity(), 32),
+          [&](const ListSink& out) {
+            return WallListBuilder<T>{b.x, fv.xm, cells, fluid_near, r2, out};
+          },
+          "neighbours.walls");
   }
 }
 

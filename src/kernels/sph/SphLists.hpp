@@ -20,6 +20,10 @@
 //      fast: the lists last until the flow shears by s, not until its fastest particle has moved
 //      s / 2 (the column's surge: docs/PERFORMANCE.md). Around the midpoint the boxes span 3
 //      cells a side, not the 5 around the pair's first cell: a bound 5/3 tighter.
+// With a skin the walls get lists too (walls()): for each boundary particle, the fluid within
+// h + s at the build, for the walls' pass (boundary_pressure). The first rule keeps them: a fluid
+// particle within h of a wall particle now was within h + s of it then. The pass otherwise walks
+// the ~1,700 grid candidates of each wet wall particle every step, ~85% of them out of range.
 #include "kernels/exec/PendingRead.hpp"
 #include "kernels/grid/NeighbourList.hpp"
 #include "kernels/sph/Sph.hpp"
@@ -36,12 +40,16 @@ public:
   SphLists(exec::Backend b, T skin);
 
   /// Lists every particle of f (sorted as `cells` describes) against f and the boundary b,
-  /// within the support h plus the skin, and takes the positions now as the reference. The
+  /// within the support h plus the skin, and takes the positions now as the reference. Reads
+  /// the neighbour copy f.xm = (x, m), which the sort's FluidSet::reorder wrote. The
   /// check that every row fitted is read back behind the build: settle() waits for it (and
   /// builds again, larger, where one did not) and must come before the lists are read; work
-  /// queued in between keeps the GPU busy while the host waits.
+  /// queued in between keeps the GPU busy while the host waits. With a skin, also lists the
+  /// fluid around each boundary particle of b (walls()); `fluid_near` (per cell of `cells`,
+  /// NeighbourGrid::occupied_around; null: walk every cell) skips the dry ones. b's order must
+  /// then hold until the next build (a sort of the boundary calls forget_walls()).
   void build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>& cells,
-             const BoundaryNeighbours<T>& b, T h);
+             const BoundaryNeighbours<T>& b, T h, const std::uint8_t* fluid_near = nullptr);
   void settle(const exec::Exec& ex);
   /// After the fluid moved by at most `motion` since the last call (a true bound; infinity:
   /// unknown), whether the lists may have missed a pair and must be built again. Reads the
@@ -53,7 +61,16 @@ public:
   bool stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force,
                    const std::function<void()>& meanwhile = {});
   /// The fluid's arrays were replaced (a restart): the next stale_after says so.
-  void forget() { x0_.resize(0); }
+  void forget() {
+    x0_.resize(0);
+    forget_walls();
+  }
+  /// The boundary was sorted: the walls' rows no longer match it (walls() is empty until the
+  /// next build).
+  void forget_walls() { walls_listed_ = false; }
+  /// The walls' lists: row k, boundary particle k's fluid candidates (ListView::complete false
+  /// where a row overflowed its capacity: walk the cells); empty (count null) without them.
+  ListView<T> walls() const { return walls_listed_ ? walls_.view() : ListView<T>{}; }
 
   /// Why the rules ended the lists, counted over the run (stale_after's readings that answered
   /// true; forced builds are not counted).
@@ -72,8 +89,8 @@ public:
   T skin() const { return skin_; }
   std::uint32_t capacity() const { return lists_.capacity(); }
   std::size_t bytes() const {
-    return lists_.bytes() + x0_.capacity_bytes() + moved_.capacity_bytes() + box_.capacity_bytes() +
-           spread_.capacity_bytes();
+    return lists_.bytes() + walls_.bytes() + x0_.capacity_bytes() + moved_.capacity_bytes() +
+           box_.capacity_bytes() + spread_.capacity_bytes();
   }
   /// The last device reading: max |d| and the bound on |d_i - d_j| it gave (the smallest of
   /// the three), and the local bound alone (for tests; infinity when the global bounds decided
@@ -102,6 +119,8 @@ public:
 private:
   T skin_;
   NeighbourList<T> lists_;
+  NeighbourList<T> walls_;
+  bool walls_listed_ = false;
   exec::DeviceBuffer<Vec3<T>> x0_;
   // Since the build: max |d|^2, then max(d_c, 0) and max(-d_c, 0) for c = x, y, z, then the
   // local bound squared.

@@ -22,6 +22,29 @@ struct PackPositionMass {
   }
 };
 
+/// Row k of the walls' lists (SphLists): the fluid particles within the radius of boundary
+/// particle k, in the fluid grid's walk order (the walls' pass walks the same cells). A boundary
+/// particle whose cell has no fluid around (`near`, per fluid cell; null: walk all) gets none.
+template <typename T>
+struct WallListBuilder {
+  const Vec3<T>* xb; // boundary positions
+  const Vec4<T>* xm; // fluid (x, m), in `cells`' order
+  CellView<T> cells; // the fluid's grid
+  const std::uint8_t* near;
+  T radius2;
+  ListSink out;
+  KF_HD void operator()(std::size_t k) const {
+    RowAppender row(out, k);
+    const Vec3<T> x = xb[k];
+    if (cells.may_find(near, x)) // most of a tank's wall particles are dry
+      cells.for_each_candidate(x, [&](std::uint32_t j) {
+        if (norm2(x - xm[j].xyz()) < radius2)
+          row.push(j);
+      });
+    row.finish();
+  }
+};
+
 /// Marks a list entry as a boundary particle's index (fluid counts stay below 2^31).
 constexpr std::uint32_t kBoundaryEntry = 0x80000000u;
 
