@@ -245,7 +245,7 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   if (knit_on_)
     knit_->compute_forces();
   if (fluid_on_) {
-    sort_fluid();
+    sort_fluid(false, {false}); // a: written next
     compute_forces(); // a(t = 0), which the first half kick needs
   }
   if (coupling_on_)
@@ -1009,11 +1009,10 @@ template <typename T>
 std::size_t SimulationT<T>::memory_bytes() const {
   std::size_t b = shapes_.capacity_bytes() + solids_.bytes();
   if (fluid_)
-    b += fluid_->size() * FluidSet<T>::bytes_per_particle() + fluid_grid_->bytes() +
-         (fluid_list_ ? fluid_list_->bytes() : 0);
+    b += fluid_->bytes() + fluid_grid_->bytes() + (fluid_list_ ? fluid_list_->bytes() : 0);
   if (boundary_)
-    b += boundary_->size() * BoundarySet<T>::bytes_per_particle() + boundary_grid_->bytes() +
-         boundary_near_.capacity_bytes() + fluid_near_.capacity_bytes();
+    b += boundary_->bytes() + boundary_grid_->bytes() + boundary_near_.capacity_bytes() +
+         fluid_near_.capacity_bytes();
   if (knit_)
     b += knit_->bytes();
   return b;

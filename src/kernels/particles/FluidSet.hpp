@@ -56,8 +56,11 @@ public:
   /// Keeps the particles whose flag is nonzero (flags: one per particle), in their order, with
   /// all fields (rho and p too); returns how many were removed.
   std::size_t keep_flagged(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& flags);
-  /// Bytes each particle costs, scratch included (for `plan` and the memory report).
+  /// Bytes each particle may cost, every buffer reorder() can fill included, and the grid's keys
+  /// and permutation (`plan`'s estimate).
   static std::size_t bytes_per_particle();
+  /// Bytes held now (capacities): a run's second buffers hold only what its sorts carry.
+  std::size_t bytes() const;
 
   exec::DeviceBuffer<Vec3<T>> x, v, a;
   exec::DeviceBuffer<T> m, rho, p, drho, drho_prev;
@@ -117,6 +120,8 @@ public:
   BoundaryView<T> view();
   // volume is reordered too: it is per particle so that irregular samplings (meshes) fit.
   static std::size_t bytes_per_particle();
+  /// Bytes held now (capacities).
+  std::size_t bytes() const;
 
   exec::DeviceBuffer<Vec3<T>> x, x0;
   exec::DeviceBuffer<std::uint32_t> obstacle;

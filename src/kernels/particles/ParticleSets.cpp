@@ -152,6 +152,21 @@ std::size_t FluidSet<T>::bytes_per_particle() {
 }
 
 template <typename T>
+std::size_t FluidSet<T>::bytes() const {
+  const Sorted& s = sorted_;
+  std::size_t b = 0;
+  for (const auto* v : {&x, &v, &a, &s.x, &s.v, &s.a})
+    b += v->capacity_bytes();
+  for (const auto* t :
+       {&m, &rho, &p, &drho, &drho_prev, &vol, &s.m, &s.rho, &s.drho, &s.drho_prev, &s.p, &s.vol})
+    b += t->capacity_bytes();
+  for (const auto* q : {&xm, &vp, &s.vp})
+    b += q->capacity_bytes();
+  return b + id.capacity_bytes() + s.id.capacity_bytes() + offsets_.capacity_bytes() +
+         kept_.capacity_bytes();
+}
+
+template <typename T>
 BoundarySet<T>::BoundarySet(exec::Backend b)
     : x(b, 0, "boundary.x"), x0(b, 0, "boundary.x0"), obstacle(b, 0, "boundary.obstacle"),
       volume(b, 0, "boundary.volume"), p(b, 0, "boundary.p"), id(b, 0, "boundary.id"),
@@ -209,6 +224,17 @@ std::size_t BoundarySet<T>::bytes_per_particle() {
   // grid keys + permutation, the forces' gather copies xv and vp (Vec4).
   return 3 * sizeof(Vec3<T>) + 4 * sizeof(T) + 2 * sizeof(std::uint32_t) +
          2 * sizeof(std::uint64_t) + 2 * sizeof(std::uint32_t) + 2 * sizeof(Vec4<T>);
+}
+
+template <typename T>
+std::size_t BoundarySet<T>::bytes() const {
+  std::size_t b = 0;
+  for (const auto* v : {&x, &x0, &scratch_v3_})
+    b += v->capacity_bytes();
+  for (const auto* t : {&volume, &p, &inv_rho, &scratch_t_})
+    b += t->capacity_bytes();
+  return b + xv.capacity_bytes() + vp.capacity_bytes() + obstacle.capacity_bytes() +
+         scratch_u32_.capacity_bytes() + id.capacity_bytes() + scratch_id_.capacity_bytes();
 }
 
 template class FluidSet<float>;
