@@ -8,7 +8,6 @@
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/sph/Sph.hpp"
 #include "kernels/sph/SphLists.hpp"
-#include "kernels/sph/SphNeighbours_K.hpp"
 
 #include "support/Bits.hpp"
 
@@ -140,13 +139,8 @@ void check(exec::Backend backend) {
   // Rows of 8: most wet rows overflow and walk their cells instead.
   NeighbourList<T> small(backend);
   const FluidView<T> fv = f.view();
-  small.build_fixed(
-      ex, nb, 8,
-      [&](const ListSink& out) {
-        return WallListBuilder<T>{b.x.data(), fv.xm, grid.view(), near.data(),
-                                  T((h + s) * (h + s)), out};
-      },
-      "test.walls");
+  small.build_for(ex, b.x.data(), nullptr, nb, fv.xm, grid.view(), T((h + s) * (h + s)), 8,
+                  AnyPair{}, near.data());
   std::size_t overflowed = 0, fitted = 0;
   for (std::uint32_t c : counts(small.view(), nb, backend))
     (c > 8 ? overflowed : c > 0 ? fitted : dry) += 1;

@@ -83,4 +83,14 @@ struct alignas(4 * sizeof(T)) Vec4 {
   KF_HD KF_INLINE Vec3<T> xyz() const { return {x, y, z}; }
 };
 
+/// The position held by a Vec3 or by a packed (x, w) Vec4: code that reads either kind.
+template <typename T>
+KF_HD KF_INLINE Vec3<T> position_of(const Vec3<T>& p) {
+  return p;
+}
+template <typename T>
+KF_HD KF_INLINE Vec3<T> position_of(const Vec4<T>& p) {
+  return p.xyz();
+}
+
 } // namespace kf

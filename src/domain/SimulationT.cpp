@@ -580,7 +580,7 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     fluid_grid_->occupied_around(ex_, fluid_near_);
   if (fluid_list_)
     fluid_list_->build(ex_, *fluid_, fluid_grid_->view(), boundary_neighbours(), static_cast<T>(h_),
-                       boundary_on_ ? fluid_near_.data() : nullptr);
+                       fluid_near_.data());
 }
 
 template <typename T>

@@ -22,7 +22,8 @@ void NeighbourList<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t
   build_with(
       ex, n,
       [&](const ListSink& out) {
-        return list_detail::ListBuilder<T, AnyPair>{x, x, nullptr, cells, radius2, out, {}};
+        return list_detail::ListBuilder<T, Vec3<T>, AnyPair>{x,     x,       nullptr, nullptr,
+                                                             cells, radius2, out,     {}};
       },
       "neighbours.build");
 }

@@ -206,12 +206,13 @@ private:
 
 namespace list_detail {
 
-/// One query point's neighbours among one grid's candidates.
-template <typename T, typename Pred>
+/// One query point's neighbours among one grid's candidates. P: Vec3 or a packed Vec4.
+template <typename T, typename P, typename Pred>
 struct ListBuilder {
   const Vec3<T>* q;            // query points
-  const Vec3<T>* x;            // candidates, in `cells`' order
+  const P* x;                  // candidates, in `cells`' order
   const std::uint32_t* active; // nullptr: every query point; else those with active[i] != 0
+  const std::uint8_t* occupied; // per cell of `cells`: CellView::may_find (null: walk all)
   CellView<T> cells;
   T radius2;
   ListSink out;
@@ -221,10 +222,11 @@ struct ListBuilder {
     RowAppender row(out, i);
     if (!active || active[i]) {
       const Vec3<T> xi = q[i];
-      cells.for_each_candidate(xi, [&](std::uint32_t j) {
-        if (norm2(xi - x[j]) < radius2 && keep(i, j))
-          row.push(j);
-      });
+      if (cells.may_find(occupied, xi))
+        cells.for_each_candidate(xi, [&](std::uint32_t j) {
+          if (norm2(xi - position_of(x[j])) < radius2 && keep(i, j))
+            row.push(j);
+        });
     }
     row.finish();
   }
@@ -278,26 +280,21 @@ public:
   /// walk meets them. Fixed capacity and no read on the host: a count over the capacity marks a
   /// row that overflowed (ListView::complete is false; its user walks the cells instead).
   /// keep(i, j) may drop candidates that can never pair (the knit's rest-mesh exclusion).
-  template <typename Pred = AnyPair>
+  /// x: positions (Vec3) or packed (x, w) pairs (Vec4). `occupied` (NeighbourGrid::
+  /// occupied_around of `cells`, or null) lets query points with no candidate around skip
+  /// their walk.
+  template <typename P, typename Pred = AnyPair>
   void build_for(const exec::Exec& ex, const Vec3<T>* q, const std::uint32_t* active, std::size_t n,
-                 const Vec3<T>* x, const CellView<T>& cells, T radius2, std::uint32_t capacity,
-                 Pred keep = {}) {
-    build_fixed(
-        ex, n, capacity,
-        [&](const ListSink& out) {
-          return list_detail::ListBuilder<T, Pred>{q, x, active, cells, radius2, out, keep};
-        },
-        "neighbours.build_for");
-  }
-  /// build_for with any builder: make(sink) returns a functor that fills row i of the sink
-  /// (RowAppender, which counts past the capacity) when called with i, for i < n.
-  template <typename Make>
-  void build_fixed(const exec::Exec& ex, std::size_t n, std::uint32_t capacity, Make&& make,
-                   const char* label) {
+                 const P* x, const CellView<T>& cells, T radius2, std::uint32_t capacity,
+                 Pred keep = {}, const std::uint8_t* occupied = nullptr,
+                 const char* label = "neighbours.build_for") {
     capacity_ = (capacity + kListGroup - 1) / kListGroup * kListGroup;
     count_.resize(n);
     list_.resize(std::size_t(capacity_) * n);
-    exec::for_each(ex, n, make(sink(n)), label);
+    exec::for_each(
+        ex, n,
+        list_detail::ListBuilder<T, P, Pred>{q, x, active, occupied, cells, radius2, sink(n), keep},
+        label);
   }
   ListView<T> view() const { return {count_.data(), list_.data(), capacity_, count_.size()}; }
   /// Slots per particle now; most neighbours of one particle at the last build (build,

@@ -84,6 +84,10 @@ private:
     exec::DeviceBuffer<std::uint64_t> id;
     exec::DeviceBuffer<Vec4<T>> vp;
   } sorted_;
+  /// f(field, its sorted twin) for each field of self (a FluidSet, const or not) that a sort
+  /// with `carry` gathers.
+  template <typename Self, typename F>
+  static void each_sorted(Self& self, Carry carry, F&& f);
   exec::DeviceBuffer<std::uint32_t> offsets_, kept_;
 };
 

@@ -82,19 +82,8 @@ void FluidSet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::ui
     throw Error("fluid.reorder: a permutation of " + std::to_string(n) + " for " +
                 std::to_string(size()) + " particles");
   const FluidView<T> from = view(); // sizes xm, vp and vol
+  each_sorted(*this, carry, [n](auto&, auto& twin) { twin.resize(n); });
   Sorted& s = sorted_;
-  for (auto* b : {&s.x, &s.v})
-    b->resize(n);
-  for (auto* b : {&s.m, &s.rho, &s.drho, &s.drho_prev})
-    b->resize(n);
-  s.id.resize(n);
-  if (carry.acceleration)
-    s.a.resize(n);
-  if (carry.copies) {
-    s.p.resize(n);
-    s.vol.resize(n);
-    s.vp.resize(n);
-  }
   FluidView<T> to = from;
   to.x = s.x.data();
   to.v = s.v.data();
@@ -110,23 +99,30 @@ void FluidSet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::ui
   to.n = n; // xm: written in place (nothing reads it here)
   exec::for_each(ex, n, GatherFluid<T>{perm.data(), from, to, carry.acceleration, carry.copies},
                  "fluid.reorder");
-  x.swap(s.x);
-  v.swap(s.v);
-  m.swap(s.m);
-  rho.swap(s.rho);
-  drho.swap(s.drho);
-  drho_prev.swap(s.drho_prev);
-  id.swap(s.id);
-  if (carry.acceleration)
-    a.swap(s.a);
-  else
+  each_sorted(*this, carry, [](auto& field, auto& twin) { field.swap(twin); });
+  if (!carry.acceleration)
     a.resize(n); // a compaction's size; the values wait for the forces pass
+  if (!carry.copies)
+    p.resize(n); // written by the next density pass
+}
+
+template <typename T>
+template <typename Self, typename F>
+void FluidSet<T>::each_sorted(Self& self, Carry carry, F&& f) {
+  auto& s = self.sorted_;
+  f(self.x, s.x);
+  f(self.v, s.v);
+  f(self.m, s.m);
+  f(self.rho, s.rho);
+  f(self.drho, s.drho);
+  f(self.drho_prev, s.drho_prev);
+  f(self.id, s.id);
+  if (carry.acceleration)
+    f(self.a, s.a);
   if (carry.copies) {
-    p.swap(s.p);
-    vp.swap(s.vp);
-    vol.swap(s.vol);
-  } else {
-    p.resize(n);
+    f(self.p, s.p);
+    f(self.vp, s.vp);
+    f(self.vol, s.vol);
   }
 }
 
@@ -153,17 +149,11 @@ std::size_t FluidSet<T>::bytes_per_particle() {
 
 template <typename T>
 std::size_t FluidSet<T>::bytes() const {
-  const Sorted& s = sorted_;
-  std::size_t b = 0;
-  for (const auto* v : {&x, &v, &a, &s.x, &s.v, &s.a})
-    b += v->capacity_bytes();
-  for (const auto* t :
-       {&m, &rho, &p, &drho, &drho_prev, &vol, &s.m, &s.rho, &s.drho, &s.drho_prev, &s.p, &s.vol})
-    b += t->capacity_bytes();
-  for (const auto* q : {&xm, &vp, &s.vp})
-    b += q->capacity_bytes();
-  return b + id.capacity_bytes() + s.id.capacity_bytes() + offsets_.capacity_bytes() +
-         kept_.capacity_bytes();
+  std::size_t b = xm.capacity_bytes() + offsets_.capacity_bytes() + kept_.capacity_bytes();
+  each_sorted(*this, {true, true}, [&](const auto& field, const auto& twin) {
+    b += field.capacity_bytes() + twin.capacity_bytes();
+  });
+  return b;
 }
 
 template <typename T>

@@ -150,13 +150,11 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
     // of h + s; a wall particle's fluid, at most about as many). No read back: a row that
     // overflows is walked instead.
     walls_listed_ = b.n > 0;
+    // Rows in the walk's order, which the walls' pass walked: its sums stay those of the walk.
     if (walls_listed_)
-      walls_.build_fixed(
-          ex, b.n, std::max<std::uint32_t>(lists_.capacity(), 32),
-          [&](const ListSink& out) {
-            return WallListBuilder<T>{b.x, fv.xm, cells, fluid_near, r2, out};
-          },
-          "neighbours.walls");
+      walls_.build_for(ex, b.x, nullptr, b.n, fv.xm, cells, r2,
+                       std::max<std::uint32_t>(lists_.capacity(), 32), AnyPair{}, fluid_near,
+                       "neighbours.walls");
   }
 }
 

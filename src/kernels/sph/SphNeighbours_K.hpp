@@ -22,29 +22,6 @@ struct PackPositionMass {
   }
 };
 
-/// Row k of the walls' lists (SphLists): the fluid particles within the radius of boundary
-/// particle k, in the fluid grid's walk order (the walls' pass walks the same cells). A boundary
-/// particle whose cell has no fluid around (`near`, per fluid cell; null: walk all) gets none.
-template <typename T>
-struct WallListBuilder {
-  const Vec3<T>* xb; // boundary positions
-  const Vec4<T>* xm; // fluid (x, m), in `cells`' order
-  CellView<T> cells; // the fluid's grid
-  const std::uint8_t* near;
-  T radius2;
-  ListSink out;
-  KF_HD void operator()(std::size_t k) const {
-    RowAppender row(out, k);
-    const Vec3<T> x = xb[k];
-    if (cells.may_find(near, x)) // most of a tank's wall particles are dry
-      cells.for_each_candidate(x, [&](std::uint32_t j) {
-        if (norm2(x - xm[j].xyz()) < radius2)
-          row.push(j);
-      });
-    row.finish();
-  }
-};
-
 /// Marks a list entry as a boundary particle's index (fluid counts stay below 2^31).
 constexpr std::uint32_t kBoundaryEntry = 0x80000000u;
 
@@ -105,9 +82,6 @@ struct SphChunkListBuilder {
   T radius2;
   ListSink out;
   std::size_t n;
-
-  KF_HD KF_INLINE static Vec3<T> at(const Vec4<T>& p) { return p.xyz(); }
-  KF_HD KF_INLINE static Vec3<T> at(const Vec3<T>& p) { return p; }
 
   KF_HD void operator()(std::size_t first, exec::Lanes g) const {
 #if defined(__CUDA_ARCH__)
@@ -182,7 +156,9 @@ struct SphChunkListBuilder {
     // loaded one step ahead.
     auto scan = [&](std::uint32_t from, std::uint32_t to, bool take, std::uint32_t tag,
                     const auto* pts) {
-      auto fetch = [&](std::uint32_t j) { return j < to ? at(pts[j]) : Vec3<T>{far, far, far}; };
+      auto fetch = [&](std::uint32_t j) {
+        return j < to ? position_of(pts[j]) : Vec3<T>{far, far, far};
+      };
       Vec3<T> next = fetch(from + g.lane);
       for (std::uint32_t base = from; base < to; base += 32) {
         const Vec3<T> p = next;
@@ -224,7 +200,7 @@ struct SphChunkListBuilder {
       for (std::uint32_t base = from; base < to; base += 32) {
         std::uint32_t hits = 0;
         for (std::uint32_t t = 0; t < 32 && base + t < to; ++t)
-          hits |= (norm2(xi - at(pts[base + t])) < radius2 ? 1u : 0u) << t;
+          hits |= (norm2(xi - position_of(pts[base + t])) < radius2 ? 1u : 0u) << t;
         // base + k never carries into the tag: indices stay below 2^31 - 32.
         append(take ? hits : 0u, [&](unsigned k) { return (base + k) | tag; });
       }
