@@ -56,12 +56,15 @@ std::uint32_t key_mask(int key_bits) {
   return key_bits >= 32 ? 0xFFFFFFFFu : (std::uint32_t{1} << key_bits) - 1u;
 }
 
-/// out[i] = 3i + 1 (never the poison value for the sizes used).
-void write_index(const Exec& ex, DeviceBuffer<std::uint32_t>& out) {
+/// out[i] = 3i + 1 for i < n (never the poison value for the sizes used).
+void write_index(const Exec& ex, DeviceBuffer<std::uint32_t>& out, std::size_t n) {
   std::uint32_t* p = out.data();
   kf::exec::for_each(
-      ex, out.size(), [=] KF_HD(std::size_t i) { p[i] = static_cast<std::uint32_t>(3 * i + 1); },
+      ex, n, [=] KF_HD(std::size_t i) { p[i] = static_cast<std::uint32_t>(3 * i + 1); },
       "test.write_index");
+}
+void write_index(const Exec& ex, DeviceBuffer<std::uint32_t>& out) {
+  write_index(ex, out, out.size());
 }
 
 /// A float computation whose rounding cannot differ between host and device (a single multiply
@@ -278,8 +281,24 @@ TEST_P(ExecTest, ForEachWritesEveryElement) {
       bad += h[i] != 3 * i + 1;
     EXPECT_EQ(bad, 0u) << "n=" << n;
   }
+}
+
+// n = 0 launches nothing: no element of a live buffer is written (a launch of one block without
+// the bounds check would write p[0]), no error is raised (CUDA refuses a grid of 0 blocks), and
+// the backend still runs the next launch.
+TEST_P(ExecTest, ForEachOfNothingWritesNothingAndRaisesNothing) {
   DeviceBuffer<std::uint32_t> empty(b(), 0, "empty");
-  write_index(ex(), empty); // n = 0 launches nothing
+  EXPECT_NO_THROW(write_index(ex(), empty));
+  DeviceBuffer<std::uint32_t> sentinel(b(), 300, "sentinel");
+  sentinel.poison();
+  EXPECT_NO_THROW(write_index(ex(), sentinel, 0));
+  EXPECT_NO_THROW(kf::exec::synchronize(b())); // an asynchronous launch error shows here
+  for (std::uint32_t x : sentinel.to_host())
+    ASSERT_EQ(x, 0xFFFFFFFFu) << "an empty launch wrote an element";
+  write_index(ex(), sentinel, 257);
+  const auto h = sentinel.to_host();
+  for (std::size_t i = 0; i < h.size(); ++i)
+    ASSERT_EQ(h[i], i < 257 ? 3 * i + 1 : 0xFFFFFFFFu) << "after the empty launch, i=" << i;
 }
 
 TEST_P(ExecTest, FillSetsEveryElement) {

@@ -1,7 +1,7 @@
 // Signed distance of mesh obstacles against independent references: an OBJ box against the
 // analytic box, an icosphere against the sphere it is inscribed in, a torus of quads (saddles,
 // a hole) against a brute-force distance signed by the winding number. Also the mesh checks
-// (closed, manifold, oriented) and the time to sample a 10k-triangle mesh.
+// (closed, manifold, oriented) and the grid of a 10k-triangle mesh (bench_mesh_sdf times it).
 //
 // Tolerances, all derived rather than tuned (h: grid cell; I: the trilinear interpolant):
 // - The samples are exact distances, and every signed distance is 1-Lipschitz, so at any point
@@ -22,7 +22,6 @@
 
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cstdio>
 #include <memory>
 #include <random>
@@ -359,19 +358,17 @@ TEST(MeshSdf, MovingMeshFollowsItsOffset) {
   EXPECT_NEAR(s.distance({0.4, 0, 0}, n), d0, 1e-12);
 }
 
-TEST(MeshSdf, TenThousandTrianglesSampleQuickly) {
+// The mesh bench_mesh_sdf times (no wall-clock assertion here: a loaded machine would fail it).
+TEST(MeshSdf, TenThousandTrianglesSampleOnTheDefaultGrid) {
   // A torus of 72 x 70 quads: 10,080 triangles, at the default 64^3 samples.
   const std::string text = test::torus_obj({0, 0, 0}, 0.3, 0.12, 72, 70);
   const MeshSolid solid = make_mesh_solid(io::parse_obj(text, "t.obj"), 1.0, {0, 0, 0});
   ASSERT_EQ(solid.triangles.size(), 10080u);
-  const auto t0 = std::chrono::steady_clock::now();
   const SdfGrid g = sample_sdf(solid);
-  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("10,080 triangles sampled on %u x %u x %u = %zu nodes in %.3f s\n", g.dims[0],
-              g.dims[1], g.dims[2], g.values.size(), s);
+  std::printf("10,080 triangles sampled on %u x %u x %u = %zu nodes\n", g.dims[0], g.dims[1],
+              g.dims[2], g.values.size());
   EXPECT_LE(g.values.size(), SdfResolution{}.max_samples);
   EXPECT_GT(g.values.size(), SdfResolution{}.max_samples / 2);
-  EXPECT_LT(s, 5.0) << "(about 0.5 s expected on 2 cores; a loaded machine may be slower)";
 }
 
 TEST(MeshSdf, GridCoversTheMeshWithAMarginAndRespectsTheCap) {

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# P4 on a GPU machine, one command (after `. .devrt/prelude.sh`, from the project root): the GPU
-# unit tests and the CPU/GPU comparison, compute-sanitizer memcheck and racecheck on a small
-# scene, the P4 benchmark table (bench_gpu), the whole pour, and GPU time per kernel.
+# P4 on a GPU machine, one command (after `. .devrt/prelude.sh`, from the project root): every
+# GPU test (jobs/gpu/gpu_tests.sh, the CPU/GPU comparison among them), compute-sanitizer
+# memcheck and racecheck on a small scene, the P4 benchmark table (bench_gpu), the whole pour,
+# and GPU time per kernel.
 # Logs, CSV and the table go to $OUT (default out/p4). Binaries are found on PATH
 # (.devrt/bin from scripts/pack-gpu.sh) or in build/cuda.
 set -uo pipefail
@@ -9,13 +10,10 @@ out=${OUT:-out/p4}
 mkdir -p "$out"
 export PATH="$PATH:build/cuda/apps:build/cuda/bench:build/cuda/tests"
 nvidia-smi --query-gpu=name,memory.total,clocks.max.sm,clocks.max.mem --format=csv > "$out/gpu.txt" 2>&1
-for t in test_exec_K test_fluid_reorder_K test_neighbour_grid_K test_coupling_K test_self_contact_K \
-  test_backends; do
-  if command -v "$t" >/dev/null; then
-    "$t" > "$out/$t.log" 2>&1
-    echo "$t rc=$? $(grep -E '^\[  (PASSED|FAILED) ' "$out/$t.log" | tr '\n' ' ')"
-  fi
-done
+# Every test program with GPU cases (CPU/GPU comparison included): one line each, logs in
+# $out/gpu_tests; pack them with `jobs/gpu/gpu_tests.sh --list` (see that script).
+OUT="$out/gpu_tests" "$(dirname "$0")/gpu_tests.sh"
+echo "gpu_tests rc=$?"
 san=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 2>/dev/null | head -1)
 if [ -n "$san" ]; then
   for tool in memcheck racecheck; do
