@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 
 using namespace kf;
 
@@ -70,10 +71,20 @@ void expect_contained(const Outcome& o, const std::string& what, double max_rate
       << what << ": a particle past an open side was kept too long";
   // Without boundary forces every particle in the first layer at a wall is corrected every step
   // (a rate of order 0.1 in these small scenes).
-  EXPECT_LT(rate, max_rate) << what << ": the guard is doing the boundary's work";
+  EXPECT_LE(rate, max_rate) << what << ": the guard is doing the boundary's work";
 }
 
 } // namespace
+
+// Guard corrections per particle-step each scene (coarsened as below) reaches, measured on the CPU:
+// obstacles 1.2e-2, mesh_obstacle 1.2e-2, pour 3.1e-3, wicking 2.4e-3, dambreak 6.2e-4,
+// hydrostatic 0 (a tank at rest: the wall forces alone hold it). They count rare events in
+// splashes, which rounding reshuffles: P4's later stages, same physics in another order, moved
+// them by up to 25% (obstacles 1.3e-2, mesh_obstacle 1.5e-2, pour 3.8e-3, wicking 2.7e-3,
+// dambreak 7e-4 before). So each bound is 1.4x its scene's figure; a scene without one fails.
+const std::map<std::string, double> kGuardRateBound = {
+    {"obstacles.toml", 1.7e-2}, {"mesh_obstacle.toml", 1.7e-2}, {"pour.toml", 4.4e-3},
+    {"wicking.toml", 3.4e-3},   {"dambreak.toml", 8.7e-4},      {"hydrostatic.toml", 0.0}};
 
 TEST(Containment, EverySceneFileKeepsFluidOutOfSolids) {
   int scenes = 0;
@@ -99,8 +110,11 @@ TEST(Containment, EverySceneFileKeepsFluidOutOfSolids) {
         p.courses = std::max(4, p.courses / 4);
       }
     s.output.enabled = false;
-    // Measured: obstacles.toml (a splash onto three solids) 1.3e-2, dambreak.toml 7e-4.
-    expect_contained(run_checked(s, 0.05), e.path().filename().string(), 3e-2);
+    const std::string name = e.path().filename().string();
+    const auto bound = kGuardRateBound.find(name);
+    ASSERT_NE(bound, kGuardRateBound.end())
+        << name << " has no measured guard-rate bound: run it and add one to kGuardRateBound";
+    expect_contained(run_checked(s, 0.05), name, bound->second);
     ++scenes;
   }
   EXPECT_GE(scenes, 3) << "scenes/ should hold the dam break, hydrostatic and obstacle scenes";
@@ -126,6 +140,6 @@ TEST(Containment, MovingObstaclesThroughAPool) {
   const auto sim = Simulation::create(s, exec::Backend::Cpu);
   // The pool is carved around the submerged sphere (and nothing starts inside it).
   EXPECT_GT(sim->diagnostics().min_rigid_distance, 0.2 * dp);
-  // Measured 1.4e-4.
-  expect_contained(run_checked(s, 0.02), "moving sphere + plunger", 1e-3);
+  // Measured 1.6e-4 (1.4e-4 before P4's later stages); 1.4x as above.
+  expect_contained(run_checked(s, 0.02), "moving sphere + plunger", 2.3e-4);
 }

@@ -2,15 +2,18 @@
 // height at the back wall H(tau) are compared with Martin & Moyce (1952) (tests/data), and no
 // particle may leave the tank or enter a wall.
 //
-// The residual height (the bulk of the collapse) is compared as measured, within 10%.
+// The residual height (the bulk of the collapse) is compared as measured: worst 1.7% (summation)
+// and 2.3% (continuity), bound 4% (the digitised curve's scatter is about 2%).
 // The front: every instant-release simulation in the literature leads Martin & Moyce's early
 // points (Koshizuka & Oka 1996, Colagrossi & Landrini 2003; Lobovsky et al. 2014 measured how the
-// gate release delays the front). Ours leads by a nearly constant time offset (about 0.24 in T,
-// 13 ms in their 57 mm tank), not by a growing speed error: after that offset the front agrees
-// within 5% from T = 0.5 to 2.5. So the test fits one offset dT by least squares, requires it to
-// be small (0 <= dT <= 0.3), and requires the front within 10% at T + dT. The unshifted deviation
-// (19% at worst) is printed and kept under 25% as a regression guard; docs/VALIDATION.md gives
-// both.
+// gate release delays the front). Ours leads by a nearly constant time offset, not by a growing
+// speed error. So the test fits one offset dT by least squares and bounds it: a gate can only
+// delay (dT >= 0), and by a fraction of its opening time, which for a release that counts as
+// sudden is under 1.25 sqrt(2a / g) = 2.5 in T (Lauber & Hager 1998); measured 0.245 and 0.265
+// (13-14 ms in their 57 mm tank), bound 0.3. At T + dT the front agrees within 4.8% and 5.1%
+// (bound 6.5%). Unshifted, the worst deviation is 19.0% and 19.4% at T = 1.25; the guard sits
+// at 21%. A front 5% too fast (gravity 10% too strong) fails the guard (docs/VALIDATION.md);
+// the old 25% let it pass.
 #include "domain/Simulation.hpp"
 #include "support/SceneFactory.hpp"
 #include "support/TestPaths.hpp"
@@ -151,9 +154,9 @@ TEST_P(DamBreak, SurgeFrontAndResidualHeightFollowMartinMoyce) {
               static_cast<unsigned long long>(d.guard_corrections), d.min_rigid_distance);
 
   EXPECT_GE(best, 0.0) << "the simulation lags the experiment: that is not a release delay";
-  EXPECT_LE(best, 0.3) << "a release delay this long is not plausible (gate opening ~10 ms)";
-  EXPECT_LT(front_error(best), 0.10);
-  EXPECT_LT(worst_h, 0.10);
-  EXPECT_LT(front_error(0), 0.25) << "regression guard on the unshifted comparison";
+  EXPECT_LE(best, 0.3) << "a release delay this long is not plausible (measured 0.245-0.265)";
+  EXPECT_LT(front_error(best), 0.065);
+  EXPECT_LT(worst_h, 0.04);
+  EXPECT_LT(front_error(0), 0.21) << "the unshifted front, measured 19.0-19.4%";
   EXPECT_GT(d.min_rigid_distance, 0.0) << "a particle is inside a wall";
 }
