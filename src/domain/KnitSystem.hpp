@@ -58,6 +58,14 @@ public:
   /// rendering wet yarn (darker, thicker: paper §6.3).
   io::Phase yarn_phase(const std::vector<double>* saturation = nullptr) const;
   void restore(const io::Phase& p);
+  /// Restart state of the self-collision grid (snapshot fields and scalars: SimulationT), when
+  /// self-collision is on; restore_self_contact after restore().
+  std::optional<typename SkinWatch<T>::State> self_contact_state() const {
+    if (!self_)
+      return std::nullopt;
+    return self_->state();
+  }
+  void restore_self_contact(const typename SkinWatch<T>::State& s) { self_->restore(ex_, set_, s); }
 
   std::size_t size() const { return set_.size(); }
   std::size_t bytes() const;

@@ -27,6 +27,7 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <vector>
 
 namespace kf {
 
@@ -70,6 +71,53 @@ Eos<U> scene_eos(const Scene& s) {
           static_cast<U>(s.fluid.speed_of_sound * s.fluid.speed_of_sound),
           static_cast<U>(s.fluid.tait_exponent), s.fluid.clamp_negative_pressure};
 }
+
+namespace {
+
+/// Restart state of a grid kept over steps (SkinWatch::State) in a snapshot: its sorted
+/// positions as the field `name`_sorted_position of phase p, its device record and host bound as
+/// the scalars `name`_moved2 and `name`_bound.
+template <typename T>
+void put_watch(io::Frame& fr, io::Phase& p, const std::string& name,
+               const typename SkinWatch<T>::State& s) {
+  if (s.x0.empty())
+    return; // never sorted
+  p.fields.push_back(io::Field::from(name + "_sorted_position", flatten(s.x0), 3));
+  fr.scalars.push_back({name + "_moved2", static_cast<double>(s.moved2)});
+  fr.scalars.push_back({name + "_bound", static_cast<double>(s.bound)});
+}
+
+const double* find_scalar(const io::Frame& fr, const std::string& name) {
+  for (const auto& [k, v] : fr.scalars)
+    if (k == name)
+      return &v;
+  return nullptr;
+}
+
+/// put_watch's state back; none when the snapshot lacks it (written without the grid, or by an
+/// older knitflow).
+template <typename T>
+std::optional<typename SkinWatch<T>::State> get_watch(const io::Frame& fr, const io::Phase& p,
+                                                      const std::string& name) {
+  const io::Field* x0 = p.find(name + "_sorted_position");
+  const double* moved2 = find_scalar(fr, name + "_moved2");
+  const double* bound = find_scalar(fr, name + "_bound");
+  if (!x0 || !moved2 || !bound)
+    return std::nullopt;
+  return typename SkinWatch<T>::State{unflatten(x0->as<T>()), static_cast<T>(*moved2),
+                                      static_cast<T>(*bound)};
+}
+
+/// out[k] = v[perm[k]]: a host copy put in a sort's order.
+template <typename U>
+std::vector<U> permuted(const std::vector<U>& v, const std::vector<std::uint32_t>& perm) {
+  std::vector<U> out(perm.size());
+  for (std::size_t k = 0; k < perm.size(); ++k)
+    out[k] = v[perm[k]];
+  return out;
+}
+
+} // namespace
 
 /// Explicit contact: the knit's substep and the fluid's step each resolve the contact's
 /// oscillation for their own mass, with up to kMaxContacts partners at once.
@@ -116,6 +164,8 @@ private:
   /// acceleration false: a is not carried (a forces pass follows before anything reads it).
   void sort_fluid(bool remove_outflow = false, typename FluidSet<T>::Carry carry = {});
   void sort_boundary();
+  /// Restart: the fluid's grid (and lists) as the run that wrote fr holds them (see restore).
+  void restore_fluid_grid(const io::Frame& fr);
   void compute_forces();
   /// The sph.density and sph.forces stages for a step of dt (0: at t = 0).
   void fluid_density(T dt);
@@ -812,6 +862,16 @@ io::Frame SimulationT<T>::frame() const {
       p.fields.push_back(io::Field::from("density_rate_previous", fluid_->drho_prev.to_host(), 1));
     }
     p.fields.push_back(io::Field::from("id", fluid_->id.to_host(), 1));
+    // "verlet" lists: the positions they were built for and the rule's bounds since, so that a
+    // restart lists and sorts the fluid when this run does (restore_fluid_grid).
+    if (fluid_list_ && skin_ > 0) {
+      const auto st = fluid_list_->state();
+      if (!st.x0.empty()) {
+        p.fields.push_back(io::Field::from("listed_position", flatten(st.x0), 3));
+        fr.scalars.push_back({"list_bound", static_cast<double>(st.bound)});
+        fr.scalars.push_back({"list_pair_bound", static_cast<double>(st.pair)});
+      }
+    }
     fr.phases.push_back(std::move(p));
   }
   if (boundary_on_) {
@@ -843,6 +903,12 @@ io::Frame SimulationT<T>::frame() const {
       kp.fields.push_back(io::Field::from("saturation", sat, 1));
       kp.fields.push_back(io::Field::from("fluid_mass", held, 1));
     }
+    // The knit's grids kept over steps (self-collision, coupling): a restart sorts them when
+    // this run does, so their sums keep this run's order.
+    if (const auto st = knit_->self_contact_state())
+      put_watch<T>(fr, kp, "self_contact", *st);
+    if (coupling_)
+      put_watch<T>(fr, kp, "coupling", coupling_->state());
     fr.phases.push_back(std::move(kp));
     if (scene_.knit.yarn_samples > 0)
       fr.phases.push_back(knit_->yarn_phase(wet.empty() ? nullptr : &wet));
@@ -921,12 +987,59 @@ void SimulationT<T>::restore(const io::Frame& fr) {
                     "(capillary.model = \"conserving\")");
       absorption_->restore(ex_, knit_->set(), a->as<T>());
     }
+    // Without their state (an older snapshot) the grids stay as built for the scene's start:
+    // correct (their watches measure from there), but not sorted when the run it continues
+    // sorted them, so rounding may differ.
+    if (knit_->self_collision())
+      if (const auto st = get_watch<T>(fr, *p, "self_contact"))
+        knit_->restore_self_contact(*st);
+    if (coupling_)
+      if (const auto st = get_watch<T>(fr, *p, "coupling"))
+        coupling_->restore(ex_, knit_->set(), *st);
   }
-  // The fluid order is kept as written; the next step's sort starts from it as the
-  // uninterrupted run did. The grid tables are rebuilt by that sort. With "verlet" lists the
-  // next step lists again (the run it continues kept older lists: rounding may differ).
+  if (fluid_on_)
+    restore_fluid_grid(fr);
+}
+
+template <typename T>
+void SimulationT<T>::restore_fluid_grid(const io::Frame& fr) {
+  // The stages before a step's sort walk the fluid's grid (absorption, the coupling), and
+  // "verlet" lists keep it over steps: the grid must be the one the uninterrupted run holds,
+  // not the scene's first. The snapshot's fluid is in the order of that run's last sort, for
+  // the positions it had then: the positions now (walk, or "on": sorted every step after the
+  // drift), or those the lists were built for ("verlet", written with them). The sort is
+  // stable, so sorting for the same positions again keeps the order (the identity permutation;
+  // any other is applied to the fields the sort does not carry) and rebuilds the grid, the
+  // flags of the cells near fluid and the lists bit for bit. The rule's bounds since that build
+  // are restored too, so the lists are built again at the step the run built them.
+  const std::vector<Vec3<T>> x = fluid_->x.to_host();
+  const std::vector<Vec3<T>> a = fluid_->a.to_host();
+  const std::vector<T> pressure = fluid_->p.to_host();
+  std::optional<typename SphLists<T>::State> listed;
+  if (fluid_list_ && skin_ > 0) {
+    const io::Field* x0 = fr.find("fluid")->find("listed_position");
+    const double* bound = find_scalar(fr, "list_bound");
+    const double* pair = find_scalar(fr, "list_pair_bound");
+    if (x0 && bound && pair) {
+      listed = {unflatten(x0->as<T>()), static_cast<T>(*bound), static_cast<T>(*pair)};
+      if (listed->x0.size() != x.size())
+        throw Error("restart: the snapshot lists " + std::to_string(listed->x0.size()) +
+                    " fluid particles but holds " + std::to_string(x.size()));
+      fluid_->x.assign(listed->x0);
+    }
+    // Else (an older snapshot) the lists are built for the positions now: correct, but the
+    // run it continues kept older lists, so rounding may differ.
+  }
+  sort_fluid(false, {false, false}); // a and p: put back below
   if (fluid_list_)
-    fluid_list_->forget();
+    fluid_list_->settle(ex_); // before anything rewrites the positions it listed
+  const std::vector<std::uint32_t> perm = fluid_grid_->permutation().to_host();
+  if (listed) {
+    fluid_->x.assign(permuted(x, perm));
+    fluid_list_->restore(*listed);
+  }
+  fluid_->a.assign(permuted(a, perm));
+  fluid_->p.assign(permuted(pressure, perm));
 }
 
 template <typename T>

@@ -32,15 +32,28 @@ void KnitFluidCoupling<T>::sort_knit(const exec::Exec& ex, KnitSet<T>& knit) {
 }
 
 template <typename T>
-void KnitFluidCoupling<T>::sort_now(const exec::Exec& ex, KnitSet<T>& knit) {
+void KnitFluidCoupling<T>::sort_now(const exec::Exec& ex, KnitSet<T>& knit,
+                                    const exec::DeviceBuffer<Vec3<T>>& at) {
   const std::size_t n = knit.size();
-  grid_.build(ex, knit.x.data(), n);
-  watch_.reset(ex, knit.x);
+  grid_.build(ex, at.data(), n);
+  watch_.reset(ex, at);
   ++sorts_;
   x_.resize(n);
   v_.resize(n);
   m_.resize(n);
   p_.resize(n); // m_ and p_ are gathered by begin_step every step (the wet mass changes)
+}
+
+template <typename T>
+void KnitFluidCoupling<T>::restore(const exec::Exec& ex, KnitSet<T>& knit,
+                                   const typename SkinWatch<T>::State& s) {
+  if (s.x0.size() != knit.size())
+    throw Error("restart: the coupling's sorted knit positions hold " +
+                std::to_string(s.x0.size()) + " points, the knit " + std::to_string(knit.size()));
+  exec::DeviceBuffer<Vec3<T>> at(ex.backend, 0, "coupling.restart");
+  at.assign(s.x0);
+  sort_now(ex, knit, at);
+  watch_.restore(s);
 }
 
 template <typename T>

@@ -80,11 +80,19 @@ public:
   /// device lambdas may not live in private members).
   void find_fluid_near_knit(const exec::Exec& ex, const FluidSide<T>& fluid);
 
+  /// Restart: the knit's positions at the grid's last sort and the watch's record (snapshot
+  /// state; empty positions before the first begin_step).
+  typename SkinWatch<T>::State state() const { return watch_.state(); }
+  /// Sorts the knit grid for the state's positions, as the run that wrote it last did, and
+  /// takes its watch (the next begin_step then sorts when that run's did).
+  void restore(const exec::Exec& ex, KnitSet<T>& knit, const typename SkinWatch<T>::State& s);
+
 private:
   KernelType kernel_;
   bool conserving_ = false;
   CouplingParams<T> params_;
-  void sort_now(const exec::Exec& ex, KnitSet<T>& knit);
+  void sort_now(const exec::Exec& ex, KnitSet<T>& knit) { sort_now(ex, knit, knit.x); }
+  void sort_now(const exec::Exec& ex, KnitSet<T>& knit, const exec::DeviceBuffer<Vec3<T>>& at);
   NeighbourGrid<T> grid_;
   SkinWatch<T> watch_; // knit motion since the grid's sort
   std::uint64_t sorts_ = 0;

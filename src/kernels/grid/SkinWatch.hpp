@@ -10,6 +10,7 @@
 
 #include <limits>
 #include <string>
+#include <vector>
 
 namespace kf {
 
@@ -101,6 +102,21 @@ public:
     const T m2 = moved2_.to_host()[0];
     return m2 >= T(0) && m2 < std::numeric_limits<T>::max() ? ksqrt(m2)
                                                             : std::numeric_limits<T>::infinity();
+  }
+
+  /// What the watch carries from step to step: the reference positions, the device's record
+  /// and the host's bound. A restart restores it, so that its structure is sorted again when the
+  /// uninterrupted run sorted it (a sort at another step sums the same pairs in another order).
+  struct State {
+    std::vector<Vec3<T>> x0;
+    T moved2 = std::numeric_limits<T>::max();
+    T bound = std::numeric_limits<T>::infinity();
+  };
+  State state() const { return {x0_.to_host(), moved2_.to_host()[0], bound_}; }
+  /// After the owner sorted its structure for s.x0 (which reset() the watch to them).
+  void restore(const State& s) {
+    moved2_.assign(std::vector<T>{s.moved2});
+    bound_ = s.bound;
   }
 
   T skin() const { return skin_; }

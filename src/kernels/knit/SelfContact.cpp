@@ -17,10 +17,11 @@ KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
 }
 
 template <typename T>
-void KnitSelfContact<T>::sort(const exec::Exec& ex, KnitSet<T>& set) {
+void KnitSelfContact<T>::sort(const exec::Exec& ex, KnitSet<T>& set,
+                              const exec::DeviceBuffer<Vec3<T>>& at) {
   const std::size_t n = set.size();
   const auto& perm = grid_.permutation();
-  grid_.build(ex, set.x.data(), n);
+  grid_.build(ex, at.data(), n);
   ++sorts_;
   x_.resize(n);
   v_.resize(n);
@@ -28,15 +29,29 @@ void KnitSelfContact<T>::sort(const exec::Exec& ex, KnitSet<T>& set) {
   m_.resize(n);
   piece_.resize(n);
   id_.resize(n);
-  watch_.reset(ex, set.x);
+  watch_.reset(ex, at);
   exec::gather(ex, perm, set.x_rest, rest_, "knit.self.gather");
   exec::gather(ex, perm, set.m, m_, "knit.self.gather");
   exec::gather(ex, perm, set.piece, piece_, "knit.self.gather");
   exec::gather(ex, perm, set.id, id_, "knit.self.gather");
-  gather_motion(ex, set);
+  exec::gather(ex, perm, at, x_, "knit.self.gather");
+  exec::gather(ex, perm, set.v, v_, "knit.self.gather");
   list_.build_for(
-      ex, set.x.data(), nullptr, n, x_.data(), grid_.view(), cell_ * cell_, list_capacity_,
+      ex, at.data(), nullptr, n, x_.data(), grid_.view(), cell_ * cell_, list_capacity_,
       SelfPairAllowed<T>{set.piece.data(), set.x_rest.data(), sorted(), params_.exclusion2});
+}
+
+template <typename T>
+void KnitSelfContact<T>::restore(const exec::Exec& ex, KnitSet<T>& set,
+                                 const typename SkinWatch<T>::State& s) {
+  if (s.x0.size() != set.size())
+    throw Error("restart: the knit self-contact's sorted positions hold " +
+                std::to_string(s.x0.size()) + " points, the knit " + std::to_string(set.size()));
+  exec::DeviceBuffer<Vec3<T>> at(ex.backend, 0, "knit.self.restart");
+  at.assign(s.x0);
+  sort(ex, set, at);
+  watch_.restore(s);
+  gather_motion(ex, set); // the copies of the points as they are now
 }
 
 template <typename T>
@@ -70,8 +85,13 @@ void KnitSelfContact<T>::begin_step(const exec::Exec& ex, KnitSet<T>& set, T mot
     sort(ex, set);
     sorted = true;
   });
-  if (!sorted)
+  if (!sorted) {
     gather_motion(ex, set);
+    // The masses change between steps when the knit absorbs fluid (capillary.model =
+    // "conserving"): the pairs take this step's, not those of the last sort (which a restart
+    // could not know).
+    exec::gather(ex, grid_.permutation(), set.m, m_, "knit.self.gather");
+  }
 }
 
 template <typename T>

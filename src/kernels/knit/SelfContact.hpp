@@ -46,6 +46,12 @@ public:
   const SelfContactParams<T>& params() const { return params_; }
   std::size_t bytes() const;
 
+  /// Restart: the positions of the last sort and the watch's record (snapshot state).
+  typename SkinWatch<T>::State state() const { return watch_.state(); }
+  /// Sorts the grid for the state's positions (as the run that wrote it last did) and takes its
+  /// watch; set holds the restored points.
+  void restore(const exec::Exec& ex, KnitSet<T>& set, const typename SkinWatch<T>::State& s);
+
 private:
   SortedKnitView<T> sorted() const;
   SelfContactParams<T> params_;
@@ -54,8 +60,10 @@ private:
   exec::DeviceBuffer<T> m_;
   exec::DeviceBuffer<std::uint16_t> piece_;
   exec::DeviceBuffer<std::uint64_t> id_;
-  // Sorts the grid, gathers every cell-ordered copy (x and v too) and builds the lists.
-  void sort(const exec::Exec& ex, KnitSet<T>& set);
+  // Sorts the grid for the positions `at` (set.x, or a restart's), gathers every cell-ordered
+  // copy (x from `at`, v) and builds the lists.
+  void sort(const exec::Exec& ex, KnitSet<T>& set) { sort(ex, set, set.x); }
+  void sort(const exec::Exec& ex, KnitSet<T>& set, const exec::DeviceBuffer<Vec3<T>>& at);
   void gather_motion(const exec::Exec& ex, KnitSet<T>& set);
   SkinWatch<T> watch_; // motion since the last sort: half the cell's margin over 2R
   // Per point, the sorted points it may touch (not excluded) within a cell edge at the sort: a

@@ -30,6 +30,7 @@
 
 #include <functional>
 #include <limits>
+#include <vector>
 
 namespace kf {
 
@@ -68,6 +69,21 @@ public:
   /// The boundary was sorted: the walls' rows no longer match it (walls() is empty until the
   /// next build).
   void forget_walls() { walls_listed_ = false; }
+  /// Restart: with a skin, the positions the lists were built for (empty before the first
+  /// build) and the host's bounds since. A run continued from a snapshot builds its lists for
+  /// x0 again (the fluid's order is theirs) and takes the bounds, so that it keeps them, and
+  /// builds anew, when the uninterrupted run did: lists built at another step sum the same
+  /// pairs in another order (and reorder the fluid).
+  struct State {
+    std::vector<Vec3<T>> x0;
+    T bound = std::numeric_limits<T>::infinity(), pair = std::numeric_limits<T>::infinity();
+  };
+  State state() const { return {x0_.to_host(), bound_, pair_}; }
+  /// After build() for the state's x0: the bounds the run had reached since that build.
+  void restore(const State& s) {
+    bound_ = s.bound;
+    pair_ = s.pair;
+  }
   /// The walls' lists: row k, boundary particle k's fluid candidates (ListView::complete false
   /// where a row overflowed its capacity: walk the cells); empty (count null) without them.
   ListView<T> walls() const { return walls_listed_ ? walls_.view() : ListView<T>{}; }
