@@ -2,6 +2,7 @@
 // one-line reason and a non-zero exit code (2: bad input, 1: failure while running).
 #include "comm/MpiContext.hpp"
 #include "core/Error.hpp"
+#include "domain/PartitionPlan.hpp"
 #include "domain/Runner.hpp"
 #include "domain/Scene.hpp"
 #include "domain/Simulation.hpp"
@@ -12,6 +13,7 @@
 #include <mpi.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -31,6 +33,7 @@ struct Args {
   bool quiet = false;
   bool profile = false;
   int threads = 0;
+  int ranks = 0; // plan: ranks to partition for (0: the job's)
 };
 
 void add_scene_options(CLI::App* cmd, Args& a) {
@@ -57,6 +60,33 @@ std::string human_bytes(double b) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f %s", b, unit[k]);
   return buf;
+}
+
+/// The split over `ranks`: blocks, ghost widths, and per rank what it owns, what it receives and
+/// the bytes a step exchanges (domain/PartitionPlan).
+void print_partition(const kf::Scene& scene, const kf::PlanReport& plan, int ranks) {
+  using kf::Phase;
+  const kf::PartitionReport p = kf::plan_partition(scene, plan, ranks);
+  std::printf("ranks      %d: %d x %d x %d blocks of %.4g m (%d cells), imbalance %.3f (slowest rank's "
+              "cost over the mean)\n",
+              ranks, p.blocks[0], p.blocks[1], p.blocks[2], p.block_edge,
+              scene.parallel.block_cells, p.imbalance);
+  std::printf("halo       ghost width fluid %.4g m, boundary %.4g m, knit %.4g m\n",
+              p.widths.of(Phase::Fluid), p.widths.of(Phase::Boundary), p.widths.of(Phase::Knit));
+  if (ranks == 1)
+    return;
+  std::printf("  rank %10s %10s %10s | %9s %9s %9s | %5s %10s %8s\n", "fluid", "boundary", "knit",
+              "ghosts:fl", "bnd", "knit", "peers", "recv/step", "cost");
+  std::size_t total = 0;
+  for (int k = 0; k < ranks; ++k) {
+    const kf::RankShare& s = p.rank[k];
+    std::printf("  %4d %10zu %10zu %10zu | %9zu %9zu %9zu | %5d %10s %8.4g\n", k, s.owned[0],
+                s.owned[1], s.owned[2], s.ghosts[0], s.ghosts[1], s.ghosts[2], s.neighbours,
+                human_bytes(double(s.bytes_per_step)).c_str(), s.cost);
+    total += s.bytes_per_step;
+  }
+  std::printf("exchange   %s a step over all ranks (ghost refreshes between rebuilds)\n",
+              human_bytes(double(total)).c_str());
 }
 
 int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
@@ -98,9 +128,7 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
               human_bytes(r.bytes_fluid).c_str(), human_bytes(r.bytes_boundary).c_str(),
               human_bytes(r.bytes_knit).c_str(), human_bytes(r.bytes_grid).c_str(),
               human_bytes(r.bytes_solids).c_str());
-  const double halo =
-      std::max(scene.has(kf::Module::Fluid) ? r.support_radius : 0.0, 2 * r.knit_self_radius);
-  std::printf("halo       %.6g m (one interaction radius; single rank: none exchanged)\n", halo);
+  print_partition(scene, r, a.ranks > 0 ? a.ranks : mpi.size());
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
   std::printf("output     %s every %.4g s to t = %.4g s\n",
               scene.output.enabled ? scene.output.dir.c_str() : "(disabled)", scene.output.interval,
@@ -128,6 +156,8 @@ int cmd_run(const Args& a, const kf::comm::MpiContext& mpi) {
   opt.restart = a.restart;
   opt.progress = !a.quiet;
   opt.profile = a.profile;
+  if (const char* f = std::getenv("KF_FAULT"))
+    opt.fault = kf::parse_fault(f);
   if (mpi.root() && !a.quiet)
     std::cerr << "knitflow: " << scene.name << " on " << kf::exec::describe(opt.backend) << ", "
               << mpi.size() << " rank(s), " << kf::to_string(scene.precision) << "\n";
@@ -159,6 +189,8 @@ int main(int argc, char** argv) {
     auto* plan =
         app.add_subcommand("plan", "print stages, particle counts, memory and dt; run nothing");
     add_scene_options(plan, a);
+    plan->add_option("--ranks", a.ranks, "partition for this many ranks (default: the job's)")
+        ->check(CLI::PositiveNumber);
     try {
       app.parse(argc, argv);
       rc = run->parsed() ? cmd_run(a, mpi) : cmd_plan(a, mpi);
@@ -171,8 +203,13 @@ int main(int argc, char** argv) {
         std::cerr << "knitflow: error: " << e.what() << "\n";
       rc = 2;
     } catch (const std::exception& e) {
-      if (mpi.root())
+      // A failure while running may be one rank's alone: every rank says its own, named, before
+      // the abort below ends the job (the others may be waiting in a collective).
+      if (mpi.size() > 1)
+        std::cerr << "knitflow: rank " << mpi.rank() << ": error: " << e.what() << "\n";
+      else
         std::cerr << "knitflow: error: " << e.what() << "\n";
+      std::cerr.flush();
       rc = 1;
     }
   }

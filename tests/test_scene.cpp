@@ -292,6 +292,7 @@ const Broken kBroken[] = {
   {"knit_without_pieces", 10, "knit.piece", "expected at least one [[knit.piece]]"},
   {"knit_tube_with_width", 14, "knit.piece[0]", "unknown key 'knit.piece[0].width'"},
   {"knit_zero_wales", 13, "knit.piece[0].wales", "expected an integer >= 1, got 0"},
+  {"parallel_block_cells_zero", 15, "parallel.block_cells", "expected an integer >= 1, got 0"},
   {"knit_pin_inverted", 16, "knit.pin[0].max", "expected every component > knit.pin[0].min"},
   {"duplicate_module", 4, "simulation.modules[2]", "at most once"},
   {"fluid_without_boundary", 4, "simulation.modules", "module \"fluid\" requires module \"boundary\""},

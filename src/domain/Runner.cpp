@@ -6,6 +6,7 @@
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
 
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -13,6 +14,42 @@
 #include <sstream>
 
 namespace kf {
+
+RunOptions::Fault parse_fault(const std::string& text) {
+  RunOptions::Fault f;
+  if (text.empty())
+    return f;
+  const auto a = text.find(':'), b = text.find(':', a == std::string::npos ? a : a + 1);
+  try {
+    if (a == std::string::npos || b == std::string::npos)
+      throw std::invalid_argument("form");
+    f.rank = std::stoi(text.substr(0, a));
+    f.step = std::stoull(text.substr(a + 1, b - a - 1));
+    f.kind = text.substr(b + 1);
+  } catch (const std::exception&) {
+    throw Error("KF_FAULT: expected rank:step:kind (kind error, abort or segv), got '" + text +
+                "'");
+  }
+  if (f.kind != "error" && f.kind != "abort" && f.kind != "segv")
+    throw Error("KF_FAULT: expected the kind error, abort or segv, got '" + f.kind + "'");
+  return f;
+}
+
+namespace {
+
+void inject(const RunOptions::Fault& f, int rank, std::uint64_t steps) {
+  if (f.rank != rank || steps != f.step)
+    return;
+  if (f.kind == "error")
+    throw Error("injected fault (KF_FAULT) on rank " + std::to_string(rank) + " after step " +
+                std::to_string(steps));
+  std::fprintf(stderr, "knitflow: rank %d: raising %s after step %llu (KF_FAULT)\n", rank,
+               f.kind == "abort" ? "SIGABRT" : "SIGSEGV", static_cast<unsigned long long>(steps));
+  std::fflush(stderr);
+  std::raise(f.kind == "abort" ? SIGABRT : SIGSEGV);
+}
+
+} // namespace
 
 RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,
                      std::ostream& log) {
@@ -57,6 +94,7 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
         break;
       const double t_limit = std::min(next_out, end);
       const double dt = sim->step(t_limit);
+      inject(opt.fault, mpi.rank(), sim->steps());
       progress.update(sim->steps(), sim->time(), dt, particles);
       if (sim->time() >= next_out - eps) {
         ++frame_index;

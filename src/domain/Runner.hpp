@@ -20,7 +20,17 @@ struct RunOptions {
   double progress_interval_s = 1.0;
   bool profile = false;  // time each stage (synchronises the device after each)
   double stop_time = -1; // stop early at this simulated time (< 0: scene end time)
+  // A fault injected on purpose (the tests of a job's failure; KF_FAULT="rank:step:kind"): on
+  // rank `rank`, once `step` steps are done, "error" throws, "abort" and "segv" raise the signal.
+  struct Fault {
+    int rank = -1;
+    std::uint64_t step = 0;
+    std::string kind;
+  } fault;
 };
+
+/// Parses KF_FAULT ("rank:step:kind", kind error | abort | segv); empty text: no fault.
+RunOptions::Fault parse_fault(const std::string& text);
 
 struct RunSummary {
   std::uint64_t steps = 0; // steps taken by this run (not counting those before a restart)

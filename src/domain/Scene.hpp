@@ -203,6 +203,12 @@ struct Scene {
     double sigma = 0.072;       // sigma [N/m] (water's surface tension)
   } capillary;
 
+  // [parallel]: how the domain is shared out among MPI ranks (DESIGN §6; domain/Decomposition).
+  // The rebalancing threshold and the transport's choice join it with the distributed step.
+  struct Parallel {
+    int block_cells = 4; // block edge, in grid cells (support radii)
+  } parallel;
+
   bool has(Module m) const {
     for (Module x : modules)
       if (x == m)

@@ -526,9 +526,15 @@ void read_knit(const TableReader& sim, const TableReader& t, Scene& s,
                std::to_string(k.pieces.size()) + " piece(s)");
 }
 
+/// [parallel]: the decomposition into blocks (domain/Decomposition).
+void read_parallel(const TableReader& t, Scene::Parallel& p) {
+  t.allow_only({"block_cells"});
+  p.block_cells = read_count(t, "block_cells", p.block_cells, 1, 1024);
+}
+
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {
   root.allow_only({"simulation", "domain", "output", "solver", "fluid", "obstacle", "knit",
-                   "coupling", "capillary"});
+                   "coupling", "capillary", "parallel"});
   Scene s;
   const TableReader sim = root.table("simulation");
   read_simulation(sim, s);
@@ -544,6 +550,7 @@ Scene build_scene(const TableReader& root, const std::filesystem::path& scene_di
   read_knit(sim, root.table("knit"), s, scene_dir);
   read_coupling(root.table("coupling"), s);
   read_capillary(root.table("capillary"), s);
+  read_parallel(root.table("parallel"), s.parallel);
   return s;
 }
 

@@ -1,0 +1,219 @@
+#include "domain/Decomposition.hpp"
+
+#include "core/Error.hpp"
+
+#include <metis.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+namespace kf {
+
+const char* phase_name(Phase p) {
+  switch (p) {
+  case Phase::Fluid:
+    return "fluid";
+  case Phase::Boundary:
+    return "boundary";
+  case Phase::Knit:
+    return "knit";
+  }
+  return "?";
+}
+
+BlockGrid::BlockGrid(const Vec3d& lo, const Vec3d& hi, double block) : lo_(lo), edge_(block) {
+  if (!(block > 0))
+    throw Error("decomposition: the block edge must be positive, got " + std::to_string(block));
+  for (int d = 0; d < 3; ++d) {
+    const double extent = (&hi.x)[d] - (&lo.x)[d];
+    n_[d] = std::max(1, static_cast<int>(std::ceil(extent / block - 1e-9)));
+  }
+  if (double(n_[0]) * n_[1] * n_[2] > 1e8)
+    throw Error("decomposition: " + std::to_string(n_[0]) + " x " + std::to_string(n_[1]) + " x " +
+                std::to_string(n_[2]) + " blocks; make [parallel] block_cells larger");
+}
+
+std::array<int, 3> BlockGrid::coords(int b) const {
+  return {b % n_[0], (b / n_[0]) % n_[1], b / (n_[0] * n_[1])};
+}
+
+std::array<int, 3> BlockGrid::coords_of(const Vec3d& x) const {
+  std::array<int, 3> c{};
+  for (int d = 0; d < 3; ++d) {
+    const double u = ((&x.x)[d] - (&lo_.x)[d]) / edge_;
+    // NaN and far-away points land in an edge block, never out of range.
+    const int i = u >= 0 ? (u < n_[d] ? static_cast<int>(u) : n_[d] - 1) : 0;
+    c[d] = i;
+  }
+  return c;
+}
+
+int BlockGrid::block_of(const Vec3d& x) const {
+  const auto c = coords_of(x);
+  return index(c[0], c[1], c[2]);
+}
+
+double BlockGrid::distance(const Vec3d& x, int b) const {
+  const auto c = coords(b);
+  double d2 = 0;
+  for (int d = 0; d < 3; ++d) {
+    const double u = (&x.x)[d] - (&lo_.x)[d];
+    // Edge blocks are open outward: points beyond the grid belong to them.
+    const double a = c[d] == 0 ? -std::numeric_limits<double>::infinity() : c[d] * edge_;
+    const double z = c[d] == n_[d] - 1 ? std::numeric_limits<double>::infinity() : (c[d] + 1) * edge_;
+    const double out = u < a ? a - u : (u > z ? u - z : 0.0);
+    d2 += out * out;
+  }
+  return std::sqrt(d2);
+}
+
+int BlockGrid::reach(double width) const {
+  return std::max(1, static_cast<int>(std::ceil(width / edge_)));
+}
+
+Decomposition::Decomposition(BlockGrid grid)
+    : grid_(std::move(grid)), ranks_(1), owner_(static_cast<std::size_t>(grid_.count()), 0) {}
+
+namespace {
+
+void metis_check(int rc, const char* what) {
+  if (rc == METIS_OK)
+    return;
+  const char* why = rc == METIS_ERROR_INPUT    ? "bad input"
+                    : rc == METIS_ERROR_MEMORY ? "out of memory"
+                                               : "error";
+  throw Error(std::string("decomposition: METIS ") + what + " failed (" + why + ")");
+}
+
+} // namespace
+
+Decomposition Decomposition::partition(const BlockGrid& grid,
+                                       const std::vector<std::array<double, kPhases>>& counts,
+                                       const PhaseCosts& costs, int ranks, double ghost_width,
+                                       double tolerance) {
+  const int nb = grid.count();
+  if (static_cast<int>(counts.size()) != nb)
+    throw Error("decomposition: " + std::to_string(counts.size()) + " block counts for " +
+                std::to_string(nb) + " blocks");
+  if (ranks < 1)
+    throw Error("decomposition: at least one rank, got " + std::to_string(ranks));
+  Decomposition d(grid);
+  d.ranks_ = ranks;
+  if (ranks == 1)
+    return d;
+  if (ranks > nb)
+    throw Error("decomposition: " + std::to_string(ranks) + " ranks but only " +
+                std::to_string(nb) + " blocks; make [parallel] block_cells smaller");
+
+  // Vertex weights: the block's cost, scaled so the total fits METIS's 32-bit sums, plus one so
+  // empty blocks (where particles may go) are shared out too.
+  std::vector<double> cost(nb, 0.0);
+  for (int b = 0; b < nb; ++b)
+    for (int p = 0; p < kPhases; ++p)
+      cost[b] += counts[b][p] * costs.of(static_cast<Phase>(p));
+  const double total = std::accumulate(cost.begin(), cost.end(), 0.0);
+  const double scale = total > 0 ? 1e8 / total : 0.0;
+  std::vector<idx_t> vwgt(nb);
+  for (int b = 0; b < nb; ++b)
+    vwgt[b] = 1 + static_cast<idx_t>(std::llround(cost[b] * scale));
+
+  // Edges to the 26 neighbours, weighted by the particles within the ghost width of the face,
+  // edge or corner they share: the shared area in units of block faces times the two blocks'
+  // mean density times the width.
+  std::vector<idx_t> xadj(nb + 1, 0), adjncy, adjwgt;
+  adjncy.reserve(std::size_t(nb) * 26);
+  adjwgt.reserve(std::size_t(nb) * 26);
+  const double w = std::min(ghost_width, grid.edge()) / grid.edge();
+  for (int b = 0; b < nb; ++b) {
+    const auto c = grid.coords(b);
+    double nb_particles = 0;
+    for (int p = 0; p < kPhases; ++p)
+      nb_particles += counts[b][p];
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (!dx && !dy && !dz)
+            continue;
+          const int i = c[0] + dx, j = c[1] + dy, k = c[2] + dz;
+          if (i < 0 || j < 0 || k < 0 || i >= grid.nx() || j >= grid.ny() || k >= grid.nz())
+            continue;
+          const int o = grid.index(i, j, k);
+          double no = 0;
+          for (int p = 0; p < kPhases; ++p)
+            no += counts[o][p];
+          const int zeros = (dx == 0) + (dy == 0) + (dz == 0); // 2: face, 1: edge, 0: corner
+          const double area = zeros == 2 ? 1.0 : (zeros == 1 ? w : w * w);
+          const double exchanged = 0.5 * (nb_particles + no) * w * area;
+          adjncy.push_back(o);
+          adjwgt.push_back(1 + static_cast<idx_t>(std::llround(std::min(exchanged, 1e6))));
+        }
+    xadj[b + 1] = static_cast<idx_t>(adjncy.size());
+  }
+
+  idx_t nvtxs = nb, ncon = 1, nparts = ranks, objval = 0;
+  real_t ubvec = static_cast<real_t>(tolerance);
+  idx_t options[METIS_NOPTIONS];
+  metis_check(METIS_SetDefaultOptions(options), "SetDefaultOptions");
+  options[METIS_OPTION_CONTIG] = 1; // one connected region a rank: fewer neighbours, less halo
+  options[METIS_OPTION_SEED] = 1;   // every rank computes the same partition
+  options[METIS_OPTION_NUMBERING] = 0;
+  std::vector<idx_t> part(nb, 0);
+  metis_check(METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), vwgt.data(), nullptr,
+                                  adjwgt.data(), &nparts, nullptr, &ubvec, options, &objval,
+                                  part.data()),
+              "PartGraphKway");
+  for (int b = 0; b < nb; ++b)
+    d.owner_[b] = static_cast<int>(part[b]);
+  return d;
+}
+
+void Decomposition::ghost_ranks(const Vec3d& x, double width, std::vector<int>& out) const {
+  out.clear();
+  if (ranks_ == 1)
+    return;
+  const int own = owner(x);
+  const auto c = grid_.coords_of(x);
+  const int r = grid_.reach(width);
+  for (int k = std::max(0, c[2] - r); k <= std::min(grid_.nz() - 1, c[2] + r); ++k)
+    for (int j = std::max(0, c[1] - r); j <= std::min(grid_.ny() - 1, c[1] + r); ++j)
+      for (int i = std::max(0, c[0] - r); i <= std::min(grid_.nx() - 1, c[0] + r); ++i) {
+        const int b = grid_.index(i, j, k);
+        const int o = owner_[b];
+        if (o == own || std::find(out.begin(), out.end(), o) != out.end())
+          continue;
+        if (grid_.distance(x, b) < width)
+          out.push_back(o);
+      }
+  std::sort(out.begin(), out.end());
+}
+
+double Decomposition::distance_to_region(const Vec3d& x, int r) const {
+  double best = 1e300;
+  for (int b = 0; b < grid_.count(); ++b)
+    if (owner_[b] == r)
+      best = std::min(best, grid_.distance(x, b));
+  return best;
+}
+
+std::vector<double>
+Decomposition::rank_costs(const std::vector<std::array<double, kPhases>>& counts,
+                          const PhaseCosts& costs) const {
+  std::vector<double> per(ranks_, 0.0);
+  for (int b = 0; b < grid_.count(); ++b)
+    for (int p = 0; p < kPhases; ++p)
+      per[owner_[b]] += counts[b][p] * costs.of(static_cast<Phase>(p));
+  return per;
+}
+
+double Decomposition::imbalance(const std::vector<double>& per_rank) {
+  if (per_rank.empty())
+    return 1.0;
+  const double mean =
+      std::accumulate(per_rank.begin(), per_rank.end(), 0.0) / double(per_rank.size());
+  const double most = *std::max_element(per_rank.begin(), per_rank.end());
+  return mean > 0 ? most / mean : 1.0;
+}
+
+} // namespace kf

@@ -1,0 +1,105 @@
+#pragma once
+// The domain cut into blocks of cells and the blocks shared out among ranks (DESIGN §6). A block
+// graph, each block weighted by the cost of the particles in it and joined to its 26 neighbours
+// by the halo they would exchange, is partitioned by METIS into one part per rank. A rank owns
+// the particles in its blocks; another rank needs a particle as a ghost when it lies within the
+// ghost width of one of that rank's blocks. Host-only and deterministic: every rank computes the
+// same partition from the same counts. No MPI here: counts are reduced by the caller.
+#include "core/Vec3.hpp"
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace kf {
+
+/// The particle phases a block's cost and a halo are counted for.
+enum class Phase : int { Fluid = 0, Boundary = 1, Knit = 2 };
+inline constexpr int kPhases = 3;
+const char* phase_name(Phase p);
+
+/// Cost of one particle of each phase in a step, relative to a fluid particle. The defaults are
+/// P4's single-GPU stage times per particle (docs/PERFORMANCE.md: the pour); a run replaces them
+/// by what it measures. A knit point's cost is per substep.
+struct PhaseCosts {
+  std::array<double, kPhases> per_particle{1.0, 0.1, 0.25};
+  int knit_substeps = 1;
+  double of(Phase p) const {
+    const double c = per_particle[static_cast<int>(p)];
+    return p == Phase::Knit ? c * knit_substeps : c;
+  }
+};
+
+/// The blocks: a regular grid of edge `block` over [lo, hi] (the last blocks may reach past hi).
+/// A point outside the box belongs to the nearest edge block.
+class BlockGrid {
+public:
+  BlockGrid() = default;
+  BlockGrid(const Vec3d& lo, const Vec3d& hi, double block);
+
+  int nx() const { return n_[0]; }
+  int ny() const { return n_[1]; }
+  int nz() const { return n_[2]; }
+  int count() const { return n_[0] * n_[1] * n_[2]; }
+  double edge() const { return edge_; }
+  const Vec3d& origin() const { return lo_; }
+
+  int index(int i, int j, int k) const { return i + n_[0] * (j + n_[1] * k); }
+  std::array<int, 3> coords(int b) const;
+  std::array<int, 3> coords_of(const Vec3d& x) const; // clamped to the grid
+  int block_of(const Vec3d& x) const;
+  /// Distance from x to block b's box (0 inside). Edge blocks reach to infinity outward, as the
+  /// points clamped into them do.
+  double distance(const Vec3d& x, int b) const;
+  /// How many blocks a ghost width spans on each side.
+  int reach(double width) const;
+
+private:
+  Vec3d lo_{0, 0, 0};
+  double edge_ = 1;
+  std::array<int, 3> n_{1, 1, 1};
+};
+
+/// Which rank owns each block, how the cost falls on the ranks, and which ranks need a point as a
+/// ghost.
+class Decomposition {
+public:
+  /// Every block on rank 0 (one rank: no partition).
+  explicit Decomposition(BlockGrid grid);
+
+  /// Partitions the block graph into `ranks` parts (METIS_PartGraphKway, contiguous parts) for
+  /// the given per-block particle counts per phase, weighted by `costs`. `ghost_width` weights
+  /// the graph's edges (the particles two blocks would exchange). `tolerance` is METIS's load
+  /// imbalance allowance (1.05: 5%).
+  static Decomposition partition(const BlockGrid& grid,
+                                 const std::vector<std::array<double, kPhases>>& counts,
+                                 const PhaseCosts& costs, int ranks, double ghost_width,
+                                 double tolerance = 1.03);
+
+  const BlockGrid& grid() const { return grid_; }
+  int ranks() const { return ranks_; }
+  int owner_of_block(int b) const { return owner_[b]; }
+  int owner(const Vec3d& x) const { return owner_[grid_.block_of(x)]; }
+  const std::vector<int>& owners() const { return owner_; }
+
+  /// The ranks other than x's owner within `width` of x (distance to one of their blocks below
+  /// width), ascending, appended to `out` (cleared first).
+  void ghost_ranks(const Vec3d& x, double width, std::vector<int>& out) const;
+  /// Distance from x to rank r's region (the union of its blocks); 1e300 for a rank without
+  /// blocks. Brute force over every block: for tests and reports.
+  double distance_to_region(const Vec3d& x, int r) const;
+
+  /// Cost per rank of the given per-block counts.
+  std::vector<double> rank_costs(const std::vector<std::array<double, kPhases>>& counts,
+                                 const PhaseCosts& costs) const;
+  /// Slowest rank over the mean (1: perfect balance).
+  static double imbalance(const std::vector<double>& per_rank);
+
+private:
+  BlockGrid grid_;
+  int ranks_ = 1;
+  std::vector<int> owner_;
+};
+
+} // namespace kf
