@@ -1,9 +1,11 @@
 // The paper's drape scene (Fig. 6, scenes/drape.toml: 49,923 knit points dropped onto a sphere
 // on the floor), 10,000 steps: nothing becomes NaN, no point ends inside the sphere or the floor,
 // the three layers keep their order through the thickness, and the total energy (kinetic,
-// elastic, gravity, self-contact) never rises by more than 1% of the initial energy: nothing
-// does work on the cloth, so the springs' and contacts' damping and friction can only take
-// energy out.
+// elastic, gravity, self-contact), sampled every 50 steps, never rises by more than 5e-6 of the
+// initial energy: nothing does work on the cloth, so the springs' and contacts' damping and
+// friction can only take energy out. Measured: 1.06e-6 J = 1.34e-6 of the initial (every 500
+// steps: 1.2e-6), the size of float rounding in the sum of ~10^5 spring energies; the bound is 4x
+// that (the old 1% let a source of 7,000 times it pass).
 #include "domain/KnitBuilder.hpp"
 #include "domain/Scene.hpp"
 #include "domain/Simulation.hpp"
@@ -33,7 +35,8 @@ TEST(Drape, TenThousandStepsStayFiniteOutsideTheSolidsLayeredAndWithoutEnergyGai
   double lowest = e0, worst_rise = 0, closest = 1e30;
   std::size_t worst_swaps = 0;
   std::uint64_t most_contacts = 0;
-  const int steps = 10000, every = 500;
+  // The energy every 50 steps (200 samples), the positions every 500.
+  const int steps = 10000, every = 50, check_every = 500;
   for (int step = 1; step <= steps; ++step) {
     sim->step(s.end_time);
     if (step % every != 0)
@@ -45,6 +48,8 @@ TEST(Drape, TenThousandStepsStayFiniteOutsideTheSolidsLayeredAndWithoutEnergyGai
     lowest = std::min(lowest, e);
     closest = std::min(closest, d.knit_min_rigid_distance);
     most_contacts = std::max(most_contacts, d.knit_contacts);
+    if (step % check_every != 0)
+      continue;
     const io::Frame fr = sim->frame();
     const auto x = test::as_points(fr.find("knit")->find("position")->as<float>());
     for (const Vec3d& q : x)
@@ -63,6 +68,6 @@ TEST(Drape, TenThousandStepsStayFiniteOutsideTheSolidsLayeredAndWithoutEnergyGai
   EXPECT_GT(most_contacts, 0u) << "the cloth never reached the sphere: the test tests little";
   EXPECT_GE(closest, 0.0) << "a knit point inside the sphere or the floor";
   EXPECT_EQ(worst_swaps, 0u) << "a layer passed through another";
-  EXPECT_LE(worst_rise, 0.01 * e0) << "the energy rose with no work done";
+  EXPECT_LE(worst_rise, 5e-6 * e0) << "the energy rose with no work done";
   EXPECT_LT(energy(d), e0) << "no energy left the system: no contact, no damping?";
 }

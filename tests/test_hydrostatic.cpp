@@ -1,13 +1,14 @@
 // A tank of water at rest, with summation density (two kernels) and with the continuity
 // equation (which starts from rest density everywhere and must find the same equilibrium).
-// After settling:
-// - density error below 1% in the bulk (deeper than one support radius below the surface: there
-//   the kernel is cut off and particles are under-dense by construction);
-// - the pressure profile within 3% (of the bottom pressure rho0 g H) of rho0 g depth, where depth
-// is
-//   measured from the free surface z0 = where the bulk pressure extrapolates to zero;
-// - the bulk pressure gradient within 3% of rho0 g, and the bottom pressure within 3% of M g / A
-//   (force balance, independent of particle arrangement);
+// After settling (slices averaged over the last 0.2 s):
+// - the density follows the column's compression rho0 + rho0 g (z0 - z) / c^2 in the bulk
+//   (deeper than one support radius below the surface: there the kernel is cut off and particles
+//   are under-dense by construction), slice by slice and particle by particle;
+// - the pressure profile within a per-case bound (of the bottom pressure rho0 g H) of
+//   rho0 g depth, where depth is measured from the free surface z0 = where the bulk pressure
+//   extrapolates to zero;
+// - the bulk pressure gradient within 2% of rho0 g, and the bottom pressure within 1.5% of
+//   M g / A (force balance, independent of particle arrangement);
 // - z0 within one particle spacing of H = M / (rho0 A), the height the mass fills at rest density.
 #include "domain/Simulation.hpp"
 #include "support/SceneFactory.hpp"
@@ -24,17 +25,30 @@ struct KernelCase {
   KernelType kernel;
   double support; // in particle spacings
   DensityModel density = DensityModel::Summation;
+  // Initial positions moved by up to this many spacings (a fixed pseudo-random pattern): the
+  // equilibrium must not hang on one rounding pattern of the start.
+  double jitter = 0;
+  // Bounds at what each case reaches (measured, in the comment at the instantiation):
+  double profile = 0;      // pressure profile error, of rho0 g H
+  double particle_rho = 0; // largest particle density error against the compressed column
 };
 
 class Hydrostatic : public ::testing::TestWithParam<KernelCase> {};
 
 // The paper's spiky kernel is not among these: at 2 dp its discrete gradient is 0.77 of the true
 // one and the profile misses by ~8% even at 3 dp (docs/VALIDATION.md); the study quantifies it.
-INSTANTIATE_TEST_SUITE_P(Kernels, Hydrostatic,
-                         ::testing::Values(KernelCase{KernelType::CubicSpline, 2.0},
-                                           KernelCase{KernelType::WendlandC2, 3.0},
-                                           KernelCase{KernelType::CubicSpline, 2.0,
-                                                      DensityModel::Continuity}));
+// Measured (slices averaged over the last 0.2 s), in order: profile error 2.12%, 1.07%, 0.93%,
+// 1.09%; particle density against the compressed column 0.165%, 0.121%, 0.099%, 0.007%
+// (summation's lattice error is per particle; continuity starts every particle at rho0 and keeps
+// its own). Bounds about 1.4x those; the Wendland tank from a start moved by 1e-3 dp lands within
+// 0.14% of its unmoved profile error.
+INSTANTIATE_TEST_SUITE_P(
+    Kernels, Hydrostatic,
+    ::testing::Values(
+        KernelCase{KernelType::CubicSpline, 2.0, DensityModel::Summation, 0, 0.03, 0.0025},
+        KernelCase{KernelType::WendlandC2, 3.0, DensityModel::Summation, 0, 0.016, 0.0018},
+        KernelCase{KernelType::WendlandC2, 3.0, DensityModel::Summation, 1e-3, 0.016, 0.0018},
+        KernelCase{KernelType::CubicSpline, 2.0, DensityModel::Continuity, 0, 0.016, 0.0002}));
 
 TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
   Scene s = test::tank_scene({0.15, 0.15, 0.35}, {0.15, 0.15, 0.25}, 0.01);
@@ -49,8 +63,48 @@ TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
   s.fluid.support = GetParam().support;
   s.solver.density = GetParam().density;
   auto sim = Simulation::create(s, exec::Backend::Cpu);
-  while (sim->time() < 1.0 - 1e-12)
-    sim->step(1.0);
+  if (GetParam().jitter > 0) {
+    io::Frame start = sim->frame();
+    for (auto& phase : start.phases)
+      if (phase.name == "fluid")
+        for (auto& field : phase.fields)
+          if (field.name == "position") {
+            auto x = field.as<float>();
+            std::uint32_t state = 12345;
+            for (float& xi : x) {
+              state = state * 1664525u + 1013904223u; // LCG: the same pattern every run
+              xi += float(GetParam().jitter * s.fluid.spacing * (state / 4294967296.0 - 0.5));
+            }
+            field = io::Field::from("position", x, 3);
+          }
+    sim->restore(start);
+  }
+  // What remains after the damping rings faintly; a snapshot at one instant catches that ringing
+  // at whatever phase the run's rounding gives it (the Wendland case's profile error moved from
+  // 1.2% to 4.4% under a regrouping of products, docs/VALIDATION.md). The slices are therefore
+  // averaged over nine snapshots across the last 0.2 s, the equilibrium's estimate.
+  while (sim->time() < 0.8 - 1e-12)
+    sim->step(0.8);
+  const double rho0 = s.fluid.rest_density, g = 9.81, dp = s.fluid.spacing, h = s.support_radius();
+  const int slices = static_cast<int>(0.35 / dp);
+  std::vector<double> psum(slices, 0), zsum(slices, 0), rsum(slices, 0), cnt(slices, 0);
+  for (int sample = 0; sample < 9; ++sample) {
+    const double t = 0.8 + 0.025 * sample;
+    while (sim->time() < t - 1e-12)
+      sim->step(t);
+    const io::Frame fr = sim->frame();
+    const io::Phase& f = *fr.find("fluid");
+    const auto x = f.find("position")->as<float>(), rho = f.find("density")->as<float>(),
+               p = f.find("pressure")->as<float>();
+    // Slices one spacing thick: mean height, pressure and density.
+    for (std::size_t i = 0; i < rho.size(); ++i) {
+      const int k = std::min(slices - 1, std::max(0, static_cast<int>(x[3 * i + 2] / dp)));
+      psum[k] += p[i];
+      zsum[k] += x[3 * i + 2];
+      rsum[k] += rho[i];
+      cnt[k] += 1;
+    }
+  }
   {
     // Settled: rms speed small against the free-fall speed sqrt(g H) = 1.6 m/s.
     const Diagnostics d = sim->diagnostics();
@@ -63,24 +117,14 @@ TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
   const io::Frame fr = sim->frame();
   const io::Phase& f = *fr.find("fluid");
   const auto x = f.find("position")->as<float>(), rho = f.find("density")->as<float>(),
-             p = f.find("pressure")->as<float>(), m = f.find("mass")->as<float>();
+             m = f.find("mass")->as<float>();
   const std::size_t n = rho.size();
-  const double rho0 = s.fluid.rest_density, g = 9.81, dp = s.fluid.spacing, h = s.support_radius();
   double mass = 0;
   for (float mi : m)
     mass += mi;
   const double area = 0.15 * 0.15;
   const double H = mass / (rho0 * area);
 
-  // Slices one spacing thick: mean height and pressure.
-  const int slices = static_cast<int>(0.35 / dp);
-  std::vector<double> psum(slices, 0), zsum(slices, 0), cnt(slices, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    const int k = std::min(slices - 1, std::max(0, static_cast<int>(x[3 * i + 2] / dp)));
-    psum[k] += p[i];
-    zsum[k] += x[3 * i + 2];
-    cnt[k] += 1;
-  }
   // Least-squares line through the bulk slices (below H - 2h, above the first layer).
   double sz = 0, sp = 0, szz = 0, szp = 0, ns = 0;
   std::vector<std::pair<double, double>> bulk;
@@ -99,24 +143,51 @@ TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
   const double z0 = -intercept / slope;
   const double pbottom_expected = mass * g / area;
   const double p0 = psum[0] / cnt[0];
-  double max_profile_err = 0, max_bulk_rho_err = 0;
+  double max_profile_err = 0, max_bulk_rho_err = 0, max_compressed_err = 0, mean_compressed_err = 0;
+  std::size_t n_bulk = 0;
+  const double c2 = s.fluid.speed_of_sound * s.fluid.speed_of_sound;
   for (const auto& [z, pm] : bulk)
     max_profile_err =
         std::max(max_profile_err, std::fabs(pm - rho0 * g * (z0 - z)) / (rho0 * g * H));
   for (std::size_t i = 0; i < n; ++i)
-    if (x[3 * i + 2] < z0 - h)
-      max_bulk_rho_err = std::max(max_bulk_rho_err, std::fabs(rho[i] - rho0) / rho0);
+    if (x[3 * i + 2] < z0 - h) {
+      max_bulk_rho_err = std::max(max_bulk_rho_err, std::fabs(rho[i] - rho0) / rho0); // printed only
+      // The linear EOS compresses the column: rho = rho0 + rho0 g (z0 - z) / c^2 (0.61% at the
+      // floor), so the density is judged against that, not against rho0.
+      const double ref = rho0 + rho0 * g * (z0 - x[3 * i + 2]) / c2;
+      const double e = std::fabs(rho[i] - ref) / rho0;
+      max_compressed_err = std::max(max_compressed_err, e);
+      mean_compressed_err += e;
+      ++n_bulk;
+    }
+  mean_compressed_err /= std::max<std::size_t>(1, n_bulk);
+  // The slices' mean density against the compressed column (what a solver without compression,
+  // rho = rho0 throughout, misses by up to 0.6% at the floor).
+  double max_slice_rho_err = 0;
+  for (int k = 1; k < slices; ++k)
+    if (cnt[k] && zsum[k] / cnt[k] < z0 - h) {
+      const double ref = rho0 + rho0 * g * (z0 - zsum[k] / cnt[k]) / c2;
+      max_slice_rho_err = std::max(max_slice_rho_err, std::fabs(rsum[k] / cnt[k] - ref) / rho0);
+    }
   // Bottom layer: extrapolate its pressure to the floor (z = 0) along the measured gradient.
   const double p_floor = p0 - slope * (zsum[0] / cnt[0]);
   std::printf(
       "hydrostatic: gradient %.1f Pa/m (rho0 g = %.1f), surface z0 = %.4f m (H = %.4f m), "
-      "floor pressure %.1f Pa (M g / A = %.1f), profile error %.2f%%, bulk density error %.3f%%\n",
+      "floor pressure %.1f Pa (M g / A = %.1f), profile error %.2f%%, bulk density error %.3f%% "
+      "(against the compressed column: max %.3f%%, mean %.4f%%, slices %.4f%%)\n",
       -slope, rho0 * g, z0, H, p_floor, pbottom_expected, 100 * max_profile_err,
-      100 * max_bulk_rho_err);
-  EXPECT_NEAR(-slope, rho0 * g, 0.03 * rho0 * g);
-  EXPECT_NEAR(p_floor, pbottom_expected, 0.03 * pbottom_expected);
-  EXPECT_LT(max_profile_err, 0.03);
-  EXPECT_LT(max_bulk_rho_err, 0.01);
+      100 * max_bulk_rho_err, 100 * max_compressed_err, 100 * mean_compressed_err,
+      100 * max_slice_rho_err);
+  // Gradient measured +0.7% to +1.35% of rho0 g, floor pressure +0.04% to +0.9% of M g / A.
+  EXPECT_NEAR(-slope, rho0 * g, 0.02 * rho0 * g);
+  EXPECT_NEAR(p_floor, pbottom_expected, 0.015 * pbottom_expected);
+  EXPECT_LT(max_profile_err, GetParam().profile);
+  // The column's compression, 0.61% at the floor, must be there: the slices' mean density
+  // follows rho0 + rho0 g (z0 - z) / c^2 within 0.013% at worst (measured), bound 0.03%; a
+  // solver that kept rho0 everywhere misses it by ~0.5% (the old bound, 1% against rho0, passed
+  // it).
+  EXPECT_LT(max_slice_rho_err, 3e-4);
+  EXPECT_LT(max_compressed_err, GetParam().particle_rho);
   EXPECT_NEAR(z0, H, dp);
   EXPECT_EQ(sim->diagnostics().guard_corrections, 0u)
       << "the wall forces alone must hold the fluid";
