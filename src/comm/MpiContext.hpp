@@ -19,6 +19,8 @@ public:
   int size() const { return size_; }
   /// Rank among the processes on this node (rank -> GPU is local_rank % device count).
   int local_rank() const { return local_rank_; }
+  /// Number of processes on this node (ranks that could share its GPUs).
+  int local_size() const { return local_size_; }
   bool root() const { return rank_ == 0; }
 
   double max(double v) const;
@@ -31,7 +33,7 @@ public:
 
 private:
   MPI_Comm comm_;
-  int rank_ = 0, size_ = 1, local_rank_ = 0;
+  int rank_ = 0, size_ = 1, local_rank_ = 0, local_size_ = 1;
 };
 
 } // namespace kf::comm

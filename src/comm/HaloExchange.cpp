@@ -1,0 +1,137 @@
+#include "comm/HaloExchange.hpp"
+
+#include "core/Error.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+namespace kf::comm {
+
+HaloExchange::HaloExchange(Transport& transport, std::vector<int> peers,
+                           std::vector<std::vector<std::uint32_t>> send)
+    : transport_(transport), peers_(std::move(peers)), send_(std::move(send)) {
+  if (send_.size() != peers_.size())
+    throw Error("halo exchange: " + std::to_string(send_.size()) + " send lists for " +
+                std::to_string(peers_.size()) + " peers");
+  // Counts of particles, not bytes: the columns are chosen per refresh.
+  std::vector<std::uint64_t> counts(peers_.size());
+  for (std::size_t k = 0; k < peers_.size(); ++k)
+    counts[k] = send_[k].size();
+  const auto got = transport_.exchange_sizes(peers_, counts);
+  recv_count_.assign(got.begin(), got.end());
+  recv_offset_.resize(peers_.size());
+  for (std::size_t k = 0; k < peers_.size(); ++k) {
+    recv_offset_[k] = recv_total_;
+    recv_total_ += recv_count_[k];
+  }
+  out_.resize(peers_.size());
+  in_.resize(peers_.size());
+}
+
+std::size_t HaloExchange::sent() const {
+  std::size_t n = 0;
+  for (const auto& s : send_)
+    n += s.size();
+  return n;
+}
+
+void HaloExchange::start(std::span<const Column> columns, std::size_t first_ghost) {
+  row_bytes_ = 0;
+  for (const Column& c : columns)
+    row_bytes_ += c.elem_bytes;
+  std::vector<SendBuffer> sends(peers_.size());
+  std::vector<RecvBuffer> recvs(peers_.size());
+  last_bytes_ = 0;
+  for (std::size_t k = 0; k < peers_.size(); ++k) {
+    // Column-major within a message: each column's values for the listed particles in a run,
+    // so unpacking is one copy per column.
+    auto& out = out_[k];
+    out.resize(send_[k].size() * row_bytes_);
+    unsigned char* o = out.data();
+    for (const Column& c : columns) {
+      const auto* src = static_cast<const unsigned char*>(c.data);
+      for (std::uint32_t i : send_[k]) {
+        std::memcpy(o, src + std::size_t(i) * c.elem_bytes, c.elem_bytes);
+        o += c.elem_bytes;
+      }
+    }
+    in_[k].resize(recv_count_[k] * row_bytes_);
+    sends[k] = {peers_[k], out.data(), out.size()};
+    recvs[k] = {peers_[k], in_[k].data(), in_[k].size()};
+    last_bytes_ += out.size();
+  }
+  pending_.assign(columns.begin(), columns.end());
+  pending_first_ = first_ghost;
+  transport_.start(sends, recvs);
+}
+
+void HaloExchange::finish() {
+  transport_.finish();
+  for (std::size_t k = 0; k < peers_.size(); ++k) {
+    const unsigned char* in = in_[k].data();
+    const std::size_t n = recv_count_[k];
+    for (const Column& c : pending_) {
+      auto* dst =
+          static_cast<unsigned char*>(c.data) + (pending_first_ + recv_offset_[k]) * c.elem_bytes;
+      if (n)
+        std::memcpy(dst, in, n * c.elem_bytes);
+      in += n * c.elem_bytes;
+    }
+  }
+  pending_.clear();
+}
+
+std::size_t migrate(Transport& transport, std::span<const int> peers,
+                    std::span<const int> destination, std::span<const ByteColumn> columns) {
+  const std::size_t n = destination.size();
+  const int me = transport.rank();
+  for (const ByteColumn& c : columns)
+    if (c.bytes->size() != n * c.elem_bytes)
+      throw Error("migration: a column holds " + std::to_string(c.bytes->size()) +
+                  " bytes, expected " + std::to_string(n) + " x " + std::to_string(c.elem_bytes));
+  std::vector<std::vector<std::uint32_t>> leaving(peers.size());
+  std::vector<std::uint32_t> staying;
+  staying.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int d = destination[i];
+    if (d == me) {
+      staying.push_back(static_cast<std::uint32_t>(i));
+      continue;
+    }
+    const auto it = std::find(peers.begin(), peers.end(), d);
+    if (it == peers.end())
+      throw Error("migration: particle " + std::to_string(i) + " goes to rank " +
+                  std::to_string(d) + ", which is not a neighbour of rank " + std::to_string(me));
+    leaving[it - peers.begin()].push_back(static_cast<std::uint32_t>(i));
+  }
+  HaloExchange ex(transport, std::vector<int>(peers.begin(), peers.end()), leaving);
+  // The leavers' values, into a staging copy of each column grown by what arrives.
+  std::vector<std::vector<unsigned char>> grown(columns.size());
+  std::vector<Column> cols(columns.size());
+  const std::size_t total = staying.size() + ex.received();
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    const std::size_t e = columns[c].elem_bytes;
+    grown[c].resize((n + ex.received()) * e);
+    std::memcpy(grown[c].data(), columns[c].bytes->data(), n * e);
+    cols[c] = {grown[c].data(), e};
+  }
+  // The arrivals land past the n particles of the staging copy (the leavers are read from it);
+  // then the ones that stay are compacted into the column and the arrivals follow them.
+  ex.exchange(cols, n);
+  for (std::size_t c = 0; c < columns.size(); ++c) {
+    const std::size_t e = columns[c].elem_bytes;
+    auto& dst = *columns[c].bytes;
+    dst.resize(total * e);
+    unsigned char* o = dst.data();
+    for (std::uint32_t i : staying) {
+      std::memcpy(o, grown[c].data() + std::size_t(i) * e, e);
+      o += e;
+    }
+    if (ex.received())
+      std::memcpy(o, grown[c].data() + n * e, ex.received() * e);
+  }
+  return total;
+}
+
+} // namespace kf::comm

@@ -1,0 +1,73 @@
+#pragma once
+// Ghost refreshes between rebuilds (the molecular-dynamics pattern, DESIGN §6): the send lists are
+// fixed when the ghost set is chosen; each refresh packs the listed particles' values of some
+// columns, moves them through a Transport and writes what the peers send into the ghost slots,
+// which follow the owned particles in the same arrays. Knows no physics: columns are bytes.
+// Host memory for now (the CPU backend, or device data staged by the caller).
+#include "comm/Transport.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace kf::comm {
+
+/// A column of per-particle values: element k of `elem_bytes` bytes at data + k * elem_bytes.
+struct Column {
+  void* data = nullptr;
+  std::size_t elem_bytes = 0;
+};
+
+class HaloExchange {
+public:
+  /// `peers` (distinct, and symmetric over the job: A lists B iff B lists A) and, for each, the
+  /// local indices whose values it receives. Collective over the peers: learns how many ghosts
+  /// each sends back (Transport::exchange_sizes).
+  HaloExchange(Transport& transport, std::vector<int> peers,
+               std::vector<std::vector<std::uint32_t>> send);
+
+  const std::vector<int>& peers() const { return peers_; }
+  /// Ghosts received in all, and where peer k's start among them (peers in the given order).
+  std::size_t received() const { return recv_total_; }
+  std::size_t received_from(std::size_t k) const { return recv_count_[k]; }
+  std::size_t offset_of(std::size_t k) const { return recv_offset_[k]; }
+  std::size_t sent() const;
+
+  /// Packs the columns' values of the listed particles and posts the exchange; returns at once.
+  /// Every rank must pass the same columns (count and element sizes) in the same order.
+  void start(std::span<const Column> columns, std::size_t first_ghost);
+  /// Waits, then writes peer k's values at first_ghost + offset_of(k) of each column.
+  void finish();
+  /// start + finish.
+  void exchange(std::span<const Column> columns, std::size_t first_ghost) {
+    start(columns, first_ghost);
+    finish();
+  }
+  /// Bytes sent by the last exchange (all peers).
+  std::size_t last_bytes() const { return last_bytes_; }
+
+private:
+  Transport& transport_;
+  std::vector<int> peers_;
+  std::vector<std::vector<std::uint32_t>> send_;
+  std::vector<std::size_t> recv_count_, recv_offset_;
+  std::size_t recv_total_ = 0;
+  std::vector<std::vector<unsigned char>> out_, in_;
+  std::vector<Column> pending_;
+  std::size_t pending_first_ = 0, row_bytes_ = 0, last_bytes_ = 0;
+};
+
+/// Moves particles to the ranks that now own them (DESIGN §6: at a rebuild, with every field).
+/// `columns` are the whole state, one byte vector per column with its element size;
+/// `destination[i]` is particle i's new rank (this rank: it stays). Particles that stay keep
+/// their order; those received follow, by sending rank, in the sender's order. `peers` as for
+/// HaloExchange (every rank a particle may go to or come from). Returns the new count.
+struct ByteColumn {
+  std::vector<unsigned char>* bytes = nullptr;
+  std::size_t elem_bytes = 0;
+};
+std::size_t migrate(Transport& transport, std::span<const int> peers,
+                    std::span<const int> destination, std::span<const ByteColumn> columns);
+
+} // namespace kf::comm

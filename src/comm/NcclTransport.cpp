@@ -1,0 +1,163 @@
+#include "comm/NcclTransport.hpp"
+
+#include "core/Error.hpp"
+
+#include <cstring>
+
+namespace kf::comm {
+
+namespace {
+
+// Keeps only the file name: full build paths make one-line messages unreadable.
+const char* base_name(const char* file) {
+  const char* slash = std::strrchr(file, '/');
+  return slash ? slash + 1 : file;
+}
+
+[[noreturn]] void throw_nccl(ncclResult_t r, ncclComm_t comm, const char* call, const char* file,
+                             int line) {
+  std::string text = std::string("nccl transport: ") + call + " failed at " + base_name(file) +
+                     ":" + std::to_string(line) + ": " + ncclGetErrorString(r);
+#if defined(NCCL_VERSION_CODE) && NCCL_VERSION_CODE >= NCCL_VERSION(2, 13, 0)
+  // NCCL's own last message usually says which peer or resource failed.
+  const char* last = ncclGetLastError(comm);
+  if (last != nullptr && last[0] != '\0')
+    text += std::string(" (") + last + ")";
+#else
+  (void)comm;
+#endif
+  throw Error(text);
+}
+
+[[noreturn]] void throw_cuda(cudaError_t e, const char* call, const char* file, int line) {
+  throw Error(std::string("nccl transport: ") + call + " failed at " + base_name(file) + ":" +
+              std::to_string(line) + ": " + cudaGetErrorName(e) + ": " + cudaGetErrorString(e));
+}
+
+} // namespace
+
+// Local to comm (kernels' KF_CUDA lives in a layer comm does not depend on).
+#define KF_COMM_NCCL(call)                                                                         \
+  do {                                                                                             \
+    const ncclResult_t kf_r_ = (call);                                                             \
+    if (kf_r_ != ncclSuccess)                                                                      \
+      throw_nccl(kf_r_, nccl_, #call, __FILE__, __LINE__);                                         \
+  } while (0)
+
+#define KF_COMM_CUDA(call)                                                                         \
+  do {                                                                                             \
+    const cudaError_t kf_e_ = (call);                                                              \
+    if (kf_e_ != cudaSuccess)                                                                      \
+      throw_cuda(kf_e_, #call, __FILE__, __LINE__);                                                \
+  } while (0)
+
+NcclTransport::NcclTransport(const MpiContext& ctx, int device, cudaStream_t stream)
+    : Transport(ctx), device_(device), stream_(stream) {
+  // A failure on one rank must not leave the others waiting in ncclCommInitRank: the steps that
+  // can fail locally report to every rank before the communicator is built.
+  std::string local_error;
+  const cudaError_t set = cudaSetDevice(device_);
+  if (set != cudaSuccess) {
+    local_error = "cudaSetDevice(" + std::to_string(device_) + "): " + cudaGetErrorName(set) +
+                  ": " + cudaGetErrorString(set);
+    (void)cudaGetLastError();
+  }
+  struct {
+    int ok;
+    ncclUniqueId id;
+  } root{1, {}};
+  if (rank() == 0) {
+    const ncclResult_t r = local_error.empty() ? ncclGetUniqueId(&root.id) : ncclSuccess;
+    if (r != ncclSuccess)
+      local_error = std::string("ncclGetUniqueId: ") + ncclGetErrorString(r);
+    root.ok = local_error.empty();
+  }
+  check_mpi(MPI_Bcast(&root, int(sizeof root), MPI_BYTE, 0, comm()),
+            "broadcasting the NCCL unique id");
+  int ok = local_error.empty(), all_ok = 0;
+  check_mpi(MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, comm()),
+            "agreeing that every rank can start NCCL");
+  if (!all_ok)
+    throw Error(
+        "nccl transport on rank " + std::to_string(rank()) + ": " +
+        (local_error.empty() ? std::string("another rank failed to set up its GPU") : local_error));
+  KF_COMM_NCCL(ncclCommInitRank(&nccl_, size(), root.id, rank()));
+}
+
+NcclTransport::~NcclTransport() {
+  finish_quietly();
+  if (nccl_ != nullptr)
+    (void)ncclCommDestroy(nccl_);
+}
+
+void NcclTransport::do_start(std::span<const SendBuffer> sends,
+                             std::span<const RecvBuffer> receives) {
+  // Host memory handed to NCCL faults on the device or hangs; a clear error costs one query per
+  // buffer, a few per exchange.
+  auto check_device = [&](const void* p, std::size_t bytes, const char* what, int peer) {
+    if (bytes == 0)
+      return;
+    cudaPointerAttributes a{};
+    KF_COMM_CUDA(cudaPointerGetAttributes(&a, p));
+    if (a.type != cudaMemoryTypeDevice && a.type != cudaMemoryTypeManaged)
+      throw Error("nccl transport on rank " + std::to_string(rank()) + ": the " + what +
+                  " buffer for rank " + std::to_string(peer) +
+                  " is host memory; NCCL moves device buffers (stage through the device, or use "
+                  "the mpi transport)");
+  };
+  for (const SendBuffer& s : sends)
+    check_device(s.data, s.bytes, "send", s.peer);
+  for (const RecvBuffer& r : receives)
+    check_device(r.data, r.bytes, "receive", r.peer);
+
+  // Messages to this rank are device copies, paired in order like any peer's messages.
+  self_sends_.clear();
+  self_receives_.clear();
+  for (const SendBuffer& s : sends)
+    if (s.peer == rank())
+      self_sends_.push_back(&s);
+  for (const RecvBuffer& r : receives)
+    if (r.peer == rank())
+      self_receives_.push_back(&r);
+  if (self_sends_.size() != self_receives_.size())
+    throw Error("nccl transport on rank " + std::to_string(rank()) + ": " +
+                std::to_string(self_sends_.size()) + " sends to itself but " +
+                std::to_string(self_receives_.size()) + " receives from itself");
+  for (std::size_t k = 0; k < self_sends_.size(); ++k)
+    if (self_sends_[k]->bytes != self_receives_[k]->bytes)
+      throw Error("nccl transport on rank " + std::to_string(rank()) + ": message " +
+                  std::to_string(k) + " to itself sends " + std::to_string(self_sends_[k]->bytes) +
+                  " bytes into a receive of " + std::to_string(self_receives_[k]->bytes));
+  for (std::size_t k = 0; k < self_sends_.size(); ++k)
+    if (self_sends_[k]->bytes > 0)
+      KF_COMM_CUDA(cudaMemcpyAsync(self_receives_[k]->data, self_sends_[k]->data,
+                                   self_sends_[k]->bytes, cudaMemcpyDeviceToDevice, stream_));
+
+  // NCCL has no tags: operations between two ranks within a group run in the order they were
+  // issued, which pairs the k-th send with the k-th receive. Empty messages are skipped on both
+  // sides (their sizes agree), which keeps that pairing and avoids NCCL's history of zero-count
+  // bugs.
+  KF_COMM_NCCL(ncclGroupStart());
+  try {
+    for (const RecvBuffer& r : receives)
+      if (r.peer != rank() && r.bytes > 0)
+        KF_COMM_NCCL(ncclRecv(r.data, r.bytes, ncclUint8, r.peer, nccl_, stream_));
+    for (const SendBuffer& s : sends)
+      if (s.peer != rank() && s.bytes > 0)
+        KF_COMM_NCCL(ncclSend(s.data, s.bytes, ncclUint8, s.peer, nccl_, stream_));
+  } catch (...) {
+    (void)ncclGroupEnd(); // never leave a group open: the next NCCL call would join it
+    throw;
+  }
+  KF_COMM_NCCL(ncclGroupEnd());
+}
+
+void NcclTransport::do_finish() {
+  KF_COMM_CUDA(cudaStreamSynchronize(stream_));
+  ncclResult_t async = ncclSuccess;
+  KF_COMM_NCCL(ncclCommGetAsyncError(nccl_, &async));
+  if (async != ncclSuccess)
+    throw_nccl(async, nccl_, "an exchange (ncclCommGetAsyncError)", __FILE__, __LINE__);
+}
+
+} // namespace kf::comm

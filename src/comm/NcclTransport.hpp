@@ -1,0 +1,36 @@
+#pragma once
+// The NCCL transport (CUDA build only): grouped ncclSend/ncclRecv of device buffers on one CUDA
+// stream. NCCL needs a GPU a rank; make_transport picks it only then.
+#include "comm/Transport.hpp"
+
+#include <cuda_runtime.h>
+#include <nccl.h>
+
+namespace kf::comm {
+
+class NcclTransport final : public Transport {
+public:
+  /// Collective over ctx's communicator: makes `device` this process's current device and builds
+  /// the NCCL communicator from a unique id that rank 0 broadcasts over MPI. Work is queued on
+  /// `stream` (null: the legacy default stream), which must belong to `device`.
+  NcclTransport(const MpiContext& ctx, int device, cudaStream_t stream);
+  ~NcclTransport() override;
+
+  std::string_view name() const override { return "nccl"; }
+  MemorySpace memory_space() const override { return MemorySpace::Device; }
+  int device() const { return device_; }
+  cudaStream_t stream() const { return stream_; }
+
+private:
+  void do_start(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives) override;
+  /// Synchronises the stream: the exchange and any work queued on it before finish() are done.
+  void do_finish() override;
+
+  int device_;
+  cudaStream_t stream_;
+  ncclComm_t nccl_ = nullptr;
+  std::vector<const SendBuffer*> self_sends_; // scratch: messages to this rank, in order
+  std::vector<const RecvBuffer*> self_receives_;
+};
+
+} // namespace kf::comm

@@ -1,0 +1,250 @@
+#include "comm/Transport.hpp"
+
+#include "comm/MpiTransport.hpp"
+#include "core/Error.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstring>
+
+#if defined(KF_WITH_CUDA)
+#include "comm/NcclTransport.hpp"
+
+#include <cuda_runtime.h>
+#endif
+
+namespace kf::comm {
+
+namespace {
+
+// Sizes go on their own tag so that exchange_sizes never matches data of an exchange in flight
+// (MpiTransport's data tags start at 1).
+constexpr int kSizesTag = 0;
+
+} // namespace
+
+std::string mpi_error_string(int rc) {
+  char text[MPI_MAX_ERROR_STRING];
+  int len = 0;
+  if (MPI_Error_string(rc, text, &len) != MPI_SUCCESS)
+    return "MPI error " + std::to_string(rc);
+  int cls = rc;
+  MPI_Error_class(rc, &cls);
+  char cls_text[MPI_MAX_ERROR_STRING];
+  int cls_len = 0;
+  MPI_Error_string(cls, cls_text, &cls_len);
+  std::string out(text, std::size_t(len));
+  // The class's text names the kind ("MPI_ERR_TRUNCATE: message truncated" in Open MPI); keep it
+  // when it adds something.
+  if (cls != rc && cls_len > 0)
+    out = std::string(cls_text, std::size_t(cls_len)) + " (" + out + ")";
+  return out;
+}
+
+std::string_view to_string(MemorySpace s) {
+  return s == MemorySpace::Host ? "host" : "device";
+}
+
+std::string_view to_string(TransportKind k) {
+  switch (k) {
+  case TransportKind::Auto:
+    return "auto";
+  case TransportKind::Mpi:
+    return "mpi";
+  case TransportKind::Nccl:
+    return "nccl";
+  }
+  return "?";
+}
+
+TransportKind parse_transport_kind(std::string_view text) {
+  for (TransportKind k : {TransportKind::Auto, TransportKind::Mpi, TransportKind::Nccl})
+    if (text == to_string(k))
+      return k;
+  throw Error("unknown transport '" + std::string(text) + "': expected auto, mpi or nccl");
+}
+
+// ---- Transport ----------------------------------------------------------------------------------
+
+Transport::Transport(const MpiContext& ctx) : rank_(ctx.rank()), size_(ctx.size()) {
+  int rc = MPI_Comm_dup(ctx.comm(), &comm_);
+  if (rc != MPI_SUCCESS)
+    throw Error("transport: duplicating the communicator failed: " + mpi_error_string(rc));
+  rc = MPI_Comm_set_errhandler(comm_, MPI_ERRORS_RETURN);
+  if (rc != MPI_SUCCESS)
+    throw Error("transport: setting MPI_ERRORS_RETURN failed: " + mpi_error_string(rc));
+}
+
+Transport::~Transport() {
+  // A transport destroyed after MPI_Finalize (a static, say) has nothing left to free.
+  int finalized = 0;
+  MPI_Finalized(&finalized);
+  if (!finalized && comm_ != MPI_COMM_NULL)
+    MPI_Comm_free(&comm_);
+}
+
+void Transport::check_mpi(int rc, const std::string& what) const {
+  if (rc != MPI_SUCCESS)
+    throw Error(std::string(name()) + " transport: " + what + ": " + mpi_error_string(rc));
+}
+
+void Transport::start(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives) {
+  const std::string who = std::string(name()) + " transport on rank " + std::to_string(rank_);
+  if (in_flight_)
+    throw Error(who + ": start() while an exchange is in flight; call finish() first");
+  // Checked here, before anything is posted, so a bad list leaves nothing half-sent.
+  auto check = [&](const char* what, std::size_t i, int peer, const void* data, std::size_t bytes) {
+    if (peer < 0 || peer >= size_)
+      throw Error(who + ": " + what + " " + std::to_string(i) + " names rank " +
+                  std::to_string(peer) + ", but the job has ranks 0.." + std::to_string(size_ - 1));
+    if (data == nullptr && bytes > 0)
+      throw Error(who + ": " + what + " " + std::to_string(i) + " (rank " + std::to_string(peer) +
+                  ") has no buffer for " + std::to_string(bytes) + " bytes");
+  };
+  for (std::size_t i = 0; i < sends.size(); ++i)
+    check("send", i, sends[i].peer, sends[i].data, sends[i].bytes);
+  for (std::size_t i = 0; i < receives.size(); ++i)
+    check("receive", i, receives[i].peer, receives[i].data, receives[i].bytes);
+  do_start(sends, receives);
+  in_flight_ = true;
+}
+
+void Transport::finish() {
+  if (!in_flight_)
+    return;
+  // Idle again whatever happens: a failed exchange is over, not retried.
+  in_flight_ = false;
+  do_finish();
+}
+
+void Transport::finish_quietly() noexcept {
+  if (!in_flight_)
+    return;
+  in_flight_ = false;
+  try {
+    do_finish();
+  } catch (...) {
+  }
+}
+
+std::vector<std::uint64_t>
+Transport::exchange_sizes(std::span<const int> peers,
+                          std::span<const std::uint64_t> send_bytes) const {
+  const std::string who = "exchange_sizes on rank " + std::to_string(rank_);
+  if (peers.size() != send_bytes.size())
+    throw Error(who + ": " + std::to_string(peers.size()) + " peers but " +
+                std::to_string(send_bytes.size()) + " sizes");
+  std::vector<int> sorted(peers.begin(), peers.end());
+  std::sort(sorted.begin(), sorted.end());
+  for (std::size_t i = 0; i < sorted.size(); ++i) {
+    if (sorted[i] < 0 || sorted[i] >= size_)
+      throw Error(who + ": peer " + std::to_string(sorted[i]) + " is not a rank (0.." +
+                  std::to_string(size_ - 1) + ")");
+    // A repeated peer would make two sizes share one (source, tag): which one lands where would
+    // be up to the order of posting, so it is refused.
+    if (i > 0 && sorted[i] == sorted[i - 1])
+      throw Error(who + ": peer " + std::to_string(sorted[i]) + " is listed twice");
+  }
+  std::vector<std::uint64_t> recv(peers.size(), 0);
+  std::vector<MPI_Request> requests(2 * peers.size(), MPI_REQUEST_NULL);
+  for (std::size_t i = 0; i < peers.size(); ++i) {
+    const int rc = MPI_Irecv(&recv[i], 1, MPI_UINT64_T, peers[i], kSizesTag, comm_, &requests[i]);
+    if (rc != MPI_SUCCESS) {
+      MPI_Waitall(int(i), requests.data(), MPI_STATUSES_IGNORE);
+      throw Error(who + ": receiving the size from rank " + std::to_string(peers[i]) + ": " +
+                  mpi_error_string(rc));
+    }
+  }
+  for (std::size_t i = 0; i < peers.size(); ++i) {
+    const int rc = MPI_Isend(&send_bytes[i], 1, MPI_UINT64_T, peers[i], kSizesTag, comm_,
+                             &requests[peers.size() + i]);
+    if (rc != MPI_SUCCESS) {
+      MPI_Waitall(int(peers.size() + i), requests.data(), MPI_STATUSES_IGNORE);
+      throw Error(who + ": sending the size to rank " + std::to_string(peers[i]) + ": " +
+                  mpi_error_string(rc));
+    }
+  }
+  const int rc = MPI_Waitall(int(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
+  if (rc != MPI_SUCCESS)
+    throw Error(who + ": waiting for the sizes: " + mpi_error_string(rc));
+  return recv;
+}
+
+// ---- factory ------------------------------------------------------------------------------------
+
+namespace {
+
+/// Why NCCL cannot carry this job's device buffers ("" if it can), and the GPU this rank would
+/// use. Collective over ctx: every rank gets the same verdict.
+std::string nccl_unusable(const MpiContext& ctx, int& device) {
+  device = -1;
+#if defined(KF_WITH_CUDA)
+  // No early return before the collectives below: every rank must reach them.
+  int count = 0;
+  if (cudaGetDeviceCount(&count) != cudaSuccess) {
+    (void)cudaGetLastError(); // no driver or no GPU: "no device", not an error
+    count = 0;
+  }
+  // The PCI bus id names the physical GPU whatever CUDA_VISIBLE_DEVICES renumbers, and is what
+  // NCCL itself compares when it refuses two ranks on one device. Where every rank sees every
+  // device this is the same as "node-local ranks <= device count".
+  std::array<char, 32> bus{};
+  if (count > 0) {
+    device = ctx.local_rank() % count;
+    if (cudaDeviceGetPCIBusId(bus.data(), int(bus.size()), device) != cudaSuccess) {
+      (void)cudaGetLastError();
+      bus.fill(0);
+      count = 0;
+    }
+  }
+  MPI_Comm local;
+  MPI_Comm_split_type(ctx.comm(), MPI_COMM_TYPE_SHARED, ctx.rank(), MPI_INFO_NULL, &local);
+  int local_size = 1;
+  MPI_Comm_size(local, &local_size);
+  std::vector<char> all(bus.size() * std::size_t(local_size));
+  MPI_Allgather(bus.data(), int(bus.size()), MPI_CHAR, all.data(), int(bus.size()), MPI_CHAR,
+                local);
+  MPI_Comm_free(&local);
+  int sharing = 0;
+  for (int r = 0; r < local_size; ++r)
+    sharing += std::memcmp(all.data() + bus.size() * std::size_t(r), bus.data(), bus.size()) == 0;
+  const int bad = count == 0 || sharing > 1;
+  int bad_ranks = 0;
+  MPI_Allreduce(&bad, &bad_ranks, 1, MPI_INT, MPI_SUM, ctx.comm());
+  if (bad_ranks == 0)
+    return "";
+  std::string why = std::to_string(bad_ranks) + " of " + std::to_string(ctx.size()) +
+                    " ranks have no GPU of their own (NCCL refuses two ranks on one device)";
+  if (bad)
+    why += "; rank " + std::to_string(ctx.rank()) + " sees " + std::to_string(count) +
+           " device(s) for " + std::to_string(local_size) + " rank(s) on its node";
+  return why;
+#else
+  (void)ctx;
+  return "this build has no CUDA (configure with -DKF_ENABLE_CUDA=ON)";
+#endif
+}
+
+} // namespace
+
+std::unique_ptr<Transport> make_transport(const MpiContext& ctx, TransportKind kind,
+                                          MemorySpace data, [[maybe_unused]] CUstream_st* stream) {
+  if (kind == TransportKind::Mpi)
+    return std::make_unique<MpiTransport>(ctx);
+  // `data` and `kind` are the same on every rank (the job's settings), so every rank either
+  // enters the collective check or skips it.
+  int device = -1;
+  const std::string why = data == MemorySpace::Host
+                              ? "the data lives in host memory and NCCL moves device buffers"
+                              : nccl_unusable(ctx, device);
+  if (why.empty()) {
+#if defined(KF_WITH_CUDA)
+    return std::make_unique<NcclTransport>(ctx, device, stream);
+#endif
+  }
+  if (kind == TransportKind::Nccl)
+    throw Error("transport nccl cannot run here: " + why + "; choose auto or mpi");
+  return std::make_unique<MpiTransport>(ctx);
+}
+
+} // namespace kf::comm

@@ -1,0 +1,233 @@
+// Ghosts and migration over real ranks (mpiexec -n 2, and 3): every rank makes the same global
+// set of particles (seeded), keeps those its blocks own, and then
+// - every particle is owned by exactly one rank;
+// - the ghosts a rank receives are exactly the particles of other ranks within the ghost width of
+//   its region, by a brute-force distance to each of its blocks, with their values;
+// - after the particles move, migration keeps the count, the ids, the masses and every other
+//   column, and leaves each particle on the rank that owns its block;
+// - a skewed start (all particles in one corner of a partition made for a uniform load) is
+//   re-partitioned by the measured counts and migrated below the default threshold of 1.1.
+#include "comm/HaloExchange.hpp"
+#include "comm/MpiContext.hpp"
+#include "comm/Transport.hpp"
+#include "domain/Decomposition.hpp"
+#include "domain/GhostSelection.hpp"
+
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <algorithm>
+#include <cstring>
+#include <numeric>
+#include <random>
+
+using namespace kf;
+
+namespace {
+
+struct Particles {
+  std::vector<Vec3d> x;
+  std::vector<std::uint64_t> id;
+  std::vector<double> m;
+};
+
+Particles global_set(std::size_t n, const Vec3d& lo, const Vec3d& hi, std::uint32_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  Particles p;
+  for (std::size_t i = 0; i < n; ++i) {
+    p.x.push_back({lo.x + u(rng) * (hi.x - lo.x), lo.y + u(rng) * (hi.y - lo.y),
+                   lo.z + u(rng) * (hi.z - lo.z)});
+    p.id.push_back(1000 + 7 * i); // not 0..n-1: ids are labels, not indices
+    p.m.push_back(1.0 + 1e-3 * double(i % 97));
+  }
+  return p;
+}
+
+std::vector<std::array<double, kPhases>> counts_of(const BlockGrid& g,
+                                                   const std::vector<Vec3d>& x) {
+  std::vector<std::array<double, kPhases>> c(g.count(), {0, 0, 0});
+  for (const Vec3d& q : x)
+    c[g.block_of(q)][0] += 1;
+  return c;
+}
+
+Particles owned_part(const Particles& all, const Decomposition& d, int me) {
+  Particles p;
+  for (std::size_t i = 0; i < all.x.size(); ++i)
+    if (d.owner(all.x[i]) == me) {
+      p.x.push_back(all.x[i]);
+      p.id.push_back(all.id[i]);
+      p.m.push_back(all.m[i]);
+    }
+  return p;
+}
+
+std::vector<std::uint64_t> all_ids(const std::vector<std::uint64_t>& mine) {
+  int size = 0;
+  MPI_Comm_size(MPI_COMM_WORLD, &size);
+  int n = static_cast<int>(mine.size());
+  std::vector<int> counts(size), displs(size);
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  std::exclusive_scan(counts.begin(), counts.end(), displs.begin(), 0);
+  std::vector<std::uint64_t> out(std::accumulate(counts.begin(), counts.end(), std::size_t(0)));
+  MPI_Allgatherv(mine.data(), n, MPI_UINT64_T, out.data(), counts.data(), displs.data(),
+                 MPI_UINT64_T, MPI_COMM_WORLD);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+template <typename V>
+std::vector<unsigned char> bytes_of(const std::vector<V>& v) {
+  std::vector<unsigned char> b(v.size() * sizeof(V));
+  std::memcpy(b.data(), v.data(), b.size());
+  return b;
+}
+template <typename V>
+std::vector<V> from_bytes(const std::vector<unsigned char>& b) {
+  std::vector<V> v(b.size() / sizeof(V));
+  std::memcpy(v.data(), b.data(), b.size());
+  return v;
+}
+
+} // namespace
+
+class Halo : public ::testing::Test {
+protected:
+  comm::MpiContext mpi;
+  std::unique_ptr<comm::Transport> t =
+      comm::make_transport(mpi, comm::TransportKind::Mpi, comm::MemorySpace::Host);
+};
+
+TEST_F(Halo, GhostsAreExactlyTheParticlesWithinTheWidthOfTheRegion) {
+  const Vec3d lo{0, 0, 0}, hi{0.6, 0.3, 0.4};
+  const BlockGrid g(lo, hi, 0.05);
+  const Particles all = global_set(6000, lo, hi, 11);
+  const Decomposition d =
+      Decomposition::partition(g, counts_of(g, all.x), PhaseCosts{}, mpi.size(), 0.02);
+  const Particles mine = owned_part(all, d, mpi.rank());
+  // Owned once: the ids over all ranks are the global ids, each once.
+  EXPECT_EQ(all_ids(mine.id), std::vector<std::uint64_t>(all.id));
+  for (double width : {0.013, 0.05, 0.08}) {
+    const GhostLists gl = select_ghosts(d, mpi.rank(), mine.x, width);
+    comm::HaloExchange ex(*t, gl.peers, gl.send);
+    const std::size_t n = mine.x.size(), ng = ex.received();
+    std::vector<Vec3d> x(n + ng, Vec3d{std::nan(""), 0, 0});
+    std::vector<std::uint64_t> id(n + ng, ~0ull);
+    std::copy(mine.x.begin(), mine.x.end(), x.begin());
+    std::copy(mine.id.begin(), mine.id.end(), id.begin());
+    const comm::Column cols[] = {{x.data(), sizeof(Vec3d)}, {id.data(), sizeof(std::uint64_t)}};
+    ex.exchange(cols, n);
+    // The brute-force set: every particle of another rank within the width of this region.
+    std::vector<std::uint64_t> want;
+    for (std::size_t i = 0; i < all.x.size(); ++i)
+      if (d.owner(all.x[i]) != mpi.rank() && d.distance_to_region(all.x[i], mpi.rank()) < width)
+        want.push_back(all.id[i]);
+    std::sort(want.begin(), want.end());
+    std::vector<std::uint64_t> got(id.begin() + n, id.end());
+    std::sort(got.begin(), got.end());
+    EXPECT_EQ(got, want) << "rank " << mpi.rank() << ", width " << width;
+    EXPECT_GT(got.size(), 0u);
+    // And each ghost carries its particle's position, bit for bit.
+    for (std::size_t k = n; k < n + ng; ++k) {
+      const std::size_t i = (id[k] - 1000) / 7;
+      ASSERT_LT(i, all.x.size());
+      EXPECT_EQ(std::memcmp(&x[k], &all.x[i], sizeof(Vec3d)), 0) << "ghost " << id[k];
+    }
+    if (mpi.root())
+      std::printf("width %.3f: rank 0 owns %zu, receives %zu ghosts from %zu peer(s)\n", width, n,
+                  ng, gl.peers.size());
+  }
+}
+
+TEST_F(Halo, MigrationKeepsEveryParticleAndItsColumnsOnItsNewOwner) {
+  const Vec3d lo{0, 0, 0}, hi{0.6, 0.3, 0.4};
+  const BlockGrid g(lo, hi, 0.05);
+  const Particles all = global_set(5000, lo, hi, 12);
+  const Decomposition d =
+      Decomposition::partition(g, counts_of(g, all.x), PhaseCosts{}, mpi.size(), 0.02);
+  Particles mine = owned_part(all, d, mpi.rank());
+  double mass0 = 0;
+  for (double m : mine.m)
+    mass0 += m;
+  mass0 = mpi.sum(mass0);
+  // Everyone moves up to a block and a half in each direction (kept in the box).
+  std::mt19937_64 rng(99 + mpi.rank());
+  std::uniform_real_distribution<double> u(-0.075, 0.075);
+  for (Vec3d& q : mine.x)
+    q = {std::clamp(q.x + u(rng), 0.0, 0.6), std::clamp(q.y + u(rng), 0.0, 0.3),
+         std::clamp(q.z + u(rng), 0.0, 0.4)};
+  std::vector<int> dest(mine.x.size());
+  for (std::size_t i = 0; i < dest.size(); ++i)
+    dest[i] = d.owner(mine.x[i]);
+  // The moves reach at most two blocks: the peers of a 2-block reach.
+  const auto peers = neighbour_ranks(d, mpi.rank(), 2 * g.edge());
+  auto bx = bytes_of(mine.x);
+  auto bid = bytes_of(mine.id);
+  auto bm = bytes_of(mine.m);
+  const comm::ByteColumn cols[] = {{&bx, sizeof(Vec3d)}, {&bid, 8}, {&bm, 8}};
+  const std::size_t n = comm::migrate(*t, peers, dest, cols);
+  const auto x = from_bytes<Vec3d>(bx);
+  const auto id = from_bytes<std::uint64_t>(bid);
+  const auto m = from_bytes<double>(bm);
+  ASSERT_EQ(x.size(), n);
+  ASSERT_EQ(id.size(), n);
+  ASSERT_EQ(m.size(), n);
+  for (std::size_t i = 0; i < n; ++i) {
+    EXPECT_EQ(d.owner(x[i]), mpi.rank()) << "particle " << id[i] << " on the wrong rank";
+    const std::size_t k = (id[i] - 1000) / 7;
+    EXPECT_EQ(m[i], all.m[k]) << "particle " << id[i] << " lost its mass";
+  }
+  EXPECT_EQ(all_ids(id), std::vector<std::uint64_t>(all.id)) << "a particle was lost or doubled";
+  double mass = 0;
+  for (double v : m)
+    mass += v;
+  EXPECT_NEAR(mpi.sum(mass), mass0, 1e-12 * mass0);
+  const std::uint64_t moved = mpi.sum(std::uint64_t(
+      std::count_if(dest.begin(), dest.end(), [&](int r) { return r != mpi.rank(); })));
+  if (mpi.root())
+    std::printf("%llu particles changed rank\n", static_cast<unsigned long long>(moved));
+  EXPECT_GT(moved, 100u);
+}
+
+TEST_F(Halo, ASkewedStartIsRebalancedBelowTheThreshold) {
+  const Vec3d lo{0, 0, 0}, hi{1, 1, 1};
+  const BlockGrid g(lo, hi, 0.05);
+  // The partition was made for a uniform load; then all the particles sit in one corner.
+  const Particles uniform = global_set(8000, lo, hi, 13);
+  const Decomposition before =
+      Decomposition::partition(g, counts_of(g, uniform.x), PhaseCosts{}, mpi.size(), 0.02);
+  const Particles all = global_set(8000, lo, {0.3, 0.3, 0.3}, 14);
+  Particles mine = owned_part(all, before, mpi.rank());
+  auto local_counts = counts_of(g, mine.x);
+  std::vector<double> flat(g.count()), sum(g.count());
+  for (int b = 0; b < g.count(); ++b)
+    flat[b] = local_counts[b][0];
+  MPI_Allreduce(flat.data(), sum.data(), g.count(), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  std::vector<std::array<double, kPhases>> counts(g.count(), {0, 0, 0});
+  for (int b = 0; b < g.count(); ++b)
+    counts[b][0] = sum[b];
+  const double skew = Decomposition::imbalance(before.rank_costs(counts, PhaseCosts{}));
+  const Decomposition after = Decomposition::partition(g, counts, PhaseCosts{}, mpi.size(), 0.02);
+  std::vector<int> dest(mine.x.size());
+  for (std::size_t i = 0; i < dest.size(); ++i)
+    dest[i] = after.owner(mine.x[i]);
+  // After a re-partition a particle may go anywhere: every rank is a peer.
+  std::vector<int> peers;
+  for (int r = 0; r < mpi.size(); ++r)
+    if (r != mpi.rank())
+      peers.push_back(r);
+  auto bx = bytes_of(mine.x);
+  auto bid = bytes_of(mine.id);
+  const comm::ByteColumn cols[] = {{&bx, sizeof(Vec3d)}, {&bid, 8}};
+  const std::size_t n = comm::migrate(*t, peers, dest, cols);
+  std::vector<double> per(mpi.size(), 0.0);
+  per[mpi.rank()] = double(n);
+  MPI_Allreduce(MPI_IN_PLACE, per.data(), mpi.size(), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+  const double imb = Decomposition::imbalance(per);
+  if (mpi.root())
+    std::printf("imbalance %.3f before, %.3f after re-partition and migration\n", skew, imb);
+  EXPECT_GT(skew, 1.5) << "the start is not skewed: the test tests little";
+  EXPECT_LT(imb, 1.1);
+  EXPECT_EQ(all_ids(from_bytes<std::uint64_t>(bid)), std::vector<std::uint64_t>(all.id));
+}
