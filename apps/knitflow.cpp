@@ -67,10 +67,11 @@ std::string human_bytes(double b) {
 void print_partition(const kf::Scene& scene, const kf::PlanReport& plan, int ranks) {
   using kf::Phase;
   const kf::PartitionReport p = kf::plan_partition(scene, plan, ranks);
-  std::printf("ranks      %d: %d x %d x %d blocks of %.4g m (%d cells), imbalance %.3f (slowest rank's "
-              "cost over the mean)\n",
-              ranks, p.blocks[0], p.blocks[1], p.blocks[2], p.block_edge,
-              scene.parallel.block_cells, p.imbalance);
+  std::printf(
+      "ranks      %d: %d x %d x %d blocks of %.4g m (%d cells), imbalance %.3f (slowest rank's "
+      "cost over the mean)\n",
+      ranks, p.blocks[0], p.blocks[1], p.blocks[2], p.block_edge, scene.parallel.block_cells,
+      p.imbalance);
   std::printf("halo       ghost width fluid %.4g m, boundary %.4g m, knit %.4g m\n",
               p.widths.of(Phase::Fluid), p.widths.of(Phase::Boundary), p.widths.of(Phase::Knit));
   if (ranks == 1)

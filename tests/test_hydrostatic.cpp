@@ -151,7 +151,8 @@ TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
         std::max(max_profile_err, std::fabs(pm - rho0 * g * (z0 - z)) / (rho0 * g * H));
   for (std::size_t i = 0; i < n; ++i)
     if (x[3 * i + 2] < z0 - h) {
-      max_bulk_rho_err = std::max(max_bulk_rho_err, std::fabs(rho[i] - rho0) / rho0); // printed only
+      max_bulk_rho_err =
+          std::max(max_bulk_rho_err, std::fabs(rho[i] - rho0) / rho0); // printed only
       // The linear EOS compresses the column: rho = rho0 + rho0 g (z0 - z) / c^2 (0.61% at the
       // floor), so the density is judged against that, not against rho0.
       const double ref = rho0 + rho0 * g * (z0 - x[3 * i + 2]) / c2;

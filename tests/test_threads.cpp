@@ -73,21 +73,20 @@ TEST_P(Threads, TwoThreadsGiveTheSameStateAsOneBitForBit) {
   std::printf("%s: %d steps to t = %.5f s; %zu fields (%zu rows) identical with 1 and 2 threads\n",
               c.name, steps, one.time, fields, rows);
   // The pour is there for the coupling: it must have acted within the 200 steps.
-  if (s.has(Module::Contact))
+  if (s.has(Module::Contact)) {
     EXPECT_GT(run1.diag.coupling_contacts, 0u) << "the fluid never touched the knit";
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(
     Scenes, Threads,
-    ::testing::Values(ThreadCase{"dambreak", "dambreak.toml", {"fluid.spacing=0.02"}},
-                      ThreadCase{"drape",
-                                 "drape.toml",
-                                 {"knit.piece.0.wales=32", "knit.piece.0.courses=32"}},
-                      ThreadCase{"pour",
-                                 "pour.toml",
-                                 {"fluid.spacing=0.012", "knit.piece.0.wales=24",
-                                  "knit.piece.0.courses=24",
-                                  // the column's foot starts on the knit, so the coupling acts
-                                  "fluid.block.0.min=[-0.04, -0.04, 0.535]",
-                                  "fluid.block.0.max=[0.04, 0.04, 0.8]"}}),
+    ::testing::Values(
+        ThreadCase{"dambreak", "dambreak.toml", {"fluid.spacing=0.02"}},
+        ThreadCase{"drape", "drape.toml", {"knit.piece.0.wales=32", "knit.piece.0.courses=32"}},
+        ThreadCase{"pour",
+                   "pour.toml",
+                   {"fluid.spacing=0.012", "knit.piece.0.wales=24", "knit.piece.0.courses=24",
+                    // the column's foot starts on the knit, so the coupling acts
+                    "fluid.block.0.min=[-0.04, -0.04, 0.535]",
+                    "fluid.block.0.max=[0.04, 0.04, 0.8]"}}),
     [](const auto& info) { return std::string(info.param.name); });

@@ -62,7 +62,8 @@ double BlockGrid::distance(const Vec3d& x, int b) const {
     const double u = (&x.x)[d] - (&lo_.x)[d];
     // Edge blocks are open outward: points beyond the grid belong to them.
     const double a = c[d] == 0 ? -std::numeric_limits<double>::infinity() : c[d] * edge_;
-    const double z = c[d] == n_[d] - 1 ? std::numeric_limits<double>::infinity() : (c[d] + 1) * edge_;
+    const double z =
+        c[d] == n_[d] - 1 ? std::numeric_limits<double>::infinity() : (c[d] + 1) * edge_;
     const double out = u < a ? a - u : (u > z ? u - z : 0.0);
     d2 += out * out;
   }

@@ -83,6 +83,8 @@ void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh) {
   constexpr double kMaxCells = 4e6;
   const double cell = std::max(2.4 * radius, std::cbrt(ext.x * ext.y * ext.z / kMaxCells));
   self_.emplace(ex_.backend, NeighbourGrid<T>::cover(lo, hi, cell), p);
+  self_->set_masses_vary(scene_.has(Module::Capillary) &&
+                         scene_.capillary.model == Scene::AbsorptionModel::Conserving);
   self_->sync(ex_, set_); // allocates everything now, so plan's memory figure is the run's
   double m_min = 1e300;
   for (std::size_t i = 0; i < mesh.m.size(); ++i)

@@ -46,8 +46,8 @@ PartitionReport plan_partition(const Scene& scene, const std::array<std::vector<
   r.widths = widths;
   r.costs.knit_substeps = scene.knit.substeps;
   // Blocks of block_cells support radii (the knit's contact reach where there is no fluid).
-  const double cell = scene.has(Module::Fluid) ? scene.support_radius()
-                                               : std::max(widths.of(Phase::Knit), 1e-6);
+  const double cell =
+      scene.has(Module::Fluid) ? scene.support_radius() : std::max(widths.of(Phase::Knit), 1e-6);
   r.block_edge = scene.parallel.block_cells * cell;
   // The box the blocks cover: the domain, widened to every particle (knit may start outside it).
   Vec3d lo = scene.domain.min, hi = scene.domain.max;

@@ -6,8 +6,8 @@
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
 
-#include <csignal>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <memory>
 #include <ostream>

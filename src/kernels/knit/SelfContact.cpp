@@ -89,8 +89,9 @@ void KnitSelfContact<T>::begin_step(const exec::Exec& ex, KnitSet<T>& set, T mot
     gather_motion(ex, set);
     // The masses change between steps when the knit absorbs fluid (capillary.model =
     // "conserving"): the pairs take this step's, not those of the last sort (which a restart
-    // could not know).
-    exec::gather(ex, grid_.permutation(), set.m, m_, "knit.self.gather");
+    // could not know). Otherwise they are the sort's.
+    if (masses_vary_)
+      exec::gather(ex, grid_.permutation(), set.m, m_, "knit.self.gather");
   }
 }
 

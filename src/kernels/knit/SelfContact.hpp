@@ -30,6 +30,9 @@ public:
   /// counted in stale_steps()). Otherwise update() is sync(). The motion is read on the host
   /// only when the motion expected since the last reading could have used up the skin.
   void begin_step(const exec::Exec& ex, KnitSet<T>& set, T motion);
+  /// The points' masses change between steps (the knit absorbs fluid): each step then takes
+  /// them anew, not only at a sort.
+  void set_masses_vary(bool vary) { masses_vary_ = vary; }
   /// Call after the points moved, before add_forces.
   void update(const exec::Exec& ex, KnitSet<T>& set);
   /// Grid sorts so far (for the benchmark and the tests).
@@ -73,6 +76,7 @@ private:
   T cell_;
   std::uint32_t list_capacity_;
   bool host_checks_ = true;
+  bool masses_vary_ = false;
   std::uint64_t sorts_ = 0, stale_steps_ = 0;
 };
 
