@@ -72,14 +72,35 @@ void HaloExchange::finish() {
     const unsigned char* in = in_[k].data();
     const std::size_t n = recv_count_[k];
     for (const Column& c : pending_) {
-      auto* dst =
-          static_cast<unsigned char*>(c.data) + (pending_first_ + recv_offset_[k]) * c.elem_bytes;
-      if (n)
-        std::memcpy(dst, in, n * c.elem_bytes);
+      auto* base = static_cast<unsigned char*>(c.data);
+      if (recv_slot_.empty()) {
+        if (n)
+          std::memcpy(base + (pending_first_ + recv_offset_[k]) * c.elem_bytes, in,
+                      n * c.elem_bytes);
+      } else {
+        const std::uint32_t* slot = recv_slot_.data() + recv_offset_[k];
+        for (std::size_t j = 0; j < n; ++j)
+          std::memcpy(base + std::size_t(slot[j]) * c.elem_bytes, in + j * c.elem_bytes,
+                      c.elem_bytes);
+      }
       in += n * c.elem_bytes;
     }
   }
   pending_.clear();
+}
+
+void HaloExchange::remap(std::span<const std::uint32_t> new_of_old, std::size_t first_ghost) {
+  if (first_ghost + recv_total_ > new_of_old.size())
+    throw Error("halo exchange: a remap of " + std::to_string(new_of_old.size()) +
+                " elements for " + std::to_string(first_ghost) + " owned and " +
+                std::to_string(recv_total_) + " ghosts");
+  for (auto& list : send_)
+    for (std::uint32_t& i : list)
+      i = new_of_old[i];
+  std::vector<std::uint32_t> slots(recv_total_);
+  for (std::size_t k = 0; k < recv_total_; ++k)
+    slots[k] = recv_slot_.empty() ? new_of_old[first_ghost + k] : new_of_old[recv_slot_[k]];
+  recv_slot_ = std::move(slots);
 }
 
 std::size_t migrate(Transport& transport, std::span<const int> peers,

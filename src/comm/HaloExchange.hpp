@@ -47,12 +47,18 @@ public:
   /// Bytes sent by the last exchange (all peers).
   std::size_t last_bytes() const { return last_bytes_; }
 
+  /// After the arrays were reordered (new_of_old[i]: where element i went, over owned and
+  /// ghosts): the send lists follow their particles, and the ghosts, received at
+  /// first_ghost + k, are scattered to where they went from then on.
+  void remap(std::span<const std::uint32_t> new_of_old, std::size_t first_ghost);
+
 private:
   Transport& transport_;
   std::vector<int> peers_;
   std::vector<std::vector<std::uint32_t>> send_;
   std::vector<std::size_t> recv_count_, recv_offset_;
   std::size_t recv_total_ = 0;
+  std::vector<std::uint32_t> recv_slot_; // empty: contiguous from first_ghost
   std::vector<std::vector<unsigned char>> out_, in_;
   std::vector<Column> pending_;
   std::size_t pending_first_ = 0, row_bytes_ = 0, last_bytes_ = 0;

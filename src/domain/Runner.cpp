@@ -53,7 +53,7 @@ void inject(const RunOptions::Fault& f, int rank, std::uint64_t steps) {
 
 RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,
                      std::ostream& log) {
-  auto sim = Simulation::create(scene, opt.backend);
+  auto sim = Simulation::create(scene, opt.backend, &mpi);
   sim->set_profiling(opt.profile);
   std::uint64_t frame_index = 0;
   if (!opt.restart.empty()) {

@@ -2,6 +2,7 @@
 // A running scene: the particle sets the scene's modules need, the pipeline of stages, and the
 // adaptive time step. Precision is chosen at run time (SimulationT<float|double> behind this
 // interface); the backend too.
+#include "comm/MpiContext.hpp"
 #include "domain/Pipeline.hpp"
 #include "domain/Scene.hpp"
 #include "io/Frame.hpp"
@@ -76,7 +77,10 @@ public:
   virtual ~Simulation() = default;
 
   /// Builds the particle sets and the pipeline for the scene and evaluates the initial forces.
-  static std::unique_ptr<Simulation> create(const Scene& scene, exec::Backend backend);
+  /// With `mpi` of more than one rank the domain is split among its ranks (RankExchange): each
+  /// holds the particles it owns, and diagnostics() and frame() are collective.
+  static std::unique_ptr<Simulation> create(const Scene& scene, exec::Backend backend,
+                                            const comm::MpiContext* mpi = nullptr);
 
   /// Advances one step of the adaptive size, never past `t_limit`; returns the dt taken.
   virtual double step(double t_limit) = 0;

@@ -4,6 +4,7 @@
 #include "domain/KnitBuilder.hpp"
 #include "domain/KnitSystem.hpp"
 #include "domain/MeshObstacle.hpp"
+#include "domain/RankExchange.hpp"
 #include "domain/RigidShapes.hpp"
 #include "domain/Samplers.hpp"
 #include "domain/Simulation.hpp"
@@ -108,6 +109,23 @@ std::optional<typename SkinWatch<T>::State> get_watch(const io::Frame& fr, const
                                       static_cast<T>(*bound)};
 }
 
+/// Keeps the rows of every field of p whose mask entry is nonzero.
+void keep_rows(io::Phase& p, const std::vector<std::uint8_t>& mask) {
+  for (io::Field& f : p.fields) {
+    const std::size_t row = f.bytes.size() / std::max<std::size_t>(1, f.count);
+    std::vector<unsigned char> kept;
+    kept.reserve(f.bytes.size());
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < f.count; ++i)
+      if (mask[i]) {
+        kept.insert(kept.end(), f.bytes.begin() + i * row, f.bytes.begin() + (i + 1) * row);
+        ++n;
+      }
+    f.bytes = std::move(kept);
+    f.count = n;
+  }
+}
+
 /// out[k] = v[perm[k]]: a host copy put in a sort's order.
 template <typename U>
 std::vector<U> permuted(const std::vector<U>& v, const std::vector<std::uint32_t>& perm) {
@@ -136,7 +154,8 @@ CouplingLimits coupling_limits(const Scene& s, double k, double knit_min_mass) {
 template <typename T>
 class SimulationT final : public Simulation {
 public:
-  SimulationT(const Scene& scene, exec::Backend backend, bool plan_only = false);
+  SimulationT(const Scene& scene, exec::Backend backend, bool plan_only = false,
+              const comm::MpiContext* mpi = nullptr);
 
   double step(double t_limit) override;
   double time() const override { return time_; }
@@ -246,13 +265,16 @@ private:
     fluid_list_->settle(ex_);
     return fluid_list_->view();
   }
+  // The job's split in space (more than one rank): migration, ghosts and their refreshes.
+  std::optional<RankExchange<T>> ranks_;
   RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
   exec::DeviceBuffer<RigidShape<T>> shapes_;
   Pipeline pipeline_;
 };
 
 template <typename T>
-SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only)
+SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only,
+                            const comm::MpiContext* mpi)
     : scene_(scene), ex_{backend}, guard_count_(backend, 0, "boundary.guard_count"),
       sorted_outflow_mass_(backend, 0, "fluid.outflow"),
       boundary_near_(backend, 0, "boundary.near"), fluid_near_(backend, 0, "fluid.near"),
@@ -290,13 +312,18 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     return; // the stage list is all `plan` needs
   init_particles();
   update_shapes(0.0);
+  // On N ranks each keeps what it owns (every rank sampled the whole scene above).
+  if (mpi && mpi->size() > 1) {
+    ranks_.emplace(*mpi, scene_, backend);
+    ranks_->distribute(fluid_ ? &*fluid_ : nullptr, boundary_ ? &*boundary_ : nullptr);
+  }
   if (boundary_on_)
     sort_boundary();
   if (knit_on_)
     knit_->compute_forces();
   if (fluid_on_) {
     sort_fluid(false, {false}); // a: written next
-    compute_forces(); // a(t = 0), which the first half kick needs
+    compute_forces();           // a(t = 0), which the first half kick needs
   }
   if (coupling_on_)
     begin_coupling(); // saturation at t = 0, for snapshots and diagnostics before a step
@@ -617,7 +644,19 @@ void SimulationT<T>::update_shapes(double t) {
 template <typename T>
 void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry carry) {
   ++fluid_sorts_;
-  if (remove_outflow) {
+  if (ranks_) {
+    // Migration and the ghosts first, then the same sort over owned and ghost particles.
+    const auto& d = scene_.domain;
+    std::array<bool, 6> walls = d.walls;
+    if (!remove_outflow)
+      walls.fill(true);
+    const auto gone = ranks_->rebuild(*fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max), walls);
+    outflow_particles_ += gone.particles;
+    outflow_mass_ += gone.mass;
+    fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
+    fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
+    ranks_->fluid_sorted(fluid_grid_->permutation().to_host());
+  } else if (remove_outflow) {
     const auto& d = scene_.domain;
     outflow_particles_ +=
         sort_removing_outside(ex_, *fluid_grid_, *fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max),
@@ -655,6 +694,8 @@ template <typename T>
 void SimulationT<T>::sort_boundary() {
   boundary_grid_->build(ex_, boundary_->x.data(), boundary_->size());
   boundary_->reorder(ex_, boundary_grid_->permutation());
+  if (ranks_)
+    ranks_->boundary_sorted(boundary_grid_->permutation().to_host());
   boundary_grid_->occupied_around(ex_, boundary_near_);
   if (fluid_list_) // the walls' lists follow the boundary's order: built again with the fluid's
     fluid_list_->forget_walls();
@@ -681,15 +722,21 @@ template <typename T>
 void SimulationT<T>::fluid_density(T dt) {
   if (continuity())
     sph_density_predict(ex_, sph_, fluid_->view(), dt);
-  else
+  else {
     sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
                 fluid_list_view());
+    // An outer ghost lacks neighbours past the halo: its owner's density replaces it.
+    if (ranks_)
+      ranks_->refresh_density(*fluid_);
+  }
 }
 
 template <typename T>
 void SimulationT<T>::fluid_forces(T dt) {
   sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
              fluid_list_view(), dt);
+  if (ranks_) // their work is done: between steps a rank holds only the fluid it owns
+    ranks_->drop_ghosts(ex_, *fluid_);
 }
 
 template <typename T>
@@ -703,11 +750,12 @@ void SimulationT<T>::compute_forces() {
 
 template <typename T>
 void SimulationT<T>::extrapolate_boundary_pressure() {
-  if (boundary_->size() == 0)
-    return;
-  boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
-                    shapes_.data(), fluid_near_.data(),
-                    fluid_list_ ? fluid_list_->walls() : ListView<T>{});
+  if (boundary_->size() > 0)
+    boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
+                      shapes_.data(), fluid_near_.data(),
+                      fluid_list_ ? fluid_list_->walls() : ListView<T>{});
+  if (ranks_) // collective over the peers, so also where this rank holds no boundary
+    ranks_->refresh_boundary(*boundary_);
 }
 
 template <typename T>
@@ -728,6 +776,14 @@ double SimulationT<T>::stable_dt() {
     mb = bounds_.to_host()[1];
   } else {
     mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
+  }
+  if (ranks_) { // one dt for the job: the largest speed and acceleration of all ranks
+    if (!(std::isfinite(double(mb.v2)) && std::isfinite(double(mb.a2))))
+      report_instability("a fluid velocity or acceleration is not finite");
+    double both[2] = {double(mb.v2), double(mb.a2)};
+    MPI_Allreduce(MPI_IN_PLACE, both, 2, MPI_DOUBLE, MPI_MAX, ranks_->mpi().comm());
+    mb.v2 = static_cast<T>(both[0]);
+    mb.a2 = static_cast<T>(both[1]);
   }
   fluid_bounds_ = mb;
   if (!(std::isfinite(double(mb.v2)) && std::isfinite(double(mb.a2))))
@@ -756,7 +812,7 @@ bool SimulationT<T>::plans_step_on_device() const {
   // The drift must be the step's first stage (no knit or coupling stages before it, which take
   // dt on the host), its bounds on the device already, and no damping (keep depends on dt).
   const auto& s = scene_.solver;
-  return fluid_on_ && !knit_on_ && !coupling_on_ && fluid_bounds_ready_ &&
+  return fluid_on_ && !knit_on_ && !coupling_on_ && fluid_bounds_ready_ && !ranks_ &&
          !(s.damping > 0 && time_ < s.damping_until);
 }
 
@@ -844,9 +900,11 @@ io::Frame SimulationT<T>::frame() const {
   fr.step = steps_;
   fr.scene_text = scene_.text;
   fr.precision = std::string(to_string(scene_.precision));
-  fr.scalars.push_back({"guard_corrections", static_cast<double>(guard_corrections())});
-  fr.scalars.push_back({"outflow_particles", static_cast<double>(outflow_particles_)});
-  fr.scalars.push_back({"outflow_mass", outflow_mass()});
+  // On N ranks the counters are the job's (each rank counts its own particles).
+  const auto job = [this](double v) { return ranks_ ? ranks_->mpi().sum(v) : v; };
+  fr.scalars.push_back({"guard_corrections", job(static_cast<double>(guard_corrections()))});
+  fr.scalars.push_back({"outflow_particles", job(static_cast<double>(outflow_particles_))});
+  fr.scalars.push_back({"outflow_mass", job(outflow_mass())});
   fr.scalars.push_back({"next_fluid_id", static_cast<double>(next_fluid_id_)});
   if (fluid_on_) {
     io::Phase p{"fluid", {}};
@@ -862,6 +920,9 @@ io::Frame SimulationT<T>::frame() const {
       p.fields.push_back(io::Field::from("density_rate_previous", fluid_->drho_prev.to_host(), 1));
     }
     p.fields.push_back(io::Field::from("id", fluid_->id.to_host(), 1));
+    if (ranks_) // which rank owns each particle (ParaView colours by it)
+      p.fields.push_back(io::Field::from(
+          "rank", std::vector<std::uint32_t>(fluid_->size(), std::uint32_t(ranks_->rank())), 1));
     // "verlet" lists: the positions they were built for and the rule's bounds since, so that a
     // restart lists and sorts the fluid when this run does (restore_fluid_grid).
     if (fluid_list_ && skin_ > 0) {
@@ -882,6 +943,11 @@ io::Frame SimulationT<T>::frame() const {
     p.fields.push_back(io::Field::from("pressure", boundary_->p.to_host(), 1));
     p.fields.push_back(io::Field::from("obstacle", boundary_->obstacle.to_host(), 1));
     p.fields.push_back(io::Field::from("id", boundary_->id.to_host(), 1));
+    if (ranks_) { // the ghosts are their owners' to write
+      keep_rows(p, ranks_->boundary_owned());
+      p.fields.push_back(io::Field::from(
+          "rank", std::vector<std::uint32_t>(p.fields[0].count, std::uint32_t(ranks_->rank())), 1));
+    }
     fr.phases.push_back(std::move(p));
   }
   if (knit_on_) {
@@ -918,6 +984,9 @@ io::Frame SimulationT<T>::frame() const {
 
 template <typename T>
 void SimulationT<T>::restore(const io::Frame& fr) {
+  if (ranks_)
+    throw Error("restart on " + std::to_string(ranks_->ranks()) +
+                " ranks: not yet (a later stage of P5); restart on one rank");
   fluid_bounds_ready_ = false;
   if (fr.precision != to_string(scene_.precision))
     throw Error("restart: the snapshot holds " + fr.precision + " data but the scene asks for " +
@@ -1115,6 +1184,24 @@ Diagnostics SimulationT<T>::diagnostics() const {
       solids_.empty() ? std::numeric_limits<double>::infinity()
                       : static_cast<double>(min_rigid_distance(
                             ex_, fluid_->x.data(), fluid_->size(), shapes_.data(), shapes_.size()));
+  if (ranks_) { // the job's figures: each rank holds its owned fluid between steps
+    const comm::MpiContext& mpi = ranks_->mpi();
+    if (boundary_on_) {
+      const auto& own = ranks_->boundary_owned();
+      d.boundary = mpi.sum(std::uint64_t(std::count(own.begin(), own.end(), 1)));
+    }
+    const std::uint64_t local = d.fluid;
+    d.fluid = mpi.sum(local);
+    d.kinetic_energy = mpi.sum(d.kinetic_energy);
+    d.fluid_mass = mpi.sum(d.fluid_mass);
+    d.max_speed = mpi.max(d.max_speed);
+    d.max_density_error = mpi.max(v.empty() ? -1e300 : d.max_density_error);
+    d.mean_density_error = d.fluid ? mpi.sum(sum_err) / double(d.fluid) : 0.0;
+    d.min_rigid_distance = mpi.min(d.min_rigid_distance);
+    d.guard_corrections = mpi.sum(d.guard_corrections);
+    d.outflow_particles = mpi.sum(d.outflow_particles);
+    d.outflow_mass = mpi.sum(d.outflow_mass);
+  }
   return d;
 }
 
@@ -1234,13 +1321,14 @@ PlanReport Simulation::plan(const Scene& scene) {
   return r;
 }
 
-std::unique_ptr<Simulation> Simulation::create(const Scene& scene, exec::Backend backend) {
+std::unique_ptr<Simulation> Simulation::create(const Scene& scene, exec::Backend backend,
+                                               const comm::MpiContext* mpi) {
   if (backend == exec::Backend::Cuda && !exec::cuda_available())
     throw Error(exec::cuda_compiled() ? "--device cuda: no CUDA device is visible"
                                       : "--device cuda: this knitflow was built without CUDA");
   if (scene.precision == Precision::Double)
-    return std::make_unique<SimulationT<double>>(scene, backend);
-  return std::make_unique<SimulationT<float>>(scene, backend);
+    return std::make_unique<SimulationT<double>>(scene, backend, false, mpi);
+  return std::make_unique<SimulationT<float>>(scene, backend, false, mpi);
 }
 
 } // namespace kf

@@ -1,0 +1,75 @@
+#pragma once
+// The fluid and boundary particles of one rank of a job split in space (DESIGN §6; the plan in
+// docs/ARCHITECTURE.md, "The step on N ranks"). Between steps a rank holds only the fluid it
+// owns; at each sort (rebuild) the fluid that left its blocks migrates to their owners and the
+// ghosts within the support of its region are received and appended, to be dropped again after
+// the forces pass. The boundary is static: owned particles plus ghosts received once. Ghost
+// values that a pass computes from neighbours a ghost lacks (summation density, wall pressure)
+// are refreshed from their owners. Host memory: the CPU backend.
+#include "comm/HaloExchange.hpp"
+#include "comm/MpiContext.hpp"
+#include "comm/Transport.hpp"
+#include "domain/Decomposition.hpp"
+#include "domain/Scene.hpp"
+#include "kernels/particles/FluidSet.hpp"
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+namespace kf {
+
+template <typename T>
+class RankExchange {
+public:
+  /// Refuses (kf::Error) what the split does not carry yet: the knit, moving solids, "verlet"
+  /// lists, the GPU backend.
+  RankExchange(const comm::MpiContext& mpi, const Scene& scene, exec::Backend backend);
+
+  int rank() const { return mpi_.rank(); }
+  int ranks() const { return mpi_.size(); }
+  const Decomposition& decomposition() const { return *decomposition_; }
+  const comm::MpiContext& mpi() const { return mpi_; }
+
+  /// At the start, every rank holding the whole scene: partitions by its particles' costs, keeps
+  /// the fluid this rank owns, and the boundary it owns plus, received from their owners, the
+  /// boundary ghosts (sort the boundary after, then boundary_sorted()).
+  void distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary);
+  void boundary_sorted(const std::vector<std::uint32_t>& perm);
+
+  struct Removed {
+    std::uint64_t particles = 0;
+    double mass = 0;
+  };
+  /// Before the fluid's sort: the owned fluid outside [lo, hi] on an open side is removed
+  /// (counted), the rest migrates to its owners, and the ghosts are received and appended.
+  Removed rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& hi,
+                  const std::array<bool, 6>& walls);
+  /// After the fluid's sort (perm[k]: where the particle now at k was).
+  void fluid_sorted(const std::vector<std::uint32_t>& perm);
+  /// Ghosts' rho, P and the packed copies the density pass writes (vp, vol), from their owners.
+  void refresh_density(FluidSet<T>& fluid);
+  /// Boundary ghosts' pressure and its packed copies (vp, inv_rho), from their owners.
+  void refresh_boundary(BoundarySet<T>& boundary);
+  /// After the forces pass: only the owned fluid stays.
+  void drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid);
+
+  /// Boundary particles this rank owns (1) and holds as ghosts (0), in the set's order.
+  const std::vector<std::uint8_t>& boundary_owned() const { return boundary_owned_; }
+  /// Ghost count and bytes moved by the last rebuild's and refreshes' exchanges (progress).
+  std::size_t fluid_ghosts() const { return fluid_halo_ ? fluid_halo_->received() : 0; }
+
+private:
+  const comm::MpiContext& mpi_;
+  Scene scene_;
+  std::unique_ptr<comm::Transport> transport_;
+  std::optional<Decomposition> decomposition_;
+  double fluid_width_ = 0, boundary_width_ = 0;
+  std::vector<int> migration_peers_;
+  std::optional<comm::HaloExchange> fluid_halo_, boundary_halo_;
+  std::size_t fluid_owned_ = 0, boundary_own_count_ = 0;
+  std::vector<std::uint8_t> fluid_owned_flag_, boundary_owned_;
+};
+
+} // namespace kf
