@@ -74,8 +74,7 @@ int main(int argc, char** argv) {
         for (int j = 0; j < ny; ++j)
           for (int i = 0; i < nx; ++i)
             counts[g.block_of(at(i, j, k))][0] += 1;
-      const Decomposition d =
-          Decomposition::partition(g, counts, PhaseCosts{}, mpi.size(), width);
+      const Decomposition d = Decomposition::partition(g, counts, PhaseCosts{}, mpi.size(), width);
       std::vector<Vec3d> x;
       for (int k = 0; k < nz; ++k)
         for (int j = 0; j < ny; ++j)
@@ -86,8 +85,11 @@ int main(int argc, char** argv) {
       mpi.barrier();
       const auto t0 = Clock::now();
       const GhostLists gl = select_ghosts(d, mpi.rank(), x, width);
+      const double chosen_s = seconds_since(t0);
       comm::HaloExchange halo(*transport, gl.peers, gl.send);
       const double select_s = mpi.max(seconds_since(t0));
+      if (mpi.root())
+        std::fprintf(stderr, "rank 0: ghosts chosen in %.3f ms\n", 1e3 * chosen_s);
       // The columns a step refreshes, in float: x, v (12 B each), rho, P (4 B each).
       const std::size_t n = x.size(), ng = halo.received();
       std::vector<Vec3<float>> xf(n + ng), vf(n + ng);

@@ -104,55 +104,100 @@ void HaloExchange::remap(std::span<const std::uint32_t> new_of_old, std::size_t 
 }
 
 std::size_t migrate(Transport& transport, std::span<const int> peers,
-                    std::span<const int> destination, std::span<const ByteColumn> columns) {
+                    std::span<const int> destination, std::span<MigrationColumn> columns) {
   const std::size_t n = destination.size();
   const int me = transport.rank();
-  for (const ByteColumn& c : columns)
-    if (c.bytes->size() != n * c.elem_bytes)
-      throw Error("migration: a column holds " + std::to_string(c.bytes->size()) +
-                  " bytes, expected " + std::to_string(n) + " x " + std::to_string(c.elem_bytes));
   std::vector<std::vector<std::uint32_t>> leaving(peers.size());
-  std::vector<std::uint32_t> staying;
-  staying.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     const int d = destination[i];
-    if (d == me) {
-      staying.push_back(static_cast<std::uint32_t>(i));
+    if (d == me || d < 0)
       continue;
-    }
     const auto it = std::find(peers.begin(), peers.end(), d);
     if (it == peers.end())
       throw Error("migration: particle " + std::to_string(i) + " goes to rank " +
                   std::to_string(d) + ", which is not a neighbour of rank " + std::to_string(me));
     leaving[it - peers.begin()].push_back(static_cast<std::uint32_t>(i));
   }
-  HaloExchange ex(transport, std::vector<int>(peers.begin(), peers.end()), leaving);
-  // The leavers' values, into a staging copy of each column grown by what arrives.
-  std::vector<std::vector<unsigned char>> grown(columns.size());
-  std::vector<Column> cols(columns.size());
-  const std::size_t total = staying.size() + ex.received();
+  std::size_t row = 0;
+  std::vector<unsigned char*> data(columns.size());
   for (std::size_t c = 0; c < columns.size(); ++c) {
-    const std::size_t e = columns[c].elem_bytes;
-    grown[c].resize((n + ex.received()) * e);
-    std::memcpy(grown[c].data(), columns[c].bytes->data(), n * e);
-    cols[c] = {grown[c].data(), e};
+    row += columns[c].elem_bytes;
+    data[c] = columns[c].resize(n); // the current data (the size does not change)
   }
-  // The arrivals land past the n particles of the staging copy (the leavers are read from it);
-  // then the ones that stay are compacted into the column and the arrivals follow them.
-  ex.exchange(cols, n);
-  for (std::size_t c = 0; c < columns.size(); ++c) {
-    const std::size_t e = columns[c].elem_bytes;
-    auto& dst = *columns[c].bytes;
-    dst.resize(total * e);
-    unsigned char* o = dst.data();
-    for (std::uint32_t i : staying) {
-      std::memcpy(o, grown[c].data() + std::size_t(i) * e, e);
-      o += e;
+  // The leavers, packed column-major per peer.
+  std::vector<std::uint64_t> counts(peers.size());
+  std::vector<std::vector<unsigned char>> out(peers.size());
+  for (std::size_t k = 0; k < peers.size(); ++k) {
+    counts[k] = leaving[k].size();
+    out[k].resize(leaving[k].size() * row);
+    unsigned char* o = out[k].data();
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      const std::size_t e = columns[c].elem_bytes;
+      for (std::uint32_t i : leaving[k]) {
+        std::memcpy(o, data[c] + std::size_t(i) * e, e);
+        o += e;
+      }
     }
-    if (ex.received())
-      std::memcpy(o, grown[c].data() + n * e, ex.received() * e);
+  }
+  const auto arriving = transport.exchange_sizes(peers, counts);
+  std::vector<std::vector<unsigned char>> in(peers.size());
+  std::vector<SendBuffer> sends(peers.size());
+  std::vector<RecvBuffer> recvs(peers.size());
+  std::size_t arrivals = 0;
+  for (std::size_t k = 0; k < peers.size(); ++k) {
+    in[k].resize(arriving[k] * row);
+    sends[k] = {peers[k], out[k].data(), out[k].size()};
+    recvs[k] = {peers[k], in[k].data(), in[k].size()};
+    arrivals += arriving[k];
+  }
+  transport.start(sends, recvs);
+  // Meanwhile the particles that stay close up, in order (k <= i: forward moves only).
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (destination[i] != me)
+      continue;
+    if (kept != i)
+      for (std::size_t c = 0; c < columns.size(); ++c) {
+        const std::size_t e = columns[c].elem_bytes;
+        std::memcpy(data[c] + kept * e, data[c] + i * e, e);
+      }
+    ++kept;
+  }
+  transport.finish();
+  const std::size_t total = kept + arrivals;
+  for (std::size_t c = 0; c < columns.size(); ++c)
+    data[c] = columns[c].resize(total);
+  std::size_t at = kept;
+  for (std::size_t k = 0; k < peers.size(); ++k) {
+    const unsigned char* src = in[k].data();
+    const std::size_t m = arriving[k];
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      const std::size_t e = columns[c].elem_bytes;
+      if (m)
+        std::memcpy(data[c] + at * e, src, m * e);
+      src += m * e;
+    }
+    at += m;
   }
   return total;
+}
+
+std::size_t migrate(Transport& transport, std::span<const int> peers,
+                    std::span<const int> destination, std::span<const ByteColumn> columns) {
+  std::vector<MigrationColumn> cols;
+  for (const ByteColumn& c : columns) {
+    if (c.bytes->size() != destination.size() * c.elem_bytes)
+      throw Error("migration: a column holds " + std::to_string(c.bytes->size()) +
+                  " bytes, expected " + std::to_string(destination.size()) + " x " +
+                  std::to_string(c.elem_bytes));
+    auto* v = c.bytes;
+    const std::size_t e = c.elem_bytes;
+    cols.push_back({e, [v, e](std::size_t n) {
+                      v->resize(n * e);
+                      return v->data();
+                    }});
+  }
+  return migrate(transport, peers, destination, cols);
 }
 
 } // namespace kf::comm

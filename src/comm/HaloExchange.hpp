@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -64,11 +65,23 @@ private:
   std::size_t pending_first_ = 0, row_bytes_ = 0, last_bytes_ = 0;
 };
 
+/// A column of the particles' state that migration can resize in place: `resize(n)` makes it
+/// n elements, keeping the first min(old, n), and returns its data.
+struct MigrationColumn {
+  std::size_t elem_bytes = 0;
+  std::function<unsigned char*(std::size_t)> resize;
+};
+
 /// Moves particles to the ranks that now own them (DESIGN §6: at a rebuild, with every field).
-/// `columns` are the whole state, one byte vector per column with its element size;
-/// `destination[i]` is particle i's new rank (this rank: it stays). Particles that stay keep
-/// their order; those received follow, by sending rank, in the sender's order. `peers` as for
-/// HaloExchange (every rank a particle may go to or come from). Returns the new count.
+/// `destination[i]` is particle i's new rank (this rank: it stays; -1: it is dropped, e.g. it
+/// left the domain). Only the leavers are packed; the particles that stay are compacted in place
+/// (keeping their order) while the messages are in flight, and the arrivals follow them, by
+/// sending rank, in the sender's order. `peers` as for HaloExchange (every rank a particle may go
+/// to or come from). Returns the new count.
+std::size_t migrate(Transport& transport, std::span<const int> peers,
+                    std::span<const int> destination, std::span<MigrationColumn> columns);
+
+/// The same over byte vectors (tests, host staging).
 struct ByteColumn {
   std::vector<unsigned char>* bytes = nullptr;
   std::size_t elem_bytes = 0;

@@ -174,12 +174,22 @@ void Decomposition::ghost_ranks(const Vec3d& x, double width, std::vector<int>& 
   out.clear();
   if (ranks_ == 1)
     return;
-  const int own = owner(x);
   const auto c = grid_.coords_of(x);
+  // Along each axis only the blocks the width reaches from x: most points touch no other block,
+  // a point near a face one, near an edge three (this is the hot loop of a rebuild).
+  int lo[3], hi[3];
   const int r = grid_.reach(width);
-  for (int k = std::max(0, c[2] - r); k <= std::min(grid_.nz() - 1, c[2] + r); ++k)
-    for (int j = std::max(0, c[1] - r); j <= std::min(grid_.ny() - 1, c[1] + r); ++j)
-      for (int i = std::max(0, c[0] - r); i <= std::min(grid_.nx() - 1, c[0] + r); ++i) {
+  for (int d = 0; d < 3; ++d) {
+    const double u = (&x.x)[d] - (&grid_.origin().x)[d] - c[d] * grid_.edge();
+    lo[d] = std::max(0, c[d] - (u < width ? r : 0));
+    hi[d] = std::min(grid_.dim(d) - 1, c[d] + (grid_.edge() - u < width ? r : 0));
+  }
+  if (lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2])
+    return;
+  const int own = owner_[grid_.index(c[0], c[1], c[2])];
+  for (int k = lo[2]; k <= hi[2]; ++k)
+    for (int j = lo[1]; j <= hi[1]; ++j)
+      for (int i = lo[0]; i <= hi[0]; ++i) {
         const int b = grid_.index(i, j, k);
         const int o = owner_[b];
         if (o == own || std::find(out.begin(), out.end(), o) != out.end())

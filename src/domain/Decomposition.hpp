@@ -41,6 +41,7 @@ public:
   int nx() const { return n_[0]; }
   int ny() const { return n_[1]; }
   int nz() const { return n_[2]; }
+  int dim(int d) const { return n_[d]; }
   int count() const { return n_[0] * n_[1] * n_[2]; }
   double edge() const { return edge_; }
   const Vec3d& origin() const { return lo_; }

@@ -44,6 +44,15 @@ comm::Column column(exec::DeviceBuffer<U>& b) {
   return {b.data(), sizeof(U)};
 }
 
+/// A buffer migration resizes in place (host memory: the CPU backend).
+template <typename U>
+comm::MigrationColumn resizable(exec::DeviceBuffer<U>& b) {
+  return {sizeof(U), [&b](std::size_t k) {
+            b.resize(k);
+            return reinterpret_cast<unsigned char*>(b.data());
+          }};
+}
+
 std::vector<std::uint32_t> inverse(const std::vector<std::uint32_t>& perm) {
   std::vector<std::uint32_t> inv(perm.size());
   for (std::size_t k = 0; k < perm.size(); ++k)
@@ -177,11 +186,12 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
                                                            const std::array<bool, 6>& walls) {
   const int me = rank();
   const std::size_t n = fluid.size();
-  auto x = fluid.x.to_host();
+  // The CPU backend's buffers are host memory: everything below works in place.
+  const Vec3<T>* x = fluid.x.data();
+  const T* m = fluid.m.data();
   // Fluid past an open side leaves the job (the single-rank sort removes it the same way).
   Removed gone;
   std::vector<int> dest(n);
-  const auto m_host = fluid.m.to_host();
   for (std::size_t i = 0; i < n; ++i) {
     bool out = false;
     for (int d = 0; d < 3; ++d) {
@@ -191,60 +201,28 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
     if (out) {
       dest[i] = -1;
       ++gone.particles;
-      gone.mass += double(m_host[i]);
+      gone.mass += double(m[i]);
     } else {
       dest[i] = decomposition_->owner(vec_cast<double>(x[i]));
     }
   }
-  // The removed are kept out by sending them nowhere: compact first.
-  std::vector<std::uint32_t> kept;
-  for (std::size_t i = 0; i < n; ++i)
-    if (dest[i] >= 0)
-      kept.push_back(static_cast<std::uint32_t>(i));
-  std::vector<int> kept_dest(kept.size());
-  for (std::size_t k = 0; k < kept.size(); ++k)
-    kept_dest[k] = dest[kept[k]];
-  std::vector<unsigned char> bx = to_bytes(pick(x, kept)),
-                             bv = to_bytes(pick(fluid.v.to_host(), kept)),
-                             bm = to_bytes(pick(m_host, kept)),
-                             brho = to_bytes(pick(fluid.rho.to_host(), kept)),
-                             bp = to_bytes(pick(fluid.p.to_host(), kept)),
-                             bd = to_bytes(pick(fluid.drho.to_host(), kept)),
-                             bdp = to_bytes(pick(fluid.drho_prev.to_host(), kept)),
-                             bid = to_bytes(pick(fluid.id.to_host(), kept));
-  const comm::ByteColumn state[] = {{&bx, sizeof(Vec3<T>)}, {&bv, sizeof(Vec3<T>)},
-                                    {&bm, sizeof(T)},       {&brho, sizeof(T)},
-                                    {&bp, sizeof(T)},       {&bd, sizeof(T)},
-                                    {&bdp, sizeof(T)},      {&bid, sizeof(std::uint64_t)}};
-  const std::size_t owned = comm::migrate(*transport_, migration_peers_, kept_dest, state);
-  auto ox = from_bytes<Vec3<T>>(bx), ov = from_bytes<Vec3<T>>(bv);
-  auto om = from_bytes<T>(bm), orho = from_bytes<T>(brho), op = from_bytes<T>(bp);
-  auto od = from_bytes<T>(bd), odp = from_bytes<T>(bdp);
-  auto oid = from_bytes<std::uint64_t>(bid);
+  // Every state column the steps to come read (a: the forces pass writes it before its use).
+  comm::MigrationColumn state[] = {
+      resizable(fluid.x), resizable(fluid.v),    resizable(fluid.m),         resizable(fluid.rho),
+      resizable(fluid.p), resizable(fluid.drho), resizable(fluid.drho_prev), resizable(fluid.id)};
+  const std::size_t owned = comm::migrate(*transport_, migration_peers_, dest, state);
   // The ghosts: every owned particle within the support of another rank's region goes there.
   std::vector<Vec3d> xd(owned);
   for (std::size_t i = 0; i < owned; ++i)
-    xd[i] = vec_cast<double>(ox[i]);
+    xd[i] = vec_cast<double>(fluid.x.data()[i]);
   const GhostLists gl = select_ghosts(*decomposition_, me, xd, fluid_width_);
   fluid_halo_.emplace(*transport_, gl.peers, gl.send);
   const std::size_t total = owned + fluid_halo_->received();
-  ox.resize(total);
-  ov.resize(total);
-  for (auto* v : {&om, &orho, &op, &od, &odp})
-    v->resize(total);
-  oid.resize(total);
-  const comm::Column cols[] = {column(ox), column(ov), column(om),  column(orho),
-                               column(op), column(od), column(odp), column(oid)};
-  fluid_halo_->exchange(cols, owned);
   fluid.resize(total);
-  fluid.x.assign(ox);
-  fluid.v.assign(ov);
-  fluid.m.assign(om);
-  fluid.rho.assign(orho);
-  fluid.p.assign(op);
-  fluid.drho.assign(od);
-  fluid.drho_prev.assign(odp);
-  fluid.id.assign(oid);
+  const comm::Column cols[] = {column(fluid.x),         column(fluid.v), column(fluid.m),
+                               column(fluid.rho),       column(fluid.p), column(fluid.drho),
+                               column(fluid.drho_prev), column(fluid.id)};
+  fluid_halo_->exchange(cols, owned);
   fluid_owned_ = owned;
   fluid_owned_flag_.assign(total, 0);
   std::fill(fluid_owned_flag_.begin(), fluid_owned_flag_.begin() + owned, 1);
