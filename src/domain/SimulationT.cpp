@@ -984,10 +984,10 @@ io::Frame SimulationT<T>::frame() const {
 
 template <typename T>
 void SimulationT<T>::restore(const io::Frame& fr) {
-  if (ranks_)
-    throw Error("restart on " + std::to_string(ranks_->ranks()) +
-                " ranks: not yet (a later stage of P5); restart on one rank");
   fluid_bounds_ready_ = false;
+  // On N ranks every rank reads the whole frame, whatever rank count wrote it, and keeps what
+  // it owns (below); the job's counters are taken once, on rank 0.
+  const bool counters = !ranks_ || ranks_->rank() == 0;
   if (fr.precision != to_string(scene_.precision))
     throw Error("restart: the snapshot holds " + fr.precision + " data but the scene asks for " +
                 std::string(to_string(scene_.precision)));
@@ -995,11 +995,11 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   steps_ = fr.step;
   for (const auto& [k, v] : fr.scalars)
     if (k == "guard_corrections")
-      guard_count_.assign(std::vector<std::uint64_t>{static_cast<std::uint64_t>(v)});
+      guard_count_.assign(std::vector<std::uint64_t>{counters ? static_cast<std::uint64_t>(v) : 0});
     else if (k == "outflow_particles")
-      outflow_particles_ = static_cast<std::uint64_t>(v);
+      outflow_particles_ = counters ? static_cast<std::uint64_t>(v) : 0;
     else if (k == "outflow_mass") {
-      outflow_mass_ = v;
+      outflow_mass_ = counters ? v : 0.0;
       sorted_outflow_mass_.assign(std::vector<double>{0.0});
     } else if (k == "next_fluid_id")
       next_fluid_id_ = static_cast<std::uint64_t>(v);
@@ -1042,7 +1042,16 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     boundary_->volume.assign(require(*p, "volume").as<T>());
     boundary_->id.assign(require(*p, "id").as<std::uint64_t>());
     // Same order as when written, so the grid comes out identical.
-    sort_boundary();
+    if (!ranks_)
+      sort_boundary();
+  }
+  if (ranks_) {
+    // The blocks are partitioned anew from the frame's particles (the results do not depend on
+    // the partition), each rank keeps its share, and the next step's sort rebuilds the rest.
+    ranks_->distribute(fluid_on_ ? &*fluid_ : nullptr, boundary_on_ ? &*boundary_ : nullptr);
+    if (boundary_on_)
+      sort_boundary();
+    return;
   }
   if (knit_on_) {
     const io::Phase* p = fr.find("knit");

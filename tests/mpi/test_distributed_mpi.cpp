@@ -10,10 +10,13 @@
 //   steps for 2 and 3 ranks, float and double, summation and continuity density;
 // - the job's diagnostics are the reference's (sums over ranks in another order: 1e-12);
 // - fluid that leaves through an open side is removed and counted alike;
-// - what the split does not carry yet (knit, moving solids, "verlet" lists) is refused clearly.
+// - what the split does not carry yet (knit, moving solids, "verlet" lists) is refused clearly;
+// - a snapshot continues on any rank count (N -> N, N -> 1, 1 -> N, 2 -> 3).
 #include "comm/MpiContext.hpp"
 #include "core/Error.hpp"
 #include "domain/Simulation.hpp"
+#include "io/SnapshotReader.hpp"
+#include "io/SnapshotWriter.hpp"
 #include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
@@ -192,4 +195,104 @@ TEST(Distributed, WhatTheSplitDoesNotCarryYetIsRefused) {
       load_scene((test::source_dir() / "scenes" / "drape.toml").string(),
                  {"output.enabled=false", "knit.piece.0.wales=8", "knit.piece.0.courses=8"});
   EXPECT_THROW(Simulation::create(drape, exec::Backend::Cpu, &mpi), Error);
+}
+
+namespace {
+
+/// The fluid's state of a frame, gathered over `comm` when split, by id.
+Gathered state_of(const Simulation& sim, bool split) {
+  return by_id(sim.frame(), split);
+}
+
+void expect_equal(const Gathered& a, const Gathered& b, const std::string& what) {
+  ASSERT_EQ(a.id, b.id) << what;
+  for (const char* name : {"position", "velocity", "density"})
+    EXPECT_TRUE(a.bytes.at(name) == b.bytes.at(name)) << what << ": " << name << " differs";
+}
+
+} // namespace
+
+// Restart across rank counts: a snapshot written by N ranks (collectively, each its own rows)
+// continues on N ranks and on one; one written by one rank continues on N; with 3 ranks, one
+// written by 2 of them continues on all 3. Every continuation ends where the uninterrupted
+// one-rank run ends, bit for bit (the partition is made anew from the snapshot's particles; the
+// results do not depend on it).
+TEST(Distributed, RestartContinuesOnAnyRankCount) {
+  comm::MpiContext world;
+  const Scene s = dambreak("double", "continuity");
+  const int first = 40, total = 100;
+  // The reference, on one rank (each rank runs it), with its frame at `first` kept.
+  auto one = Simulation::create(s, exec::Backend::Cpu);
+  io::Frame one_at_first;
+  for (int k = 1; k <= total; ++k) {
+    one->step(1e9);
+    if (k == first)
+      one_at_first = one->frame();
+  }
+  const Gathered want = state_of(*one, false);
+  auto finish = [&](Simulation& sim, bool split) {
+    EXPECT_EQ(sim.steps(), static_cast<std::uint64_t>(first));
+    while (sim.steps() < static_cast<std::uint64_t>(total))
+      sim.step(1e9);
+    return state_of(sim, split);
+  };
+  // N ranks write a snapshot at `first`.
+  const auto dir = test::scratch_dir("distributed_restart");
+  std::string snap;
+  {
+    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
+    for (int k = 1; k <= first; ++k)
+      split->step(1e9);
+    io::SnapshotWriter writer(MPI_COMM_WORLD, dir.string());
+    io::Frame fr = split->frame();
+    fr.index = 1;
+    snap = writer.write(fr);
+  }
+  const io::Frame written = io::read_snapshot(MPI_COMM_WORLD, snap);
+  {
+    auto again = Simulation::create(s, exec::Backend::Cpu, &world);
+    again->restore(written);
+    expect_equal(want, finish(*again, true), "N ranks -> N ranks");
+  }
+  {
+    auto alone = Simulation::create(s, exec::Backend::Cpu);
+    alone->restore(written);
+    expect_equal(want, finish(*alone, false), "N ranks -> 1 rank");
+  }
+  {
+    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
+    split->restore(one_at_first);
+    expect_equal(want, finish(*split, true), "1 rank -> N ranks");
+  }
+  if (world.size() == 3) {
+    // Ranks 0 and 1 run and write; then all three continue.
+    MPI_Comm pair;
+    MPI_Comm_split(MPI_COMM_WORLD, world.rank() < 2 ? 0 : MPI_UNDEFINED, world.rank(), &pair);
+    std::string snap2;
+    if (pair != MPI_COMM_NULL) {
+      comm::MpiContext two(pair);
+      auto split = Simulation::create(s, exec::Backend::Cpu, &two);
+      for (int k = 1; k <= first; ++k)
+        split->step(1e9);
+      io::SnapshotWriter writer(pair, (dir / "two").string());
+      io::Frame fr = split->frame();
+      fr.index = 1;
+      snap2 = writer.write(fr);
+    }
+    // Rank 0 names the file to all.
+    int len = static_cast<int>(snap2.size());
+    MPI_Bcast(&len, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    snap2.resize(len);
+    MPI_Bcast(snap2.data(), len, MPI_CHAR, 0, MPI_COMM_WORLD);
+    auto three = Simulation::create(s, exec::Backend::Cpu, &world);
+    three->restore(io::read_snapshot(MPI_COMM_WORLD, snap2));
+    expect_equal(want, finish(*three, true), "2 ranks -> 3 ranks");
+    if (pair != MPI_COMM_NULL)
+      MPI_Comm_free(&pair);
+  }
+  const Diagnostics d = one->diagnostics();
+  if (world.root())
+    std::printf("restart at step %d of %d (%zu fluid particles): N -> N, N -> 1, 1 -> N%s all "
+                "end as the one-rank run\n",
+                first, total, d.fluid, world.size() == 3 ? ", 2 -> 3" : "");
 }
