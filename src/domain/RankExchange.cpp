@@ -140,36 +140,105 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary) {
     for (std::size_t i = 0; i < bx.size(); ++i)
       if (decomposition_->owner(vec_cast<double>(bx[i])) == me)
         mine.push_back(static_cast<std::uint32_t>(i));
-    auto x = pick(bx, mine), x0 = pick(boundary->x0.to_host(), mine);
-    auto obstacle = pick(boundary->obstacle.to_host(), mine);
-    auto volume = pick(boundary->volume.to_host(), mine);
-    auto id = pick(boundary->id.to_host(), mine);
-    std::vector<Vec3d> xd(x.size());
-    for (std::size_t i = 0; i < x.size(); ++i)
-      xd[i] = vec_cast<double>(x[i]);
-    // The ghosts come from their owners (not from this rank's copy of the scene), so their
-    // order is the one the owners' refreshes will send in.
-    const GhostLists gl = select_ghosts(*decomposition_, me, xd, boundary_width_);
-    boundary_halo_.emplace(*transport_, gl.peers, gl.send);
-    const std::size_t n = mine.size(), total = n + boundary_halo_->received();
-    for (auto* v : {&x, &x0})
-      v->resize(total);
-    obstacle.resize(total);
-    volume.resize(total);
-    id.resize(total);
-    const comm::Column cols[] = {column(x), column(x0), column(obstacle), column(volume),
-                                 column(id)};
-    boundary_halo_->exchange(cols, n);
-    boundary->resize(total);
-    boundary->x.assign(x);
-    boundary->x0.assign(x0);
-    boundary->obstacle.assign(obstacle);
-    boundary->volume.assign(volume);
-    boundary->id.assign(id);
-    boundary_own_count_ = n;
-    boundary_owned_.assign(total, 0);
-    std::fill(boundary_owned_.begin(), boundary_owned_.begin() + n, 1);
+    const auto x0 = boundary->x0.to_host();
+    const auto obstacle = boundary->obstacle.to_host();
+    const auto volume = boundary->volume.to_host();
+    const auto id = boundary->id.to_host();
+    boundary->resize(mine.size());
+    boundary->x.assign(pick(bx, mine));
+    boundary->x0.assign(pick(x0, mine));
+    boundary->obstacle.assign(pick(obstacle, mine));
+    boundary->volume.assign(pick(volume, mine));
+    boundary->id.assign(pick(id, mine));
+    receive_boundary_ghosts(*boundary, mine.size());
   }
+}
+
+template <typename T>
+void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t n) {
+  std::vector<Vec3d> xd(n);
+  for (std::size_t i = 0; i < n; ++i)
+    xd[i] = vec_cast<double>(boundary.x.data()[i]);
+  // The ghosts come from their owners (not from this rank's copy of the scene), so their order
+  // is the one the owners' refreshes will send in.
+  const GhostLists gl = select_ghosts(*decomposition_, rank(), xd, boundary_width_);
+  boundary_halo_.emplace(*transport_, gl.peers, gl.send);
+  const std::size_t total = n + boundary_halo_->received();
+  boundary.resize(total);
+  const comm::Column cols[] = {column(boundary.x), column(boundary.x0), column(boundary.obstacle),
+                               column(boundary.volume), column(boundary.id)};
+  boundary_halo_->exchange(cols, n);
+  boundary_own_count_ = n;
+  boundary_owned_.assign(total, 0);
+  std::fill(boundary_owned_.begin(), boundary_owned_.begin() + n, 1);
+}
+
+template <typename T>
+typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid,
+                                                           BoundarySet<T>* boundary) {
+  Balance b;
+  const int every = scene_.parallel.check_every;
+  if (step == 0 || step % static_cast<std::uint64_t>(every) != 0)
+    return b;
+  const double most = mpi_.max(compute_seconds_), mean = mpi_.sum(compute_seconds_) / ranks();
+  compute_seconds_ = 0;
+  b.imbalance = mean > 0 ? most / mean : 1.0;
+  last_imbalance_ = b.imbalance;
+  if (b.imbalance <= scene_.parallel.imbalance)
+    return b;
+  const Timed timed{exchange_seconds_};
+  // The job's counts per block now, and the blocks shared out anew (every rank alike).
+  const BlockGrid& grid = decomposition_->grid();
+  std::vector<double> counts(std::size_t(grid.count()) * 2, 0.0);
+  if (fluid)
+    for (std::size_t i = 0; i < fluid->size(); ++i)
+      counts[2 * grid.block_of(vec_cast<double>(fluid->x.data()[i]))] += 1;
+  if (boundary)
+    for (std::size_t i = 0; i < boundary->size(); ++i)
+      if (boundary_owned_[i])
+        counts[2 * grid.block_of(vec_cast<double>(boundary->x.data()[i])) + 1] += 1;
+  MPI_Allreduce(MPI_IN_PLACE, counts.data(), static_cast<int>(counts.size()), MPI_DOUBLE, MPI_SUM,
+                mpi_.comm());
+  std::vector<std::array<double, kPhases>> per_block(grid.count(), {0, 0, 0});
+  for (int k = 0; k < grid.count(); ++k)
+    per_block[k] = {counts[2 * k], counts[2 * k + 1], 0};
+  decomposition_.emplace(
+      Decomposition::partition(grid, per_block, PhaseCosts{}, ranks(), fluid_width_));
+  migration_peers_ = neighbour_ranks(*decomposition_, rank(), grid.edge());
+  // A block may change hands across the domain: every rank is a peer of this one exchange.
+  std::vector<int> everyone;
+  for (int r = 0; r < ranks(); ++r)
+    if (r != rank())
+      everyone.push_back(r);
+  if (fluid) {
+    std::vector<int> dest(fluid->size());
+    for (std::size_t i = 0; i < dest.size(); ++i)
+      dest[i] = decomposition_->owner(vec_cast<double>(fluid->x.data()[i]));
+    comm::MigrationColumn state[] = {
+        resizable(fluid->x),    resizable(fluid->v),         resizable(fluid->a),
+        resizable(fluid->m),    resizable(fluid->rho),       resizable(fluid->p),
+        resizable(fluid->drho), resizable(fluid->drho_prev), resizable(fluid->id)};
+    const std::size_t n = comm::migrate(*transport_, everyone, dest, state);
+    fluid->resize(n);
+    fluid_owned_ = n;
+    fluid_owned_flag_.assign(n, 1);
+  }
+  if (boundary) {
+    // The owned boundary goes to its new owners; the ghosts are dropped and received anew.
+    std::vector<int> dest(boundary->size());
+    for (std::size_t i = 0; i < dest.size(); ++i)
+      dest[i] =
+          boundary_owned_[i] ? decomposition_->owner(vec_cast<double>(boundary->x.data()[i])) : -1;
+    comm::MigrationColumn state[] = {resizable(boundary->x), resizable(boundary->x0),
+                                     resizable(boundary->obstacle), resizable(boundary->volume),
+                                     resizable(boundary->id)};
+    const std::size_t n = comm::migrate(*transport_, everyone, dest, state);
+    boundary->resize(n);
+    receive_boundary_ghosts(*boundary, n);
+  }
+  b.repartitioned = true;
+  ++repartitions_;
+  return b;
 }
 
 template <typename T>
@@ -184,6 +253,7 @@ template <typename T>
 typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo,
                                                            const Vec3<T>& hi,
                                                            const std::array<bool, 6>& walls) {
+  const Timed timed{exchange_seconds_};
   const int me = rank();
   const std::size_t n = fluid.size();
   // The CPU backend's buffers are host memory: everything below works in place.
@@ -231,6 +301,7 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
 
 template <typename T>
 void RankExchange<T>::fluid_sorted(const std::vector<std::uint32_t>& perm) {
+  const Timed timed{exchange_seconds_};
   if (!fluid_halo_)
     return;
   fluid_halo_->remap(inverse(perm), fluid_owned_);
@@ -239,6 +310,7 @@ void RankExchange<T>::fluid_sorted(const std::vector<std::uint32_t>& perm) {
 
 template <typename T>
 void RankExchange<T>::refresh_density(FluidSet<T>& fluid) {
+  const Timed timed{exchange_seconds_};
   if (!fluid_halo_)
     return;
   const comm::Column cols[] = {column(fluid.rho), column(fluid.p), column(fluid.vp),
@@ -248,6 +320,7 @@ void RankExchange<T>::refresh_density(FluidSet<T>& fluid) {
 
 template <typename T>
 void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary) {
+  const Timed timed{exchange_seconds_};
   if (!boundary_halo_)
     return;
   const comm::Column cols[] = {column(boundary.p), column(boundary.vp), column(boundary.inv_rho)};
@@ -256,6 +329,7 @@ void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary) {
 
 template <typename T>
 void RankExchange<T>::drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid) {
+  const Timed timed{exchange_seconds_};
   if (fluid.size() == fluid_owned_)
     return;
   exec::DeviceBuffer<std::uint32_t> keep(ex.backend, 0, "ranks.owned");

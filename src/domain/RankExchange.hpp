@@ -13,6 +13,7 @@
 #include "domain/Scene.hpp"
 #include "kernels/particles/FluidSet.hpp"
 
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -55,13 +56,43 @@ public:
   /// After the forces pass: only the owned fluid stays.
   void drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid);
 
+  /// Seconds of local work (passes that wait for no other rank), for the imbalance.
+  void add_compute(double seconds) { compute_seconds_ += seconds; }
+  struct Balance {
+    double imbalance = 0; // slowest rank's compute over the mean since the last check (0: none)
+    bool repartitioned = false;
+  };
+  /// Every [parallel] check_every steps (call before a rebuild, the fluid holding only what this
+  /// rank owns): when the measured imbalance passes [parallel] imbalance, the blocks are
+  /// partitioned anew by the particles' current counts, and the fluid and the boundary migrate to
+  /// their new owners (sort the boundary after, then boundary_sorted()).
+  Balance balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary);
+  std::uint64_t repartitions() const { return repartitions_; }
+  /// Seconds spent in the split's own work (migration, ghosts, refreshes, re-partitions).
+  double exchange_seconds() const { return exchange_seconds_; }
+  double last_imbalance() const { return last_imbalance_; }
+
   /// Boundary particles this rank owns (1) and holds as ghosts (0), in the set's order.
   const std::vector<std::uint8_t>& boundary_owned() const { return boundary_owned_; }
   /// Ghost count and bytes moved by the last rebuild's and refreshes' exchanges (progress).
   std::size_t fluid_ghosts() const { return fluid_halo_ ? fluid_halo_->received() : 0; }
 
 private:
+  /// The boundary ghosts of this rank's region from their owners, appended after the `owned`
+  /// particles (which come first in the set).
+  void receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t owned);
+
   const comm::MpiContext& mpi_;
+  double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
+  /// Adds the seconds of its scope to exchange_seconds_.
+  struct Timed {
+    double& sum;
+    std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+    ~Timed() {
+      sum += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+  };
+  std::uint64_t repartitions_ = 0;
   Scene scene_;
   std::unique_ptr<comm::Transport> transport_;
   std::optional<Decomposition> decomposition_;

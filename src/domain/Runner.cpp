@@ -6,6 +6,7 @@
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -95,6 +96,13 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
       const double t_limit = std::min(next_out, end);
       const double dt = sim->step(t_limit);
       inject(opt.fault, mpi.rank(), sim->steps());
+      if (const auto r = sim->rank_report(); r.ranks > 1) {
+        char note[128];
+        std::snprintf(note, sizeof note, "%d ranks, imbalance %.3f, exchanges %.1f%% of the step",
+                      r.ranks, r.imbalance,
+                      100 * r.exchange_seconds / std::max(1e-9, progress.wall_seconds()));
+        progress.set_note(note);
+      }
       progress.update(sim->steps(), sim->time(), dt, particles);
       if (sim->time() >= next_out - eps) {
         ++frame_index;
@@ -150,6 +158,12 @@ std::string format_summary(const RunSummary& s) {
                     static_cast<unsigned long long>(d.fluid_sorts),
                     static_cast<unsigned long long>(d.list_ends_far), d.list_skin,
                     static_cast<unsigned long long>(d.list_ends_sheared));
+      o << buf;
+    }
+    if (d.imbalance > 0) {
+      std::snprintf(buf, sizeof buf,
+                    "ranks: compute imbalance %.3f at the last check, %llu re-partition(s)\n",
+                    d.imbalance, static_cast<unsigned long long>(d.repartitions));
       o << buf;
     }
     if (d.outflow_particles) {

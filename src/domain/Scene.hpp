@@ -204,9 +204,12 @@ struct Scene {
   } capillary;
 
   // [parallel]: how the domain is shared out among MPI ranks (DESIGN §6; domain/Decomposition).
-  // The rebalancing threshold and the transport's choice join it with the distributed step.
   struct Parallel {
     int block_cells = 4; // block edge, in grid cells (support radii)
+    // Re-partition when the slowest rank's compute time over the mean passes `imbalance`,
+    // measured over every `check_every` steps.
+    double imbalance = 1.1;
+    int check_every = 100;
   } parallel;
 
   bool has(Module m) const {

@@ -50,6 +50,10 @@ struct Diagnostics {
   double fluid_mass = 0;        // sum of the free fluid particles' masses [kg]
   // Mass-conserving absorption (capillary.model = "conserving"), whole run.
   std::uint64_t absorbed_particles = 0, emitted_particles = 0;
+  // Several ranks: the compute imbalance measured at the last check (slowest over the mean) and
+  // the re-partitions so far.
+  double imbalance = 0;
+  std::uint64_t repartitions = 0;
   double diffused_mass = 0; // moved between knit points [kg]
 };
 
@@ -100,6 +104,13 @@ public:
   virtual exec::Backend backend() const = 0;
   /// Device memory held by particle sets and grids, in bytes.
   virtual std::size_t memory_bytes() const = 0;
+  /// Several ranks: the rank count, the compute imbalance at the last check and this rank's
+  /// seconds in the split's exchanges (migration, ghosts, refreshes) so far; ranks 1 otherwise.
+  struct RankReport {
+    int ranks = 1;
+    double imbalance = 0, exchange_seconds = 0;
+  };
+  virtual RankReport rank_report() const { return {}; }
   /// Measure each stage's time (synchronising the device after each stage).
   virtual void set_profiling(bool on) = 0;
 };

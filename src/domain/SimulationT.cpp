@@ -23,6 +23,7 @@
 #include "kernels/sph/SphLists.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -109,6 +110,28 @@ std::optional<typename SkinWatch<T>::State> get_watch(const io::Frame& fr, const
                                       static_cast<T>(*bound)};
 }
 
+/// Times a pass of local work (one that waits for no other rank) for the ranks' imbalance, until
+/// stop() or the end of the scope; nothing on one rank.
+template <typename T>
+class LocalWork {
+public:
+  explicit LocalWork(RankExchange<T>* ranks)
+      : ranks_(ranks),
+        t0_(ranks ? std::chrono::steady_clock::now() : std::chrono::steady_clock::time_point{}) {}
+  ~LocalWork() { stop(); }
+  void stop() const {
+    if (!ranks_)
+      return;
+    ranks_->add_compute(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count());
+    ranks_ = nullptr;
+  }
+
+private:
+  mutable RankExchange<T>* ranks_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
 /// Keeps the rows of every field of p whose mask entry is nonzero.
 void keep_rows(io::Phase& p, const std::vector<std::uint8_t>& mask) {
   for (io::Field& f : p.fields) {
@@ -168,6 +191,11 @@ public:
   const Scene& scene() const override { return scene_; }
   exec::Backend backend() const override { return ex_.backend; }
   std::size_t memory_bytes() const override;
+  RankReport rank_report() const override {
+    if (!ranks_)
+      return {};
+    return {ranks_->ranks(), ranks_->last_imbalance(), ranks_->exchange_seconds()};
+  }
   void set_profiling(bool on) override {
     profiling_ = on;
     stage_parts::enable(on, ex_.backend);
@@ -645,6 +673,10 @@ template <typename T>
 void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry carry) {
   ++fluid_sorts_;
   if (ranks_) {
+    // Every [parallel] check_every steps the measured imbalance may share the blocks out anew.
+    if (ranks_->balance(steps_, &*fluid_, boundary_on_ ? &*boundary_ : nullptr).repartitioned &&
+        boundary_on_)
+      sort_boundary();
     // Migration and the ghosts first, then the same sort over owned and ghost particles.
     const auto& d = scene_.domain;
     std::array<bool, 6> walls = d.walls;
@@ -720,11 +752,13 @@ BoundaryNeighbours<T> SimulationT<T>::boundary_neighbours() {
 
 template <typename T>
 void SimulationT<T>::fluid_density(T dt) {
+  const LocalWork work(ranks_ ? &*ranks_ : nullptr);
   if (continuity())
     sph_density_predict(ex_, sph_, fluid_->view(), dt);
   else {
     sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
                 fluid_list_view());
+    work.stop();
     // An outer ghost lacks neighbours past the halo: its owner's density replaces it.
     if (ranks_)
       ranks_->refresh_density(*fluid_);
@@ -733,8 +767,11 @@ void SimulationT<T>::fluid_density(T dt) {
 
 template <typename T>
 void SimulationT<T>::fluid_forces(T dt) {
-  sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
-             fluid_list_view(), dt);
+  {
+    const LocalWork work(ranks_ ? &*ranks_ : nullptr);
+    sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+               fluid_list_view(), dt);
+  }
   if (ranks_) // their work is done: between steps a rank holds only the fluid it owns
     ranks_->drop_ghosts(ex_, *fluid_);
 }
@@ -750,10 +787,12 @@ void SimulationT<T>::compute_forces() {
 
 template <typename T>
 void SimulationT<T>::extrapolate_boundary_pressure() {
+  const LocalWork work(ranks_ ? &*ranks_ : nullptr);
   if (boundary_->size() > 0)
     boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
                       shapes_.data(), fluid_near_.data(),
                       fluid_list_ ? fluid_list_->walls() : ListView<T>{});
+  work.stop();
   if (ranks_) // collective over the peers, so also where this rank holds no boundary
     ranks_->refresh_boundary(*boundary_);
 }
@@ -1210,6 +1249,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.guard_corrections = mpi.sum(d.guard_corrections);
     d.outflow_particles = mpi.sum(d.outflow_particles);
     d.outflow_mass = mpi.sum(d.outflow_mass);
+    d.imbalance = ranks_->last_imbalance();
+    d.repartitions = ranks_->repartitions();
   }
   return d;
 }

@@ -13,6 +13,8 @@ public:
   Progress(std::ostream& out, double end_time, double interval_s = 1.0, bool enabled = true);
   /// Called after every step; prints when the interval has passed (or force).
   void update(std::uint64_t step, double t, double dt, std::uint64_t particles, bool force = false);
+  /// Text appended to the line from now on (several ranks: their balance and exchange share).
+  void set_note(std::string note) { note_ = std::move(note); }
   /// Ends the line (a terminal gets \r updates; a file gets one line each).
   void finish();
   double wall_seconds() const;
@@ -30,6 +32,7 @@ private:
   std::uint64_t steps_ = 0;
   double particle_steps_ = 0;
   bool printed_ = false;
+  std::string note_;
 };
 
 } // namespace kf::io

@@ -142,6 +142,22 @@ TEST(Distributed, DamBreakDoubleContinuityIsTheOneRankRun) {
   expect_same_run(dambreak("double", "continuity"), 200, 50, "dam break, double, continuity");
 }
 
+// Re-partitioned every 20 steps (a threshold of 1 always passes): the fluid and the boundary
+// move to their new owners, and the run is still the one-rank run.
+TEST(Distributed, RepartitioningKeepsTheOneRankRun) {
+  comm::MpiContext mpi;
+  Scene s = dambreak("float", "summation");
+  s.parallel.imbalance = 1.0;
+  s.parallel.check_every = 20;
+  expect_same_run(s, 120, 40, "dam break, re-partitioned every 20 steps");
+  auto split = Simulation::create(s, exec::Backend::Cpu, &mpi);
+  for (int k = 0; k < 60; ++k)
+    split->step(1e9);
+  const Diagnostics d = split->diagnostics();
+  EXPECT_EQ(d.repartitions, 2u) << "checks at steps 20 and 40";
+  EXPECT_GE(d.imbalance, 1.0);
+}
+
 // Fluid splashing onto three static obstacles in a box open at the top and the sides: the
 // obstacles' boundary particles are owned and shared like the walls'.
 TEST(Distributed, ObstaclesAreTheOneRankRun) {
