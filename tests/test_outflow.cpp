@@ -2,6 +2,7 @@
 // plus what left is the initial mass; nothing leaves through a side with a wall; the remaining
 // particles keep their ids and fields.
 #include "domain/Simulation.hpp"
+#include "support/SceneFactory.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,34 +16,6 @@
 using namespace kf;
 
 namespace {
-
-Scene jet(const std::string& walls, const std::string& solver = "") {
-  return parse_scene(R"(
-[simulation]
-name = "outflow"
-end_time = 1.0
-gravity = [0, 0, 0]
-precision = "double"
-modules = ["fluid", "boundary"]
-[domain]
-min = [0, 0, 0]
-max = [0.2, 0.1, 0.1]
-walls = [)" + walls + R"(]
-[output]
-enabled = false
-[solver]
-kernel = "cubic"
-)" + solver + R"(
-[fluid]
-spacing = 0.01
-speed_of_sound = 20.0
-[[fluid.block]]
-min = [0.12, 0.03, 0.03]
-max = [0.18, 0.07, 0.07]
-velocity = [2.0, 0, 0]
-)",
-                     "<outflow>");
-}
 
 // Outflow is removed in the fluid's sort (grid.fluid), which says so in the plan only when a side
 // is open: the one place the pipeline shows whether removal runs.
@@ -66,7 +39,7 @@ std::map<std::uint64_t, double> mass_by_id(const Simulation& sim) {
 } // namespace
 
 TEST(Outflow, FluidThroughAnOpenSideIsRemovedAndCounted) {
-  const Scene sc = jet(R"("x-", "y-", "y+", "z-", "z+")");
+  const Scene sc = test::jet_scene(R"("x-", "y-", "y+", "z-", "z+")");
   auto sim = Simulation::create(sc, exec::Backend::Cpu);
   EXPECT_NE(sort_stage_says(*sim).find(kRemoves), std::string::npos) << sort_stage_says(*sim);
   const Diagnostics d0 = sim->diagnostics();
@@ -109,7 +82,8 @@ TEST(Outflow, FluidThroughAnOpenSideIsRemovedAndCounted) {
 // The jet hits the x+ wall: the sort removes nothing (it is told not to, and the plan says so),
 // and every particle is kept with its id and its mass, to the bit.
 TEST(Outflow, NothingLeavesThroughAWall) {
-  auto sim = Simulation::create(jet(R"("x-", "x+", "y-", "y+", "z-", "z+")"), exec::Backend::Cpu);
+  auto sim = Simulation::create(test::jet_scene(R"("x-", "x+", "y-", "y+", "z-", "z+")"),
+                                exec::Backend::Cpu);
   const std::string says = sort_stage_says(*sim);
   ASSERT_NE(says.find("sort fluid by cell"), std::string::npos) << says;
   EXPECT_EQ(says.find(kRemoves), std::string::npos) << "a closed box removes fluid: " << says;
@@ -137,7 +111,8 @@ TEST(Outflow, NothingLeavesThroughAWall) {
 // the mass still add up, every removal falls on a step that sorted anyway, and what is kept
 // meanwhile lies at most the skin outside.
 TEST(Outflow, VerletListsRemoveAtTheNextSort) {
-  const Scene sc = jet(R"("x-", "y-", "y+", "z-", "z+")", R"(neighbour_list = "verlet")");
+  const Scene sc =
+      test::jet_scene(R"("x-", "y-", "y+", "z-", "z+")", R"(neighbour_list = "verlet")");
   auto sim = Simulation::create(sc, exec::Backend::Cpu);
   const Diagnostics d0 = sim->diagnostics();
   auto fluid_mass = [&] {

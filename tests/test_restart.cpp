@@ -4,6 +4,7 @@
 #include "domain/Simulation.hpp"
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
+#include "support/FrameChecks.hpp"
 #include "support/SceneFactory.hpp"
 #include "support/TestPaths.hpp"
 
@@ -11,6 +12,7 @@
 #include <mpi.h>
 
 using namespace kf;
+using test::expect_frames_equal;
 
 namespace {
 
@@ -25,21 +27,6 @@ Scene small_scene(Precision prec) {
   s.obstacles.back().velocity = {-0.1, 0, 0};
   s.text = "# test scene";
   return s;
-}
-
-void expect_frames_equal(const io::Frame& a, const io::Frame& b) {
-  EXPECT_EQ(a.time, b.time);
-  EXPECT_EQ(a.step, b.step);
-  ASSERT_EQ(a.phases.size(), b.phases.size());
-  for (std::size_t p = 0; p < a.phases.size(); ++p) {
-    ASSERT_EQ(a.phases[p].fields.size(), b.phases[p].fields.size());
-    for (std::size_t f = 0; f < a.phases[p].fields.size(); ++f) {
-      const auto& fa = a.phases[p].fields[f];
-      const auto& fb = b.phases[p].fields[f];
-      EXPECT_EQ(fa.name, fb.name);
-      EXPECT_TRUE(fa.bytes == fb.bytes) << a.phases[p].name << "/" << fa.name << " differs";
-    }
-  }
 }
 
 class Restart : public ::testing::TestWithParam<Precision> {};

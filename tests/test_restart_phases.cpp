@@ -12,6 +12,7 @@
 #include "domain/Simulation.hpp"
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
+#include "support/FrameChecks.hpp"
 #include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
@@ -24,6 +25,7 @@
 #include <vector>
 
 using namespace kf;
+using test::expect_frames_equal;
 
 namespace {
 
@@ -57,23 +59,6 @@ std::string param_name(const Param& p) {
 // gtest prints a failing parameter with this (not as raw bytes).
 void PrintTo(const Param& p, std::ostream* os) {
   *os << param_name(p);
-}
-
-void expect_frames_equal(const io::Frame& a, const io::Frame& b) {
-  EXPECT_EQ(a.time, b.time);
-  EXPECT_EQ(a.step, b.step);
-  EXPECT_EQ(a.scalars, b.scalars);
-  ASSERT_EQ(a.phases.size(), b.phases.size());
-  for (std::size_t p = 0; p < a.phases.size(); ++p) {
-    EXPECT_EQ(a.phases[p].name, b.phases[p].name);
-    ASSERT_EQ(a.phases[p].fields.size(), b.phases[p].fields.size()) << a.phases[p].name;
-    for (std::size_t f = 0; f < a.phases[p].fields.size(); ++f) {
-      const auto& fa = a.phases[p].fields[f];
-      const auto& fb = b.phases[p].fields[f];
-      EXPECT_EQ(fa.name, fb.name);
-      EXPECT_TRUE(fa.bytes == fb.bytes) << a.phases[p].name << "/" << fa.name << " differs";
-    }
-  }
 }
 
 class RestartPhases : public ::testing::TestWithParam<Param> {};

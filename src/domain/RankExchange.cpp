@@ -10,33 +10,13 @@ namespace kf {
 
 namespace {
 
+/// out[k] = v[idx[k]].
 template <typename U>
-std::vector<U> pick(const std::vector<U>& v, const std::vector<std::uint32_t>& idx) {
+std::vector<U> pick(const std::vector<U>& v, std::span<const std::uint32_t> idx) {
   std::vector<U> out(idx.size());
   for (std::size_t k = 0; k < idx.size(); ++k)
     out[k] = v[idx[k]];
   return out;
-}
-
-template <typename U>
-std::vector<unsigned char> to_bytes(const std::vector<U>& v) {
-  std::vector<unsigned char> b(v.size() * sizeof(U));
-  if (!b.empty())
-    std::memcpy(b.data(), v.data(), b.size());
-  return b;
-}
-
-template <typename U>
-std::vector<U> from_bytes(const std::vector<unsigned char>& b) {
-  std::vector<U> v(b.size() / sizeof(U));
-  if (!b.empty())
-    std::memcpy(v.data(), b.data(), b.size());
-  return v;
-}
-
-template <typename U>
-comm::Column column(std::vector<U>& v) {
-  return {v.data(), sizeof(U)};
 }
 
 template <typename U>
@@ -53,7 +33,25 @@ comm::MigrationColumn resizable(exec::DeviceBuffer<U>& b) {
           }};
 }
 
-std::vector<std::uint32_t> inverse(const std::vector<std::uint32_t>& perm) {
+/// The fluid's state as migration moves it (a too where the forces pass has not yet rewritten
+/// it).
+template <typename T>
+std::vector<comm::MigrationColumn> fluid_state(FluidSet<T>& f, bool acceleration) {
+  std::vector<comm::MigrationColumn> c{resizable(f.x),         resizable(f.v), resizable(f.m),
+                                       resizable(f.rho),       resizable(f.p), resizable(f.drho),
+                                       resizable(f.drho_prev), resizable(f.id)};
+  if (acceleration)
+    c.push_back(resizable(f.a));
+  return c;
+}
+
+template <typename T>
+std::vector<comm::MigrationColumn> boundary_state(BoundarySet<T>& b) {
+  return {resizable(b.x), resizable(b.x0), resizable(b.obstacle), resizable(b.volume),
+          resizable(b.id)};
+}
+
+std::vector<std::uint32_t> inverse(std::span<const std::uint32_t> perm) {
   std::vector<std::uint32_t> inv(perm.size());
   for (std::size_t k = 0; k < perm.size(); ++k)
     inv[perm[k]] = static_cast<std::uint32_t>(k);
@@ -113,44 +111,23 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary) {
   // A particle moves less than a support radius a step (CFL): the blocks next to this rank's.
   migration_peers_ = neighbour_ranks(*decomposition_, me, grid.edge());
 
+  // Each rank keeps what it owns: a migration to nobody (destination -1 drops a particle).
+  const auto mine = [&](const std::vector<Vec3<T>>& x) {
+    std::vector<int> dest(x.size());
+    for (std::size_t i = 0; i < x.size(); ++i)
+      dest[i] = decomposition_->owner(vec_cast<double>(x[i])) == me ? me : -1;
+    return dest;
+  };
   if (fluid) {
-    std::vector<std::uint32_t> mine;
-    for (std::size_t i = 0; i < fx.size(); ++i)
-      if (decomposition_->owner(vec_cast<double>(fx[i])) == me)
-        mine.push_back(static_cast<std::uint32_t>(i));
-    const auto v = fluid->v.to_host(), a = fluid->a.to_host();
-    const auto m = fluid->m.to_host(), rho = fluid->rho.to_host(), p = fluid->p.to_host();
-    const auto drho = fluid->drho.to_host(), drho_prev = fluid->drho_prev.to_host();
-    const auto id = fluid->id.to_host();
-    fluid->resize(mine.size());
-    fluid->x.assign(pick(fx, mine));
-    fluid->v.assign(pick(v, mine));
-    fluid->a.assign(pick(a, mine));
-    fluid->m.assign(pick(m, mine));
-    fluid->rho.assign(pick(rho, mine));
-    fluid->p.assign(pick(p, mine));
-    fluid->drho.assign(pick(drho, mine));
-    fluid->drho_prev.assign(pick(drho_prev, mine));
-    fluid->id.assign(pick(id, mine));
-    fluid_owned_ = mine.size();
-    fluid_owned_flag_.assign(mine.size(), 1);
+    auto state = fluid_state(*fluid, true);
+    fluid->resize(comm::migrate(*transport_, {}, mine(fx), state));
+    fluid_owned_ = fluid->size();
+    fluid_owned_flag_.assign(fluid_owned_, 1);
   }
   if (boundary) {
-    std::vector<std::uint32_t> mine;
-    for (std::size_t i = 0; i < bx.size(); ++i)
-      if (decomposition_->owner(vec_cast<double>(bx[i])) == me)
-        mine.push_back(static_cast<std::uint32_t>(i));
-    const auto x0 = boundary->x0.to_host();
-    const auto obstacle = boundary->obstacle.to_host();
-    const auto volume = boundary->volume.to_host();
-    const auto id = boundary->id.to_host();
-    boundary->resize(mine.size());
-    boundary->x.assign(pick(bx, mine));
-    boundary->x0.assign(pick(x0, mine));
-    boundary->obstacle.assign(pick(obstacle, mine));
-    boundary->volume.assign(pick(volume, mine));
-    boundary->id.assign(pick(id, mine));
-    receive_boundary_ghosts(*boundary, mine.size());
+    auto state = boundary_state(*boundary);
+    boundary->resize(comm::migrate(*transport_, {}, mine(bx), state));
+    receive_boundary_ghosts(*boundary, boundary->size());
   }
 }
 
@@ -214,10 +191,7 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
     std::vector<int> dest(fluid->size());
     for (std::size_t i = 0; i < dest.size(); ++i)
       dest[i] = decomposition_->owner(vec_cast<double>(fluid->x.data()[i]));
-    comm::MigrationColumn state[] = {
-        resizable(fluid->x),    resizable(fluid->v),         resizable(fluid->a),
-        resizable(fluid->m),    resizable(fluid->rho),       resizable(fluid->p),
-        resizable(fluid->drho), resizable(fluid->drho_prev), resizable(fluid->id)};
+    auto state = fluid_state(*fluid, true);
     const std::size_t n = comm::migrate(*transport_, everyone, dest, state);
     fluid->resize(n);
     fluid_owned_ = n;
@@ -229,9 +203,7 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
     for (std::size_t i = 0; i < dest.size(); ++i)
       dest[i] =
           boundary_owned_[i] ? decomposition_->owner(vec_cast<double>(boundary->x.data()[i])) : -1;
-    comm::MigrationColumn state[] = {resizable(boundary->x), resizable(boundary->x0),
-                                     resizable(boundary->obstacle), resizable(boundary->volume),
-                                     resizable(boundary->id)};
+    auto state = boundary_state(*boundary);
     const std::size_t n = comm::migrate(*transport_, everyone, dest, state);
     boundary->resize(n);
     receive_boundary_ghosts(*boundary, n);
@@ -242,7 +214,7 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
 }
 
 template <typename T>
-void RankExchange<T>::boundary_sorted(const std::vector<std::uint32_t>& perm) {
+void RankExchange<T>::boundary_sorted(std::span<const std::uint32_t> perm) {
   if (!boundary_halo_)
     return;
   boundary_halo_->remap(inverse(perm), boundary_own_count_);
@@ -277,9 +249,8 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
     }
   }
   // Every state column the steps to come read (a: the forces pass writes it before its use).
-  comm::MigrationColumn state[] = {
-      resizable(fluid.x), resizable(fluid.v),    resizable(fluid.m),         resizable(fluid.rho),
-      resizable(fluid.p), resizable(fluid.drho), resizable(fluid.drho_prev), resizable(fluid.id)};
+  // a: the forces pass rewrites it before its use.
+  auto state = fluid_state(fluid, false);
   const std::size_t owned = comm::migrate(*transport_, migration_peers_, dest, state);
   // The ghosts: every owned particle within the support of another rank's region goes there.
   std::vector<Vec3d> xd(owned);
@@ -300,7 +271,7 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
 }
 
 template <typename T>
-void RankExchange<T>::fluid_sorted(const std::vector<std::uint32_t>& perm) {
+void RankExchange<T>::fluid_sorted(std::span<const std::uint32_t> perm) {
   const Timed timed{exchange_seconds_};
   if (!fluid_halo_)
     return;
@@ -332,9 +303,8 @@ void RankExchange<T>::drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid) {
   const Timed timed{exchange_seconds_};
   if (fluid.size() == fluid_owned_)
     return;
-  exec::DeviceBuffer<std::uint32_t> keep(ex.backend, 0, "ranks.owned");
-  keep.assign(std::vector<std::uint32_t>(fluid_owned_flag_.begin(), fluid_owned_flag_.end()));
-  fluid.keep_flagged(ex, keep);
+  keep_.assign(fluid_owned_flag_);
+  fluid.keep_flagged(ex, keep_);
   fluid_owned_flag_.assign(fluid.size(), 1);
   fluid_halo_.reset();
 }

@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <vector>
 
 namespace kf {
@@ -37,7 +38,7 @@ public:
   /// the fluid this rank owns, and the boundary it owns plus, received from their owners, the
   /// boundary ghosts (sort the boundary after, then boundary_sorted()).
   void distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary);
-  void boundary_sorted(const std::vector<std::uint32_t>& perm);
+  void boundary_sorted(std::span<const std::uint32_t> perm);
 
   struct Removed {
     std::uint64_t particles = 0;
@@ -48,7 +49,7 @@ public:
   Removed rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& hi,
                   const std::array<bool, 6>& walls);
   /// After the fluid's sort (perm[k]: where the particle now at k was).
-  void fluid_sorted(const std::vector<std::uint32_t>& perm);
+  void fluid_sorted(std::span<const std::uint32_t> perm);
   /// Ghosts' rho, P and the packed copies the density pass writes (vp, vol), from their owners.
   void refresh_density(FluidSet<T>& fluid);
   /// Boundary ghosts' pressure and its packed copies (vp, inv_rho), from their owners.
@@ -100,7 +101,10 @@ private:
   std::vector<int> migration_peers_;
   std::optional<comm::HaloExchange> fluid_halo_, boundary_halo_;
   std::size_t fluid_owned_ = 0, boundary_own_count_ = 0;
-  std::vector<std::uint8_t> fluid_owned_flag_, boundary_owned_;
+  // 1 owned, 0 ghost, per particle in the sets' order (the fluid's as keep_flagged takes them).
+  std::vector<std::uint32_t> fluid_owned_flag_;
+  std::vector<std::uint8_t> boundary_owned_;
+  exec::DeviceBuffer<std::uint32_t> keep_{exec::Backend::Cpu, 0, "ranks.owned"};
 };
 
 } // namespace kf

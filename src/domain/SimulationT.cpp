@@ -687,7 +687,8 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     outflow_mass_ += gone.mass;
     fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
     fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
-    ranks_->fluid_sorted(fluid_grid_->permutation().to_host());
+    const auto& perm = fluid_grid_->permutation(); // host memory: the split runs on the CPU
+    ranks_->fluid_sorted({perm.data(), fluid_->size()});
   } else if (remove_outflow) {
     const auto& d = scene_.domain;
     outflow_particles_ +=
@@ -727,7 +728,7 @@ void SimulationT<T>::sort_boundary() {
   boundary_grid_->build(ex_, boundary_->x.data(), boundary_->size());
   boundary_->reorder(ex_, boundary_grid_->permutation());
   if (ranks_)
-    ranks_->boundary_sorted(boundary_grid_->permutation().to_host());
+    ranks_->boundary_sorted({boundary_grid_->permutation().data(), boundary_->size()});
   boundary_grid_->occupied_around(ex_, boundary_near_);
   if (fluid_list_) // the walls' lists follow the boundary's order: built again with the fluid's
     fluid_list_->forget_walls();

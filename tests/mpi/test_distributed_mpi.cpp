@@ -17,6 +17,8 @@
 #include "domain/Simulation.hpp"
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
+#include "support/MpiGather.hpp"
+#include "support/SceneFactory.hpp"
 #include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
@@ -37,24 +39,11 @@ struct Gathered {
   std::map<std::string, std::vector<unsigned char>> bytes; // per field, rows in id order
 };
 
-std::vector<unsigned char> allgather(const std::vector<unsigned char>& mine) {
-  int size = 0;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
-  int n = static_cast<int>(mine.size());
-  std::vector<int> counts(size), displs(size);
-  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-  std::exclusive_scan(counts.begin(), counts.end(), displs.begin(), 0);
-  std::vector<unsigned char> all(std::accumulate(counts.begin(), counts.end(), std::size_t(0)));
-  MPI_Allgatherv(mine.data(), n, MPI_BYTE, all.data(), counts.data(), displs.data(), MPI_BYTE,
-                 MPI_COMM_WORLD);
-  return all;
-}
-
 Gathered by_id(const io::Frame& fr, bool gather) {
   const io::Phase& f = *fr.find("fluid");
   auto bytes_of = [&](const std::string& name) {
     const auto& b = f.find(name)->bytes;
-    return gather ? allgather(b) : b;
+    return gather ? test::allgather(b) : b;
   };
   const auto idb = bytes_of("id");
   std::vector<std::uint64_t> id(idb.size() / 8);
@@ -169,31 +158,8 @@ TEST(Distributed, ObstaclesAreTheOneRankRun) {
 
 // A jet leaving through the open x+ side: removed and counted on whichever rank owns it.
 TEST(Distributed, OutflowIsRemovedAndCountedAsOnOneRank) {
-  const Scene s = parse_scene(R"(
-[simulation]
-end_time = 1.0
-gravity = [0, 0, 0]
-precision = "double"
-modules = ["fluid", "boundary"]
-[domain]
-min = [0, 0, 0]
-max = [0.2, 0.1, 0.1]
-walls = ["x-", "y-", "y+", "z-", "z+"]
-[output]
-enabled = false
-[solver]
-kernel = "cubic"
-[fluid]
-spacing = 0.01
-speed_of_sound = 20.0
-[[fluid.block]]
-min = [0.12, 0.03, 0.03]
-max = [0.18, 0.07, 0.07]
-velocity = [2.0, 0, 0]
-[parallel]
-block_cells = 1
-)",
-                              "<jet>");
+  Scene s = test::jet_scene(R"("x-", "y-", "y+", "z-", "z+")");
+  s.parallel.block_cells = 1; // blocks of one support radius: the jet crosses several ranks
   expect_same_run(s, 150, 25, "jet through an open side");
 }
 

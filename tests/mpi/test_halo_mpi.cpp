@@ -12,6 +12,7 @@
 #include "comm/Transport.hpp"
 #include "domain/Decomposition.hpp"
 #include "domain/GhostSelection.hpp"
+#include "support/MpiGather.hpp"
 
 #include <gtest/gtest.h>
 #include <mpi.h>
@@ -64,15 +65,7 @@ Particles owned_part(const Particles& all, const Decomposition& d, int me) {
 }
 
 std::vector<std::uint64_t> all_ids(const std::vector<std::uint64_t>& mine) {
-  int size = 0;
-  MPI_Comm_size(MPI_COMM_WORLD, &size);
-  int n = static_cast<int>(mine.size());
-  std::vector<int> counts(size), displs(size);
-  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-  std::exclusive_scan(counts.begin(), counts.end(), displs.begin(), 0);
-  std::vector<std::uint64_t> out(std::accumulate(counts.begin(), counts.end(), std::size_t(0)));
-  MPI_Allgatherv(mine.data(), n, MPI_UINT64_T, out.data(), counts.data(), displs.data(),
-                 MPI_UINT64_T, MPI_COMM_WORLD);
+  auto out = test::allgather(mine);
   std::sort(out.begin(), out.end());
   return out;
 }
