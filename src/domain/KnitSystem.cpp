@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 namespace kf {
 
@@ -41,6 +42,12 @@ KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex)
   set_.id.assign(id);
   springs_.build(mesh.springs, n);
   volumes_.build(mesh.volumes, n);
+  mesh_springs_ = mesh.springs;
+  mesh_rest_ = x;
+  mesh_handle_ = mesh.handle;
+  mesh_layer_ = mesh.layer;
+  mesh_piece_ = mesh.piece;
+  mesh_cells_ = mesh.volumes;
   pieces_ = mesh.pieces;
   for (const Spring& sp : mesh.springs)
     if (sp.kind == SpringKind::Stretch)
@@ -110,13 +117,58 @@ template <typename T>
 void KnitSystem<T>::internal_forces() {
   {
     stage_parts::Scope part("knit.step: springs, volume cells, gravity");
-    knit_forces(ex_, set_.view(), springs_.view(), gravity_, volumes_.view());
+    knit_forces(ex_, owned_view(), springs_.view(), gravity_, volumes_.view());
   }
   if (self_) {
     stage_parts::Scope part("knit.step: self-contact (grid check/sort, gathers, forces)");
     self_->update(ex_, set_);
     self_->add_forces(ex_, set_);
   }
+}
+
+template <typename T>
+void KnitSystem<T>::localize(const std::vector<std::uint64_t>& ids, std::size_t owned) {
+  const std::size_t n = ids.size();
+  std::vector<std::int64_t> local; // mesh index -> local index (-1: not here)
+  std::size_t n_mesh = 0;
+  for (const std::uint64_t id : ids)
+    n_mesh = std::max<std::size_t>(n_mesh, id + 1);
+  for (const Spring& sp : mesh_springs_)
+    n_mesh = std::max<std::size_t>(n_mesh, std::max(sp.i, sp.j) + std::size_t(1));
+  local.assign(n_mesh, -1);
+  for (std::size_t k = 0; k < n; ++k)
+    local[ids[k]] = static_cast<std::int64_t>(k);
+  const auto is_owned = [&](std::uint32_t id) {
+    return local[id] >= 0 && std::size_t(local[id]) < owned;
+  };
+  const auto at = [&](std::uint32_t id) {
+    if (local[id] < 0)
+      throw Error("knit on N ranks: point " + std::to_string(id) +
+                  ", a partner of an owned point, is neither owned nor a ghost here");
+    return static_cast<std::uint32_t>(local[id]);
+  };
+  // The owned points' springs and cells in the mesh's order (each row keeps its order).
+  std::vector<Spring> springs;
+  for (const Spring& sp : mesh_springs_)
+    if (is_owned(sp.i) || is_owned(sp.j)) {
+      Spring l = sp;
+      l.i = at(sp.i);
+      l.j = at(sp.j);
+      springs.push_back(l);
+    }
+  std::vector<VolumeCell> cells;
+  for (const VolumeCell& c : mesh_cells_)
+    if (std::any_of(c.point.begin(), c.point.end(), is_owned)) {
+      VolumeCell l = c;
+      for (auto& q : l.point)
+        q = at(q);
+      cells.push_back(l);
+    }
+  springs_.build(springs, n);
+  volumes_.build(cells, n);
+  owned_ = owned;
+  if (self_)
+    self_->set_active(owned);
 }
 
 template <typename T>
@@ -166,7 +218,7 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
   const T radius = static_cast<T>(scene_.knit.radius());
   const T friction = static_cast<T>(scene_.knit.friction);
   for (int s = 0; s < n; ++s) {
-    auto p = set_.view();
+    auto p = owned_view();
     set_handle_velocities(t + s * h);
     const Prescribed<T> fixed{p.handle, handle_v_.data()};
     {
@@ -177,6 +229,10 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
         set_shapes(t + (s + 1) * h);
       kick_drift_contact(ex_, p.x, p.v, p.a, p.n, static_cast<T>(h), keep, s > 0, fixed, shapes,
                          n_shapes, radius, friction, collisions_.data(), "knit.kick_drift");
+    }
+    if (refresh_ghosts_) {
+      stage_parts::Scope part("knit.step: ghosts' positions and velocities from their owners");
+      refresh_ghosts_();
     }
     internal_forces();
     if (couple) {
@@ -192,13 +248,13 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
 
 template <typename T>
 double KnitSystem<T>::stable_dt() {
-  auto p = set_.view();
+  auto p = owned_view();
   return stable_dt(motion_bounds(ex_, p.v, p.a, p.n, "knit.dt"));
 }
 
 template <typename T>
 void KnitSystem<T>::motion_bounds_to(MotionBounds<T>* out) {
-  auto p = set_.view();
+  auto p = owned_view();
   kf::motion_bounds_to(ex_, p.v, p.a, p.n, out, "knit.dt");
 }
 
@@ -218,7 +274,7 @@ double KnitSystem<T>::stable_dt(const MotionBounds<T>& mb) {
 
 template <typename T>
 KnitEnergy KnitSystem<T>::energy() {
-  auto p = set_.view();
+  auto p = owned_view();
   KnitEnergy e;
   e.kinetic = knit_kinetic_energy(ex_, p);
   e.elastic = knit_spring_energy(ex_, p, springs_.view(), volumes_.view());
@@ -229,31 +285,38 @@ KnitEnergy KnitSystem<T>::energy() {
 
 template <typename T>
 double KnitSystem<T>::min_rigid_distance(const RigidShape<T>* shapes, std::size_t n_shapes) {
-  return double(kf::min_rigid_distance(ex_, set_.x.data(), set_.size(), shapes, n_shapes));
+  return double(kf::min_rigid_distance(ex_, set_.x.data(), owned(), shapes, n_shapes));
 }
 
 template <typename T>
 io::Phase KnitSystem<T>::phase() const {
+  // The owned points (on N ranks the ghosts follow them: their owners write them).
+  const std::size_t n = owned();
+  const auto own = [n](auto v) {
+    v.resize(n);
+    return v;
+  };
   io::Phase p{"knit", {}};
-  p.fields.push_back(io::Field::from("position", flatten(set_.x.to_host()), 3));
-  p.fields.push_back(io::Field::from("velocity", flatten(set_.v.to_host()), 3));
-  p.fields.push_back(io::Field::from("acceleration", flatten(set_.a.to_host()), 3));
-  p.fields.push_back(io::Field::from("rest_position", flatten(set_.x_rest.to_host()), 3));
-  p.fields.push_back(io::Field::from("mass", set_.m.to_host(), 1));
-  const auto layer = set_.layer.to_host();
+  p.fields.push_back(io::Field::from("position", flatten(own(set_.x.to_host())), 3));
+  p.fields.push_back(io::Field::from("velocity", flatten(own(set_.v.to_host())), 3));
+  p.fields.push_back(io::Field::from("acceleration", flatten(own(set_.a.to_host())), 3));
+  p.fields.push_back(io::Field::from("rest_position", flatten(own(set_.x_rest.to_host())), 3));
+  p.fields.push_back(io::Field::from("mass", own(set_.m.to_host()), 1));
+  const auto layer = own(set_.layer.to_host());
   p.fields.push_back(
       io::Field::from("layer", std::vector<std::uint32_t>(layer.begin(), layer.end()), 1));
-  p.fields.push_back(io::Field::from("handle", set_.handle.to_host(), 1));
-  p.fields.push_back(io::Field::from("id", set_.id.to_host(), 1));
+  p.fields.push_back(io::Field::from("handle", own(set_.handle.to_host()), 1));
+  p.fields.push_back(io::Field::from("id", own(set_.id.to_host()), 1));
   return p;
 }
 
 template <typename T>
-io::Phase KnitSystem<T>::yarn_phase(const std::vector<double>* saturation) const {
+io::Phase KnitSystem<T>::yarn_phase(const std::vector<double>* saturation,
+                                    const std::vector<Vec3<T>>* at) const {
   io::Phase p{"yarn", {}};
   if (scene_.knit.yarn_samples < 1)
     return p;
-  const auto xt = set_.x.to_host();
+  const auto xt = at ? *at : set_.x.to_host();
   std::vector<Vec3d> x(xt.size());
   for (std::size_t i = 0; i < x.size(); ++i)
     x[i] = vec_cast<double>(xt[i]);
@@ -284,9 +347,23 @@ io::Phase KnitSystem<T>::yarn_phase(const std::vector<double>* saturation) const
 template <typename T>
 void KnitSystem<T>::restore(const io::Phase& p) {
   const auto x = unflatten(require(p, "position").as<T>());
-  if (x.size() != set_.size())
+  const std::size_t n = mesh_rest_.size();
+  if (x.size() != n)
     throw Error("restart: the snapshot has " + std::to_string(x.size()) +
-                " knit points but the scene builds " + std::to_string(set_.size()));
+                " knit points but the scene builds " + std::to_string(n));
+  if (set_.size() != n || owned_ != std::size_t(-1)) { // a rank's share: the whole knit again
+    set_.resize(n);
+    set_.x_rest.assign(mesh_rest_);
+    set_.handle.assign(mesh_handle_);
+    set_.layer.assign(mesh_layer_);
+    set_.piece.assign(mesh_piece_);
+    std::vector<std::uint64_t> id(n);
+    std::iota(id.begin(), id.end(), std::uint64_t(0));
+    set_.id.assign(id);
+    springs_.build(mesh_springs_, n);
+    volumes_.build(mesh_cells_, n);
+    owned_ = std::size_t(-1);
+  }
   set_.x.assign(x);
   set_.v.assign(unflatten(require(p, "velocity").as<T>()));
   set_.a.assign(unflatten(require(p, "acceleration").as<T>()));

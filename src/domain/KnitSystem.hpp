@@ -56,7 +56,11 @@ public:
   /// yarn index, and segment (point pairs, ParaView draws them as lines); empty when
   /// knit.yarn_samples is 0. With saturation (per knit point) the yarn points carry it too, for
   /// rendering wet yarn (darker, thicker: paper §6.3).
-  io::Phase yarn_phase(const std::vector<double>* saturation = nullptr) const;
+  /// x: every point's position in mesh order (on N ranks, gathered); the set's by default.
+  io::Phase yarn_phase(const std::vector<double>* saturation = nullptr,
+                       const std::vector<Vec3<T>>* x = nullptr) const;
+  /// Every point's state from a snapshot phase in mesh (id) order; on N ranks the set becomes
+  /// the whole knit again, for KnitHalo::distribute.
   void restore(const io::Phase& p);
   /// Restart state of the self-collision grid (snapshot fields and scalars: SimulationT), when
   /// self-collision is on; restore_self_contact after restore().
@@ -68,6 +72,21 @@ public:
   void restore_self_contact(const typename SkinWatch<T>::State& s) { self_->restore(ex_, set_, s); }
 
   std::size_t size() const { return set_.size(); }
+
+  /// On N ranks (KnitHalo): the set holds `owned` points, which this rank integrates, then
+  /// ghosts (their copies, refreshed by refresh_ghosts after every drift). The springs and
+  /// volume cells of the owned points are rebuilt over the local points, their other ends
+  /// found by global id (ids: the local points' ids, which are mesh indices); each point's
+  /// row keeps the mesh's order, so its forces sum as on one rank. Every partner must be
+  /// present (KnitHalo checks).
+  void localize(const std::vector<std::uint64_t>& ids, std::size_t owned);
+  /// Points this rank integrates (all on one rank).
+  std::size_t owned() const { return std::min(owned_, set_.size()); }
+  void set_ghost_refresh(std::function<void()> refresh) { refresh_ghosts_ = std::move(refresh); }
+  /// The mesh's springs and volume cells over mesh indices (= ids), host side.
+  const std::vector<Spring>& mesh_springs() const { return mesh_springs_; }
+  const std::vector<VolumeCell>& mesh_cells() const { return mesh_cells_; }
+  KnitSelfContact<T>* self_contact() { return self_ ? &*self_ : nullptr; }
   std::size_t bytes() const;
   std::uint64_t collisions() const { return collisions_.to_host()[0]; }
   KnitEnergy energy();
@@ -108,6 +127,21 @@ private:
   double vmax_ = 1e30, amax_ = 1e30;
   double longest_spacing_ = 0;
   std::optional<KnitSelfContact<T>> self_;
+  std::vector<Spring> mesh_springs_;
+  // The mesh's fixed columns, for a restore on N ranks (the set then holds a rank's share).
+  std::vector<Vec3<T>> mesh_rest_;
+  std::vector<std::uint32_t> mesh_handle_;
+  std::vector<std::uint8_t> mesh_layer_;
+  std::vector<std::uint16_t> mesh_piece_;
+  std::vector<VolumeCell> mesh_cells_;
+  std::size_t owned_ = std::size_t(-1);
+  std::function<void()> refresh_ghosts_;
+  /// The set's view over the points this rank integrates.
+  KnitView<T> owned_view() {
+    auto p = set_.view();
+    p.n = owned();
+    return p;
+  }
   // Point-substeps in contact with a solid, whole run; on the device, read for diagnostics only.
   exec::DeviceBuffer<std::uint64_t> collisions_;
 };

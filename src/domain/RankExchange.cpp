@@ -62,16 +62,18 @@ std::vector<std::uint32_t> inverse(std::span<const std::uint32_t> perm) {
 
 template <typename T>
 RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
-                              exec::Backend backend)
+                              exec::Backend backend, double knit_width)
     : mpi_(mpi), scene_(scene) {
   const auto refuse = [&](const std::string& what) {
     throw Error("on " + std::to_string(mpi.size()) +
-                " ranks knitflow runs fluid and static boundaries so far (the knit, moving solids, "
-                "\"verlet\" lists and the GPU join in later stages of P5); this run has " +
+                " ranks knitflow runs fluid, static boundaries and the knit so far (the knit's "
+                "coupling to the fluid, moving solids, \"verlet\" lists and the GPU join in "
+                "later stages of P5); this run has " +
                 what + ": run it on one rank");
   };
-  if (scene.has(Module::Knit))
-    refuse("knit");
+  if (scene.has(Module::Knit) && scene.has(Module::Fluid) &&
+      (scene.has(Module::Contact) || scene.has(Module::Capillary)))
+    refuse("the knit coupled to the fluid");
   for (const auto& o : scene.obstacles)
     if (o.velocity.x != 0 || o.velocity.y != 0 || o.velocity.z != 0)
       refuse("a moving obstacle ('" + o.name + "')");
@@ -82,10 +84,16 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   transport_ = comm::make_transport(mpi, comm::TransportKind::Mpi, comm::MemorySpace::Host);
   fluid_width_ = scene.support_radius();
   boundary_width_ = scene.support_radius();
+  // Blocks of block_cells support radii; the knit's ghost width where there is no fluid (as
+  // `knitflow plan` cuts them).
+  block_scale_ = scene.has(Module::Fluid) ? fluid_width_ : std::max(knit_width, 1e-6);
+  if (!scene.has(Module::Fluid))
+    fluid_width_ = block_scale_; // the blocks' halo weights
 }
 
 template <typename T>
-void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary) {
+void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
+                                 std::span<const Vec3<T>> knit) {
   const int me = rank();
   std::vector<Vec3<T>> fx, bx;
   if (fluid)
@@ -94,20 +102,22 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary) {
     bx = boundary->x.to_host();
   // Blocks over the domain, widened to every particle (walls' particles lie outside it).
   Vec3d lo = scene_.domain.min, hi = scene_.domain.max;
-  for (const auto* set : {&fx, &bx})
+  std::vector<Vec3<T>> kx(knit.begin(), knit.end());
+  for (const auto* set : {&fx, &bx, &kx})
     for (const auto& q : *set)
       for (int d = 0; d < 3; ++d) {
         (&lo.x)[d] = std::min((&lo.x)[d], double((&q.x)[d]));
         (&hi.x)[d] = std::max((&hi.x)[d], double((&q.x)[d]));
       }
-  const BlockGrid grid(lo, hi, scene_.parallel.block_cells * scene_.support_radius());
+  const BlockGrid grid(lo, hi, scene_.parallel.block_cells * block_scale_);
   std::vector<std::array<double, kPhases>> counts(grid.count(), {0, 0, 0});
   for (const auto& q : fx)
     counts[grid.block_of(vec_cast<double>(q))][static_cast<int>(Phase::Fluid)] += 1;
   for (const auto& q : bx)
     counts[grid.block_of(vec_cast<double>(q))][static_cast<int>(Phase::Boundary)] += 1;
-  decomposition_.emplace(
-      Decomposition::partition(grid, counts, PhaseCosts{}, ranks(), fluid_width_));
+  for (const auto& q : kx)
+    counts[grid.block_of(vec_cast<double>(q))][static_cast<int>(Phase::Knit)] += 1;
+  decomposition_.emplace(Decomposition::partition(grid, counts, costs(), ranks(), fluid_width_));
   // A particle moves less than a support radius a step (CFL): the blocks next to this rank's.
   migration_peers_ = neighbour_ranks(*decomposition_, me, grid.edge());
 
@@ -152,7 +162,8 @@ void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::siz
 
 template <typename T>
 typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid,
-                                                           BoundarySet<T>* boundary) {
+                                                           BoundarySet<T>* boundary,
+                                                           std::span<const Vec3<T>> knit) {
   Balance b;
   const int every = scene_.parallel.check_every;
   if (step == 0 || step % static_cast<std::uint64_t>(every) != 0)
@@ -166,21 +177,25 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
   const Timed timed{exchange_seconds_};
   // The job's counts per block now, and the blocks shared out anew (every rank alike).
   const BlockGrid& grid = decomposition_->grid();
-  std::vector<double> counts(std::size_t(grid.count()) * 2, 0.0);
+  std::vector<double> counts(std::size_t(grid.count()) * kPhases, 0.0);
+  const auto count = [&](const Vec3<T>& x, Phase p) {
+    counts[kPhases * grid.block_of(vec_cast<double>(x)) + static_cast<int>(p)] += 1;
+  };
   if (fluid)
     for (std::size_t i = 0; i < fluid->size(); ++i)
-      counts[2 * grid.block_of(vec_cast<double>(fluid->x.data()[i]))] += 1;
+      count(fluid->x.data()[i], Phase::Fluid);
   if (boundary)
     for (std::size_t i = 0; i < boundary->size(); ++i)
       if (boundary_owned_[i])
-        counts[2 * grid.block_of(vec_cast<double>(boundary->x.data()[i])) + 1] += 1;
+        count(boundary->x.data()[i], Phase::Boundary);
+  for (const auto& q : knit)
+    count(q, Phase::Knit);
   MPI_Allreduce(MPI_IN_PLACE, counts.data(), static_cast<int>(counts.size()), MPI_DOUBLE, MPI_SUM,
                 mpi_.comm());
   std::vector<std::array<double, kPhases>> per_block(grid.count(), {0, 0, 0});
   for (int k = 0; k < grid.count(); ++k)
-    per_block[k] = {counts[2 * k], counts[2 * k + 1], 0};
-  decomposition_.emplace(
-      Decomposition::partition(grid, per_block, PhaseCosts{}, ranks(), fluid_width_));
+    per_block[k] = {counts[kPhases * k], counts[kPhases * k + 1], counts[kPhases * k + 2]};
+  decomposition_.emplace(Decomposition::partition(grid, per_block, costs(), ranks(), fluid_width_));
   migration_peers_ = neighbour_ranks(*decomposition_, rank(), grid.edge());
   // A block may change hands across the domain: every rank is a peer of this one exchange.
   std::vector<int> everyone;

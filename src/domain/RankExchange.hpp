@@ -27,7 +27,10 @@ class RankExchange {
 public:
   /// Refuses (kf::Error) what the split does not carry yet: the knit, moving solids, "verlet"
   /// lists, the GPU backend.
-  RankExchange(const comm::MpiContext& mpi, const Scene& scene, exec::Backend backend);
+  /// knit_width: the knit's ghost width (KnitHalo::base_width; 0 without knit), the blocks'
+  /// scale where there is no fluid.
+  RankExchange(const comm::MpiContext& mpi, const Scene& scene, exec::Backend backend,
+               double knit_width = 0);
 
   int rank() const { return mpi_.rank(); }
   int ranks() const { return mpi_.size(); }
@@ -37,7 +40,9 @@ public:
   /// At the start, every rank holding the whole scene: partitions by its particles' costs, keeps
   /// the fluid this rank owns, and the boundary it owns plus, received from their owners, the
   /// boundary ghosts (sort the boundary after, then boundary_sorted()).
-  void distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary);
+  /// knit: the knit points' positions (the whole knit, as every rank built it), counted in the
+  /// blocks' costs; KnitHalo keeps this rank's share.
+  void distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary, std::span<const Vec3<T>> knit = {});
   void boundary_sorted(std::span<const std::uint32_t> perm);
 
   struct Removed {
@@ -67,7 +72,13 @@ public:
   /// rank owns): when the measured imbalance passes [parallel] imbalance, the blocks are
   /// partitioned anew by the particles' current counts, and the fluid and the boundary migrate to
   /// their new owners (sort the boundary after, then boundary_sorted()).
-  Balance balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary);
+  Balance balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary,
+                  std::span<const Vec3<T>> knit = {});
+  /// What the knit's exchange shares: the transport, the ranks next to this one's blocks (a
+  /// particle moves less than a block a step), and the split's own time.
+  comm::Transport& transport() { return *transport_; }
+  const std::vector<int>& migration_peers() const { return migration_peers_; }
+  void add_exchange_seconds(double s) { exchange_seconds_ += s; }
   std::uint64_t repartitions() const { return repartitions_; }
   /// Seconds spent in the split's own work (migration, ghosts, refreshes, re-partitions).
   double exchange_seconds() const { return exchange_seconds_; }
@@ -94,6 +105,12 @@ private:
     }
   };
   std::uint64_t repartitions_ = 0;
+  double block_scale_ = 0; // a block's edge over parallel.block_cells
+  PhaseCosts costs() const {
+    PhaseCosts c;
+    c.knit_substeps = scene_.knit.substeps;
+    return c;
+  }
   Scene scene_;
   std::unique_ptr<comm::Transport> transport_;
   std::optional<Decomposition> decomposition_;

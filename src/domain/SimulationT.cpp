@@ -2,6 +2,7 @@
 #include "core/Error.hpp"
 #include "domain/FrameFields.hpp"
 #include "domain/KnitBuilder.hpp"
+#include "domain/KnitHalo.hpp"
 #include "domain/KnitSystem.hpp"
 #include "domain/MeshObstacle.hpp"
 #include "domain/RankExchange.hpp"
@@ -146,6 +147,30 @@ void keep_rows(io::Phase& p, const std::vector<std::uint8_t>& mask) {
       }
     f.bytes = std::move(kept);
     f.count = n;
+  }
+}
+
+/// The phase's rows in the order of its "id" field (a snapshot written by N ranks holds each
+/// rank's rows in turn).
+void rows_by_id(io::Phase& p) {
+  const io::Field* idf = p.find("id");
+  if (!idf)
+    throw Error("restart: the snapshot's " + p.name + " phase has no id field");
+  const auto id = idf->as<std::uint64_t>();
+  std::vector<std::size_t> order(id.size());
+  for (std::size_t k = 0; k < order.size(); ++k)
+    order[k] = k;
+  if (std::is_sorted(id.begin(), id.end()))
+    return;
+  std::sort(order.begin(), order.end(), [&](auto a, auto b) { return id[a] < id[b]; });
+  for (io::Field& f : p.fields) {
+    if (f.count != id.size())
+      continue;
+    const std::size_t row = f.bytes.size() / std::max<std::size_t>(1, f.count);
+    std::vector<unsigned char> out(f.bytes.size());
+    for (std::size_t k = 0; k < order.size(); ++k)
+      std::copy_n(f.bytes.begin() + order[k] * row, row, out.begin() + k * row);
+    f.bytes = std::move(out);
   }
 }
 
@@ -295,6 +320,22 @@ private:
   }
   // The job's split in space (more than one rank): migration, ghosts and their refreshes.
   std::optional<RankExchange<T>> ranks_;
+  std::optional<KnitHalo<T>> knit_halo_; // the knit's share and ghosts on N ranks
+  /// f() with the knit's ghosts present and current on N ranks (a pass that reads partners).
+  template <typename F>
+  void with_knit_ghosts(F&& f) {
+    if (knit_halo_)
+      knit_halo_->begin(0.0);
+    f();
+  }
+  /// The job's largest speed and acceleration on N ranks (max over ranks, NaN kept as inf).
+  void job_bounds(MotionBounds<T>* mb, int n) const;
+  /// The knit points this rank owns (between steps), for the blocks' costs; none on one rank.
+  std::span<const Vec3<T>> knit_positions() {
+    if (!knit_halo_)
+      return {};
+    return {knit_->set().x.data(), knit_->owned()};
+  }
   RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
   exec::DeviceBuffer<RigidShape<T>> shapes_;
   Pipeline pipeline_;
@@ -342,13 +383,18 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   update_shapes(0.0);
   // On N ranks each keeps what it owns (every rank sampled the whole scene above).
   if (mpi && mpi->size() > 1) {
-    ranks_.emplace(*mpi, scene_, backend);
-    ranks_->distribute(fluid_ ? &*fluid_ : nullptr, boundary_ ? &*boundary_ : nullptr);
+    ranks_.emplace(*mpi, scene_, backend, knit_ ? KnitHalo<T>::base_width(*knit_) : 0.0);
+    const auto kx = knit_ ? knit_->set().x.to_host() : std::vector<Vec3<T>>{};
+    ranks_->distribute(fluid_ ? &*fluid_ : nullptr, boundary_ ? &*boundary_ : nullptr, kx);
+    if (knit_) {
+      knit_halo_.emplace(*ranks_, *knit_);
+      knit_halo_->distribute();
+    }
   }
   if (boundary_on_)
     sort_boundary();
   if (knit_on_)
-    knit_->compute_forces();
+    with_knit_ghosts([this] { knit_->compute_forces(); });
   if (fluid_on_) {
     sort_fluid(false, {false}); // a: written next
     compute_forces();           // a(t = 0), which the first half kick needs
@@ -540,7 +586,15 @@ void SimulationT<T>::build_pipeline() {
             couple = [this](T weight) {
               coupling_->add_forces(ex_, knit_->set(), fluid_side(), weight);
             };
-          knit_->advance(time_, dt_, keep, move, shapes_.data(), shapes_.size(), couple);
+          if (knit_halo_) {
+            if (!fluid_on_) // else the fluid's sort checks the balance
+              ranks_->balance(steps_, nullptr, nullptr, knit_positions());
+            knit_halo_->begin(knit_->expected_motion(dt_));
+          }
+          {
+            const LocalWork work(ranks_ ? &*ranks_ : nullptr);
+            knit_->advance(time_, dt_, keep, move, shapes_.data(), shapes_.size(), couple);
+          }
           if (moving_)
             update_shapes(time_); // the fluid stages move the solids themselves
         });
@@ -674,7 +728,8 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
   ++fluid_sorts_;
   if (ranks_) {
     // Every [parallel] check_every steps the measured imbalance may share the blocks out anew.
-    if (ranks_->balance(steps_, &*fluid_, boundary_on_ ? &*boundary_ : nullptr).repartitioned &&
+    if (ranks_->balance(steps_, &*fluid_, boundary_on_ ? &*boundary_ : nullptr, knit_positions())
+            .repartitioned &&
         boundary_on_)
       sort_boundary();
     // Migration and the ghosts first, then the same sort over owned and ghost particles.
@@ -802,14 +857,24 @@ template <typename T>
 double SimulationT<T>::stable_dt() {
   const auto& s = scene_.solver;
   double dt = s.dt_max;
-  if (!fluid_on_)
-    return knit_on_ ? std::min(dt, knit_->stable_dt()) : dt;
+  if (!fluid_on_) {
+    if (!knit_on_)
+      return dt;
+    if (!ranks_)
+      return std::min(dt, knit_->stable_dt());
+    knit_->motion_bounds_to(bounds_.data());
+    auto kb = bounds_.to_host()[0];
+    job_bounds(&kb, 1);
+    return std::min(dt, knit_->stable_dt(kb));
+  }
   auto f = fluid_->view();
   MotionBounds<T> mb;
   if (knit_on_) { // both sets' bounds in one read
     knit_->motion_bounds_to(bounds_.data());
     motion_bounds_to(ex_, f.v, f.a, f.n, bounds_.data() + 1, "integrate.dt");
-    const auto both = bounds_.to_host();
+    auto both = bounds_.to_host();
+    if (ranks_)
+      job_bounds(both.data(), 2);
     dt = std::min(dt, knit_->stable_dt(both[0]));
     mb = both[1];
   } else if (fluid_bounds_ready_) {
@@ -817,18 +882,31 @@ double SimulationT<T>::stable_dt() {
   } else {
     mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
   }
-  if (ranks_) { // one dt for the job: the largest speed and acceleration of all ranks
+  if (ranks_ && !knit_on_) { // one dt for the job: the largest speed and acceleration of all ranks
     if (!(std::isfinite(double(mb.v2)) && std::isfinite(double(mb.a2))))
       report_instability("a fluid velocity or acceleration is not finite");
-    double both[2] = {double(mb.v2), double(mb.a2)};
-    MPI_Allreduce(MPI_IN_PLACE, both, 2, MPI_DOUBLE, MPI_MAX, ranks_->mpi().comm());
-    mb.v2 = static_cast<T>(both[0]);
-    mb.a2 = static_cast<T>(both[1]);
+    job_bounds(&mb, 1);
   }
   fluid_bounds_ = mb;
   if (!(std::isfinite(double(mb.v2)) && std::isfinite(double(mb.a2))))
     report_instability("a fluid velocity or acceleration is not finite");
   return std::min(dt, fluid_stable_dt(fluid_step_rule(), double(mb.v2), double(mb.a2)));
+}
+
+template <typename T>
+void SimulationT<T>::job_bounds(MotionBounds<T>* mb, int n) const {
+  std::vector<double> b(2 * n);
+  for (int k = 0; k < n; ++k) {
+    b[2 * k] = double(mb[k].v2);
+    b[2 * k + 1] = double(mb[k].a2);
+  }
+  for (double& v : b)
+    v = std::isnan(v) ? std::numeric_limits<double>::infinity() : v;
+  MPI_Allreduce(MPI_IN_PLACE, b.data(), 2 * n, MPI_DOUBLE, MPI_MAX, ranks_->mpi().comm());
+  for (int k = 0; k < n; ++k) {
+    mb[k].v2 = static_cast<T>(b[2 * k]);
+    mb[k].a2 = static_cast<T>(b[2 * k + 1]);
+  }
 }
 
 template <typename T>
@@ -1011,13 +1089,27 @@ io::Frame SimulationT<T>::frame() const {
     }
     // The knit's grids kept over steps (self-collision, coupling): a restart sorts them when
     // this run does, so their sums keep this run's order.
-    if (const auto st = knit_->self_contact_state())
+    if (knit_halo_ && knit_->self_collision())
+      put_watch<T>(fr, kp, "self_contact", knit_halo_->self_contact_state());
+    else if (const auto st = knit_->self_contact_state())
       put_watch<T>(fr, kp, "self_contact", *st);
     if (coupling_)
       put_watch<T>(fr, kp, "coupling", coupling_->state());
+    if (ranks_)
+      kp.fields.push_back(io::Field::from(
+          "rank", std::vector<std::uint32_t>(knit_->owned(), std::uint32_t(ranks_->rank())), 1));
     fr.phases.push_back(std::move(kp));
-    if (scene_.knit.yarn_samples > 0)
-      fr.phases.push_back(knit_->yarn_phase(wet.empty() ? nullptr : &wet));
+    if (scene_.knit.yarn_samples > 0) {
+      if (knit_halo_) { // the yarns run through points of every rank: rank 0 writes them all
+        const auto all = knit_halo_->gather_positions();
+        io::Phase yp = knit_->yarn_phase(nullptr, &all);
+        if (ranks_->rank() != 0)
+          keep_rows(yp, std::vector<std::uint8_t>(yp.fields.empty() ? 0 : yp.fields[0].count, 0));
+        fr.phases.push_back(std::move(yp));
+      } else {
+        fr.phases.push_back(knit_->yarn_phase(wet.empty() ? nullptr : &wet));
+      }
+    }
   }
   return fr;
 }
@@ -1085,19 +1177,36 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     if (!ranks_)
       sort_boundary();
   }
-  if (ranks_) {
-    // The blocks are partitioned anew from the frame's particles (the results do not depend on
-    // the partition), each rank keeps its share, and the next step's sort rebuilds the rest.
-    ranks_->distribute(fluid_on_ ? &*fluid_ : nullptr, boundary_on_ ? &*boundary_ : nullptr);
-    if (boundary_on_)
-      sort_boundary();
-    return;
-  }
+  std::optional<io::Phase> knit_phase;
   if (knit_on_) {
     const io::Phase* p = fr.find("knit");
     if (!p)
       throw Error("restart: the snapshot has no knit phase but the scene has knit");
-    knit_->restore(*p);
+    knit_phase = *p;
+    rows_by_id(*knit_phase); // in mesh order, whatever rank count wrote it
+    knit_->restore(*knit_phase);
+  }
+  if (ranks_) {
+    // The blocks are partitioned anew from the frame's particles (the results do not depend on
+    // the partition), each rank keeps its share, and the next step's sort rebuilds the rest.
+    const auto kx = knit_ ? knit_->set().x.to_host() : std::vector<Vec3<T>>{};
+    ranks_->distribute(fluid_on_ ? &*fluid_ : nullptr, boundary_on_ ? &*boundary_ : nullptr, kx);
+    if (boundary_on_)
+      sort_boundary();
+    if (knit_halo_) {
+      // The self-contact's reference positions travel with the points; without them (an older
+      // snapshot) the positions now.
+      const auto st =
+          knit_->self_collision() ? get_watch<T>(fr, *knit_phase, "self_contact") : std::nullopt;
+      if (st)
+        knit_halo_->distribute(st->x0, st->moved2, st->bound);
+      else
+        knit_halo_->distribute();
+    }
+    return;
+  }
+  if (knit_on_) {
+    const io::Phase* p = &*knit_phase;
     if (absorption_) {
       const io::Field* a = p->find("fluid_mass");
       if (!a)
@@ -1175,13 +1284,18 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.boundary = boundary_->size();
   if (knit_on_) {
     auto& k = const_cast<KnitSystem<T>&>(*knit_);
-    d.knit = k.size();
-    const KnitEnergy e = k.energy();
+    KnitEnergy e;
+    SelfContactStats sc;
+    // The springs and contacts of owned points reach ghosts on N ranks.
+    const_cast<SimulationT<T>&>(*this).with_knit_ghosts([&] {
+      e = k.energy();
+      sc = k.self_contact_stats();
+    });
+    d.knit = k.owned();
     d.knit_kinetic_energy = e.kinetic;
     d.knit_elastic_energy = e.elastic;
     d.knit_potential_energy = e.potential;
     d.knit_contacts = k.collisions();
-    const SelfContactStats sc = k.self_contact_stats();
     d.knit_self_contacts = sc.contacts;
     d.knit_self_energy = sc.energy;
     d.knit_self_min_gap = sc.min_gap_ratio;
@@ -1207,6 +1321,22 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.knit_min_rigid_distance = solids_.empty()
                                     ? std::numeric_limits<double>::infinity()
                                     : k.min_rigid_distance(shapes_.data(), shapes_.size());
+    if (ranks_) { // the job's: each rank holds its own points between steps
+      const comm::MpiContext& mpi = ranks_->mpi();
+      d.knit = mpi.sum(std::uint64_t(d.knit));
+      d.knit_kinetic_energy = mpi.sum(d.knit_kinetic_energy);
+      d.knit_elastic_energy = mpi.sum(d.knit_elastic_energy);
+      d.knit_potential_energy = mpi.sum(d.knit_potential_energy);
+      d.knit_contacts = mpi.sum(std::uint64_t(d.knit_contacts));
+      d.knit_self_contacts = mpi.sum(std::uint64_t(d.knit_self_contacts));
+      d.knit_self_energy = mpi.sum(d.knit_self_energy);
+      d.knit_self_min_gap = mpi.min(d.knit_self_min_gap);
+      d.knit_min_rigid_distance = mpi.min(d.knit_min_rigid_distance);
+      if (!fluid_on_) {
+        d.imbalance = ranks_->last_imbalance();
+        d.repartitions = ranks_->repartitions();
+      }
+    }
   }
   if (!fluid_on_)
     return d;

@@ -8,6 +8,7 @@
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
 
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -99,7 +100,9 @@ public:
   /// reset, read on the host (waits for the device). A NaN position reads as infinitely far.
   T moved(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x) {
     observe(ex, x);
-    const T m2 = moved2_.to_host()[0];
+    T m2 = moved2_.to_host()[0];
+    if (job_max_)
+      m2 = job_max_(m2 == m2 ? m2 : std::numeric_limits<T>::max());
     return m2 >= T(0) && m2 < std::numeric_limits<T>::max() ? ksqrt(m2)
                                                             : std::numeric_limits<T>::infinity();
   }
@@ -118,6 +121,10 @@ public:
     moved2_.assign(std::vector<T>{s.moved2});
     bound_ = s.bound;
   }
+
+  /// On N ranks: the host's readings become the largest over the job (collective), so every
+  /// rank decides to rebuild when the one-rank run does (its watch sees all points).
+  void set_job_max(std::function<T(T)> job_max) { job_max_ = std::move(job_max); }
 
   T skin() const { return skin_; }
   T skin2() const { return skin_ * skin_; }
@@ -144,6 +151,7 @@ private:
   exec::DeviceBuffer<T> moved2_;
   const char* label_;
   T bound_ = std::numeric_limits<T>::infinity();
+  std::function<T(T)> job_max_;
 };
 
 } // namespace kf

@@ -9,7 +9,8 @@ KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
       rest_(b, 0, "knit.self.rest"), m_(b, 0, "knit.self.m"), piece_(b, 0, "knit.self.piece"),
       id_(b, 0, "knit.self.id"),
       watch_(b, (geo.cell - T(2) * params.radius) / T(2), "knit.self.moved"), list_(b),
-      cell_(geo.cell), list_capacity_(list_capacity) {
+      cell_(geo.cell), list_capacity_(list_capacity), perm_(b, 0, "knit.self.perm"),
+      at_by_id_(b, 0, "knit.self.x0") {
   if (!(geo.cell > T(2) * params.radius))
     throw Error("knit self-collision: grid cell " + std::to_string(double(geo.cell)) +
                 " m is not larger than the contact reach 2R = " +
@@ -20,8 +21,16 @@ template <typename T>
 void KnitSelfContact<T>::sort(const exec::Exec& ex, KnitSet<T>& set,
                               const exec::DeviceBuffer<Vec3<T>>& at) {
   const std::size_t n = set.size();
-  const auto& perm = grid_.permutation();
-  grid_.build(ex, at.data(), n);
+  if (order_) { // the grid sorts positions in id order; perm_ maps its slots to set indices
+    at_by_id_.resize(n);
+    exec::gather(ex, *order_, at, at_by_id_, "knit.self.order");
+    grid_.build(ex, at_by_id_.data(), n);
+    perm_.resize(n);
+    exec::gather(ex, grid_.permutation(), *order_, perm_, "knit.self.order");
+  } else {
+    grid_.build(ex, at.data(), n);
+  }
+  const auto& perm = this->perm();
   ++sorts_;
   x_.resize(n);
   v_.resize(n);
@@ -56,8 +65,8 @@ void KnitSelfContact<T>::restore(const exec::Exec& ex, KnitSet<T>& set,
 
 template <typename T>
 void KnitSelfContact<T>::gather_motion(const exec::Exec& ex, KnitSet<T>& set) {
-  exec::gather(ex, grid_.permutation(), set.x, x_, "knit.self.gather");
-  exec::gather(ex, grid_.permutation(), set.v, v_, "knit.self.gather");
+  exec::gather(ex, perm(), set.x, x_, "knit.self.gather");
+  exec::gather(ex, perm(), set.v, v_, "knit.self.gather");
 }
 
 template <typename T>
@@ -91,7 +100,7 @@ void KnitSelfContact<T>::begin_step(const exec::Exec& ex, KnitSet<T>& set, T mot
     // "conserving"): the pairs take this step's, not those of the last sort (which a restart
     // could not know). Otherwise they are the sort's.
     if (masses_vary_)
-      exec::gather(ex, grid_.permutation(), set.m, m_, "knit.self.gather");
+      exec::gather(ex, perm(), set.m, m_, "knit.self.gather");
   }
 }
 
@@ -101,7 +110,7 @@ void KnitSelfContact<T>::update(const exec::Exec& ex, KnitSet<T>& set) {
     sync(ex, set);
     return;
   }
-  watch_.observe_gather(ex, set.x, set.v, grid_.permutation(), x_, v_);
+  watch_.observe_gather(ex, set.x, set.v, perm(), x_, v_);
 }
 
 template <typename T>
@@ -111,7 +120,7 @@ SortedKnitView<T> KnitSelfContact<T>::sorted() const {
 
 template <typename T>
 void KnitSelfContact<T>::add_forces(const exec::Exec& ex, KnitSet<T>& set) const {
-  exec::for_each_lanes<4>(ex, set.size(),
+  exec::for_each_lanes<4>(ex, active(set),
                           SelfContactEvaluator<T>{set.view(), set.x_rest.data(), set.piece.data(),
                                                   sorted(), grid_.view(), params_, list_.view(),
                                                   watch_.moved2(), watch_.skin2(),
@@ -122,7 +131,7 @@ void KnitSelfContact<T>::add_forces(const exec::Exec& ex, KnitSet<T>& set) const
 template <typename T>
 SelfContactStats KnitSelfContact<T>::stats(const exec::Exec& ex, KnitSet<T>& set) const {
   return exec::transform_reduce(
-      ex, set.size(), SelfContactStats{}, SelfContactStatsOp{},
+      ex, active(set), SelfContactStats{}, SelfContactStatsOp{},
       SelfContactStatsEvaluator<T>{set.x.data(), set.x_rest.data(), set.piece.data(), set.id.data(),
                                    sorted(), id_.data(), grid_.view(), params_},
       "knit.self_contact_stats");
@@ -130,9 +139,9 @@ SelfContactStats KnitSelfContact<T>::stats(const exec::Exec& ex, KnitSet<T>& set
 
 template <typename T>
 std::size_t KnitSelfContact<T>::bytes() const {
-  return grid_.bytes() + list_.bytes() + x_.capacity_bytes() + v_.capacity_bytes() +
-         rest_.capacity_bytes() + m_.capacity_bytes() + piece_.capacity_bytes() +
-         id_.capacity_bytes() + watch_.bytes();
+  return grid_.bytes() + list_.bytes() + perm_.capacity_bytes() + at_by_id_.capacity_bytes() +
+         x_.capacity_bytes() + v_.capacity_bytes() + rest_.capacity_bytes() + m_.capacity_bytes() +
+         piece_.capacity_bytes() + id_.capacity_bytes() + watch_.bytes();
 }
 
 template class KnitSelfContact<float>;

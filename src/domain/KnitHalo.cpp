@@ -1,0 +1,300 @@
+#include "domain/KnitHalo.hpp"
+
+#include "core/Error.hpp"
+#include "domain/GhostSelection.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+
+namespace kf {
+
+namespace {
+
+template <typename U>
+comm::Column column(exec::DeviceBuffer<U>& b) {
+  return {b.data(), sizeof(U)};
+}
+
+template <typename U>
+comm::MigrationColumn resizable(exec::DeviceBuffer<U>& b) {
+  return {sizeof(U), [&b](std::size_t k) {
+            b.resize(k);
+            return reinterpret_cast<unsigned char*>(b.data());
+          }};
+}
+
+/// Adds the seconds of its scope to the split's exchange time.
+template <typename T>
+struct Timed {
+  RankExchange<T>& ranks;
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+  ~Timed() {
+    ranks.add_exchange_seconds(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+};
+
+} // namespace
+
+template <typename T>
+KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit)
+    : ranks_(ranks), knit_(knit), mesh_points_(knit.size()) {
+  // Each point's partners: the other ends of its springs and the other points of its cells.
+  std::vector<std::vector<std::uint32_t>> rows(mesh_points_);
+  for (const Spring& sp : knit.mesh_springs()) {
+    rows[sp.i].push_back(sp.j);
+    rows[sp.j].push_back(sp.i);
+  }
+  for (const VolumeCell& c : knit.mesh_cells())
+    for (std::uint32_t a : c.point)
+      for (std::uint32_t b : c.point)
+        if (a != b)
+          rows[a].push_back(b);
+  partner_start_.assign(1, 0);
+  for (auto& r : rows) {
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+    partner_.insert(partner_.end(), r.begin(), r.end());
+    partner_start_.push_back(static_cast<std::uint32_t>(partner_.size()));
+  }
+  base_width_ = base_width(knit);
+  skin_ = 0.5 * base_width_;
+  const comm::MpiContext& mpi = ranks_.mpi();
+  if (auto* self = knit.self_contact())
+    self->distribute(&by_id_, [&mpi](T m2) { return static_cast<T>(mpi.max(double(m2))); });
+  knit.set_ghost_refresh([this] { refresh(); });
+}
+
+template <typename T>
+double KnitHalo<T>::base_width(KnitSystem<T>& knit) {
+  double reach = 0;
+  const auto x = knit.set().x_rest.to_host();
+  for (const Spring& sp : knit.mesh_springs())
+    reach = std::max(reach, sp.rest);
+  for (const VolumeCell& c : knit.mesh_cells())
+    for (std::uint32_t a : c.point)
+      for (std::uint32_t b : c.point)
+        reach = std::max(reach, double(norm(x[a] - x[b])));
+  double w = 1.5 * reach;
+  if (auto* self = knit.self_contact()) // a row's list reaches a cell; a cell walk 2 cells a side
+    w = std::max(w, 3.5 * double(self->cell()) + 2 * double(self->skin()));
+  return w;
+}
+
+template <typename T>
+std::vector<comm::MigrationColumn> KnitHalo<T>::state_columns() {
+  auto& s = knit_.set();
+  return {resizable(s.x),  resizable(s.v),      resizable(s.a),     resizable(s.x_rest),
+          resizable(s.m),  resizable(s.handle), resizable(s.layer), resizable(s.piece),
+          resizable(s.id), resizable(x0_)};
+}
+
+template <typename T>
+std::vector<comm::Column> KnitHalo<T>::halo_columns() {
+  auto& s = knit_.set();
+  return {column(s.x),      column(s.v),     column(s.a),     column(s.x_rest), column(s.m),
+          column(s.handle), column(s.layer), column(s.piece), column(s.id),     column(x0_)};
+}
+
+template <typename T>
+void KnitHalo<T>::distribute(const std::vector<Vec3<T>>& x0, T moved2, T bound) {
+  const Timed<T> timed{ranks_};
+  auto& set = knit_.set();
+  const std::size_t n = set.size();
+  if (!x0.empty() && x0.size() != n)
+    throw Error("knit on N ranks: " + std::to_string(x0.size()) +
+                " self-contact reference positions for " + std::to_string(n) + " points");
+  x0_.resize(n);
+  if (x0.empty())
+    x0_.copy_from(set.x, n);
+  else
+    x0_.assign(x0);
+  moved2_ = moved2;
+  bound_ = bound;
+  const int me = ranks_.rank();
+  std::vector<int> dest(n);
+  for (std::size_t i = 0; i < n; ++i)
+    dest[i] = ranks_.decomposition().owner(vec_cast<double>(set.x.data()[i])) == me ? me : -1;
+  auto cols = state_columns();
+  owned_ = comm::migrate(ranks_.transport(), {}, dest, cols);
+  set.resize(owned_);
+  repartitions_seen_ = ranks_.repartitions();
+  halo_.reset();
+  built_ = false;
+}
+
+template <typename T>
+bool KnitHalo<T>::partners_present() {
+  const auto& set = knit_.set();
+  const std::uint64_t* id = set.id.data();
+  const Vec3<T>* x = set.x.data();
+  local_.assign(mesh_points_, -1);
+  for (std::size_t k = 0; k < set.size(); ++k)
+    local_[id[k]] = static_cast<std::int64_t>(k);
+  double reach = 0, missing = 0;
+  for (std::size_t i = 0; i < owned_; ++i)
+    for (std::uint32_t e = partner_start_[id[i]]; e < partner_start_[id[i] + 1]; ++e) {
+      const std::int64_t l = local_[partner_[e]];
+      if (l < 0)
+        missing = 1;
+      else
+        reach = std::max(reach, double(norm(x[l] - x[i])));
+    }
+  double both[2] = {reach, missing};
+  MPI_Allreduce(MPI_IN_PLACE, both, 2, MPI_DOUBLE, MPI_MAX, ranks_.mpi().comm());
+  reach_ = both[0];
+  return both[1] == 0;
+}
+
+template <typename T>
+void KnitHalo<T>::begin(double motion) {
+  const Timed<T> timed{ranks_};
+  auto& set = knit_.set();
+  if (built_ && ranks_.repartitions() == repartitions_seen_) {
+    // The ghosts last while no point can have moved half the skin since they were chosen: a
+    // partner within reach then was within reach + skin of this rank's region.
+    double moved = 0;
+    for (std::size_t i = 0; i < owned_; ++i)
+      moved = std::max(moved, double(norm(set.x.data()[i] - x_built_[i])));
+    moved = ranks_.mpi().max(std::isnan(moved) ? 1e300 : moved);
+    if (moved + motion <= 0.5 * skin_) {
+      const comm::Column cols[] = {column(set.x), column(set.v)};
+      halo_->exchange(cols, owned_);
+      return;
+    }
+  }
+  if (built_) {
+    // The self-contact's reference positions as the steps left them (a sort resets them), and
+    // the job's record, travel with the points.
+    if (const auto st = knit_.self_contact_state()) {
+      std::copy(st->x0.begin(), st->x0.begin() + owned_, x0_.data());
+      moved2_ = static_cast<T>(ranks_.mpi().max(double(st->moved2)));
+      bound_ = st->bound;
+    }
+    set.resize(owned_);
+    x0_.resize(owned_);
+  }
+  rebuild();
+}
+
+template <typename T>
+void KnitHalo<T>::rebuild() {
+  auto& set = knit_.set();
+  const Decomposition& d = ranks_.decomposition();
+  const int me = ranks_.rank();
+  // The points that left this rank's blocks go to their owners: the blocks next to this rank's,
+  // or anyone after a re-partition.
+  std::vector<int> peers = ranks_.migration_peers();
+  if (ranks_.repartitions() != repartitions_seen_) {
+    peers.clear();
+    for (int r = 0; r < ranks_.ranks(); ++r)
+      if (r != me)
+        peers.push_back(r);
+    repartitions_seen_ = ranks_.repartitions();
+  }
+  std::vector<int> dest(owned_);
+  for (std::size_t i = 0; i < owned_; ++i)
+    dest[i] = d.owner(vec_cast<double>(set.x.data()[i]));
+  auto cols = state_columns();
+  owned_ = comm::migrate(ranks_.transport(), peers, dest, cols);
+  set.resize(owned_);
+  // The ghosts: the width covers the partners as stretched at the last choice (the check below
+  // widens it where a spring stretched further) plus the skin the points may move until the
+  // next choice.
+  double width = std::max(base_width_, 1.25 * reach_) + skin_;
+  const BlockGrid& g = d.grid();
+  const double most = 4 * g.edge() * (g.nx() + g.ny() + g.nz()) + base_width_;
+  for (;;) {
+    std::vector<Vec3d> xd(owned_);
+    for (std::size_t i = 0; i < owned_; ++i)
+      xd[i] = vec_cast<double>(set.x.data()[i]);
+    const GhostLists gl = select_ghosts(d, me, xd, width);
+    halo_.emplace(ranks_.transport(), gl.peers, gl.send);
+    const std::size_t total = owned_ + halo_->received();
+    set.resize(total);
+    x0_.resize(total);
+    const auto hc = halo_columns();
+    halo_->exchange(hc, owned_);
+    if (partners_present())
+      break;
+    if (width > most)
+      throw Error("knit on N ranks: a spring or volume cell spans more than the domain; the "
+                  "knit has come apart");
+    width *= 2; // a spring stretched past the width: wider, until every partner arrives
+    set.resize(owned_);
+    x0_.resize(owned_);
+  }
+  width_ = width;
+  ++rebuilds_;
+  x_built_.assign(set.x.data(), set.x.data() + owned_);
+  built_ = true;
+  const std::vector<std::uint64_t> ids(set.id.data(), set.id.data() + set.size());
+  std::vector<std::uint32_t> order(ids.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::sort(order.begin(), order.end(), [&](auto a, auto b) { return ids[a] < ids[b]; });
+  by_id_.assign(order);
+  knit_.localize(ids, owned_);
+  if (knit_.self_collision())
+    knit_.restore_self_contact({x0_host_all(), moved2_, bound_});
+}
+
+template <typename T>
+void KnitHalo<T>::refresh() {
+  if (!halo_)
+    return;
+  const Timed<T> timed{ranks_};
+  auto& s = knit_.set();
+  const comm::Column cols[] = {column(s.x), column(s.v)};
+  halo_->exchange(cols, owned_);
+}
+
+template <typename T>
+typename SkinWatch<T>::State KnitHalo<T>::self_contact_state() const {
+  if (!built_)
+    return {x0_host(), moved2_, bound_};
+  const auto st = knit_.self_contact_state();
+  return {std::vector<Vec3<T>>(st->x0.begin(), st->x0.begin() + owned_),
+          static_cast<T>(ranks_.mpi().max(double(st->moved2))), st->bound};
+}
+
+template <typename T>
+std::vector<Vec3<T>> KnitHalo<T>::x0_host() const {
+  const auto all = x0_.to_host();
+  return {all.begin(), all.begin() + std::min(owned_, all.size())};
+}
+
+template <typename T>
+std::vector<Vec3<T>> KnitHalo<T>::x0_host_all() const {
+  return x0_.to_host();
+}
+
+template <typename T>
+std::vector<Vec3<T>> KnitHalo<T>::gather_positions() const {
+  const auto& set = knit_.set();
+  const int size = ranks_.ranks();
+  std::vector<double> mine;
+  mine.reserve(4 * owned_);
+  for (std::size_t i = 0; i < owned_; ++i) {
+    const Vec3<T> x = set.x.data()[i];
+    mine.insert(mine.end(), {double(set.id.data()[i]), double(x.x), double(x.y), double(x.z)});
+  }
+  int n = static_cast<int>(mine.size());
+  std::vector<int> counts(size), displs(size);
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, ranks_.mpi().comm());
+  std::exclusive_scan(counts.begin(), counts.end(), displs.begin(), 0);
+  std::vector<double> all(std::accumulate(counts.begin(), counts.end(), std::size_t(0)));
+  MPI_Allgatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
+                 ranks_.mpi().comm());
+  std::vector<Vec3<T>> x(mesh_points_);
+  for (std::size_t k = 0; k + 3 < all.size(); k += 4)
+    x[static_cast<std::size_t>(all[k])] = {static_cast<T>(all[k + 1]), static_cast<T>(all[k + 2]),
+                                           static_cast<T>(all[k + 3])};
+  return x;
+}
+
+template class KnitHalo<float>;
+template class KnitHalo<double>;
+
+} // namespace kf

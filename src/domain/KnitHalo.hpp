@@ -1,0 +1,86 @@
+#pragma once
+// The knit points of one rank of a job split in space (P5 stage 4; docs/ARCHITECTURE.md, "The
+// knit on N ranks"). Between steps a rank holds the knit points in its blocks. Before the
+// knit's first step those that left migrate to their blocks' owners, and the points within the
+// knit's ghost width of the rank's region arrive as ghosts after the owned ones: every spring
+// and volume-cell partner of an owned point (checked, by global id; the width doubles until none
+// is missing) and every point its self-contact lists or cell walks can reach, plus a skin. The
+// ghosts stay, refreshed (positions, velocities) at each step's start and after every drift,
+// until a point may have moved half the skin: then migration and the choice run again (like
+// "verlet" lists; a point owned by a rank stays its until then). The self-contact grid's
+// reference positions travel with the points, and its
+// motion readings are the job's, so it is sorted when the one-rank run sorts it and lists the
+// same partners in the same order: the split knit is the one-rank knit bit for bit. Host
+// memory: the CPU backend.
+#include "comm/HaloExchange.hpp"
+#include "domain/KnitSystem.hpp"
+#include "domain/RankExchange.hpp"
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace kf {
+
+template <typename T>
+class KnitHalo {
+public:
+  KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit);
+
+  /// The ghost width before any step: the longest spring or volume cell at rest, stretched by
+  /// half, and the self-contact's reach (lists and cell walks: 3.5 cells) plus its skin.
+  static double base_width(KnitSystem<T>& knit);
+
+  /// At the start (every rank built the whole knit, the decomposition is made): keeps this
+  /// rank's points. x0: the self-contact's reference positions, per point in mesh order (a
+  /// restart's); empty: the positions now.
+  void distribute(const std::vector<Vec3<T>>& x0 = {}, T moved2 = T(0), T bound = T(0));
+  /// Before the knit's step (or a pass that reads partners; collective): the ghosts' positions
+  /// and velocities from their owners while the ghosts chosen last still cover every partner
+  /// (no point moved half the skin since, `motion` for the coming step included); otherwise
+  /// the ghosts are chosen anew (rebuild).
+  void begin(double motion);
+  /// The ghosts' positions and velocities from their owners (after each drift).
+  void refresh();
+
+  /// The self-contact's state over the owned points (snapshots; collective): reference
+  /// positions, the job's recorded motion, the host's bound.
+  typename SkinWatch<T>::State self_contact_state() const;
+  std::size_t owned() const { return owned_; }
+  /// Times the ghosts were chosen (migration, selection, springs localized).
+  std::uint64_t rebuilds() const { return rebuilds_; }
+  /// All knit positions of the job in mesh order, on every rank (the yarns).
+  std::vector<Vec3<T>> gather_positions() const;
+  std::size_t ghosts() const { return built_ ? knit_.set().size() - owned_ : 0; }
+  double width() const { return width_; }
+
+private:
+  std::vector<Vec3<T>> x0_host() const;     // the owned points'
+  std::vector<Vec3<T>> x0_host_all() const; // owned and ghosts
+  std::vector<comm::MigrationColumn> state_columns();
+  std::vector<comm::Column> halo_columns();
+  /// Whether every partner of an owned point is here; reach_ becomes the farthest partner.
+  bool partners_present();
+  /// Migration to the blocks' owners, the ghosts chosen and received (every partner present),
+  /// the springs localized, the self-contact grid sorted for its reference positions.
+  void rebuild();
+
+  RankExchange<T>& ranks_;
+  KnitSystem<T>& knit_;
+  double base_width_ = 0, width_ = 0, reach_ = 0, skin_ = 0;
+  bool built_ = false;           // ghosts present (chosen for the positions x_built_)
+  std::vector<Vec3<T>> x_built_; // the owned points' positions when the ghosts were chosen
+  std::uint64_t rebuilds_ = 0;
+  std::size_t owned_ = 0, mesh_points_ = 0;
+  std::uint64_t repartitions_seen_ = 0;
+  // The self-contact's reference positions, parallel to the set; the job's motion record.
+  exec::DeviceBuffer<Vec3<T>> x0_{exec::Backend::Cpu, 0, "knit.halo.x0"};
+  T moved2_ = T(0), bound_ = T(0);
+  exec::DeviceBuffer<std::uint32_t> by_id_{exec::Backend::Cpu, 0, "knit.halo.by_id"};
+  std::optional<comm::HaloExchange> halo_;
+  std::vector<std::int64_t> local_; // mesh index -> local index (-1: not here)
+  // Per mesh point, its partners (springs and volume cells), compressed rows.
+  std::vector<std::uint32_t> partner_start_, partner_;
+};
+
+} // namespace kf

@@ -1,0 +1,314 @@
+// The knit on N ranks (mpiexec -n 2 and 3): a knit scene run split in space and on one rank
+// (each rank runs the one-rank reference itself), the owned points of all ranks gathered and
+// matched by id every few steps:
+// - every knit point is owned by exactly one rank;
+// - positions and velocities equal the one-rank run's bit for bit. A point gathers its springs
+//   and volume cells in the mesh's order whichever rank holds them, and the self-contact grid
+//   sorts the points in id order for the reference positions the one-rank run sorted them for
+//   (carried with the points; its motion readings are the job's), so every pair list is the
+//   one-rank run's. Measured: identical for 2 and 3 ranks, float and double;
+// - the ghosts a rank receives are exactly the knit points of other ranks within the ghost width
+//   of its region (a brute-force distance to its blocks), carrying their owners' values, and
+//   include every spring and volume-cell partner of its owned points;
+// - the job's diagnostics are the reference's (energies summed over ranks in another order:
+//   1e-12; contact counts exactly);
+// - a snapshot written by N ranks continues on one and on N, one written by one rank on N, each
+//   ending where the uninterrupted one-rank run ends.
+#include "comm/MpiContext.hpp"
+#include "domain/KnitHalo.hpp"
+#include "domain/RankExchange.hpp"
+#include "domain/Simulation.hpp"
+#include "io/SnapshotReader.hpp"
+#include "io/SnapshotWriter.hpp"
+#include "support/MpiGather.hpp"
+#include "support/TestPaths.hpp"
+
+#include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <algorithm>
+#include <cstring>
+#include <map>
+#include <numeric>
+#include <set>
+
+using namespace kf;
+
+namespace {
+
+/// The knit's owned points of a frame, gathered from every rank when split, in id order.
+struct KnitRows {
+  std::vector<std::uint64_t> id;
+  std::map<std::string, std::vector<unsigned char>> bytes;
+  std::set<std::uint32_t> ranks; // ranks holding points
+};
+
+KnitRows knit_rows(const io::Frame& fr, bool gather) {
+  const io::Phase& f = *fr.find("knit");
+  auto bytes_of = [&](const std::string& name) {
+    const auto& b = f.find(name)->bytes;
+    return gather ? test::allgather(b) : b;
+  };
+  const auto idb = bytes_of("id");
+  std::vector<std::uint64_t> id(idb.size() / 8);
+  std::memcpy(id.data(), idb.data(), idb.size());
+  std::vector<std::size_t> order(id.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](auto a, auto b) { return id[a] < id[b]; });
+  KnitRows r;
+  for (std::size_t k : order)
+    r.id.push_back(id[k]);
+  for (const char* name : {"position", "velocity", "mass"}) {
+    const auto b = bytes_of(name);
+    const std::size_t row = id.empty() ? 0 : b.size() / id.size();
+    auto& out = r.bytes[name];
+    out.resize(b.size());
+    for (std::size_t k = 0; k < order.size(); ++k)
+      std::memcpy(out.data() + k * row, b.data() + order[k] * row, row);
+  }
+  if (f.find("rank"))
+    for (std::uint32_t q : test::allgather(f.find("rank")->as<std::uint32_t>()))
+      r.ranks.insert(q);
+  return r;
+}
+
+void expect_same_rows(const KnitRows& a, const KnitRows& b, const std::string& what) {
+  ASSERT_EQ(a.id, b.id) << what << ": a knit point is owned by no rank or by two";
+  for (const auto& [name, bytes] : a.bytes)
+    ASSERT_TRUE(bytes == b.bytes.at(name)) << what << ": knit " << name << " differs";
+}
+
+void expect_same_knit_run(const Scene& s, int steps, int every, const std::string& what,
+                          std::uint64_t min_self_contacts, bool migrates) {
+  comm::MpiContext mpi;
+  auto one = Simulation::create(s, exec::Backend::Cpu);
+  auto split = Simulation::create(s, exec::Backend::Cpu, &mpi);
+  const io::Frame start = split->frame();
+  const KnitRows first = knit_rows(start, true);
+  ASSERT_EQ(first.ranks.size(), std::size_t(mpi.size())) << what << ": a rank holds no knit";
+  std::uint64_t most_self = 0;
+  for (int k = 1; k <= steps; ++k) {
+    one->step(1e9);
+    split->step(1e9);
+    ASSERT_EQ(one->time(), split->time()) << what << ": the ranks took another dt, step " << k;
+    if (k % every != 0 && k != steps)
+      continue;
+    SCOPED_TRACE(what + ", step " + std::to_string(k));
+    expect_same_rows(knit_rows(one->frame(), false), knit_rows(split->frame(), true), what);
+    const Diagnostics d1 = one->diagnostics(), d2 = split->diagnostics();
+    EXPECT_EQ(d1.knit, d2.knit);
+    EXPECT_EQ(d1.knit_contacts, d2.knit_contacts) << "contacts with solids";
+    EXPECT_EQ(d1.knit_self_contacts, d2.knit_self_contacts);
+    EXPECT_EQ(d1.knit_self_min_gap, d2.knit_self_min_gap);
+    // Sums of ~10^3 terms over ranks in another order: a few ulps of the total.
+    const auto near = [](double a, double b) { return std::abs(a - b) <= 1e-12 * std::abs(a); };
+    EXPECT_TRUE(near(d1.knit_kinetic_energy, d2.knit_kinetic_energy))
+        << d1.knit_kinetic_energy << " " << d2.knit_kinetic_energy;
+    EXPECT_TRUE(near(d1.knit_elastic_energy, d2.knit_elastic_energy))
+        << d1.knit_elastic_energy << " " << d2.knit_elastic_energy;
+    EXPECT_TRUE(near(d1.knit_self_energy, d2.knit_self_energy))
+        << d1.knit_self_energy << " " << d2.knit_self_energy;
+    most_self = std::max(most_self, d2.knit_self_contacts);
+  }
+  // Points crossed between ranks (migration was exercised).
+  const auto ranks_of = [](const io::Frame& fr) {
+    const io::Phase& f = *fr.find("knit");
+    const auto id = test::allgather(f.find("id")->as<std::uint64_t>());
+    const auto rk = test::allgather(f.find("rank")->as<std::uint32_t>());
+    std::vector<std::uint32_t> out(id.size());
+    for (std::size_t k = 0; k < id.size(); ++k)
+      out[id[k]] = rk[k];
+    return out;
+  };
+  const auto before = ranks_of(start), after = ranks_of(split->frame());
+  std::size_t moved = 0;
+  for (std::size_t k = 0; k < before.size(); ++k)
+    moved += before[k] != after[k];
+  if (migrates)
+    EXPECT_GT(moved, 0u) << what << ": no knit point changed rank";
+  EXPECT_GE(most_self, min_self_contacts) << what << ": the folds never touched";
+  if (mpi.root())
+    std::printf("%s: %d steps to t = %.4f s, %zu knit points, %zu changed rank, up to %llu "
+                "self-contacts; identical on %d ranks\n",
+                what.c_str(), steps, split->time(), one->diagnostics().knit, moved,
+                static_cast<unsigned long long>(most_self), mpi.size());
+}
+
+/// The paper's drape, small: a 24 x 24 square 1 cm above the ball; blocks small enough that
+/// every rank holds part of it.
+Scene small_drape(const std::string& precision) {
+  return load_scene((test::source_dir() / "scenes" / "drape.toml").string(),
+                    {"output.enabled=false", "knit.piece.0.wales=24", "knit.piece.0.courses=24",
+                     "knit.piece.0.center=[0.02, 0.01, 0.51]", "parallel.block_cells=1",
+                     "simulation.precision=\"" + precision + "\""});
+}
+
+} // namespace
+
+TEST(DistributedKnit, DrapeIsTheOneRankRun) {
+  // It falls onto the ball and slides a little: the ranks' blocks split it across, not along
+  // its fall, so few points change rank (the folding strip's do).
+  expect_same_knit_run(small_drape("float"), 3000, 500, "drape, float", 0, false);
+  expect_same_knit_run(small_drape("double"), 3000, 1000, "drape, double", 0, false);
+}
+
+namespace {
+
+/// A tall strip dropped on its end (test_knit_fold's): it crumples onto the floor in folds that
+/// land on each other, so the self-contact pairs cross ranks.
+Scene fold(const std::string& precision) {
+  Scene s;
+  s.name = "fold";
+  s.modules = {Module::Knit};
+  s.domain.min = {-0.35, -0.024, 0};
+  s.domain.max = {0.35, 0.024, 0.7};
+  s.output.enabled = false;
+  s.precision = precision == "double" ? Precision::Double : Precision::Float;
+  KnitPiece p;
+  p.name = "strip";
+  p.center = {0.03, 0, 0.1 + 0.15}; // its foot 10 cm above the floor
+  p.normal = {1, 0, 0.2};
+  p.u_axis = {0, 1, 0};
+  p.width = 0.04;
+  p.height = 0.3 / std::cos(std::atan(0.2));
+  p.wales = 6;
+  p.courses = 45;
+  s.knit.pieces = {p};
+  s.knit.thickness = 0.003;
+  s.knit.mass_per_area = 0.3;
+  s.knit.stretch = 150;
+  s.knit.shear = 8;
+  s.knit.bend = 0.5;
+  s.knit.compression = 3000;
+  s.knit.layer_shear = 1500;
+  s.knit.damping_ratio = 0.2;
+  s.knit.friction = 0.5;
+  s.knit.self_collision = true;
+  s.parallel.block_cells = 1;
+  return s;
+}
+
+} // namespace
+
+TEST(DistributedKnit, FoldingStripIsTheOneRankRun) {
+  expect_same_knit_run(fold("float"), 12000, 2000, "folding strip, float", 1, true);
+}
+
+TEST(DistributedKnit, GhostsAreThePointsWithinTheWidthAndEveryPartner) {
+  comm::MpiContext mpi;
+  const Scene s = fold("double");
+  const exec::Exec ex{exec::Backend::Cpu};
+  KnitSystem<double> whole(s, ex), knit(s, ex); // whole: the reference, never split
+  const auto all_x = whole.set().x.to_host();
+  const auto all_m = whole.set().m.to_host();
+  RankExchange<double> ranks(mpi, s, exec::Backend::Cpu, KnitHalo<double>::base_width(knit));
+  ranks.distribute(nullptr, nullptr, all_x);
+  KnitHalo<double> halo(ranks, knit);
+  halo.distribute();
+  halo.begin(0.0);
+  const Decomposition& d = ranks.decomposition();
+  const auto& set = knit.set();
+  const std::size_t owned = halo.owned(), n = set.size();
+  const auto id = set.id.to_host();
+  const auto x = set.x.to_host();
+  const auto m = set.m.to_host();
+  std::vector<std::uint64_t> want;
+  for (std::size_t i = 0; i < all_x.size(); ++i) {
+    const bool mine = d.owner(all_x[i]) == mpi.rank();
+    if (!mine && d.distance_to_region(all_x[i], mpi.rank()) < halo.width())
+      want.push_back(i);
+  }
+  std::vector<std::uint64_t> got(id.begin() + owned, id.end());
+  std::sort(got.begin(), got.end());
+  EXPECT_EQ(got, want) << "rank " << mpi.rank() << ", width " << halo.width();
+  EXPECT_GT(got.size(), 0u);
+  // Owned: exactly the points in this rank's blocks; ids over all ranks each once.
+  for (std::size_t k = 0; k < owned; ++k)
+    EXPECT_EQ(d.owner(all_x[id[k]]), mpi.rank()) << "point " << id[k];
+  auto ids = test::allgather(std::vector<std::uint64_t>(id.begin(), id.begin() + owned));
+  std::sort(ids.begin(), ids.end());
+  std::vector<std::uint64_t> every(all_x.size());
+  std::iota(every.begin(), every.end(), 0u);
+  EXPECT_EQ(ids, every);
+  // Each ghost carries its point's values; every partner of an owned point is here.
+  for (std::size_t k = 0; k < n; ++k) {
+    EXPECT_EQ(std::memcmp(&x[k], &all_x[id[k]], sizeof(x[k])), 0) << "point " << id[k];
+    EXPECT_EQ(m[k], all_m[id[k]]);
+  }
+  std::set<std::uint64_t> here(id.begin(), id.end()), owned_ids(id.begin(), id.begin() + owned);
+  std::size_t partners = 0, remote = 0;
+  for (const Spring& sp : whole.mesh_springs())
+    for (auto [a, b] : {std::pair{sp.i, sp.j}, std::pair{sp.j, sp.i}})
+      if (owned_ids.count(a)) {
+        ++partners;
+        remote += !owned_ids.count(b);
+        EXPECT_TRUE(here.count(b)) << "spring partner " << b << " of owned point " << a;
+      }
+  for (const VolumeCell& c : whole.mesh_cells())
+    for (auto a : c.point)
+      if (owned_ids.count(a))
+        for (auto b : c.point)
+          EXPECT_TRUE(here.count(b)) << "cell partner " << b << " of owned point " << a;
+  EXPECT_GT(remote, 0u) << "no spring crosses ranks: the check saw nothing";
+  if (mpi.root())
+    std::printf("rank 0: %zu owned knit points, %zu ghosts within %.4f m; %zu spring ends, %zu "
+                "of them on another rank\n",
+                owned, n - owned, halo.width(), partners, remote);
+}
+
+// Restart across rank counts with the knit: a snapshot written by N ranks (self-contacts
+// present) continues on N ranks and on one, one written by one rank on N; each continuation
+// ends where the uninterrupted one-rank run ends, bit for bit.
+TEST(DistributedKnit, RestartContinuesOnAnyRankCount) {
+  comm::MpiContext world;
+  const Scene s = fold("float");
+  const int first = 10000, total = 11000;
+  auto one = Simulation::create(s, exec::Backend::Cpu);
+  io::Frame one_at_first;
+  for (int k = 1; k <= total; ++k) {
+    one->step(1e9);
+    if (k == first)
+      one_at_first = one->frame();
+  }
+  const KnitRows want = knit_rows(one->frame(), false);
+  auto finish = [&](Simulation& sim, bool split) {
+    EXPECT_EQ(sim.steps(), static_cast<std::uint64_t>(first));
+    while (sim.steps() < static_cast<std::uint64_t>(total))
+      sim.step(1e9);
+    return knit_rows(sim.frame(), split);
+  };
+  const auto dir = test::scratch_dir("distributed_knit_restart");
+  std::string snap;
+  std::uint64_t contacts = 0;
+  {
+    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
+    for (int k = 1; k <= first; ++k)
+      split->step(1e9);
+    contacts = split->diagnostics().knit_self_contacts;
+    io::SnapshotWriter writer(MPI_COMM_WORLD, dir.string());
+    io::Frame fr = split->frame();
+    fr.index = 1;
+    snap = writer.write(fr);
+  }
+  EXPECT_GT(contacts, 0u) << "no self-contact at the restart: its state went untested";
+  const io::Frame written = io::read_snapshot(MPI_COMM_WORLD, snap);
+  {
+    auto again = Simulation::create(s, exec::Backend::Cpu, &world);
+    again->restore(written);
+    expect_same_rows(want, finish(*again, true), "N ranks -> N ranks");
+  }
+  {
+    auto alone = Simulation::create(s, exec::Backend::Cpu);
+    alone->restore(written);
+    expect_same_rows(want, finish(*alone, false), "N ranks -> 1 rank");
+  }
+  {
+    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
+    split->restore(one_at_first);
+    expect_same_rows(want, finish(*split, true), "1 rank -> N ranks");
+  }
+  if (world.root())
+    std::printf("knit restart at step %d of %d (%llu self-contacts): N -> N, N -> 1, 1 -> N all "
+                "end as the one-rank run\n",
+                first, total, static_cast<unsigned long long>(contacts));
+}
