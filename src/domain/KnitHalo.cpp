@@ -39,8 +39,9 @@ struct Timed {
 } // namespace
 
 template <typename T>
-KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit)
-    : ranks_(ranks), knit_(knit), mesh_points_(knit.size()) {
+KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoupling<T>* coupling,
+                      double skin)
+    : ranks_(ranks), knit_(knit), coupling_(coupling), mesh_points_(knit.size()) {
   // Each point's partners: the other ends of its springs and the other points of its cells.
   std::vector<std::vector<std::uint32_t>> rows(mesh_points_);
   for (const Spring& sp : knit.mesh_springs()) {
@@ -59,16 +60,18 @@ KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit)
     partner_.insert(partner_.end(), r.begin(), r.end());
     partner_start_.push_back(static_cast<std::uint32_t>(partner_.size()));
   }
-  base_width_ = base_width(knit);
-  skin_ = 0.5 * base_width_;
+  base_width_ = base_width(knit, coupling);
+  skin_ = skin > 0 ? skin : 0.5 * base_width_;
   const comm::MpiContext& mpi = ranks_.mpi();
   if (auto* self = knit.self_contact())
     self->distribute(&by_id_, [&mpi](T m2) { return static_cast<T>(mpi.max(double(m2))); });
+  if (coupling)
+    coupling->distribute(&by_id_, [&mpi](T m2) { return static_cast<T>(mpi.max(double(m2))); });
   knit.set_ghost_refresh([this] { refresh(); });
 }
 
 template <typename T>
-double KnitHalo<T>::base_width(KnitSystem<T>& knit) {
+double KnitHalo<T>::base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* coupling) {
   double reach = 0;
   const auto x = knit.set().x_rest.to_host();
   for (const Spring& sp : knit.mesh_springs())
@@ -80,6 +83,8 @@ double KnitHalo<T>::base_width(KnitSystem<T>& knit) {
   double w = 1.5 * reach;
   if (auto* self = knit.self_contact()) // a row's list reaches a cell; a cell walk 2 cells a side
     w = std::max(w, 3.5 * double(self->cell()) + 2 * double(self->skin()));
+  if (coupling)
+    w = std::max(w, 3.5 * double(coupling->cell()) + 2 * double(coupling->skin()));
   return w;
 }
 
@@ -88,18 +93,20 @@ std::vector<comm::MigrationColumn> KnitHalo<T>::state_columns() {
   auto& s = knit_.set();
   return {resizable(s.x),  resizable(s.v),      resizable(s.a),     resizable(s.x_rest),
           resizable(s.m),  resizable(s.handle), resizable(s.layer), resizable(s.piece),
-          resizable(s.id), resizable(x0_)};
+          resizable(s.id), resizable(x0_),      resizable(cx0_)};
 }
 
 template <typename T>
 std::vector<comm::Column> KnitHalo<T>::halo_columns() {
   auto& s = knit_.set();
-  return {column(s.x),      column(s.v),     column(s.a),     column(s.x_rest), column(s.m),
-          column(s.handle), column(s.layer), column(s.piece), column(s.id),     column(x0_)};
+  return {column(s.x),  column(s.v),      column(s.a),     column(s.x_rest),
+          column(s.m),  column(s.handle), column(s.layer), column(s.piece),
+          column(s.id), column(x0_),      column(cx0_)};
 }
 
 template <typename T>
-void KnitHalo<T>::distribute(const std::vector<Vec3<T>>& x0, T moved2, T bound) {
+void KnitHalo<T>::distribute(const std::vector<Vec3<T>>& x0, T moved2, T bound,
+                             const typename SkinWatch<T>::State& coupling_state) {
   const Timed<T> timed{ranks_};
   auto& set = knit_.set();
   const std::size_t n = set.size();
@@ -113,6 +120,17 @@ void KnitHalo<T>::distribute(const std::vector<Vec3<T>>& x0, T moved2, T bound) 
     x0_.assign(x0);
   moved2_ = moved2;
   bound_ = bound;
+  cx0_.resize(n);
+  if (coupling_state.x0.empty()) {
+    cx0_.copy_from(set.x, n);
+  } else {
+    if (coupling_state.x0.size() != n)
+      throw Error("knit on N ranks: " + std::to_string(coupling_state.x0.size()) +
+                  " coupling reference positions for " + std::to_string(n) + " points");
+    cx0_.assign(coupling_state.x0);
+  }
+  cmoved2_ = coupling_state.moved2;
+  cbound_ = coupling_state.bound;
   const int me = ranks_.rank();
   std::vector<int> dest(n);
   for (std::size_t i = 0; i < n; ++i)
@@ -173,8 +191,15 @@ void KnitHalo<T>::begin(double motion) {
       moved2_ = static_cast<T>(ranks_.mpi().max(double(st->moved2)));
       bound_ = st->bound;
     }
+    if (coupling_) {
+      const auto st = coupling_->state();
+      std::copy(st.x0.begin(), st.x0.begin() + owned_, cx0_.data());
+      cmoved2_ = static_cast<T>(ranks_.mpi().max(double(st.moved2)));
+      cbound_ = st.bound;
+    }
     set.resize(owned_);
     x0_.resize(owned_);
+    cx0_.resize(owned_);
   }
   rebuild();
 }
@@ -215,6 +240,7 @@ void KnitHalo<T>::rebuild() {
     const std::size_t total = owned_ + halo_->received();
     set.resize(total);
     x0_.resize(total);
+    cx0_.resize(total);
     const auto hc = halo_columns();
     halo_->exchange(hc, owned_);
     if (partners_present())
@@ -225,6 +251,7 @@ void KnitHalo<T>::rebuild() {
     width *= 2; // a spring stretched past the width: wider, until every partner arrives
     set.resize(owned_);
     x0_.resize(owned_);
+    cx0_.resize(owned_);
   }
   width_ = width;
   ++rebuilds_;
@@ -238,6 +265,10 @@ void KnitHalo<T>::rebuild() {
   knit_.localize(ids, owned_);
   if (knit_.self_collision())
     knit_.restore_self_contact({x0_host_all(), moved2_, bound_});
+  if (coupling_) {
+    coupling_->restore(exec::Exec{exec::Backend::Cpu}, set, {cx0_.to_host(), cmoved2_, cbound_});
+    coupling_->set_active(owned_);
+  }
 }
 
 template <typename T>
@@ -248,6 +279,25 @@ void KnitHalo<T>::refresh() {
   auto& s = knit_.set();
   const comm::Column cols[] = {column(s.x), column(s.v)};
   halo_->exchange(cols, owned_);
+}
+
+template <typename T>
+void KnitHalo<T>::refresh(std::span<const comm::Column> columns) {
+  if (!halo_)
+    return;
+  const Timed<T> timed{ranks_};
+  halo_->exchange(columns, owned_);
+}
+
+template <typename T>
+typename SkinWatch<T>::State KnitHalo<T>::coupling_state() const {
+  if (!built_) {
+    const auto all = cx0_.to_host();
+    return {{all.begin(), all.begin() + std::min(owned_, all.size())}, cmoved2_, cbound_};
+  }
+  const auto st = coupling_->state();
+  return {std::vector<Vec3<T>>(st.x0.begin(), st.x0.begin() + owned_),
+          static_cast<T>(ranks_.mpi().max(double(st.moved2))), st.bound};
 }
 
 template <typename T>
@@ -292,6 +342,27 @@ std::vector<Vec3<T>> KnitHalo<T>::gather_positions() const {
     x[static_cast<std::size_t>(all[k])] = {static_cast<T>(all[k + 1]), static_cast<T>(all[k + 2]),
                                            static_cast<T>(all[k + 3])};
   return x;
+}
+
+template <typename T>
+std::vector<double> KnitHalo<T>::gather_values(const std::vector<double>& values) const {
+  const auto& set = knit_.set();
+  std::vector<double> mine;
+  mine.reserve(2 * owned_);
+  for (std::size_t i = 0; i < owned_; ++i)
+    mine.insert(mine.end(), {double(set.id.data()[i]), values.at(i)});
+  const int size = ranks_.ranks();
+  int n = static_cast<int>(mine.size());
+  std::vector<int> counts(size), displs(size);
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, ranks_.mpi().comm());
+  std::exclusive_scan(counts.begin(), counts.end(), displs.begin(), 0);
+  std::vector<double> all(std::accumulate(counts.begin(), counts.end(), std::size_t(0)));
+  MPI_Allgatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
+                 ranks_.mpi().comm());
+  std::vector<double> out(mesh_points_, 0.0);
+  for (std::size_t k = 0; k + 1 < all.size(); k += 2)
+    out[static_cast<std::size_t>(all[k])] = all[k + 1];
+  return out;
 }
 
 template class KnitHalo<float>;

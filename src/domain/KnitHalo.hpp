@@ -15,6 +15,9 @@
 #include "comm/HaloExchange.hpp"
 #include "domain/KnitSystem.hpp"
 #include "domain/RankExchange.hpp"
+#include "kernels/coupling/KnitFluidCoupling.hpp"
+
+#include <span>
 
 #include <cstdint>
 #include <optional>
@@ -25,16 +28,25 @@ namespace kf {
 template <typename T>
 class KnitHalo {
 public:
-  KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit);
+  /// coupling: the knit-fluid coupling, when the scene has it (its knit grid is kept like the
+  /// self-contact's: sorted in id order, its reference positions carried with the points).
+  /// skin: how far points may move before the ghosts are chosen anew (0: half the base width).
+  /// An owned point may be that far outside this rank's region until then.
+  KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoupling<T>* coupling = nullptr,
+           double skin = 0);
 
   /// The ghost width before any step: the longest spring or volume cell at rest, stretched by
   /// half, and the self-contact's reach (lists and cell walks: 3.5 cells) plus its skin.
-  static double base_width(KnitSystem<T>& knit);
+  /// With the coupling: also the reach of a fluid particle's knit candidates (two of its grid's
+  /// cells a side) plus its skin.
+  static double base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* coupling = nullptr);
 
   /// At the start (every rank built the whole knit, the decomposition is made): keeps this
   /// rank's points. x0: the self-contact's reference positions, per point in mesh order (a
   /// restart's); empty: the positions now.
-  void distribute(const std::vector<Vec3<T>>& x0 = {}, T moved2 = T(0), T bound = T(0));
+  /// coupling_state: the same for the coupling's knit grid (empty x0: the positions now).
+  void distribute(const std::vector<Vec3<T>>& x0 = {}, T moved2 = T(0), T bound = T(0),
+                  const typename SkinWatch<T>::State& coupling_state = {{}, T(0), T(0)});
   /// Before the knit's step (or a pass that reads partners; collective): the ghosts' positions
   /// and velocities from their owners while the ghosts chosen last still cover every partner
   /// (no point moved half the skin since, `motion` for the coming step included); otherwise
@@ -42,15 +54,29 @@ public:
   void begin(double motion);
   /// The ghosts' positions and velocities from their owners (after each drift).
   void refresh();
+  /// Between steps (diagnostics; collective): the ghosts chosen last, refreshed (chosen first
+  /// when there are none), so that values kept per local point stay valid.
+  void current() {
+    if (!built_ || ranks_.repartitions() != repartitions_seen_)
+      begin(0.0);
+    else
+      refresh();
+  }
+  /// Ghost values of per-point columns (the set's order) from their owners.
+  void refresh(std::span<const comm::Column> columns);
 
   /// The self-contact's state over the owned points (snapshots; collective): reference
   /// positions, the job's recorded motion, the host's bound.
   typename SkinWatch<T>::State self_contact_state() const;
+  /// The coupling's knit grid's state over the owned points (snapshots; collective).
+  typename SkinWatch<T>::State coupling_state() const;
   std::size_t owned() const { return owned_; }
   /// Times the ghosts were chosen (migration, selection, springs localized).
   std::uint64_t rebuilds() const { return rebuilds_; }
   /// All knit positions of the job in mesh order, on every rank (the yarns).
   std::vector<Vec3<T>> gather_positions() const;
+  /// A value per owned point (the set's order), of every rank, in mesh order, on every rank.
+  std::vector<double> gather_values(const std::vector<double>& owned_values) const;
   std::size_t ghosts() const { return built_ ? knit_.set().size() - owned_ : 0; }
   double width() const { return width_; }
 
@@ -67,6 +93,10 @@ private:
 
   RankExchange<T>& ranks_;
   KnitSystem<T>& knit_;
+  KnitFluidCoupling<T>* coupling_ = nullptr;
+  // The coupling's knit grid: reference positions parallel to the set, the job's record.
+  exec::DeviceBuffer<Vec3<T>> cx0_{exec::Backend::Cpu, 0, "knit.halo.coupling_x0"};
+  T cmoved2_ = T(0), cbound_ = T(0);
   double base_width_ = 0, width_ = 0, reach_ = 0, skin_ = 0;
   bool built_ = false;           // ghosts present (chosen for the positions x_built_)
   std::vector<Vec3<T>> x_built_; // the owned points' positions when the ghosts were chosen

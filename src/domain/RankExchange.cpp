@@ -62,18 +62,18 @@ std::vector<std::uint32_t> inverse(std::span<const std::uint32_t> perm) {
 
 template <typename T>
 RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
-                              exec::Backend backend, double knit_width)
+                              exec::Backend backend, double knit_width, double coupling_reach)
     : mpi_(mpi), scene_(scene) {
   const auto refuse = [&](const std::string& what) {
     throw Error("on " + std::to_string(mpi.size()) +
-                " ranks knitflow runs fluid, static boundaries and the knit so far (the knit's "
-                "coupling to the fluid, moving solids, \"verlet\" lists and the GPU join in "
-                "later stages of P5); this run has " +
+                " ranks knitflow runs fluid, static boundaries, the knit and their coupling "
+                "(the paper's model) so far (the conserving absorption, moving solids, "
+                "\"verlet\" lists and the GPU join in later stages of P5); this run has " +
                 what + ": run it on one rank");
   };
-  if (scene.has(Module::Knit) && scene.has(Module::Fluid) &&
-      (scene.has(Module::Contact) || scene.has(Module::Capillary)))
-    refuse("the knit coupled to the fluid");
+  if (scene.has(Module::Knit) && scene.has(Module::Fluid) && scene.has(Module::Capillary) &&
+      scene.capillary.model == Scene::AbsorptionModel::Conserving)
+    refuse("the conserving absorption (capillary.model = \"conserving\")");
   for (const auto& o : scene.obstacles)
     if (o.velocity.x != 0 || o.velocity.y != 0 || o.velocity.z != 0)
       refuse("a moving obstacle ('" + o.name + "')");
@@ -82,7 +82,7 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   if (backend != exec::Backend::Cpu)
     refuse("the GPU backend");
   transport_ = comm::make_transport(mpi, comm::TransportKind::Mpi, comm::MemorySpace::Host);
-  fluid_width_ = scene.support_radius();
+  fluid_width_ = std::max(scene.support_radius(), coupling_reach);
   boundary_width_ = scene.support_radius();
   // Blocks of block_cells support radii; the knit's ghost width where there is no fluid (as
   // `knitflow plan` cuts them).
@@ -311,6 +311,16 @@ void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary) {
     return;
   const comm::Column cols[] = {column(boundary.p), column(boundary.vp), column(boundary.inv_rho)};
   boundary_halo_->exchange(cols, boundary_own_count_);
+}
+
+template <typename T>
+void RankExchange<T>::refresh_motion(FluidSet<T>& fluid) {
+  const Timed timed{exchange_seconds_};
+  if (!fluid_halo_) // collective over the peers: also where this rank received no ghost
+    return;
+  const comm::Column cols[] = {column(fluid.v), column(fluid.a),    column(fluid.rho),
+                               column(fluid.p), column(fluid.drho), column(fluid.drho_prev)};
+  fluid_halo_->exchange(cols, fluid_owned_);
 }
 
 template <typename T>

@@ -29,8 +29,10 @@ public:
   /// lists, the GPU backend.
   /// knit_width: the knit's ghost width (KnitHalo::base_width; 0 without knit), the blocks'
   /// scale where there is no fluid.
+  /// coupling_reach: how far the knit-fluid coupling reaches (0 without): the fluid's ghosts
+  /// then reach that far too.
   RankExchange(const comm::MpiContext& mpi, const Scene& scene, exec::Backend backend,
-               double knit_width = 0);
+               double knit_width = 0, double coupling_reach = 0);
 
   int rank() const { return mpi_.rank(); }
   int ranks() const { return mpi_.size(); }
@@ -61,6 +63,13 @@ public:
   void refresh_boundary(BoundarySet<T>& boundary);
   /// After the forces pass: only the owned fluid stays.
   void drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid);
+  /// With the knit coupled, the ghosts stay until the next drift (the coupling reads the fluid
+  /// around each knit point): after the kick, their velocities, accelerations and densities from
+  /// their owners.
+  void refresh_motion(FluidSet<T>& fluid);
+  /// 1 for the fluid this rank owns, 0 for its ghosts, in the set's order.
+  const std::vector<std::uint32_t>& fluid_owned() const { return fluid_owned_flag_; }
+  std::size_t fluid_owned_count() const { return fluid_owned_; }
 
   /// Seconds of local work (passes that wait for no other rank), for the imbalance.
   void add_compute(double seconds) { compute_seconds_ += seconds; }

@@ -82,9 +82,9 @@ namespace {
 /// the scalars `name`_moved2 and `name`_bound.
 template <typename T>
 void put_watch(io::Frame& fr, io::Phase& p, const std::string& name,
-               const typename SkinWatch<T>::State& s) {
-  if (s.x0.empty())
-    return; // never sorted
+               const typename SkinWatch<T>::State& s, bool split = false) {
+  if (s.x0.empty() && !split)
+    return; // never sorted (on N ranks a rank may hold no point: every rank writes the field)
   p.fields.push_back(io::Field::from(name + "_sorted_position", flatten(s.x0), 3));
   fr.scalars.push_back({name + "_moved2", static_cast<double>(s.moved2)});
   fr.scalars.push_back({name + "_bound", static_cast<double>(s.bound)});
@@ -282,10 +282,39 @@ private:
   std::optional<ConservingAbsorption<T>> absorption_; // capillary.model = "conserving"
   std::uint64_t next_fluid_id_ = 0;
   void begin_coupling() {
+    std::function<void()> share;
+    if (knit_halo_) { // the knit's ghosts current, and their saturation their owners'
+      knit_halo_->begin(knit_->expected_motion(dt_));
+      share = [this] {
+        const auto v = coupling_->knit_values();
+        const comm::Column cols[] = {
+            {v[0]->data(), sizeof(T)}, {v[1]->data(), sizeof(T)}, {v[2]->data(), sizeof(T)}};
+        knit_halo_->refresh(cols);
+      };
+    }
     coupling_->begin_step(ex_, knit_->set(), fluid_side(),
                           absorption_ ? absorption_->absorbed().data() : nullptr,
                           absorption_ ? absorption_->capacity().data() : nullptr,
-                          static_cast<T>(knit_->expected_motion(dt_)));
+                          static_cast<T>(knit_->expected_motion(dt_)), share);
+  }
+  /// Before the fluid's drift on N ranks with the knit coupled: the ghosts the coupling read go.
+  void drop_coupled_ghosts() {
+    if (ranks_ && coupling_on_)
+      ranks_->drop_ghosts(ex_, *fluid_);
+  }
+  /// The fluid rows this rank writes and counts: all, or on N ranks with the knit coupled
+  /// (ghosts kept between steps) the owned ones.
+  std::vector<std::uint8_t> fluid_owned_rows() const {
+    std::vector<std::uint8_t> m(fluid_->size(), 1);
+    if (ranks_ && fluid_->size() != ranks_->fluid_owned_count()) {
+      const auto& f = ranks_->fluid_owned();
+      if (f.size() != m.size())
+        throw Error("internal: " + std::to_string(f.size()) + " ownership flags for " +
+                    std::to_string(m.size()) + " fluid particles");
+      for (std::size_t i = 0; i < m.size(); ++i)
+        m[i] = f[i] ? 1 : 0;
+    }
+    return m;
   }
   std::optional<FluidSet<T>> fluid_;
   std::optional<BoundarySet<T>> boundary_;
@@ -325,7 +354,7 @@ private:
   template <typename F>
   void with_knit_ghosts(F&& f) {
     if (knit_halo_)
-      knit_halo_->begin(0.0);
+      knit_halo_->current();
     f();
   }
   /// The job's largest speed and acceleration on N ranks (max over ranks, NaN kept as inf).
@@ -383,11 +412,19 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   update_shapes(0.0);
   // On N ranks each keeps what it owns (every rank sampled the whole scene above).
   if (mpi && mpi->size() > 1) {
-    ranks_.emplace(*mpi, scene_, backend, knit_ ? KnitHalo<T>::base_width(*knit_) : 0.0);
+    const KnitFluidCoupling<T>* c = coupling_ ? &*coupling_ : nullptr;
+    const double reach =
+        c ? std::max(double(coupling_reach(c->params())), c->params().capillary ? h_ : 0.0) : 0.0;
+    // With the coupling, a knit point may stray half the knit's skin (one support radius)
+    // outside the region it is owned by until its ghosts are chosen anew: the fluid's ghosts
+    // reach that much farther.
+    const double knit_skin = c ? h_ : 0.0;
+    ranks_.emplace(*mpi, scene_, backend, knit_ ? KnitHalo<T>::base_width(*knit_, c) : 0.0,
+                   c ? reach + 0.5 * knit_skin : 0.0);
     const auto kx = knit_ ? knit_->set().x.to_host() : std::vector<Vec3<T>>{};
     ranks_->distribute(fluid_ ? &*fluid_ : nullptr, boundary_ ? &*boundary_ : nullptr, kx);
     if (knit_) {
-      knit_halo_.emplace(*ranks_, *knit_);
+      knit_halo_.emplace(*ranks_, *knit_, coupling_ ? &*coupling_ : nullptr, knit_skin);
       knit_halo_->distribute();
     }
   }
@@ -398,6 +435,8 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   if (fluid_on_) {
     sort_fluid(false, {false}); // a: written next
     compute_forces();           // a(t = 0), which the first half kick needs
+    if (ranks_ && coupling_on_) // the ghosts the coupling reads take their owners' a
+      ranks_->refresh_motion(*fluid_);
   }
   if (coupling_on_)
     begin_coupling(); // saturation at t = 0, for snapshots and diagnostics before a step
@@ -586,8 +625,8 @@ void SimulationT<T>::build_pipeline() {
             couple = [this](T weight) {
               coupling_->add_forces(ex_, knit_->set(), fluid_side(), weight);
             };
-          if (knit_halo_) {
-            if (!fluid_on_) // else the fluid's sort checks the balance
+          if (knit_halo_ && !coupling_on_) { // else coupling.begin did
+            if (!fluid_on_)                  // else the fluid's sort checks the balance
               ranks_->balance(steps_, nullptr, nullptr, knit_positions());
             knit_halo_->begin(knit_->expected_motion(dt_));
           }
@@ -609,6 +648,7 @@ void SimulationT<T>::build_pipeline() {
                   "velocity Verlet: half kick, drift; put back particles crossing into a solid "
                   "(counted)",
                   [this] {
+                    drop_coupled_ghosts();
                     auto f = fluid_->view();
                     kick_drift_contact(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_),
                                        damping_keep(dt_), false, Prescribed<T>{}, shapes_.data(),
@@ -618,6 +658,7 @@ void SimulationT<T>::build_pipeline() {
                   });
   else if (fluid_on_)
     pipeline_.add("integrate.kick_drift", "fluid", "velocity Verlet: half kick, drift", [this] {
+      drop_coupled_ghosts();
       auto f = fluid_->view();
       kick_drift(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_),
                  "integrate.kick_drift", {}, planned_dt());
@@ -701,6 +742,8 @@ void SimulationT<T>::build_pipeline() {
       pipeline_.add("integrate.kick", "fluid", "velocity Verlet: half kick", [this] {
         auto f = fluid_->view();
         kick(ex_, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_), "integrate.kick");
+        if (ranks_ && coupling_on_) // the ghosts the next coupling reads, their owners' motion
+          ranks_->refresh_motion(*fluid_);
       });
     else
       pipeline_.add("integrate.kick", "fluid",
@@ -828,7 +871,9 @@ void SimulationT<T>::fluid_forces(T dt) {
     sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
                fluid_list_view(), dt);
   }
-  if (ranks_) // their work is done: between steps a rank holds only the fluid it owns
+  // Their work is done: between steps a rank holds only the fluid it owns; with the knit
+  // coupled they stay until the next drift (the coupling reads the fluid around the knit).
+  if (ranks_ && !coupling_on_)
     ranks_->drop_ghosts(ex_, *fluid_);
 }
 
@@ -1038,9 +1083,11 @@ io::Frame SimulationT<T>::frame() const {
       p.fields.push_back(io::Field::from("density_rate_previous", fluid_->drho_prev.to_host(), 1));
     }
     p.fields.push_back(io::Field::from("id", fluid_->id.to_host(), 1));
-    if (ranks_) // which rank owns each particle (ParaView colours by it)
+    if (ranks_) { // which rank owns each particle (ParaView colours by it); ghosts not written
+      keep_rows(p, fluid_owned_rows());
       p.fields.push_back(io::Field::from(
-          "rank", std::vector<std::uint32_t>(fluid_->size(), std::uint32_t(ranks_->rank())), 1));
+          "rank", std::vector<std::uint32_t>(p.fields[0].count, std::uint32_t(ranks_->rank())), 1));
+    }
     // "verlet" lists: the positions they were built for and the rule's bounds since, so that a
     // restart lists and sorts the fluid when this run does (restore_fluid_grid).
     if (fluid_list_ && skin_ > 0) {
@@ -1071,7 +1118,8 @@ io::Frame SimulationT<T>::frame() const {
   if (knit_on_) {
     io::Phase kp = knit_->phase();
     std::vector<double> wet; // the knit's saturation, for the yarns
-    if (coupling_ && scene_.has(Module::Capillary)) {
+    const bool wets = coupling_ && scene_.has(Module::Capillary);
+    if (wets) {
       std::vector<T> sat, held;
       if (absorption_) {
         held = absorption_->absorbed().to_host();
@@ -1083,6 +1131,8 @@ io::Frame SimulationT<T>::frame() const {
         sat = coupling_->saturation().to_host();
         held = coupling_->fluid_mass().to_host();
       }
+      sat.resize(knit_->owned()); // on N ranks the ghosts' follow
+      held.resize(knit_->owned());
       wet.assign(sat.begin(), sat.end());
       kp.fields.push_back(io::Field::from("saturation", sat, 1));
       kp.fields.push_back(io::Field::from("fluid_mass", held, 1));
@@ -1090,11 +1140,13 @@ io::Frame SimulationT<T>::frame() const {
     // The knit's grids kept over steps (self-collision, coupling): a restart sorts them when
     // this run does, so their sums keep this run's order.
     if (knit_halo_ && knit_->self_collision())
-      put_watch<T>(fr, kp, "self_contact", knit_halo_->self_contact_state());
+      put_watch<T>(fr, kp, "self_contact", knit_halo_->self_contact_state(), true);
     else if (const auto st = knit_->self_contact_state())
       put_watch<T>(fr, kp, "self_contact", *st);
     if (coupling_)
-      put_watch<T>(fr, kp, "coupling", coupling_->state());
+      put_watch<T>(fr, kp, "coupling",
+                   knit_halo_ ? knit_halo_->coupling_state() : coupling_->state(),
+                   knit_halo_.has_value());
     if (ranks_)
       kp.fields.push_back(io::Field::from(
           "rank", std::vector<std::uint32_t>(knit_->owned(), std::uint32_t(ranks_->rank())), 1));
@@ -1102,7 +1154,8 @@ io::Frame SimulationT<T>::frame() const {
     if (scene_.knit.yarn_samples > 0) {
       if (knit_halo_) { // the yarns run through points of every rank: rank 0 writes them all
         const auto all = knit_halo_->gather_positions();
-        io::Phase yp = knit_->yarn_phase(nullptr, &all);
+        const auto wet_all = wets ? knit_halo_->gather_values(wet) : wet; // collective
+        io::Phase yp = knit_->yarn_phase(wets ? &wet_all : nullptr, &all);
         if (ranks_->rank() != 0)
           keep_rows(yp, std::vector<std::uint8_t>(yp.fields.empty() ? 0 : yp.fields[0].count, 0));
         fr.phases.push_back(std::move(yp));
@@ -1198,10 +1251,20 @@ void SimulationT<T>::restore(const io::Frame& fr) {
       // snapshot) the positions now.
       const auto st =
           knit_->self_collision() ? get_watch<T>(fr, *knit_phase, "self_contact") : std::nullopt;
+      typename SkinWatch<T>::State cst{{}, T(0), T(0)};
+      if (coupling_)
+        if (const auto c = get_watch<T>(fr, *knit_phase, "coupling"))
+          cst = *c;
       if (st)
-        knit_halo_->distribute(st->x0, st->moved2, st->bound);
+        knit_halo_->distribute(st->x0, st->moved2, st->bound, cst);
       else
-        knit_halo_->distribute();
+        knit_halo_->distribute({}, T(0), T(0), cst);
+    }
+    if (coupling_on_) {
+      // The coupling reads the fluid around each knit point before the next drift: the ghosts
+      // and the grid now, for the same positions as the run that wrote the frame sorted them.
+      sort_fluid(false, {true});
+      ranks_->refresh_motion(*fluid_);
     }
     return;
   }
@@ -1308,6 +1371,16 @@ Diagnostics SimulationT<T>::diagnostics() const {
       d.max_saturation = cs.max_saturation;
       d.mean_saturation = cs.mean_saturation;
       d.wet_points = cs.wet_points;
+      if (ranks_) { // the job's (each rank's over its own knit points)
+        const comm::MpiContext& mpi = ranks_->mpi();
+        const double n = double(k.owned()), all = double(mpi.sum(std::uint64_t(k.owned())));
+        d.coupling_contacts = mpi.sum(std::uint64_t(d.coupling_contacts));
+        d.coupling_energy = mpi.sum(d.coupling_energy);
+        d.absorbed_mass = mpi.sum(d.absorbed_mass);
+        d.max_saturation = mpi.max(d.max_saturation);
+        d.mean_saturation = all > 0 ? mpi.sum(d.mean_saturation * n) / all : 0.0;
+        d.wet_points = mpi.sum(std::uint64_t(d.wet_points));
+      }
       if (absorption_) {
         d.absorbed_particles = absorption_->stats().absorbed_particles;
         d.emitted_particles = absorption_->stats().emitted_particles;
@@ -1340,15 +1413,18 @@ Diagnostics SimulationT<T>::diagnostics() const {
   }
   if (!fluid_on_)
     return d;
-  d.fluid = fluid_->size();
   d.outflow_particles = outflow_particles_;
   d.outflow_mass = outflow_mass();
   const auto v = fluid_->v.to_host();
   const auto m = fluid_->m.to_host();
   const auto rho = fluid_->rho.to_host();
+  const auto own = fluid_owned_rows(); // on N ranks with the knit coupled, ghosts follow
+  d.fluid = std::count(own.begin(), own.end(), 1);
   const double rho0 = scene_.fluid.rest_density;
   double sum_err = 0;
   for (std::size_t i = 0; i < v.size(); ++i) {
+    if (!own[i])
+      continue;
     const double v2 = norm2(vec_cast<double>(v[i]));
     d.kinetic_energy += 0.5 * m[i] * v2;
     d.fluid_mass += m[i];
@@ -1357,8 +1433,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.max_density_error = std::max(d.max_density_error, e);
     sum_err += e;
   }
-  if (!v.empty())
-    d.mean_density_error = sum_err / v.size();
+  if (d.fluid)
+    d.mean_density_error = sum_err / d.fluid;
   d.min_rigid_distance =
       solids_.empty() ? std::numeric_limits<double>::infinity()
                       : static_cast<double>(min_rigid_distance(
@@ -1374,7 +1450,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.kinetic_energy = mpi.sum(d.kinetic_energy);
     d.fluid_mass = mpi.sum(d.fluid_mass);
     d.max_speed = mpi.max(d.max_speed);
-    d.max_density_error = mpi.max(v.empty() ? -1e300 : d.max_density_error);
+    d.max_density_error = mpi.max(local == 0 ? -1e300 : d.max_density_error);
     d.mean_density_error = d.fluid ? mpi.sum(sum_err) / double(d.fluid) : 0.0;
     d.min_rigid_distance = mpi.min(d.min_rigid_distance);
     d.guard_corrections = mpi.sum(d.guard_corrections);

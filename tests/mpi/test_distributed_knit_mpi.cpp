@@ -20,6 +20,7 @@
 #include "domain/Simulation.hpp"
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
+#include "support/CouplingScenes.hpp"
 #include "support/MpiGather.hpp"
 #include "support/TestPaths.hpp"
 
@@ -43,8 +44,9 @@ struct KnitRows {
   std::set<std::uint32_t> ranks; // ranks holding points
 };
 
-KnitRows knit_rows(const io::Frame& fr, bool gather) {
-  const io::Phase& f = *fr.find("knit");
+KnitRows knit_rows(const io::Frame& fr, bool gather, const char* phase = "knit") {
+  const io::Phase& f = *fr.find(phase);
+  const bool fluid = std::string(phase) == "fluid";
   auto bytes_of = [&](const std::string& name) {
     const auto& b = f.find(name)->bytes;
     return gather ? test::allgather(b) : b;
@@ -58,7 +60,9 @@ KnitRows knit_rows(const io::Frame& fr, bool gather) {
   KnitRows r;
   for (std::size_t k : order)
     r.id.push_back(id[k]);
-  for (const char* name : {"position", "velocity", "mass"}) {
+  for (const char* name : {"position", "velocity", "mass", "density", "saturation"}) {
+    if (!f.find(name))
+      continue;
     const auto b = bytes_of(name);
     const std::size_t row = id.empty() ? 0 : b.size() / id.size();
     auto& out = r.bytes[name];
@@ -69,13 +73,14 @@ KnitRows knit_rows(const io::Frame& fr, bool gather) {
   if (f.find("rank"))
     for (std::uint32_t q : test::allgather(f.find("rank")->as<std::uint32_t>()))
       r.ranks.insert(q);
+  (void)fluid;
   return r;
 }
 
 void expect_same_rows(const KnitRows& a, const KnitRows& b, const std::string& what) {
   ASSERT_EQ(a.id, b.id) << what << ": a knit point is owned by no rank or by two";
   for (const auto& [name, bytes] : a.bytes)
-    ASSERT_TRUE(bytes == b.bytes.at(name)) << what << ": knit " << name << " differs";
+    ASSERT_TRUE(bytes == b.bytes.at(name)) << what << ": " << name << " differs";
 }
 
 void expect_same_knit_run(const Scene& s, int steps, int every, const std::string& what,
@@ -124,8 +129,9 @@ void expect_same_knit_run(const Scene& s, int steps, int every, const std::strin
   std::size_t moved = 0;
   for (std::size_t k = 0; k < before.size(); ++k)
     moved += before[k] != after[k];
-  if (migrates)
+  if (migrates) {
     EXPECT_GT(moved, 0u) << what << ": no knit point changed rank";
+  }
   EXPECT_GE(most_self, min_self_contacts) << what << ": the folds never touched";
   if (mpi.root())
     std::printf("%s: %d steps to t = %.4f s, %zu knit points, %zu changed rank, up to %llu "
@@ -246,9 +252,10 @@ TEST(DistributedKnit, GhostsAreThePointsWithinTheWidthAndEveryPartner) {
       }
   for (const VolumeCell& c : whole.mesh_cells())
     for (auto a : c.point)
-      if (owned_ids.count(a))
+      if (owned_ids.count(a)) {
         for (auto b : c.point)
           EXPECT_TRUE(here.count(b)) << "cell partner " << b << " of owned point " << a;
+      }
   EXPECT_GT(remote, 0u) << "no spring crosses ranks: the check saw nothing";
   if (mpi.root())
     std::printf("rank 0: %zu owned knit points, %zu ghosts within %.4f m; %zu spring ends, %zu "
@@ -311,4 +318,59 @@ TEST(DistributedKnit, RestartContinuesOnAnyRankCount) {
     std::printf("knit restart at step %d of %d (%llu self-contacts): N -> N, N -> 1, 1 -> N all "
                 "end as the one-rank run\n",
                 first, total, static_cast<unsigned long long>(contacts));
+}
+
+namespace {
+
+/// Fluid falling into a hammock of knit (contact and the paper's capillary model, test_coupling's
+/// scene under gravity): the coupling's pairs cross ranks both ways.
+Scene hammock(const std::string& precision) {
+  return parse_scene(
+      test::scene_text(R"("fluid", "boundary", "knit", "contact", "capillary")",
+                       "min = [-0.03, -0.03, 0.056]\nmax = [0.03, 0.03, 0.086]", -1.0,
+                       std::string("[capillary]\nsigma = 0.5\n") + test::kHammockPins),
+      "<hammock>",
+      {"simulation.gravity=[0, 0, -9.81]", "parallel.block_cells=1",
+       "simulation.precision=\"" + precision + "\""});
+}
+
+void expect_same_coupled_run(const Scene& s, int steps, int every, const std::string& what) {
+  comm::MpiContext mpi;
+  auto one = Simulation::create(s, exec::Backend::Cpu);
+  auto split = Simulation::create(s, exec::Backend::Cpu, &mpi);
+  std::uint64_t contacts = 0;
+  double wet = 0;
+  for (int k = 1; k <= steps; ++k) {
+    one->step(1e9);
+    split->step(1e9);
+    ASSERT_EQ(one->time(), split->time()) << what << ": the ranks took another dt, step " << k;
+    if (k % every != 0 && k != steps)
+      continue;
+    SCOPED_TRACE(what + ", step " + std::to_string(k));
+    const io::Frame f1 = one->frame(), f2 = split->frame();
+    expect_same_rows(knit_rows(f1, false), knit_rows(f2, true), what + ", knit");
+    expect_same_rows(knit_rows(f1, false, "fluid"), knit_rows(f2, true, "fluid"), what + ", fluid");
+    const Diagnostics d1 = one->diagnostics(), d2 = split->diagnostics();
+    EXPECT_EQ(d1.fluid, d2.fluid);
+    EXPECT_EQ(d1.coupling_contacts, d2.coupling_contacts);
+    EXPECT_EQ(d1.wet_points, d2.wet_points);
+    EXPECT_EQ(d1.max_saturation, d2.max_saturation);
+    EXPECT_NEAR(d2.absorbed_mass, d1.absorbed_mass, 1e-12 * std::max(1e-30, d1.absorbed_mass));
+    contacts = std::max(contacts, d2.coupling_contacts);
+    wet = std::max(wet, d2.max_saturation);
+  }
+  EXPECT_GT(contacts, 0u) << what << ": the fluid never touched the knit";
+  if (mpi.root())
+    std::printf("%s: %d steps to t = %.4f s, %zu fluid, %zu knit, up to %llu contacts, "
+                "saturation up to %.3f; identical on %d ranks\n",
+                what.c_str(), steps, split->time(), one->diagnostics().fluid,
+                one->diagnostics().knit, static_cast<unsigned long long>(contacts), wet,
+                mpi.size());
+}
+
+} // namespace
+
+TEST(DistributedKnit, CoupledPourIsTheOneRankRun) {
+  expect_same_coupled_run(hammock("double"), 1000, 250, "hammock pour, double");
+  expect_same_coupled_run(hammock("float"), 1000, 500, "hammock pour, float");
 }

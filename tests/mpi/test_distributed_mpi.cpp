@@ -10,8 +10,8 @@
 //   steps for 2 and 3 ranks, float and double, summation and continuity density;
 // - the job's diagnostics are the reference's (sums over ranks in another order: 1e-12);
 // - fluid that leaves through an open side is removed and counted alike;
-// - what the split does not carry yet (the knit's coupling to the fluid, moving solids, "verlet"
-//   lists) is refused clearly (the knit alone: test_distributed_knit_mpi);
+// - what the split does not carry yet (the conserving absorption, moving solids, "verlet"
+//   lists) is refused clearly (the knit and its coupling: test_distributed_knit_mpi);
 // - a snapshot continues on any rank count (N -> N, N -> 1, 1 -> N, 2 -> 3).
 #include "comm/MpiContext.hpp"
 #include "core/Error.hpp"
@@ -174,14 +174,13 @@ TEST(Distributed, WhatTheSplitDoesNotCarryYetIsRefused) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("\"verlet\""), std::string::npos) << e.what();
   }
-  const Scene pour = load_scene((test::source_dir() / "scenes" / "pour.toml").string(),
-                                {"output.enabled=false", "knit.piece.0.wales=8",
-                                 "knit.piece.0.courses=8", "solver.neighbour_list=\"off\""});
+  const Scene wicking = load_scene((test::source_dir() / "scenes" / "wicking.toml").string(),
+                                   {"output.enabled=false"});
   try {
-    Simulation::create(pour, exec::Backend::Cpu, &mpi);
-    FAIL() << "the knit's coupling to the fluid on N ranks was accepted";
+    Simulation::create(wicking, exec::Backend::Cpu, &mpi);
+    FAIL() << "the conserving absorption on N ranks was accepted";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("coupled to the fluid"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("conserving"), std::string::npos) << e.what();
   }
 }
 

@@ -16,8 +16,8 @@ KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
       fluid_mass_(b, 0, "coupling.fluid_mass"), x_(b, 0, "coupling.knit_x"),
       v_(b, 0, "coupling.knit_v"), m_(b, 0, "coupling.knit_m"), p_(b, 0, "coupling.knit_p"),
       impulse_(b, 0, "coupling.impulse"), near_flag_(b, 0, "coupling.near_flag"), list_(b),
-      list_skin_(T(2) * (grid.cell - coupling_reach(params)) / T(3)),
-      list_capacity_(list_capacity) {
+      list_skin_(T(2) * (grid.cell - coupling_reach(params)) / T(3)), list_capacity_(list_capacity),
+      perm_(b, 0, "coupling.perm"), at_by_id_(b, 0, "coupling.x0"), cell_(grid.cell) {
   const T reach = coupling_reach(params);
   if (!(grid.cell > reach))
     throw Error("knit-fluid coupling: grid cell " + std::to_string(double(grid.cell)) +
@@ -35,7 +35,15 @@ template <typename T>
 void KnitFluidCoupling<T>::sort_now(const exec::Exec& ex, KnitSet<T>& knit,
                                     const exec::DeviceBuffer<Vec3<T>>& at) {
   const std::size_t n = knit.size();
-  grid_.build(ex, at.data(), n);
+  if (order_) { // the grid sorts positions in id order; perm_ maps its slots to set indices
+    at_by_id_.resize(n);
+    exec::gather(ex, *order_, at, at_by_id_, "coupling.order");
+    grid_.build(ex, at_by_id_.data(), n);
+    perm_.resize(n);
+    exec::gather(ex, grid_.permutation(), *order_, perm_, "coupling.order");
+  } else {
+    grid_.build(ex, at.data(), n);
+  }
   watch_.reset(ex, at);
   ++sorts_;
   x_.resize(n);
@@ -59,13 +67,14 @@ void KnitFluidCoupling<T>::restore(const exec::Exec& ex, KnitSet<T>& knit,
 template <typename T>
 void KnitFluidCoupling<T>::sync_knit(const exec::Exec& ex, KnitSet<T>& knit) {
   sort_knit(ex, knit);
-  exec::gather(ex, grid_.permutation(), knit.x, x_, "coupling.gather");
+  exec::gather(ex, perm(), knit.x, x_, "coupling.gather");
 }
 
 template <typename T>
 void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
                                       const FluidSide<T>& fluid, const T* absorbed,
-                                      const T* capacity, T motion) {
+                                      const T* capacity, T motion,
+                                      const std::function<void()>& share) {
   const std::size_t n = knit.size();
   const bool fresh = saturation_.size() != n;
   saturation_.resize(n);
@@ -100,9 +109,11 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
     exec::fill(ex, pressure_, T(0), "coupling.saturation");
     exec::fill(ex, fluid_mass_, T(0), "coupling.saturation");
   }
+  if (share)
+    share();
   watch_.before_step(ex, knit.x, motion, x_.size() != n, [&] { sort_now(ex, knit); });
-  exec::gather(ex, grid_.permutation(), pressure_, p_, "coupling.gather");
-  exec::gather(ex, grid_.permutation(), knit.m, m_, "coupling.gather"); // wet mass changes
+  exec::gather(ex, perm(), pressure_, p_, "coupling.gather");
+  exec::gather(ex, perm(), knit.m, m_, "coupling.gather"); // wet mass changes
   impulse_.resize(fluid.f.n);
   exec::fill(ex, impulse_, Vec3<T>{T(0), T(0), T(0)}, "coupling.impulse");
   find_fluid_near_knit(ex, fluid);
@@ -110,7 +121,7 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
   // reach + list skin now (the knit moves at most 2 watch skins from now, the fluid not at all),
   // and the grid walk finds it (1 watch skin since the sort, plus the list's reach + skin, fits
   // in a cell).
-  watch_.observe_gather(ex, knit.x, knit.v, grid_.permutation(), x_, v_);
+  watch_.observe_gather(ex, knit.x, knit.v, perm(), x_, v_);
   const T r = coupling_reach(params_) + list_skin_;
   list_.build_for(ex, fluid.f.x, near_flag_.data(), fluid.f.n, x_.data(), grid_.view(), r * r,
                   list_capacity_);
@@ -131,8 +142,7 @@ void KnitFluidCoupling<T>::find_fluid_near_knit(const exec::Exec& ex, const Flui
 template <typename T>
 void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
                                       const FluidSide<T>& fluid, T weight) {
-  const auto& perm = grid_.permutation();
-  watch_.observe_gather(ex, knit.x, knit.v, perm, x_, v_);
+  watch_.observe_gather(ex, knit.x, knit.v, perm(), x_, v_);
   with_kernel<T>(kernel_, params_.h, [&](auto k) {
     using K = decltype(k);
     exec::for_each(ex, fluid.f.n,
@@ -142,9 +152,11 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
                        weight, impulse_.data(), near_flag_.data(), list_.view(), watch_.moved2(),
                        watch_.skin2(), static_cast<std::uint32_t>(x_.size())},
                    "coupling.fluid");
-    exec::for_each_lanes<4>(ex, knit.size(),
+    auto kv = knit.view();
+    kv.n = active(knit);
+    exec::for_each_lanes<4>(ex, kv.n,
                             KnitCouplingEvaluator<T, K>{
-                                k, params_, knit.view(), pressure_.data(),
+                                k, params_, kv, pressure_.data(),
                                 params_.capillary && !conserving_ ? fluid_mass_.data() : nullptr,
                                 fluid.f.x, fluid.f.v, fluid.f.m, fluid.f.rho, fluid.cells},
                             "coupling.knit");
@@ -174,8 +186,8 @@ struct CouplingStatsOp {
 template <typename T>
 CouplingStats KnitFluidCoupling<T>::stats(const exec::Exec& ex, KnitSet<T>& knit,
                                           const FluidSide<T>& fluid) {
-  const std::size_t n = knit.size();
-  if (saturation_.size() != n)
+  const std::size_t n = active(knit);
+  if (saturation_.size() != knit.size())
     throw Error("knit-fluid coupling: stats before the first begin_step");
   const T* s = saturation_.data();
   const T* mf = fluid_mass_.data();
@@ -211,9 +223,10 @@ CouplingStats KnitFluidCoupling<T>::stats(const exec::Exec& ex, KnitSet<T>& knit
 
 template <typename T>
 std::size_t KnitFluidCoupling<T>::bytes() const {
-  return grid_.bytes() + watch_.bytes() + near_flag_.capacity_bytes() + list_.bytes() +
-         saturation_.capacity_bytes() + pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() +
-         x_.capacity_bytes() + v_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
+  return grid_.bytes() + watch_.bytes() + perm_.capacity_bytes() + at_by_id_.capacity_bytes() +
+         near_flag_.capacity_bytes() + list_.bytes() + saturation_.capacity_bytes() +
+         pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() + x_.capacity_bytes() +
+         v_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
          impulse_.capacity_bytes();
 }
 

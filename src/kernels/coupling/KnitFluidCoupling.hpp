@@ -15,6 +15,8 @@
 
 #include "core/SolverOptions.hpp"
 
+#include <array>
+#include <functional>
 #include <limits>
 
 namespace kf {
@@ -54,9 +56,26 @@ public:
   /// acceleration). While the motion expected since the last reading leaves the skin unused,
   /// the knit grid's staleness is not read on the host: the substeps watch the motion on the
   /// device and the fluid side sums over all knit points if the skin was crossed after all.
+  /// share: called after the knit's saturation, capillary pressure and wet mass are computed
+  /// (on N ranks the ghosts take their owners' values there).
   void begin_step(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid,
                   const T* absorbed = nullptr, const T* capacity = nullptr,
-                  T motion = std::numeric_limits<T>::infinity());
+                  T motion = std::numeric_limits<T>::infinity(),
+                  const std::function<void()>& share = {});
+  /// On N ranks (the knit set holds owned points, then ghosts): the knit grid sorts the points
+  /// in id order (by_id lists the set's indices so), so each fluid particle's knit candidates
+  /// come in the one-rank run's order; the host's motion readings are the job's; the knit-side
+  /// passes and stats cover the first `active` points (the owned ones).
+  void distribute(const exec::DeviceBuffer<std::uint32_t>* by_id, std::function<T(T)> job_max) {
+    order_ = by_id;
+    watch_.set_job_max(std::move(job_max));
+  }
+  void set_active(std::size_t active) { active_ = active; }
+  /// The per-knit-point values begin_step computes (saturation, capillary pressure, wet mass),
+  /// for the ghosts' refresh.
+  std::array<exec::DeviceBuffer<T>*, 3> knit_values() {
+    return {&saturation_, &pressure_, &fluid_mass_};
+  }
   /// Knit a += coupling / m; fluid impulse += weight * (the opposite forces).
   void add_forces(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid, T weight);
   /// Fluid v += impulse / m.
@@ -64,6 +83,10 @@ public:
 
   CouplingStats stats(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid);
   const CouplingParams<T>& params() const { return params_; }
+  /// The knit grid's cell edge and its watch's skin (a fluid particle's candidates lie within
+  /// two cells a side).
+  T cell() const { return cell_; }
+  T skin() const { return watch_.skin(); }
   const exec::DeviceBuffer<T>& saturation() const { return saturation_; }
   const exec::DeviceBuffer<T>& fluid_mass() const { return fluid_mass_; }
   std::size_t bytes() const;
@@ -111,6 +134,16 @@ private:
   NeighbourList<T> list_;
   T list_skin_;
   std::uint32_t list_capacity_;
+  // N ranks (distribute): as KnitSelfContact's.
+  const exec::DeviceBuffer<std::uint32_t>& perm() const {
+    return order_ ? perm_ : grid_.permutation();
+  }
+  std::size_t active(const KnitSet<T>& knit) const { return std::min(active_, knit.size()); }
+  const exec::DeviceBuffer<std::uint32_t>* order_ = nullptr;
+  exec::DeviceBuffer<std::uint32_t> perm_;
+  exec::DeviceBuffer<Vec3<T>> at_by_id_;
+  std::size_t active_ = std::size_t(-1);
+  T cell_;
 };
 
 } // namespace kf
