@@ -82,6 +82,7 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   if (backend != exec::Backend::Cpu)
     refuse("the GPU backend");
   transport_ = comm::make_transport(mpi, comm::TransportKind::Mpi, comm::MemorySpace::Host);
+  costs_.knit_substeps = scene.knit.substeps;
   fluid_width_ = std::max(scene.support_radius(), coupling_reach);
   boundary_width_ = scene.support_radius();
   // Blocks of block_cells support radii; the knit's ghost width where there is no fluid (as
@@ -170,6 +171,9 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
     return b;
   const double most = mpi_.max(compute_seconds_), mean = mpi_.sum(compute_seconds_) / ranks();
   compute_seconds_ = 0;
+  std::array<double, kPhases> seconds = phase_seconds_;
+  phase_seconds_ = {};
+  MPI_Allreduce(MPI_IN_PLACE, seconds.data(), kPhases, MPI_DOUBLE, MPI_SUM, mpi_.comm());
   b.imbalance = mean > 0 ? most / mean : 1.0;
   last_imbalance_ = b.imbalance;
   if (b.imbalance <= scene_.parallel.imbalance)
@@ -193,8 +197,22 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
   MPI_Allreduce(MPI_IN_PLACE, counts.data(), static_cast<int>(counts.size()), MPI_DOUBLE, MPI_SUM,
                 mpi_.comm());
   std::vector<std::array<double, kPhases>> per_block(grid.count(), {0, 0, 0});
-  for (int k = 0; k < grid.count(); ++k)
+  std::array<double, kPhases> total{};
+  for (int k = 0; k < grid.count(); ++k) {
     per_block[k] = {counts[kPhases * k], counts[kPhases * k + 1], counts[kPhases * k + 2]};
+    for (int p = 0; p < kPhases; ++p)
+      total[p] += per_block[k][p];
+  }
+  // Each phase's measured cost a particle, relative to the fluid's (the boundary's passes are
+  // timed with the fluid's: its default stays); the knit's a substep.
+  const auto per = [&](Phase p) {
+    const int i = static_cast<int>(p);
+    return total[i] > 0 && seconds[i] > 0 ? seconds[i] / total[i] : 0.0;
+  };
+  const double c_fluid = per(Phase::Fluid), c_knit = per(Phase::Knit);
+  if (c_fluid > 0 && c_knit > 0)
+    costs_.per_particle[static_cast<int>(Phase::Knit)] =
+        c_knit / c_fluid / std::max(1, costs_.knit_substeps);
   decomposition_.emplace(Decomposition::partition(grid, per_block, costs(), ranks(), fluid_width_));
   migration_peers_ = neighbour_ranks(*decomposition_, rank(), grid.edge());
   // A block may change hands across the domain: every rank is a peer of this one exchange.

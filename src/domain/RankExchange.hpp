@@ -71,16 +71,22 @@ public:
   const std::vector<std::uint32_t>& fluid_owned() const { return fluid_owned_flag_; }
   std::size_t fluid_owned_count() const { return fluid_owned_; }
 
-  /// Seconds of local work (passes that wait for no other rank), for the imbalance.
-  void add_compute(double seconds) { compute_seconds_ += seconds; }
+  /// Seconds of local work (passes that wait for no other rank) on one phase's particles, for
+  /// the imbalance and the phases' measured costs.
+  void add_compute(double seconds, Phase phase = Phase::Fluid) {
+    compute_seconds_ += seconds;
+    phase_seconds_[static_cast<int>(phase)] += seconds;
+  }
   struct Balance {
     double imbalance = 0; // slowest rank's compute over the mean since the last check (0: none)
     bool repartitioned = false;
   };
   /// Every [parallel] check_every steps (call before a rebuild, the fluid holding only what this
   /// rank owns): when the measured imbalance passes [parallel] imbalance, the blocks are
-  /// partitioned anew by the particles' current counts, and the fluid and the boundary migrate to
-  /// their new owners (sort the boundary after, then boundary_sorted()).
+  /// partitioned anew by the particles' current counts, each phase's weighed by its measured
+  /// cost a particle (the job's seconds on the phase over its particles since the last check),
+  /// and the fluid and the boundary migrate to their new owners (sort the boundary after, then
+  /// boundary_sorted()); the knit follows at KnitHalo's next choice.
   Balance balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary,
                   std::span<const Vec3<T>> knit = {});
   /// What the knit's exchange shares: the transport, the ranks next to this one's blocks (a
@@ -92,6 +98,8 @@ public:
   /// Seconds spent in the split's own work (migration, ghosts, refreshes, re-partitions).
   double exchange_seconds() const { return exchange_seconds_; }
   double last_imbalance() const { return last_imbalance_; }
+  /// The phases' costs the last partition weighed by (measured from the second on).
+  const PhaseCosts& phase_costs() const { return costs_; }
 
   /// Boundary particles this rank owns (1) and holds as ghosts (0), in the set's order.
   const std::vector<std::uint8_t>& boundary_owned() const { return boundary_owned_; }
@@ -115,11 +123,9 @@ private:
   };
   std::uint64_t repartitions_ = 0;
   double block_scale_ = 0; // a block's edge over parallel.block_cells
-  PhaseCosts costs() const {
-    PhaseCosts c;
-    c.knit_substeps = scene_.knit.substeps;
-    return c;
-  }
+  PhaseCosts costs() const { return costs_; }
+  PhaseCosts costs_;
+  std::array<double, kPhases> phase_seconds_{};
   Scene scene_;
   std::unique_ptr<comm::Transport> transport_;
   std::optional<Decomposition> decomposition_;
