@@ -4,6 +4,7 @@
 #include "domain/KnitBuilder.hpp"
 #include "domain/Simulation.hpp"
 #include "support/KnitChecks.hpp"
+#include "support/KnitScenes.hpp"
 
 #include <gtest/gtest.h>
 
@@ -24,34 +25,9 @@ struct FoldResult {
 };
 
 Scene fold_scene(bool self_collision) {
-  Scene s;
-  s.name = "fold";
-  s.modules = {Module::Knit};
-  // A slot as wide as the strip: it folds in the x-z plane (the profile the check looks at).
-  s.domain.min = {-0.35, -0.024, 0};
-  s.domain.max = {0.35, 0.024, 0.7};
-  s.output.enabled = false;
-  s.precision = Precision::Float;
-  KnitPiece p;
-  p.name = "strip";
-  p.center = {0.03, 0, 0.012 + 0.3};
-  p.normal = {1, 0, 0.2}; // leaning: the strip's length runs along v = n x u = (-0.2, 0, 1)
-  p.u_axis = {0, 1, 0};
-  p.width = 0.04;
-  p.height = 0.6 / std::cos(std::atan(0.2)) * 1.0; // vertical extent 0.6 m
-  p.wales = 6;
-  p.courses = 90;
-  s.knit.pieces = {p};
-  s.knit.thickness = 0.003;
-  s.knit.mass_per_area = 0.3;
-  s.knit.stretch = 150;
-  s.knit.shear = 8;
-  s.knit.bend = 0.5;
-  s.knit.compression = 3000;
-  s.knit.layer_shear = 1500;
-  s.knit.damping_ratio = 0.2;
-  s.knit.friction = 0.5;
-  s.knit.self_collision = self_collision;
+  // 0.6 m tall, its foot 12 mm above the floor; a slot as wide as the strip: it folds in the
+  // x-z plane (the profile the check looks at).
+  Scene s = test::falling_strip(0.6, 90, 0.012, self_collision);
   s.end_time = 1.2;
   return s;
 }

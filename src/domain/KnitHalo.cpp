@@ -1,6 +1,7 @@
 #include "domain/KnitHalo.hpp"
 
 #include "core/Error.hpp"
+#include "domain/ExchangeColumns.hpp"
 #include "domain/GhostSelection.hpp"
 
 #include <algorithm>
@@ -11,19 +12,6 @@
 namespace kf {
 
 namespace {
-
-template <typename U>
-comm::Column column(exec::DeviceBuffer<U>& b) {
-  return {b.data(), sizeof(U)};
-}
-
-template <typename U>
-comm::MigrationColumn resizable(exec::DeviceBuffer<U>& b) {
-  return {sizeof(U), [&b](std::size_t k) {
-            b.resize(k);
-            return reinterpret_cast<unsigned char*>(b.data());
-          }};
-}
 
 /// Adds the seconds of its scope to the split's exchange time.
 template <typename T>
@@ -89,19 +77,10 @@ double KnitHalo<T>::base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* 
 }
 
 template <typename T>
-std::vector<comm::MigrationColumn> KnitHalo<T>::state_columns() {
+ExchangeColumns KnitHalo<T>::state() {
   auto& s = knit_.set();
-  return {resizable(s.x),  resizable(s.v),      resizable(s.a),     resizable(s.x_rest),
-          resizable(s.m),  resizable(s.handle), resizable(s.layer), resizable(s.piece),
-          resizable(s.id), resizable(x0_),      resizable(cx0_)};
-}
-
-template <typename T>
-std::vector<comm::Column> KnitHalo<T>::halo_columns() {
-  auto& s = knit_.set();
-  return {column(s.x),  column(s.v),      column(s.a),     column(s.x_rest),
-          column(s.m),  column(s.handle), column(s.layer), column(s.piece),
-          column(s.id), column(x0_),      column(cx0_)};
+  return ExchangeColumns::of(s.x, s.v, s.a, s.x_rest, s.m, s.handle, s.layer, s.piece, s.id, x0_,
+                             cx0_);
 }
 
 template <typename T>
@@ -135,8 +114,8 @@ void KnitHalo<T>::distribute(const std::vector<Vec3<T>>& x0, T moved2, T bound,
   std::vector<int> dest(n);
   for (std::size_t i = 0; i < n; ++i)
     dest[i] = ranks_.decomposition().owner(vec_cast<double>(set.x.data()[i])) == me ? me : -1;
-  auto cols = state_columns();
-  owned_ = comm::migrate(ranks_.transport(), {}, dest, cols);
+  auto columns = state();
+  owned_ = comm::migrate(ranks_.transport(), {}, dest, columns.migration);
   set.resize(owned_);
   repartitions_seen_ = ranks_.repartitions();
   halo_.reset();
@@ -222,8 +201,8 @@ void KnitHalo<T>::rebuild() {
   std::vector<int> dest(owned_);
   for (std::size_t i = 0; i < owned_; ++i)
     dest[i] = d.owner(vec_cast<double>(set.x.data()[i]));
-  auto cols = state_columns();
-  owned_ = comm::migrate(ranks_.transport(), peers, dest, cols);
+  auto columns = state();
+  owned_ = comm::migrate(ranks_.transport(), peers, dest, columns.migration);
   set.resize(owned_);
   // The ghosts: the width covers the partners as stretched at the last choice (the check below
   // widens it where a spring stretched further) plus the skin the points may move until the
@@ -241,8 +220,8 @@ void KnitHalo<T>::rebuild() {
     set.resize(total);
     x0_.resize(total);
     cx0_.resize(total);
-    const auto hc = halo_columns();
-    halo_->exchange(hc, owned_);
+    const auto received = state();
+    halo_->exchange(received.halo, owned_);
     if (partners_present())
       break;
     if (width > most)
@@ -321,15 +300,17 @@ std::vector<Vec3<T>> KnitHalo<T>::x0_host_all() const {
 }
 
 template <typename T>
-std::vector<Vec3<T>> KnitHalo<T>::gather_positions() const {
+std::vector<double>
+KnitHalo<T>::gather_by_id(int width, const std::function<void(std::size_t, double*)>& row) const {
+  // Each owned point's id and its `width` values, from every rank, placed by id.
   const auto& set = knit_.set();
-  const int size = ranks_.ranks();
-  std::vector<double> mine;
-  mine.reserve(4 * owned_);
+  const std::size_t w = std::size_t(width) + 1;
+  std::vector<double> mine(w * owned_);
   for (std::size_t i = 0; i < owned_; ++i) {
-    const Vec3<T> x = set.x.data()[i];
-    mine.insert(mine.end(), {double(set.id.data()[i]), double(x.x), double(x.y), double(x.z)});
+    mine[w * i] = double(set.id.data()[i]);
+    row(i, &mine[w * i + 1]);
   }
+  const int size = ranks_.ranks();
   int n = static_cast<int>(mine.size());
   std::vector<int> counts(size), displs(size);
   MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, ranks_.mpi().comm());
@@ -337,32 +318,28 @@ std::vector<Vec3<T>> KnitHalo<T>::gather_positions() const {
   std::vector<double> all(std::accumulate(counts.begin(), counts.end(), std::size_t(0)));
   MPI_Allgatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
                  ranks_.mpi().comm());
-  std::vector<Vec3<T>> x(mesh_points_);
-  for (std::size_t k = 0; k + 3 < all.size(); k += 4)
-    x[static_cast<std::size_t>(all[k])] = {static_cast<T>(all[k + 1]), static_cast<T>(all[k + 2]),
-                                           static_cast<T>(all[k + 3])};
-  return x;
+  std::vector<double> out(std::size_t(width) * mesh_points_, 0.0);
+  for (std::size_t k = 0; k + w <= all.size(); k += w)
+    std::copy_n(&all[k + 1], width, &out[std::size_t(width) * std::size_t(all[k])]);
+  return out;
+}
+
+template <typename T>
+std::vector<Vec3<T>> KnitHalo<T>::gather_positions() const {
+  const Vec3<T>* x = knit_.set().x.data();
+  const auto all = gather_by_id(3, [x](std::size_t i, double* r) {
+    r[0] = double(x[i].x), r[1] = double(x[i].y), r[2] = double(x[i].z);
+  });
+  std::vector<Vec3<T>> out(mesh_points_);
+  for (std::size_t k = 0; k < mesh_points_; ++k) // doubles hold T exactly
+    out[k] = {static_cast<T>(all[3 * k]), static_cast<T>(all[3 * k + 1]),
+              static_cast<T>(all[3 * k + 2])};
+  return out;
 }
 
 template <typename T>
 std::vector<double> KnitHalo<T>::gather_values(const std::vector<double>& values) const {
-  const auto& set = knit_.set();
-  std::vector<double> mine;
-  mine.reserve(2 * owned_);
-  for (std::size_t i = 0; i < owned_; ++i)
-    mine.insert(mine.end(), {double(set.id.data()[i]), values.at(i)});
-  const int size = ranks_.ranks();
-  int n = static_cast<int>(mine.size());
-  std::vector<int> counts(size), displs(size);
-  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, ranks_.mpi().comm());
-  std::exclusive_scan(counts.begin(), counts.end(), displs.begin(), 0);
-  std::vector<double> all(std::accumulate(counts.begin(), counts.end(), std::size_t(0)));
-  MPI_Allgatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
-                 ranks_.mpi().comm());
-  std::vector<double> out(mesh_points_, 0.0);
-  for (std::size_t k = 0; k + 1 < all.size(); k += 2)
-    out[static_cast<std::size_t>(all[k])] = all[k + 1];
-  return out;
+  return gather_by_id(1, [&values](std::size_t i, double* r) { r[0] = values.at(i); });
 }
 
 template class KnitHalo<float>;

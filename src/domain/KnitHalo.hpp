@@ -13,6 +13,7 @@
 // same partners in the same order: the split knit is the one-rank knit bit for bit. Host
 // memory: the CPU backend.
 #include "comm/HaloExchange.hpp"
+#include "domain/ExchangeColumns.hpp"
 #include "domain/KnitSystem.hpp"
 #include "domain/RankExchange.hpp"
 #include "kernels/coupling/KnitFluidCoupling.hpp"
@@ -20,6 +21,7 @@
 #include <span>
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -81,10 +83,14 @@ public:
   double width() const { return width_; }
 
 private:
+  /// row(i, out): `width` values of owned point i; returns width values a mesh point, in mesh
+  /// order, from every rank (collective).
+  std::vector<double> gather_by_id(int width,
+                                   const std::function<void(std::size_t, double*)>& row) const;
   std::vector<Vec3<T>> x0_host() const;     // the owned points'
   std::vector<Vec3<T>> x0_host_all() const; // owned and ghosts
-  std::vector<comm::MigrationColumn> state_columns();
-  std::vector<comm::Column> halo_columns();
+  /// Every column a point carries (the set's and the grids' reference positions).
+  ExchangeColumns state();
   /// Whether every partner of an owned point is here; reach_ becomes the farthest partner.
   bool partners_present();
   /// Migration to the blocks' owners, the ghosts chosen and received (every partner present),

@@ -1,6 +1,7 @@
 #include "domain/RankExchange.hpp"
 
 #include "core/Error.hpp"
+#include "domain/ExchangeColumns.hpp"
 #include "domain/GhostSelection.hpp"
 
 #include <algorithm>
@@ -17,20 +18,6 @@ std::vector<U> pick(const std::vector<U>& v, std::span<const std::uint32_t> idx)
   for (std::size_t k = 0; k < idx.size(); ++k)
     out[k] = v[idx[k]];
   return out;
-}
-
-template <typename U>
-comm::Column column(exec::DeviceBuffer<U>& b) {
-  return {b.data(), sizeof(U)};
-}
-
-/// A buffer migration resizes in place (host memory: the CPU backend).
-template <typename U>
-comm::MigrationColumn resizable(exec::DeviceBuffer<U>& b) {
-  return {sizeof(U), [&b](std::size_t k) {
-            b.resize(k);
-            return reinterpret_cast<unsigned char*>(b.data());
-          }};
 }
 
 /// The fluid's state as migration moves it (a too where the forces pass has not yet rewritten

@@ -21,6 +21,7 @@
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
 #include "support/CouplingScenes.hpp"
+#include "support/KnitScenes.hpp"
 #include "support/MpiGather.hpp"
 #include "support/TestPaths.hpp"
 
@@ -160,36 +161,11 @@ TEST(DistributedKnit, DrapeIsTheOneRankRun) {
 
 namespace {
 
-/// A tall strip dropped on its end (test_knit_fold's): it crumples onto the floor in folds that
+/// test_knit_fold's strip, shorter, dropped from 10 cm: it crumples onto the floor in folds that
 /// land on each other, so the self-contact pairs cross ranks.
 Scene fold(const std::string& precision) {
-  Scene s;
-  s.name = "fold";
-  s.modules = {Module::Knit};
-  s.domain.min = {-0.35, -0.024, 0};
-  s.domain.max = {0.35, 0.024, 0.7};
-  s.output.enabled = false;
+  Scene s = test::falling_strip(0.3, 45, 0.1);
   s.precision = precision == "double" ? Precision::Double : Precision::Float;
-  KnitPiece p;
-  p.name = "strip";
-  p.center = {0.03, 0, 0.1 + 0.15}; // its foot 10 cm above the floor
-  p.normal = {1, 0, 0.2};
-  p.u_axis = {0, 1, 0};
-  p.width = 0.04;
-  p.height = 0.3 / std::cos(std::atan(0.2));
-  p.wales = 6;
-  p.courses = 45;
-  s.knit.pieces = {p};
-  s.knit.thickness = 0.003;
-  s.knit.mass_per_area = 0.3;
-  s.knit.stretch = 150;
-  s.knit.shear = 8;
-  s.knit.bend = 0.5;
-  s.knit.compression = 3000;
-  s.knit.layer_shear = 1500;
-  s.knit.damping_ratio = 0.2;
-  s.knit.friction = 0.5;
-  s.knit.self_collision = true;
   s.parallel.block_cells = 1;
   return s;
 }

@@ -22,11 +22,7 @@ void KnitSelfContact<T>::sort(const exec::Exec& ex, KnitSet<T>& set,
                               const exec::DeviceBuffer<Vec3<T>>& at) {
   const std::size_t n = set.size();
   if (order_) { // the grid sorts positions in id order; perm_ maps its slots to set indices
-    at_by_id_.resize(n);
-    exec::gather(ex, *order_, at, at_by_id_, "knit.self.order");
-    grid_.build(ex, at_by_id_.data(), n);
-    perm_.resize(n);
-    exec::gather(ex, grid_.permutation(), *order_, perm_, "knit.self.order");
+    build_in_order(ex, grid_, at, *order_, at_by_id_, perm_, "knit.self.order");
   } else {
     grid_.build(ex, at.data(), n);
   }
