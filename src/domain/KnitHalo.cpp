@@ -11,21 +11,6 @@
 
 namespace kf {
 
-namespace {
-
-/// Adds the seconds of its scope to the split's exchange time.
-template <typename T>
-struct Timed {
-  RankExchange<T>& ranks;
-  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
-  ~Timed() {
-    ranks.add_exchange_seconds(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  }
-};
-
-} // namespace
-
 template <typename T>
 KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoupling<T>* coupling,
                       double skin)
@@ -51,10 +36,11 @@ KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoup
   base_width_ = base_width(knit, coupling);
   skin_ = skin > 0 ? skin : 0.5 * base_width_;
   const comm::MpiContext& mpi = ranks_.mpi();
+  const auto job_max = [&mpi](T m2) { return static_cast<T>(mpi.max(double(m2))); };
   if (auto* self = knit.self_contact())
-    self->distribute(&by_id_, [&mpi](T m2) { return static_cast<T>(mpi.max(double(m2))); });
+    self->distribute(&by_id_, job_max);
   if (coupling)
-    coupling->distribute(&by_id_, [&mpi](T m2) { return static_cast<T>(mpi.max(double(m2))); });
+    coupling->distribute(&by_id_, job_max);
   knit.set_ghost_refresh([this] { refresh(); });
 }
 
@@ -79,43 +65,20 @@ double KnitHalo<T>::base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* 
 template <typename T>
 ExchangeColumns KnitHalo<T>::state() {
   auto& s = knit_.set();
-  return ExchangeColumns::of(s.x, s.v, s.a, s.x_rest, s.m, s.handle, s.layer, s.piece, s.id, x0_,
-                             cx0_);
+  return ExchangeColumns::of(s.x, s.v, s.a, s.x_rest, s.m, s.handle, s.layer, s.piece, s.id,
+                             self_ref_.x0, coupling_ref_.x0);
 }
 
 template <typename T>
-void KnitHalo<T>::distribute(const std::vector<Vec3<T>>& x0, T moved2, T bound,
+void KnitHalo<T>::distribute(const typename SkinWatch<T>::State& self_state,
                              const typename SkinWatch<T>::State& coupling_state) {
-  const Timed<T> timed{ranks_};
+  const auto timed = ranks_.time_exchange();
   auto& set = knit_.set();
-  const std::size_t n = set.size();
-  if (!x0.empty() && x0.size() != n)
-    throw Error("knit on N ranks: " + std::to_string(x0.size()) +
-                " self-contact reference positions for " + std::to_string(n) + " points");
-  x0_.resize(n);
-  if (x0.empty())
-    x0_.copy_from(set.x, n);
-  else
-    x0_.assign(x0);
-  moved2_ = moved2;
-  bound_ = bound;
-  cx0_.resize(n);
-  if (coupling_state.x0.empty()) {
-    cx0_.copy_from(set.x, n);
-  } else {
-    if (coupling_state.x0.size() != n)
-      throw Error("knit on N ranks: " + std::to_string(coupling_state.x0.size()) +
-                  " coupling reference positions for " + std::to_string(n) + " points");
-    cx0_.assign(coupling_state.x0);
-  }
-  cmoved2_ = coupling_state.moved2;
-  cbound_ = coupling_state.bound;
-  const int me = ranks_.rank();
-  std::vector<int> dest(n);
-  for (std::size_t i = 0; i < n; ++i)
-    dest[i] = ranks_.decomposition().owner(vec_cast<double>(set.x.data()[i])) == me ? me : -1;
+  self_ref_.start(set.x, self_state, "self-contact");
+  coupling_ref_.start(set.x, coupling_state, "coupling");
   auto columns = state();
-  owned_ = comm::migrate(ranks_.transport(), {}, dest, columns.migration);
+  owned_ = comm::migrate(ranks_.transport(), {}, ranks_.owners({set.x.data(), set.size()}, true),
+                         columns.migration);
   set.resize(owned_);
   repartitions_seen_ = ranks_.repartitions();
   halo_.reset();
@@ -147,7 +110,7 @@ bool KnitHalo<T>::partners_present() {
 
 template <typename T>
 void KnitHalo<T>::begin(double motion) {
-  const Timed<T> timed{ranks_};
+  const auto timed = ranks_.time_exchange();
   auto& set = knit_.set();
   if (built_ && ranks_.repartitions() == repartitions_seen_) {
     // The ghosts last while no point can have moved half the skin since they were chosen: a
@@ -157,28 +120,18 @@ void KnitHalo<T>::begin(double motion) {
       moved = std::max(moved, double(norm(set.x.data()[i] - x_built_[i])));
     moved = ranks_.mpi().max(std::isnan(moved) ? 1e300 : moved);
     if (moved + motion <= 0.5 * skin_) {
-      const comm::Column cols[] = {column(set.x), column(set.v)};
-      halo_->exchange(cols, owned_);
+      exchange_motion();
       return;
     }
   }
   if (built_) {
-    // The self-contact's reference positions as the steps left them (a sort resets them), and
-    // the job's record, travel with the points.
-    if (const auto st = knit_.self_contact_state()) {
-      std::copy(st->x0.begin(), st->x0.begin() + owned_, x0_.data());
-      moved2_ = static_cast<T>(ranks_.mpi().max(double(st->moved2)));
-      bound_ = st->bound;
-    }
-    if (coupling_) {
-      const auto st = coupling_->state();
-      std::copy(st.x0.begin(), st.x0.begin() + owned_, cx0_.data());
-      cmoved2_ = static_cast<T>(ranks_.mpi().max(double(st.moved2)));
-      cbound_ = st.bound;
-    }
-    set.resize(owned_);
-    x0_.resize(owned_);
-    cx0_.resize(owned_);
+    // The grids' reference positions as the steps left them (a sort resets them), and the
+    // job's records, travel with the points.
+    if (const auto st = knit_.self_contact_state())
+      self_ref_.take(*st, owned_, ranks_.mpi());
+    if (coupling_)
+      coupling_ref_.take(coupling_->state(), owned_, ranks_.mpi());
+    resize(owned_);
   }
   rebuild();
 }
@@ -192,17 +145,12 @@ void KnitHalo<T>::rebuild() {
   // or anyone after a re-partition.
   std::vector<int> peers = ranks_.migration_peers();
   if (ranks_.repartitions() != repartitions_seen_) {
-    peers.clear();
-    for (int r = 0; r < ranks_.ranks(); ++r)
-      if (r != me)
-        peers.push_back(r);
+    peers = ranks_.other_ranks();
     repartitions_seen_ = ranks_.repartitions();
   }
-  std::vector<int> dest(owned_);
-  for (std::size_t i = 0; i < owned_; ++i)
-    dest[i] = d.owner(vec_cast<double>(set.x.data()[i]));
   auto columns = state();
-  owned_ = comm::migrate(ranks_.transport(), peers, dest, columns.migration);
+  owned_ = comm::migrate(ranks_.transport(), peers, ranks_.owners({set.x.data(), owned_}),
+                         columns.migration);
   set.resize(owned_);
   // The ghosts: the width covers the partners as stretched at the last choice (the check below
   // widens it where a spring stretched further) plus the skin the points may move until the
@@ -216,10 +164,7 @@ void KnitHalo<T>::rebuild() {
       xd[i] = vec_cast<double>(set.x.data()[i]);
     const GhostLists gl = select_ghosts(d, me, xd, width);
     halo_.emplace(ranks_.transport(), gl.peers, gl.send);
-    const std::size_t total = owned_ + halo_->received();
-    set.resize(total);
-    x0_.resize(total);
-    cx0_.resize(total);
+    resize(owned_ + halo_->received());
     const auto received = state();
     halo_->exchange(received.halo, owned_);
     if (partners_present())
@@ -228,12 +173,9 @@ void KnitHalo<T>::rebuild() {
       throw Error("knit on N ranks: a spring or volume cell spans more than the domain; the "
                   "knit has come apart");
     width *= 2; // a spring stretched past the width: wider, until every partner arrives
-    set.resize(owned_);
-    x0_.resize(owned_);
-    cx0_.resize(owned_);
+    resize(owned_);
   }
   width_ = width;
-  ++rebuilds_;
   x_built_.assign(set.x.data(), set.x.data() + owned_);
   built_ = true;
   const std::vector<std::uint64_t> ids(set.id.data(), set.id.data() + set.size());
@@ -243,66 +185,98 @@ void KnitHalo<T>::rebuild() {
   by_id_.assign(order);
   knit_.localize(ids, owned_);
   if (knit_.self_collision())
-    knit_.restore_self_contact({x0_host_all(), moved2_, bound_});
+    knit_.restore_self_contact(self_ref_.state(set.size()));
   if (coupling_) {
-    coupling_->restore(exec::Exec{exec::Backend::Cpu}, set, {cx0_.to_host(), cmoved2_, cbound_});
+    coupling_->restore(exec::Exec{exec::Backend::Cpu}, set, coupling_ref_.state(set.size()));
     coupling_->set_active(owned_);
   }
 }
 
 template <typename T>
-void KnitHalo<T>::refresh() {
-  if (!halo_)
-    return;
-  const Timed<T> timed{ranks_};
+void KnitHalo<T>::resize(std::size_t n) {
+  knit_.set().resize(n);
+  self_ref_.x0.resize(n);
+  coupling_ref_.x0.resize(n);
+}
+
+template <typename T>
+void KnitHalo<T>::exchange_motion() {
   auto& s = knit_.set();
   const comm::Column cols[] = {column(s.x), column(s.v)};
   halo_->exchange(cols, owned_);
 }
 
 template <typename T>
+void KnitHalo<T>::refresh() {
+  if (!halo_)
+    return;
+  const auto timed = ranks_.time_exchange();
+  exchange_motion();
+}
+
+template <typename T>
 void KnitHalo<T>::refresh(std::span<const comm::Column> columns) {
   if (!halo_)
     return;
-  const Timed<T> timed{ranks_};
+  const auto timed = ranks_.time_exchange();
   halo_->exchange(columns, owned_);
 }
 
 template <typename T>
+typename SkinWatch<T>::State
+KnitHalo<T>::carried(const Reference& ref,
+                     const std::optional<typename SkinWatch<T>::State>& kept) const {
+  if (!built_ || !kept)
+    return ref.state(owned_);
+  return {std::vector<Vec3<T>>(kept->x0.begin(), kept->x0.begin() + owned_),
+          static_cast<T>(ranks_.mpi().max(double(kept->moved2))), kept->bound};
+}
+
+template <typename T>
 typename SkinWatch<T>::State KnitHalo<T>::coupling_state() const {
-  if (!built_) {
-    const auto all = cx0_.to_host();
-    return {{all.begin(), all.begin() + std::min(owned_, all.size())}, cmoved2_, cbound_};
-  }
-  const auto st = coupling_->state();
-  return {std::vector<Vec3<T>>(st.x0.begin(), st.x0.begin() + owned_),
-          static_cast<T>(ranks_.mpi().max(double(st.moved2))), st.bound};
+  return carried(coupling_ref_, coupling_ ? std::optional(coupling_->state()) : std::nullopt);
 }
 
 template <typename T>
 typename SkinWatch<T>::State KnitHalo<T>::self_contact_state() const {
-  if (!built_)
-    return {x0_host(), moved2_, bound_};
-  const auto st = knit_.self_contact_state();
-  return {std::vector<Vec3<T>>(st->x0.begin(), st->x0.begin() + owned_),
-          static_cast<T>(ranks_.mpi().max(double(st->moved2))), st->bound};
+  return carried(self_ref_, knit_.self_contact_state());
 }
 
 template <typename T>
-std::vector<Vec3<T>> KnitHalo<T>::x0_host() const {
-  const auto all = x0_.to_host();
-  return {all.begin(), all.begin() + std::min(owned_, all.size())};
+void KnitHalo<T>::Reference::start(const exec::DeviceBuffer<Vec3<T>>& x,
+                                   const typename SkinWatch<T>::State& s, const char* what) {
+  const std::size_t n = x.size();
+  x0.resize(n);
+  if (s.x0.empty()) {
+    x0.copy_from(x, n);
+  } else {
+    if (s.x0.size() != n)
+      throw Error("knit on N ranks: " + std::to_string(s.x0.size()) + " " + what +
+                  " reference positions for " + std::to_string(n) + " points");
+    x0.assign(s.x0);
+  }
+  moved2 = s.moved2;
+  bound = s.bound;
 }
 
 template <typename T>
-std::vector<Vec3<T>> KnitHalo<T>::x0_host_all() const {
-  return x0_.to_host();
+void KnitHalo<T>::Reference::take(const typename SkinWatch<T>::State& s, std::size_t owned,
+                                  const comm::MpiContext& mpi) {
+  std::copy(s.x0.begin(), s.x0.begin() + owned, x0.data());
+  moved2 = static_cast<T>(mpi.max(double(s.moved2)));
+  bound = s.bound;
+}
+
+template <typename T>
+typename SkinWatch<T>::State KnitHalo<T>::Reference::state(std::size_t n) const {
+  const auto all = x0.to_host();
+  return {{all.begin(), all.begin() + std::min(n, all.size())}, moved2, bound};
 }
 
 template <typename T>
 std::vector<double>
-KnitHalo<T>::gather_by_id(int width, const std::function<void(std::size_t, double*)>& row) const {
-  // Each owned point's id and its `width` values, from every rank, placed by id.
+KnitHalo<T>::gather_on_root(int width, const std::function<void(std::size_t, double*)>& row) const {
+  // Each owned point's id and its `width` values, from every rank, placed by id on rank 0.
   const auto& set = knit_.set();
   const std::size_t w = std::size_t(width) + 1;
   std::vector<double> mine(w * owned_);
@@ -310,36 +284,38 @@ KnitHalo<T>::gather_by_id(int width, const std::function<void(std::size_t, doubl
     mine[w * i] = double(set.id.data()[i]);
     row(i, &mine[w * i + 1]);
   }
+  const bool root = ranks_.rank() == 0;
   const int size = ranks_.ranks();
   int n = static_cast<int>(mine.size());
-  std::vector<int> counts(size), displs(size);
-  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, ranks_.mpi().comm());
-  std::exclusive_scan(counts.begin(), counts.end(), displs.begin(), 0);
+  std::vector<int> counts(root ? size : 0), displs(root ? size : 0);
+  MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, ranks_.mpi().comm());
+  if (root)
+    std::exclusive_scan(counts.begin(), counts.end(), displs.begin(), 0);
   std::vector<double> all(std::accumulate(counts.begin(), counts.end(), std::size_t(0)));
-  MPI_Allgatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
-                 ranks_.mpi().comm());
-  std::vector<double> out(std::size_t(width) * mesh_points_, 0.0);
+  MPI_Gatherv(mine.data(), n, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0,
+              ranks_.mpi().comm());
+  std::vector<double> out(root ? std::size_t(width) * mesh_points_ : 0, 0.0);
   for (std::size_t k = 0; k + w <= all.size(); k += w)
     std::copy_n(&all[k + 1], width, &out[std::size_t(width) * std::size_t(all[k])]);
   return out;
 }
 
 template <typename T>
-std::vector<Vec3<T>> KnitHalo<T>::gather_positions() const {
+std::vector<Vec3<T>> KnitHalo<T>::positions_on_root() const {
   const Vec3<T>* x = knit_.set().x.data();
-  const auto all = gather_by_id(3, [x](std::size_t i, double* r) {
+  const auto all = gather_on_root(3, [x](std::size_t i, double* r) {
     r[0] = double(x[i].x), r[1] = double(x[i].y), r[2] = double(x[i].z);
   });
-  std::vector<Vec3<T>> out(mesh_points_);
-  for (std::size_t k = 0; k < mesh_points_; ++k) // doubles hold T exactly
+  std::vector<Vec3<T>> out(all.size() / 3);
+  for (std::size_t k = 0; k < out.size(); ++k) // doubles hold T exactly
     out[k] = {static_cast<T>(all[3 * k]), static_cast<T>(all[3 * k + 1]),
               static_cast<T>(all[3 * k + 2])};
   return out;
 }
 
 template <typename T>
-std::vector<double> KnitHalo<T>::gather_values(const std::vector<double>& values) const {
-  return gather_by_id(1, [&values](std::size_t i, double* r) { r[0] = values.at(i); });
+std::vector<double> KnitHalo<T>::values_on_root(const std::vector<double>& values) const {
+  return gather_on_root(1, [&values](std::size_t i, double* r) { r[0] = values.at(i); });
 }
 
 template class KnitHalo<float>;

@@ -18,11 +18,10 @@
 #include "domain/RankExchange.hpp"
 #include "kernels/coupling/KnitFluidCoupling.hpp"
 
-#include <span>
-
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <span>
 #include <vector>
 
 namespace kf {
@@ -44,10 +43,9 @@ public:
   static double base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* coupling = nullptr);
 
   /// At the start (every rank built the whole knit, the decomposition is made): keeps this
-  /// rank's points. x0: the self-contact's reference positions, per point in mesh order (a
-  /// restart's); empty: the positions now.
-  /// coupling_state: the same for the coupling's knit grid (empty x0: the positions now).
-  void distribute(const std::vector<Vec3<T>>& x0 = {}, T moved2 = T(0), T bound = T(0),
+  /// rank's points. The states: the self-contact's and the coupling's reference positions per
+  /// point in mesh order and their records (a restart's); empty x0: the positions now.
+  void distribute(const typename SkinWatch<T>::State& self_state = {{}, T(0), T(0)},
                   const typename SkinWatch<T>::State& coupling_state = {{}, T(0), T(0)});
   /// Before the knit's step (or a pass that reads partners; collective): the ghosts' positions
   /// and velocities from their owners while the ghosts chosen last still cover every partner
@@ -73,22 +71,39 @@ public:
   /// The coupling's knit grid's state over the owned points (snapshots; collective).
   typename SkinWatch<T>::State coupling_state() const;
   std::size_t owned() const { return owned_; }
-  /// Times the ghosts were chosen (migration, selection, springs localized).
-  std::uint64_t rebuilds() const { return rebuilds_; }
-  /// All knit positions of the job in mesh order, on every rank (the yarns).
-  std::vector<Vec3<T>> gather_positions() const;
-  /// A value per owned point (the set's order), of every rank, in mesh order, on every rank.
-  std::vector<double> gather_values(const std::vector<double>& owned_values) const;
-  std::size_t ghosts() const { return built_ ? knit_.set().size() - owned_ : 0; }
+  /// All knit positions of the job in mesh order on rank 0, none elsewhere (the yarns;
+  /// collective).
+  std::vector<Vec3<T>> positions_on_root() const;
+  /// A value per owned point (the set's order), of every rank, in mesh order on rank 0.
+  std::vector<double> values_on_root(const std::vector<double>& owned_values) const;
   double width() const { return width_; }
 
 private:
+  /// A sorted grid's reference positions (parallel to the set) and the job's record of it.
+  struct Reference {
+    exec::DeviceBuffer<Vec3<T>> x0;
+    T moved2 = T(0), bound = T(0);
+    /// From a restart's state in mesh order, or (empty x0) the positions x now.
+    void start(const exec::DeviceBuffer<Vec3<T>>& x, const typename SkinWatch<T>::State& s,
+               const char* what);
+    /// The grid's state as the steps left it: its first `owned` positions, the job's record.
+    void take(const typename SkinWatch<T>::State& s, std::size_t owned,
+              const comm::MpiContext& mpi);
+    /// The first n positions with the record.
+    typename SkinWatch<T>::State state(std::size_t n) const;
+  };
+  /// The state a snapshot writes: the grid's over the owned points while ghosts are held
+  /// (`kept`), else the carried reference's.
+  typename SkinWatch<T>::State
+  carried(const Reference& ref, const std::optional<typename SkinWatch<T>::State>& kept) const;
   /// row(i, out): `width` values of owned point i; returns width values a mesh point, in mesh
-  /// order, from every rank (collective).
-  std::vector<double> gather_by_id(int width,
-                                   const std::function<void(std::size_t, double*)>& row) const;
-  std::vector<Vec3<T>> x0_host() const;     // the owned points'
-  std::vector<Vec3<T>> x0_host_all() const; // owned and ghosts
+  /// order, on rank 0 (collective; empty elsewhere).
+  std::vector<double> gather_on_root(int width,
+                                     const std::function<void(std::size_t, double*)>& row) const;
+  /// The set and the carried references to n points.
+  void resize(std::size_t n);
+  /// The ghosts' positions and velocities from their owners (untimed).
+  void exchange_motion();
   /// Every column a point carries (the set's and the grids' reference positions).
   ExchangeColumns state();
   /// Whether every partner of an owned point is here; reach_ becomes the farthest partner.
@@ -100,18 +115,15 @@ private:
   RankExchange<T>& ranks_;
   KnitSystem<T>& knit_;
   KnitFluidCoupling<T>* coupling_ = nullptr;
-  // The coupling's knit grid: reference positions parallel to the set, the job's record.
-  exec::DeviceBuffer<Vec3<T>> cx0_{exec::Backend::Cpu, 0, "knit.halo.coupling_x0"};
-  T cmoved2_ = T(0), cbound_ = T(0);
+  // The self-contact's and the coupling's knit grids, carried with the points.
+  Reference self_ref_{exec::DeviceBuffer<Vec3<T>>(exec::Backend::Cpu, 0, "knit.halo.self_x0")};
+  Reference coupling_ref_{
+      exec::DeviceBuffer<Vec3<T>>(exec::Backend::Cpu, 0, "knit.halo.coupling_x0")};
   double base_width_ = 0, width_ = 0, reach_ = 0, skin_ = 0;
   bool built_ = false;           // ghosts present (chosen for the positions x_built_)
   std::vector<Vec3<T>> x_built_; // the owned points' positions when the ghosts were chosen
-  std::uint64_t rebuilds_ = 0;
   std::size_t owned_ = 0, mesh_points_ = 0;
   std::uint64_t repartitions_seen_ = 0;
-  // The self-contact's reference positions, parallel to the set; the job's motion record.
-  exec::DeviceBuffer<Vec3<T>> x0_{exec::Backend::Cpu, 0, "knit.halo.x0"};
-  T moved2_ = T(0), bound_ = T(0);
   exec::DeviceBuffer<std::uint32_t> by_id_{exec::Backend::Cpu, 0, "knit.halo.by_id"};
   std::optional<comm::HaloExchange> halo_;
   std::vector<std::int64_t> local_; // mesh index -> local index (-1: not here)

@@ -129,13 +129,7 @@ void KnitSystem<T>::internal_forces() {
 template <typename T>
 void KnitSystem<T>::localize(const std::vector<std::uint64_t>& ids, std::size_t owned) {
   const std::size_t n = ids.size();
-  std::vector<std::int64_t> local; // mesh index -> local index (-1: not here)
-  std::size_t n_mesh = 0;
-  for (const std::uint64_t id : ids)
-    n_mesh = std::max<std::size_t>(n_mesh, id + 1);
-  for (const Spring& sp : mesh_springs_)
-    n_mesh = std::max<std::size_t>(n_mesh, std::max(sp.i, sp.j) + std::size_t(1));
-  local.assign(n_mesh, -1);
+  std::vector<std::int64_t> local(mesh_rest_.size(), -1); // mesh index -> local index (-1: none)
   for (std::size_t k = 0; k < n; ++k)
     local[ids[k]] = static_cast<std::int64_t>(k);
   const auto is_owned = [&](std::uint32_t id) {
@@ -273,13 +267,16 @@ double KnitSystem<T>::stable_dt(const MotionBounds<T>& mb) {
 }
 
 template <typename T>
-KnitEnergy KnitSystem<T>::energy() {
+KnitEnergy KnitSystem<T>::energy(SelfContactStats* stats) {
   auto p = owned_view();
   KnitEnergy e;
   e.kinetic = knit_kinetic_energy(ex_, p);
   e.elastic = knit_spring_energy(ex_, p, springs_.view(), volumes_.view());
   e.potential = knit_potential_energy(ex_, p, gravity_);
-  e.contact = self_contact_stats().energy;
+  const SelfContactStats sc = self_contact_stats();
+  e.contact = sc.energy;
+  if (stats)
+    *stats = sc;
   return e;
 }
 
@@ -321,7 +318,8 @@ io::Phase KnitSystem<T>::yarn_phase(const std::vector<double>* saturation,
   for (std::size_t i = 0; i < x.size(); ++i)
     x[i] = vec_cast<double>(xt[i]);
   std::vector<std::vector<YarnPoint>> yarns;
-  for (std::size_t k = 0; k < pieces_.size(); ++k)
+  // An empty `at` (another rank than the one writing the yarns): the phase's fields, no rows.
+  for (std::size_t k = 0; k < (at && at->empty() ? 0 : pieces_.size()); ++k)
     for (auto& y : yarn_points(x, saturation, pieces_[k], scene_.knit.pieces[k].chart))
       yarns.push_back(std::move(y));
   const YarnLines lines = yarn_lines(yarns, scene_.knit.yarn_samples);

@@ -56,7 +56,8 @@ public:
   /// yarn index, and segment (point pairs, ParaView draws them as lines); empty when
   /// knit.yarn_samples is 0. With saturation (per knit point) the yarn points carry it too, for
   /// rendering wet yarn (darker, thicker: paper §6.3).
-  /// x: every point's position in mesh order (on N ranks, gathered); the set's by default.
+  /// x: every point's position in mesh order (on N ranks, gathered on the writing rank; empty
+  /// elsewhere: the fields without rows); the set's by default.
   io::Phase yarn_phase(const std::vector<double>* saturation = nullptr,
                        const std::vector<Vec3<T>>* x = nullptr) const;
   /// Every point's state from a snapshot phase in mesh (id) order; on N ranks the set becomes
@@ -89,7 +90,8 @@ public:
   KnitSelfContact<T>* self_contact() { return self_ ? &*self_ : nullptr; }
   std::size_t bytes() const;
   std::uint64_t collisions() const { return collisions_.to_host()[0]; }
-  KnitEnergy energy();
+  /// stats: also the self-contact's statistics the energy reads (one pass for both).
+  KnitEnergy energy(SelfContactStats* stats = nullptr);
   const SpringTopology<T>& springs() const { return springs_; }
   std::size_t volume_cells() const { return volumes_.cells(); }
   KnitSet<T>& set() { return set_; }

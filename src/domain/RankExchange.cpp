@@ -90,9 +90,9 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
     bx = boundary->x.to_host();
   // Blocks over the domain, widened to every particle (walls' particles lie outside it).
   Vec3d lo = scene_.domain.min, hi = scene_.domain.max;
-  std::vector<Vec3<T>> kx(knit.begin(), knit.end());
-  for (const auto* set : {&fx, &bx, &kx})
-    for (const auto& q : *set)
+  for (const std::span<const Vec3<T>> set :
+       {std::span<const Vec3<T>>(fx), std::span<const Vec3<T>>(bx), knit})
+    for (const auto& q : set)
       for (int d = 0; d < 3; ++d) {
         (&lo.x)[d] = std::min((&lo.x)[d], double((&q.x)[d]));
         (&hi.x)[d] = std::max((&hi.x)[d], double((&q.x)[d]));
@@ -103,28 +103,22 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
     counts[grid.block_of(vec_cast<double>(q))][static_cast<int>(Phase::Fluid)] += 1;
   for (const auto& q : bx)
     counts[grid.block_of(vec_cast<double>(q))][static_cast<int>(Phase::Boundary)] += 1;
-  for (const auto& q : kx)
+  for (const auto& q : knit)
     counts[grid.block_of(vec_cast<double>(q))][static_cast<int>(Phase::Knit)] += 1;
   decomposition_.emplace(Decomposition::partition(grid, counts, costs(), ranks(), fluid_width_));
   // A particle moves less than a support radius a step (CFL): the blocks next to this rank's.
   migration_peers_ = neighbour_ranks(*decomposition_, me, grid.edge());
 
   // Each rank keeps what it owns: a migration to nobody (destination -1 drops a particle).
-  const auto mine = [&](const std::vector<Vec3<T>>& x) {
-    std::vector<int> dest(x.size());
-    for (std::size_t i = 0; i < x.size(); ++i)
-      dest[i] = decomposition_->owner(vec_cast<double>(x[i])) == me ? me : -1;
-    return dest;
-  };
   if (fluid) {
     auto state = fluid_state(*fluid, true);
-    fluid->resize(comm::migrate(*transport_, {}, mine(fx), state));
+    fluid->resize(comm::migrate(*transport_, {}, owners(fx, true), state));
     fluid_owned_ = fluid->size();
     fluid_owned_flag_.assign(fluid_owned_, 1);
   }
   if (boundary) {
     auto state = boundary_state(*boundary);
-    boundary->resize(comm::migrate(*transport_, {}, mine(bx), state));
+    boundary->resize(comm::migrate(*transport_, {}, owners(bx, true), state));
     receive_boundary_ghosts(*boundary, boundary->size());
   }
 }
@@ -203,14 +197,9 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
   decomposition_.emplace(Decomposition::partition(grid, per_block, costs(), ranks(), fluid_width_));
   migration_peers_ = neighbour_ranks(*decomposition_, rank(), grid.edge());
   // A block may change hands across the domain: every rank is a peer of this one exchange.
-  std::vector<int> everyone;
-  for (int r = 0; r < ranks(); ++r)
-    if (r != rank())
-      everyone.push_back(r);
+  const std::vector<int> everyone = other_ranks();
   if (fluid) {
-    std::vector<int> dest(fluid->size());
-    for (std::size_t i = 0; i < dest.size(); ++i)
-      dest[i] = decomposition_->owner(vec_cast<double>(fluid->x.data()[i]));
+    const auto dest = owners({fluid->x.data(), fluid->size()});
     auto state = fluid_state(*fluid, true);
     const std::size_t n = comm::migrate(*transport_, everyone, dest, state);
     fluid->resize(n);
@@ -231,6 +220,26 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
   b.repartitioned = true;
   ++repartitions_;
   return b;
+}
+
+template <typename T>
+std::vector<int> RankExchange<T>::owners(std::span<const Vec3<T>> x, bool others_dropped) const {
+  std::vector<int> dest(x.size());
+  const int me = rank();
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    const int o = decomposition_->owner(vec_cast<double>(x[i]));
+    dest[i] = others_dropped && o != me ? -1 : o;
+  }
+  return dest;
+}
+
+template <typename T>
+std::vector<int> RankExchange<T>::other_ranks() const {
+  std::vector<int> r;
+  for (int k = 0; k < ranks(); ++k)
+    if (k != rank())
+      r.push_back(k);
+  return r;
 }
 
 template <typename T>
@@ -269,7 +278,6 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
     }
   }
   // Every state column the steps to come read (a: the forces pass writes it before its use).
-  // a: the forces pass rewrites it before its use.
   auto state = fluid_state(fluid, false);
   const std::size_t owned = comm::migrate(*transport_, migration_peers_, dest, state);
   // The ghosts: every owned particle within the support of another rank's region goes there.

@@ -92,8 +92,22 @@ public:
   /// What the knit's exchange shares: the transport, the ranks next to this one's blocks (a
   /// particle moves less than a block a step), and the split's own time.
   comm::Transport& transport() { return *transport_; }
+  /// Each position's owning rank (-1 for other ranks' with others_dropped: a migration's
+  /// destinations that keep only this rank's particles).
+  std::vector<int> owners(std::span<const Vec3<T>> x, bool others_dropped = false) const;
+  /// Every rank but this one (the peers of a migration after a re-partition).
+  std::vector<int> other_ranks() const;
   const std::vector<int>& migration_peers() const { return migration_peers_; }
-  void add_exchange_seconds(double s) { exchange_seconds_ += s; }
+  /// Adds the seconds of its scope to exchange_seconds().
+  struct Timed {
+    double& sum;
+    std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+    ~Timed() {
+      sum += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+  };
+  /// The split's own work outside this class (KnitHalo) counts in exchange_seconds() too.
+  Timed time_exchange() { return Timed{exchange_seconds_}; }
   std::uint64_t repartitions() const { return repartitions_; }
   /// Seconds spent in the split's own work (migration, ghosts, refreshes, re-partitions).
   double exchange_seconds() const { return exchange_seconds_; }
@@ -113,14 +127,6 @@ private:
 
   const comm::MpiContext& mpi_;
   double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
-  /// Adds the seconds of its scope to exchange_seconds_.
-  struct Timed {
-    double& sum;
-    std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
-    ~Timed() {
-      sum += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    }
-  };
   std::uint64_t repartitions_ = 0;
   double block_scale_ = 0; // a block's edge over parallel.block_cells
   PhaseCosts costs() const { return costs_; }

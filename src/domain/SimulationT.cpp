@@ -371,6 +371,12 @@ private:
       return {};
     return {knit_->set().x.data(), knit_->owned()};
   }
+  /// Every knit point this rank holds (the whole knit before distribute; host memory).
+  std::span<const Vec3<T>> all_knit_positions() {
+    if (!knit_)
+      return {};
+    return {knit_->set().x.data(), knit_->size()};
+  }
   RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
   exec::DeviceBuffer<RigidShape<T>> shapes_;
   Pipeline pipeline_;
@@ -427,8 +433,8 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     const double knit_skin = c ? h_ : 0.0;
     ranks_.emplace(*mpi, scene_, backend, knit_ ? KnitHalo<T>::base_width(*knit_, c) : 0.0,
                    c ? reach + 0.5 * knit_skin : 0.0);
-    const auto kx = knit_ ? knit_->set().x.to_host() : std::vector<Vec3<T>>{};
-    ranks_->distribute(fluid_ ? &*fluid_ : nullptr, boundary_ ? &*boundary_ : nullptr, kx);
+    ranks_->distribute(fluid_ ? &*fluid_ : nullptr, boundary_ ? &*boundary_ : nullptr,
+                       all_knit_positions());
     if (knit_) {
       knit_halo_.emplace(*ranks_, *knit_, coupling_ ? &*coupling_ : nullptr, knit_skin);
       knit_halo_->distribute();
@@ -1159,12 +1165,9 @@ io::Frame SimulationT<T>::frame() const {
     fr.phases.push_back(std::move(kp));
     if (scene_.knit.yarn_samples > 0) {
       if (knit_halo_) { // the yarns run through points of every rank: rank 0 writes them all
-        const auto all = knit_halo_->gather_positions();
-        const auto wet_all = wets ? knit_halo_->gather_values(wet) : wet; // collective
-        io::Phase yp = knit_->yarn_phase(wets ? &wet_all : nullptr, &all);
-        if (ranks_->rank() != 0)
-          keep_rows(yp, std::vector<std::uint8_t>(yp.fields.empty() ? 0 : yp.fields[0].count, 0));
-        fr.phases.push_back(std::move(yp));
+        const auto all = knit_halo_->positions_on_root();
+        const auto wet_all = wets ? knit_halo_->values_on_root(wet) : wet; // collective
+        fr.phases.push_back(knit_->yarn_phase(wets ? &wet_all : nullptr, &all));
       } else {
         fr.phases.push_back(knit_->yarn_phase(wet.empty() ? nullptr : &wet));
       }
@@ -1248,23 +1251,19 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   if (ranks_) {
     // The blocks are partitioned anew from the frame's particles (the results do not depend on
     // the partition), each rank keeps its share, and the next step's sort rebuilds the rest.
-    const auto kx = knit_ ? knit_->set().x.to_host() : std::vector<Vec3<T>>{};
-    ranks_->distribute(fluid_on_ ? &*fluid_ : nullptr, boundary_on_ ? &*boundary_ : nullptr, kx);
+    ranks_->distribute(fluid_on_ ? &*fluid_ : nullptr, boundary_on_ ? &*boundary_ : nullptr,
+                       all_knit_positions());
     if (boundary_on_)
       sort_boundary();
     if (knit_halo_) {
-      // The self-contact's reference positions travel with the points; without them (an older
+      // The grids' reference positions travel with the points; without them (an older
       // snapshot) the positions now.
-      const auto st =
-          knit_->self_collision() ? get_watch<T>(fr, *knit_phase, "self_contact") : std::nullopt;
-      typename SkinWatch<T>::State cst{{}, T(0), T(0)};
-      if (coupling_)
-        if (const auto c = get_watch<T>(fr, *knit_phase, "coupling"))
-          cst = *c;
-      if (st)
-        knit_halo_->distribute(st->x0, st->moved2, st->bound, cst);
-      else
-        knit_halo_->distribute({}, T(0), T(0), cst);
+      const auto watch = [&](bool on, const char* name) {
+        const auto st = on ? get_watch<T>(fr, *knit_phase, name) : std::nullopt;
+        return st ? *st : typename SkinWatch<T>::State{{}, T(0), T(0)};
+      };
+      knit_halo_->distribute(watch(knit_->self_collision(), "self_contact"),
+                             watch(coupling_.has_value(), "coupling"));
     }
     if (coupling_on_) {
       // The coupling reads the fluid around each knit point before the next drift: the ghosts
@@ -1356,10 +1355,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
     KnitEnergy e;
     SelfContactStats sc;
     // The springs and contacts of owned points reach ghosts on N ranks.
-    const_cast<SimulationT<T>&>(*this).with_knit_ghosts([&] {
-      e = k.energy();
-      sc = k.self_contact_stats();
-    });
+    const_cast<SimulationT<T>&>(*this).with_knit_ghosts([&] { e = k.energy(&sc); });
     d.knit = k.owned();
     d.knit_kinetic_energy = e.kinetic;
     d.knit_elastic_energy = e.elastic;
