@@ -9,8 +9,8 @@
 namespace kf::comm {
 
 HaloExchange::HaloExchange(Transport& transport, std::vector<int> peers,
-                           std::vector<std::vector<std::uint32_t>> send)
-    : transport_(transport), peers_(std::move(peers)), send_(std::move(send)) {
+                           std::vector<std::vector<std::uint32_t>> send, RowCopier& rows)
+    : transport_(transport), rows_(rows), peers_(std::move(peers)), send_(std::move(send)) {
   if (send_.size() != peers_.size())
     throw Error("halo exchange: " + std::to_string(send_.size()) + " send lists for " +
                 std::to_string(peers_.size()) + " peers");
@@ -37,26 +37,15 @@ std::size_t HaloExchange::sent() const {
 }
 
 void HaloExchange::start(std::span<const Column> columns, std::size_t first_ghost) {
-  row_bytes_ = 0;
-  for (const Column& c : columns)
-    row_bytes_ += c.elem_bytes;
+  const std::size_t row = row_bytes(columns);
   std::vector<SendBuffer> sends(peers_.size());
   std::vector<RecvBuffer> recvs(peers_.size());
   last_bytes_ = 0;
   for (std::size_t k = 0; k < peers_.size(); ++k) {
-    // Column-major within a message: each column's values for the listed particles in a run,
-    // so unpacking is one copy per column.
     auto& out = out_[k];
-    out.resize(send_[k].size() * row_bytes_);
-    unsigned char* o = out.data();
-    for (const Column& c : columns) {
-      const auto* src = static_cast<const unsigned char*>(c.data);
-      for (std::uint32_t i : send_[k]) {
-        std::memcpy(o, src + std::size_t(i) * c.elem_bytes, c.elem_bytes);
-        o += c.elem_bytes;
-      }
-    }
-    in_[k].resize(recv_count_[k] * row_bytes_);
+    out.resize(send_[k].size() * row);
+    rows_.gather(columns, send_[k], out.data());
+    in_[k].resize(recv_count_[k] * row);
     sends[k] = {peers_[k], out.data(), out.size()};
     recvs[k] = {peers_[k], in_[k].data(), in_[k].size()};
     last_bytes_ += out.size();
@@ -69,22 +58,11 @@ void HaloExchange::start(std::span<const Column> columns, std::size_t first_ghos
 void HaloExchange::finish() {
   transport_.finish();
   for (std::size_t k = 0; k < peers_.size(); ++k) {
-    const unsigned char* in = in_[k].data();
     const std::size_t n = recv_count_[k];
-    for (const Column& c : pending_) {
-      auto* base = static_cast<unsigned char*>(c.data);
-      if (recv_slot_.empty()) {
-        if (n)
-          std::memcpy(base + (pending_first_ + recv_offset_[k]) * c.elem_bytes, in,
-                      n * c.elem_bytes);
-      } else {
-        const std::uint32_t* slot = recv_slot_.data() + recv_offset_[k];
-        for (std::size_t j = 0; j < n; ++j)
-          std::memcpy(base + std::size_t(slot[j]) * c.elem_bytes, in + j * c.elem_bytes,
-                      c.elem_bytes);
-      }
-      in += n * c.elem_bytes;
-    }
+    if (recv_slot_.empty())
+      rows_.put(pending_, pending_first_ + recv_offset_[k], n, in_[k].data());
+    else
+      rows_.scatter(pending_, {recv_slot_.data() + recv_offset_[k], n}, in_[k].data());
   }
   pending_.clear();
 }
@@ -104,12 +82,17 @@ void HaloExchange::remap(std::span<const std::uint32_t> new_of_old, std::size_t 
 }
 
 std::size_t migrate(Transport& transport, std::span<const int> peers,
-                    std::span<const int> destination, std::span<MigrationColumn> columns) {
+                    std::span<const int> destination, std::span<MigrationColumn> columns,
+                    RowCopier& rows) {
   const std::size_t n = destination.size();
   const int me = transport.rank();
   std::vector<std::vector<std::uint32_t>> leaving(peers.size());
+  std::vector<std::uint32_t> staying;
+  staying.reserve(n);
   for (std::size_t i = 0; i < n; ++i) {
     const int d = destination[i];
+    if (d == me)
+      staying.push_back(static_cast<std::uint32_t>(i));
     if (d == me || d < 0)
       continue;
     const auto it = std::find(peers.begin(), peers.end(), d);
@@ -118,26 +101,17 @@ std::size_t migrate(Transport& transport, std::span<const int> peers,
                   std::to_string(d) + ", which is not a neighbour of rank " + std::to_string(me));
     leaving[it - peers.begin()].push_back(static_cast<std::uint32_t>(i));
   }
-  std::size_t row = 0;
-  std::vector<unsigned char*> data(columns.size());
-  for (std::size_t c = 0; c < columns.size(); ++c) {
-    row += columns[c].elem_bytes;
-    data[c] = columns[c].resize(n); // the current data (the size does not change)
-  }
-  // The leavers, packed column-major per peer.
+  std::vector<Column> cols(columns.size());
+  for (std::size_t c = 0; c < columns.size(); ++c) // the current data (the size does not change)
+    cols[c] = {columns[c].resize(n), columns[c].elem_bytes};
+  const std::size_t row = row_bytes(cols);
+  // The leavers, packed per peer.
   std::vector<std::uint64_t> counts(peers.size());
   std::vector<std::vector<unsigned char>> out(peers.size());
   for (std::size_t k = 0; k < peers.size(); ++k) {
     counts[k] = leaving[k].size();
     out[k].resize(leaving[k].size() * row);
-    unsigned char* o = out[k].data();
-    for (std::size_t c = 0; c < columns.size(); ++c) {
-      const std::size_t e = columns[c].elem_bytes;
-      for (std::uint32_t i : leaving[k]) {
-        std::memcpy(o, data[c] + std::size_t(i) * e, e);
-        o += e;
-      }
-    }
+    rows.gather(cols, leaving[k], out[k].data());
   }
   const auto arriving = transport.exchange_sizes(peers, counts);
   std::vector<std::vector<unsigned char>> in(peers.size());
@@ -151,33 +125,17 @@ std::size_t migrate(Transport& transport, std::span<const int> peers,
     arrivals += arriving[k];
   }
   transport.start(sends, recvs);
-  // Meanwhile the particles that stay close up, in order (k <= i: forward moves only).
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (destination[i] != me)
-      continue;
-    if (kept != i)
-      for (std::size_t c = 0; c < columns.size(); ++c) {
-        const std::size_t e = columns[c].elem_bytes;
-        std::memcpy(data[c] + kept * e, data[c] + i * e, e);
-      }
-    ++kept;
-  }
+  // Meanwhile the particles that stay close up, in order.
+  if (staying.size() != n)
+    rows.compact(cols, staying);
   transport.finish();
-  const std::size_t total = kept + arrivals;
+  const std::size_t kept = staying.size(), total = kept + arrivals;
   for (std::size_t c = 0; c < columns.size(); ++c)
-    data[c] = columns[c].resize(total);
+    cols[c].data = columns[c].resize(total);
   std::size_t at = kept;
   for (std::size_t k = 0; k < peers.size(); ++k) {
-    const unsigned char* src = in[k].data();
-    const std::size_t m = arriving[k];
-    for (std::size_t c = 0; c < columns.size(); ++c) {
-      const std::size_t e = columns[c].elem_bytes;
-      if (m)
-        std::memcpy(data[c] + at * e, src, m * e);
-      src += m * e;
-    }
-    at += m;
+    rows.put(cols, at, arriving[k], in[k].data());
+    at += arriving[k];
   }
   return total;
 }

@@ -3,7 +3,9 @@
 // fixed when the ghost set is chosen; each refresh packs the listed particles' values of some
 // columns, moves them through a Transport and writes what the peers send into the ghost slots,
 // which follow the owned particles in the same arrays. Knows no physics: columns are bytes.
-// Host memory for now (the CPU backend, or device data staged by the caller).
+// The columns are read and written through a RowCopier (host memory by default; a device
+// backend packs on the device and stages through the host). The messages are host memory.
+#include "comm/RowCopier.hpp"
 #include "comm/Transport.hpp"
 
 #include <cstddef>
@@ -14,19 +16,14 @@
 
 namespace kf::comm {
 
-/// A column of per-particle values: element k of `elem_bytes` bytes at data + k * elem_bytes.
-struct Column {
-  void* data = nullptr;
-  std::size_t elem_bytes = 0;
-};
-
 class HaloExchange {
 public:
   /// `peers` (distinct, and symmetric over the job: A lists B iff B lists A) and, for each, the
   /// local indices whose values it receives. Collective over the peers: learns how many ghosts
-  /// each sends back (Transport::exchange_sizes).
+  /// each sends back (Transport::exchange_sizes). `rows` reads and writes the columns (it must
+  /// outlive the exchange).
   HaloExchange(Transport& transport, std::vector<int> peers,
-               std::vector<std::vector<std::uint32_t>> send);
+               std::vector<std::vector<std::uint32_t>> send, RowCopier& rows = host_rows());
 
   const std::vector<int>& peers() const { return peers_; }
   /// Ghosts received in all, and where peer k's start among them (peers in the given order).
@@ -55,6 +52,7 @@ public:
 
 private:
   Transport& transport_;
+  RowCopier& rows_;
   std::vector<int> peers_;
   std::vector<std::vector<std::uint32_t>> send_;
   std::vector<std::size_t> recv_count_, recv_offset_;
@@ -62,7 +60,7 @@ private:
   std::vector<std::uint32_t> recv_slot_; // empty: contiguous from first_ghost
   std::vector<std::vector<unsigned char>> out_, in_;
   std::vector<Column> pending_;
-  std::size_t pending_first_ = 0, row_bytes_ = 0, last_bytes_ = 0;
+  std::size_t pending_first_ = 0, last_bytes_ = 0;
 };
 
 /// A column of the particles' state that migration can resize in place: `resize(n)` makes it
@@ -77,9 +75,10 @@ struct MigrationColumn {
 /// left the domain). Only the leavers are packed; the particles that stay are compacted in place
 /// (keeping their order) while the messages are in flight, and the arrivals follow them, by
 /// sending rank, in the sender's order. `peers` as for HaloExchange (every rank a particle may go
-/// to or come from). Returns the new count.
+/// to or come from). `rows` reads and writes the columns' data. Returns the new count.
 std::size_t migrate(Transport& transport, std::span<const int> peers,
-                    std::span<const int> destination, std::span<MigrationColumn> columns);
+                    std::span<const int> destination, std::span<MigrationColumn> columns,
+                    RowCopier& rows = host_rows());
 
 /// The same over byte vectors (tests, host staging).
 struct ByteColumn {

@@ -50,12 +50,13 @@ std::vector<std::uint32_t> inverse(std::span<const std::uint32_t> perm) {
 template <typename T>
 RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
                               exec::Backend backend, double knit_width, double coupling_reach)
-    : mpi_(mpi), scene_(scene) {
+    : mpi_(mpi), backend_(backend), scene_(scene), keep_(backend, 0, "ranks.owned") {
   const auto refuse = [&](const std::string& what) {
     throw Error("on " + std::to_string(mpi.size()) +
                 " ranks knitflow runs fluid, static boundaries, the knit and their coupling "
-                "(the paper's model) so far (the conserving absorption, moving solids, "
-                "\"verlet\" lists and the GPU join in later stages of P5); this run has " +
+                "(the paper's model; the knit on the CPU backend) so far (the conserving "
+                "absorption, moving solids, \"verlet\" lists and the knit on the GPU join in "
+                "later stages of P5); this run has " +
                 what + ": run it on one rank");
   };
   if (scene.has(Module::Knit) && scene.has(Module::Fluid) && scene.has(Module::Capillary) &&
@@ -66,8 +67,8 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
       refuse("a moving obstacle ('" + o.name + "')");
   if (scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet)
     refuse("solver.neighbour_list = \"verlet\"");
-  if (backend != exec::Backend::Cpu)
-    refuse("the GPU backend");
+  if (backend != exec::Backend::Cpu && knit_width > 0)
+    refuse("the knit on the GPU backend");
   transport_ = comm::make_transport(mpi, comm::TransportKind::Mpi, comm::MemorySpace::Host);
   costs_.knit_substeps = scene.knit.substeps;
   fluid_width_ = std::max(scene.support_radius(), coupling_reach);
@@ -112,26 +113,27 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
   // Each rank keeps what it owns: a migration to nobody (destination -1 drops a particle).
   if (fluid) {
     auto state = fluid_state(*fluid, true);
-    fluid->resize(comm::migrate(*transport_, {}, owners(fx, true), state));
+    fluid->resize(comm::migrate(*transport_, {}, owners(fx, true), state, rows()));
     fluid_owned_ = fluid->size();
     fluid_owned_flag_.assign(fluid_owned_, 1);
   }
   if (boundary) {
     auto state = boundary_state(*boundary);
-    boundary->resize(comm::migrate(*transport_, {}, owners(bx, true), state));
+    boundary->resize(comm::migrate(*transport_, {}, owners(bx, true), state, rows()));
     receive_boundary_ghosts(*boundary, boundary->size());
   }
 }
 
 template <typename T>
 void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t n) {
+  const HostValues<Vec3<T>> bx(boundary.x, n);
   std::vector<Vec3d> xd(n);
   for (std::size_t i = 0; i < n; ++i)
-    xd[i] = vec_cast<double>(boundary.x.data()[i]);
+    xd[i] = vec_cast<double>(bx[i]);
   // The ghosts come from their owners (not from this rank's copy of the scene), so their order
   // is the one the owners' refreshes will send in.
   const GhostLists gl = select_ghosts(*decomposition_, rank(), xd, boundary_width_);
-  boundary_halo_.emplace(*transport_, gl.peers, gl.send);
+  boundary_halo_.emplace(*transport_, gl.peers, gl.send, rows());
   const std::size_t total = n + boundary_halo_->received();
   boundary.resize(total);
   const comm::Column cols[] = {column(boundary.x), column(boundary.x0), column(boundary.obstacle),
@@ -166,13 +168,18 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
   const auto count = [&](const Vec3<T>& x, Phase p) {
     counts[kPhases * grid.block_of(vec_cast<double>(x)) + static_cast<int>(p)] += 1;
   };
-  if (fluid)
-    for (std::size_t i = 0; i < fluid->size(); ++i)
-      count(fluid->x.data()[i], Phase::Fluid);
-  if (boundary)
-    for (std::size_t i = 0; i < boundary->size(); ++i)
+  std::optional<HostValues<Vec3<T>>> fx, bx;
+  if (fluid) {
+    fx.emplace(fluid->x);
+    for (std::size_t i = 0; i < fx->size(); ++i)
+      count((*fx)[i], Phase::Fluid);
+  }
+  if (boundary) {
+    bx.emplace(boundary->x);
+    for (std::size_t i = 0; i < bx->size(); ++i)
       if (boundary_owned_[i])
-        count(boundary->x.data()[i], Phase::Boundary);
+        count((*bx)[i], Phase::Boundary);
+  }
   for (const auto& q : knit)
     count(q, Phase::Knit);
   MPI_Allreduce(MPI_IN_PLACE, counts.data(), static_cast<int>(counts.size()), MPI_DOUBLE, MPI_SUM,
@@ -199,9 +206,9 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
   // A block may change hands across the domain: every rank is a peer of this one exchange.
   const std::vector<int> everyone = other_ranks();
   if (fluid) {
-    const auto dest = owners({fluid->x.data(), fluid->size()});
+    const auto dest = owners(fx->span());
     auto state = fluid_state(*fluid, true);
-    const std::size_t n = comm::migrate(*transport_, everyone, dest, state);
+    const std::size_t n = comm::migrate(*transport_, everyone, dest, state, rows());
     fluid->resize(n);
     fluid_owned_ = n;
     fluid_owned_flag_.assign(n, 1);
@@ -210,10 +217,9 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
     // The owned boundary goes to its new owners; the ghosts are dropped and received anew.
     std::vector<int> dest(boundary->size());
     for (std::size_t i = 0; i < dest.size(); ++i)
-      dest[i] =
-          boundary_owned_[i] ? decomposition_->owner(vec_cast<double>(boundary->x.data()[i])) : -1;
+      dest[i] = boundary_owned_[i] ? decomposition_->owner(vec_cast<double>((*bx)[i])) : -1;
     auto state = boundary_state(*boundary);
-    const std::size_t n = comm::migrate(*transport_, everyone, dest, state);
+    const std::size_t n = comm::migrate(*transport_, everyone, dest, state, rows());
     boundary->resize(n);
     receive_boundary_ghosts(*boundary, n);
   }
@@ -243,11 +249,13 @@ std::vector<int> RankExchange<T>::other_ranks() const {
 }
 
 template <typename T>
-void RankExchange<T>::boundary_sorted(std::span<const std::uint32_t> perm) {
+void RankExchange<T>::boundary_sorted(const exec::DeviceBuffer<std::uint32_t>& perm_buffer,
+                                      std::size_t n) {
   if (!boundary_halo_)
     return;
-  boundary_halo_->remap(inverse(perm), boundary_own_count_);
-  boundary_owned_ = pick(boundary_owned_, perm);
+  const HostValues<std::uint32_t> perm(perm_buffer, n);
+  boundary_halo_->remap(inverse(perm.span()), boundary_own_count_);
+  boundary_owned_ = pick(boundary_owned_, perm.span());
 }
 
 template <typename T>
@@ -257,9 +265,9 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
   const Timed timed{exchange_seconds_};
   const int me = rank();
   const std::size_t n = fluid.size();
-  // The CPU backend's buffers are host memory: everything below works in place.
-  const Vec3<T>* x = fluid.x.data();
-  const T* m = fluid.m.data();
+  // The owners are chosen on the host (on a device backend from copies of x and m).
+  const HostValues<Vec3<T>> x(fluid.x, n);
+  const HostValues<T> m(fluid.m, n);
   // Fluid past an open side leaves the job (the single-rank sort removes it the same way).
   Removed gone;
   std::vector<int> dest(n);
@@ -279,13 +287,14 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
   }
   // Every state column the steps to come read (a: the forces pass writes it before its use).
   auto state = fluid_state(fluid, false);
-  const std::size_t owned = comm::migrate(*transport_, migration_peers_, dest, state);
+  const std::size_t owned = comm::migrate(*transport_, migration_peers_, dest, state, rows());
   // The ghosts: every owned particle within the support of another rank's region goes there.
+  const HostValues<Vec3<T>> xo(fluid.x, owned);
   std::vector<Vec3d> xd(owned);
   for (std::size_t i = 0; i < owned; ++i)
-    xd[i] = vec_cast<double>(fluid.x.data()[i]);
+    xd[i] = vec_cast<double>(xo[i]);
   const GhostLists gl = select_ghosts(*decomposition_, me, xd, fluid_width_);
-  fluid_halo_.emplace(*transport_, gl.peers, gl.send);
+  fluid_halo_.emplace(*transport_, gl.peers, gl.send, rows());
   const std::size_t total = owned + fluid_halo_->received();
   fluid.resize(total);
   const comm::Column cols[] = {column(fluid.x),         column(fluid.v), column(fluid.m),
@@ -299,12 +308,14 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
 }
 
 template <typename T>
-void RankExchange<T>::fluid_sorted(std::span<const std::uint32_t> perm) {
+void RankExchange<T>::fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm_buffer,
+                                   std::size_t n) {
   const Timed timed{exchange_seconds_};
   if (!fluid_halo_)
     return;
-  fluid_halo_->remap(inverse(perm), fluid_owned_);
-  fluid_owned_flag_ = pick(fluid_owned_flag_, perm);
+  const HostValues<std::uint32_t> perm(perm_buffer, n);
+  fluid_halo_->remap(inverse(perm.span()), fluid_owned_);
+  fluid_owned_flag_ = pick(fluid_owned_flag_, perm.span());
 }
 
 template <typename T>

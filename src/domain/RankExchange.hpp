@@ -5,11 +5,14 @@
 // ghosts within the support of its region are received and appended, to be dropped again after
 // the forces pass. The boundary is static: owned particles plus ghosts received once. Ghost
 // values that a pass computes from neighbours a ghost lacks (summation density, wall pressure)
-// are refreshed from their owners. Host memory: the CPU backend.
+// are refreshed from their owners. On a device backend the particles stay in device memory: the
+// rows that move are packed there (DeviceRows) and staged through the host for MPI; the owners
+// and the ghosts are chosen on the host from a copy of the positions.
 #include "comm/HaloExchange.hpp"
 #include "comm/MpiContext.hpp"
 #include "comm/Transport.hpp"
 #include "domain/Decomposition.hpp"
+#include "domain/DeviceRows.hpp"
 #include "domain/Scene.hpp"
 #include "kernels/particles/FluidSet.hpp"
 
@@ -25,8 +28,8 @@ namespace kf {
 template <typename T>
 class RankExchange {
 public:
-  /// Refuses (kf::Error) what the split does not carry yet: the knit, moving solids, "verlet"
-  /// lists, the GPU backend.
+  /// Refuses (kf::Error) what the split does not carry yet: the conserving absorption, moving
+  /// solids, "verlet" lists, the knit on the GPU backend.
   /// knit_width: the knit's ghost width (KnitHalo::base_width; 0 without knit), the blocks'
   /// scale where there is no fluid.
   /// coupling_reach: how far the knit-fluid coupling reaches (0 without): the fluid's ghosts
@@ -36,6 +39,9 @@ public:
 
   int rank() const { return mpi_.rank(); }
   int ranks() const { return mpi_.size(); }
+  exec::Backend backend() const { return backend_; }
+  /// How the exchanges read and write the particles' buffers (the backend's memory).
+  comm::RowCopier& rows() { return rows_for(backend_, device_rows_); }
   const Decomposition& decomposition() const { return *decomposition_; }
   const comm::MpiContext& mpi() const { return mpi_; }
 
@@ -45,7 +51,7 @@ public:
   /// knit: the knit points' positions (the whole knit, as every rank built it), counted in the
   /// blocks' costs; KnitHalo keeps this rank's share.
   void distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary, std::span<const Vec3<T>> knit = {});
-  void boundary_sorted(std::span<const std::uint32_t> perm);
+  void boundary_sorted(const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n);
 
   struct Removed {
     std::uint64_t particles = 0;
@@ -55,8 +61,8 @@ public:
   /// (counted), the rest migrates to its owners, and the ghosts are received and appended.
   Removed rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& hi,
                   const std::array<bool, 6>& walls);
-  /// After the fluid's sort (perm[k]: where the particle now at k was).
-  void fluid_sorted(std::span<const std::uint32_t> perm);
+  /// After the fluid's sort (perm[k]: where the particle now at k was; its first n).
+  void fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n);
   /// Ghosts' rho, P and the packed copies the density pass writes (vp, vol), from their owners.
   void refresh_density(FluidSet<T>& fluid);
   /// Boundary ghosts' pressure and its packed copies (vp, inv_rho), from their owners.
@@ -126,6 +132,8 @@ private:
   void receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t owned);
 
   const comm::MpiContext& mpi_;
+  exec::Backend backend_;
+  std::unique_ptr<DeviceRows> device_rows_;
   double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
   std::uint64_t repartitions_ = 0;
   double block_scale_ = 0; // a block's edge over parallel.block_cells
@@ -142,7 +150,7 @@ private:
   // 1 owned, 0 ghost, per particle in the sets' order (the fluid's as keep_flagged takes them).
   std::vector<std::uint32_t> fluid_owned_flag_;
   std::vector<std::uint8_t> boundary_owned_;
-  exec::DeviceBuffer<std::uint32_t> keep_{exec::Backend::Cpu, 0, "ranks.owned"};
+  exec::DeviceBuffer<std::uint32_t> keep_;
 };
 
 } // namespace kf

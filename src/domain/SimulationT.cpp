@@ -124,6 +124,9 @@ public:
   void stop() const {
     if (!ranks_)
       return;
+    // A device's kernels run behind the host: their time is the pass's once they are done.
+    if (ranks_->backend() != exec::Backend::Cpu)
+      exec::synchronize(ranks_->backend());
     // Less the exchanges inside the scope (the knit's ghost refreshes between substeps).
     const double waited = ranks_->exchange_seconds() - exchange0_;
     ranks_->add_compute(
@@ -797,8 +800,7 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     outflow_mass_ += gone.mass;
     fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
     fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
-    const auto& perm = fluid_grid_->permutation(); // host memory: the split runs on the CPU
-    ranks_->fluid_sorted({perm.data(), fluid_->size()});
+    ranks_->fluid_sorted(fluid_grid_->permutation(), fluid_->size());
   } else if (remove_outflow) {
     const auto& d = scene_.domain;
     outflow_particles_ +=
@@ -838,7 +840,7 @@ void SimulationT<T>::sort_boundary() {
   boundary_grid_->build(ex_, boundary_->x.data(), boundary_->size());
   boundary_->reorder(ex_, boundary_grid_->permutation());
   if (ranks_)
-    ranks_->boundary_sorted({boundary_grid_->permutation().data(), boundary_->size()});
+    ranks_->boundary_sorted(boundary_grid_->permutation(), boundary_->size());
   boundary_grid_->occupied_around(ex_, boundary_near_);
   if (fluid_list_) // the walls' lists follow the boundary's order: built again with the fluid's
     fluid_list_->forget_walls();

@@ -6,11 +6,16 @@
 // - after the particles move, migration keeps the count, the ids, the masses and every other
 //   column, and leaves each particle on the rank that owns its block;
 // - a skewed start (all particles in one corner of a partition made for a uniform load) is
-//   re-partitioned by the measured counts and migrated below the default threshold of 1.1.
+//   re-partitioned by the measured counts and migrated below the default threshold of 1.1;
+// - a device backend's copier (DeviceRows: packing by kernels, staged through the host) moves
+//   the same bytes as the host's, for refreshes into contiguous and into remapped ghost slots and
+//   for a migration (on the CPU backend here and in CI, and on CUDA where a GPU is visible).
 #include "comm/HaloExchange.hpp"
 #include "comm/MpiContext.hpp"
 #include "comm/Transport.hpp"
 #include "domain/Decomposition.hpp"
+#include "domain/DeviceRows.hpp"
+#include "domain/ExchangeColumns.hpp"
 #include "domain/GhostSelection.hpp"
 #include "support/MpiGather.hpp"
 
@@ -223,4 +228,82 @@ TEST_F(Halo, ASkewedStartIsRebalancedBelowTheThreshold) {
   EXPECT_GT(skew, 1.5) << "the start is not skewed: the test tests little";
   EXPECT_LT(imb, 1.1);
   EXPECT_EQ(all_ids(from_bytes<std::uint64_t>(bid)), std::vector<std::uint64_t>(all.id));
+}
+
+TEST_F(Halo, DeviceRowsMoveTheSameBytesAsTheHost) {
+  const Vec3d lo{0, 0, 0}, hi{0.6, 0.3, 0.4};
+  const BlockGrid g(lo, hi, 0.05);
+  const Particles all = global_set(4000, lo, hi, 15);
+  const Decomposition d =
+      Decomposition::partition(g, counts_of(g, all.x), PhaseCosts{}, mpi.size(), 0.02);
+  const Particles mine = owned_part(all, d, mpi.rank());
+  const std::size_t n = mine.x.size();
+  const GhostLists gl = select_ghosts(d, mpi.rank(), mine.x, 0.04);
+  std::vector<exec::Backend> backends{exec::Backend::Cpu};
+  if (exec::cuda_available())
+    backends.push_back(exec::Backend::Cuda);
+  for (exec::Backend b : backends) {
+    SCOPED_TRACE(std::string(exec::to_string(b)));
+    // The reference: the host's copier on host vectors.
+    comm::HaloExchange host(*t, gl.peers, gl.send);
+    const std::size_t ng = host.received();
+    std::vector<Vec3d> hx(mine.x);
+    std::vector<std::uint64_t> hid(mine.id);
+    hx.resize(n + ng, Vec3d{std::nan(""), 0, 0});
+    hid.resize(n + ng, ~0ull);
+    // The same on the backend's buffers, poisoned where the ghosts go.
+    DeviceRows rows(b);
+    comm::HaloExchange dev(*t, gl.peers, gl.send, rows);
+    exec::DeviceBuffer<Vec3d> dx(b, 0, "test.x");
+    exec::DeviceBuffer<std::uint64_t> did(b, 0, "test.id");
+    dx.assign(hx);
+    did.assign(hid);
+    const comm::Column hc[] = {{hx.data(), sizeof(Vec3d)}, {hid.data(), 8}};
+    const comm::Column dc[] = {column(dx), column(did)};
+    host.exchange(hc, n);
+    dev.exchange(dc, n);
+    EXPECT_EQ(bytes_of(dx.to_host()), bytes_of(hx));
+    EXPECT_EQ(bytes_of(did.to_host()), bytes_of(hid));
+    // Reordered (the ghosts' slots scattered among the owned): a reversal, then a refresh of
+    // poisoned ghost slots lands each value where its particle went.
+    std::vector<std::uint32_t> rev(n + ng);
+    for (std::size_t k = 0; k < rev.size(); ++k)
+      rev[k] = static_cast<std::uint32_t>(rev.size() - 1 - k);
+    std::reverse(hx.begin(), hx.end());
+    std::reverse(hid.begin(), hid.end());
+    const auto expect_x = hx;
+    for (std::size_t k = 0; k < ng; ++k)
+      hx[rev[n + k]] = Vec3d{std::nan(""), 0, 0};
+    dx.assign(hx);
+    host.remap(rev, n);
+    dev.remap(rev, n);
+    const comm::Column hc1[] = {{hx.data(), sizeof(Vec3d)}};
+    const comm::Column dc1[] = {column(dx)};
+    host.exchange(hc1, n);
+    dev.exchange(dc1, n);
+    EXPECT_EQ(bytes_of(hx), bytes_of(expect_x));
+    EXPECT_EQ(bytes_of(dx.to_host()), bytes_of(expect_x));
+    // A migration: every third particle to the next rank, the rest stay.
+    std::vector<int> dest(n);
+    for (std::size_t i = 0; i < n; ++i)
+      dest[i] = i % 3 == 0 ? (mpi.rank() + 1) % mpi.size() : mpi.rank();
+    std::vector<int> peers;
+    for (int r : {(mpi.rank() + 1) % mpi.size(), (mpi.rank() + mpi.size() - 1) % mpi.size()})
+      if (r != mpi.rank() && std::find(peers.begin(), peers.end(), r) == peers.end())
+        peers.push_back(r);
+    auto bx = bytes_of(mine.x), bid = bytes_of(mine.id);
+    const comm::ByteColumn hcols[] = {{&bx, sizeof(Vec3d)}, {&bid, 8}};
+    const std::size_t nh = comm::migrate(*t, peers, dest, hcols);
+    dx.assign(mine.x);
+    did.assign(mine.id);
+    auto dcols = ExchangeColumns::of(dx, did).migration;
+    const std::size_t nd = comm::migrate(*t, peers, dest, dcols, rows);
+    ASSERT_EQ(nh, nd);
+    EXPECT_EQ(bytes_of(dx.to_host()), bx);
+    EXPECT_EQ(bytes_of(did.to_host()), bid);
+    EXPECT_EQ(all_ids(from_bytes<std::uint64_t>(bid)), std::vector<std::uint64_t>(all.id));
+    if (mpi.root())
+      std::printf("%s: %zu ghosts, %zu after migration, same bytes as the host's\n",
+                  std::string(exec::to_string(b)).c_str(), ng, nd);
+  }
 }

@@ -65,9 +65,9 @@ bool cuda_available() {
 #endif
 }
 
-void cuda_select_device([[maybe_unused]] int device) {
+void cuda_select_device([[maybe_unused]] int local_rank) {
 #if defined(KF_WITH_CUDA)
-  cuda_set_device(device);
+  cuda_set_device(local_rank);
 #endif
 }
 

@@ -271,16 +271,16 @@ bool cuda_device_present() {
   return present;
 }
 
-void cuda_set_device(int device) {
+void cuda_set_device(int local_rank) {
   int count = 0;
-  KF_CUDA(cudaGetDeviceCount(&count),
-          "selecting CUDA device " + std::to_string(device) + " (no usable CUDA device)");
-  if (device < 0 || device >= count) {
+  KF_CUDA(cudaGetDeviceCount(&count), "selecting a CUDA device (no usable CUDA device)");
+  if (count <= 0 || local_rank < 0) {
     const char* vis = std::getenv("CUDA_VISIBLE_DEVICES");
-    throw Error("CUDA device " + std::to_string(device) + " requested but " +
+    throw Error("no CUDA device for local rank " + std::to_string(local_rank) + ": " +
                 std::to_string(count) + " visible (CUDA_VISIBLE_DEVICES=" + (vis ? vis : "unset") +
                 ")");
   }
+  const int device = local_rank % count;
   KF_CUDA(cudaSetDevice(device), "selecting CUDA device " + std::to_string(device));
 }
 

@@ -1,0 +1,47 @@
+#pragma once
+// How a halo refresh or a migration reads and writes rows of the particles' columns. The host's
+// copies by default; a device backend supplies its own (domain/DeviceRows), whose columns are
+// device memory, packed on the device and staged through the host for an MPI transport. Knows
+// no physics: columns are bytes.
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+namespace kf::comm {
+
+/// A column of per-particle values: element k of `elem_bytes` bytes at data + k * elem_bytes.
+struct Column {
+  void* data = nullptr;
+  std::size_t elem_bytes = 0;
+};
+
+/// Packed buffers are host memory, column-major: each column's values for the rows in a run,
+/// the columns in the order given (so unpacking is one copy a column).
+class RowCopier {
+public:
+  virtual ~RowCopier() = default;
+  /// out <- the rows `rows` of each column in turn.
+  virtual void gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                      unsigned char* out);
+  /// The rows `rows` of each column <- in, packed as gather packs.
+  virtual void scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                       const unsigned char* in);
+  /// Rows first .. first + n - 1 of each column <- in, packed as gather packs.
+  virtual void put(std::span<const Column> cols, std::size_t first, std::size_t n,
+                   const unsigned char* in);
+  /// The rows `keep` (ascending) of each column close up to rows 0, 1, ... in order.
+  virtual void compact(std::span<const Column> cols, std::span<const std::uint32_t> keep);
+};
+
+/// The host's copier (memcpy).
+RowCopier& host_rows();
+
+/// Bytes of one row over the columns.
+inline std::size_t row_bytes(std::span<const Column> cols) {
+  std::size_t b = 0;
+  for (const Column& c : cols)
+    b += c.elem_bytes;
+  return b;
+}
+
+} // namespace kf::comm
