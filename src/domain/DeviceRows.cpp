@@ -2,6 +2,7 @@
 
 #include "kernels/exec/RowCopy.hpp"
 
+#include <chrono>
 #include <memory>
 
 namespace kf {
@@ -62,6 +63,36 @@ void DeviceRows::compact(std::span<const comm::Column> cols, std::span<const std
                       "ranks.compact");
     exec::copy_bytes(c.data, backend_, packed_.data(), backend_, n * c.elem_bytes);
   }
+}
+
+namespace {
+struct AddTime {
+  double& sum;
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+  ~AddTime() {
+    sum += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+};
+} // namespace
+
+void TimedRows::gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+                       unsigned char* out) {
+  const AddTime t{seconds_};
+  inner_.gather(cols, rows, out);
+}
+void TimedRows::scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+                        const unsigned char* in) {
+  const AddTime t{seconds_};
+  inner_.scatter(cols, rows, in);
+}
+void TimedRows::put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
+                    const unsigned char* in) {
+  const AddTime t{seconds_};
+  inner_.put(cols, first, n, in);
+}
+void TimedRows::compact(std::span<const comm::Column> cols, std::span<const std::uint32_t> keep) {
+  const AddTime t{seconds_};
+  inner_.compact(cols, keep);
 }
 
 comm::RowCopier& rows_for(exec::Backend backend, std::unique_ptr<DeviceRows>& device) {

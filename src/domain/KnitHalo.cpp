@@ -78,7 +78,7 @@ void KnitHalo<T>::distribute(const typename SkinWatch<T>::State& self_state,
   coupling_ref_.start(set.x, coupling_state, "coupling");
   auto columns = state();
   owned_ = comm::migrate(ranks_.transport(), {}, ranks_.owners({set.x.data(), set.size()}, true),
-                         columns.migration);
+                         columns.migration, ranks_.rows());
   set.resize(owned_);
   repartitions_seen_ = ranks_.repartitions();
   halo_.reset();
@@ -150,7 +150,7 @@ void KnitHalo<T>::rebuild() {
   }
   auto columns = state();
   owned_ = comm::migrate(ranks_.transport(), peers, ranks_.owners({set.x.data(), owned_}),
-                         columns.migration);
+                         columns.migration, ranks_.rows());
   set.resize(owned_);
   // The ghosts: the width covers the partners as stretched at the last choice (the check below
   // widens it where a spring stretched further) plus the skin the points may move until the
@@ -163,7 +163,7 @@ void KnitHalo<T>::rebuild() {
     for (std::size_t i = 0; i < owned_; ++i)
       xd[i] = vec_cast<double>(set.x.data()[i]);
     const GhostLists gl = select_ghosts(d, me, xd, width);
-    halo_.emplace(ranks_.transport(), gl.peers, gl.send);
+    halo_.emplace(ranks_.transport(), gl.peers, gl.send, ranks_.rows());
     resize(owned_ + halo_->received());
     const auto received = state();
     halo_->exchange(received.halo, owned_);

@@ -70,6 +70,7 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   if (backend != exec::Backend::Cpu && knit_width > 0)
     refuse("the knit on the GPU backend");
   transport_ = comm::make_transport(mpi, comm::TransportKind::Mpi, comm::MemorySpace::Host);
+  timed_rows_.emplace(rows_for(backend_, device_rows_), parts_.packing);
   costs_.knit_substeps = scene.knit.substeps;
   fluid_width_ = std::max(scene.support_radius(), coupling_reach);
   boundary_width_ = scene.support_radius();
@@ -152,6 +153,7 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
   const int every = scene_.parallel.check_every;
   if (step == 0 || step % static_cast<std::uint64_t>(every) != 0)
     return b;
+  const Timed part{parts_.rebalance};
   const double most = mpi_.max(compute_seconds_), mean = mpi_.sum(compute_seconds_) / ranks();
   compute_seconds_ = 0;
   std::array<double, kPhases> seconds = phase_seconds_;
@@ -262,7 +264,7 @@ template <typename T>
 typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo,
                                                            const Vec3<T>& hi,
                                                            const std::array<bool, 6>& walls) {
-  const Timed timed{exchange_seconds_};
+  const Timed timed{exchange_seconds_}, part{parts_.migration};
   const int me = rank();
   const std::size_t n = fluid.size();
   // The owners are chosen on the host (on a device backend from copies of x and m).
@@ -310,7 +312,7 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
 template <typename T>
 void RankExchange<T>::fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm_buffer,
                                    std::size_t n) {
-  const Timed timed{exchange_seconds_};
+  const Timed timed{exchange_seconds_}, part{parts_.migration};
   if (!fluid_halo_)
     return;
   const HostValues<std::uint32_t> perm(perm_buffer, n);
@@ -320,7 +322,7 @@ void RankExchange<T>::fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm
 
 template <typename T>
 void RankExchange<T>::refresh_density(FluidSet<T>& fluid) {
-  const Timed timed{exchange_seconds_};
+  const Timed timed{exchange_seconds_}, part{parts_.refresh};
   if (!fluid_halo_)
     return;
   const comm::Column cols[] = {column(fluid.rho), column(fluid.p), column(fluid.vp),
@@ -330,7 +332,7 @@ void RankExchange<T>::refresh_density(FluidSet<T>& fluid) {
 
 template <typename T>
 void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary) {
-  const Timed timed{exchange_seconds_};
+  const Timed timed{exchange_seconds_}, part{parts_.refresh};
   if (!boundary_halo_)
     return;
   const comm::Column cols[] = {column(boundary.p), column(boundary.vp), column(boundary.inv_rho)};
@@ -339,7 +341,7 @@ void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary) {
 
 template <typename T>
 void RankExchange<T>::refresh_motion(FluidSet<T>& fluid) {
-  const Timed timed{exchange_seconds_};
+  const Timed timed{exchange_seconds_}, part{parts_.refresh};
   if (!fluid_halo_) // collective over the peers: also where this rank received no ghost
     return;
   const comm::Column cols[] = {column(fluid.v), column(fluid.a),    column(fluid.rho),
@@ -349,7 +351,7 @@ void RankExchange<T>::refresh_motion(FluidSet<T>& fluid) {
 
 template <typename T>
 void RankExchange<T>::drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid) {
-  const Timed timed{exchange_seconds_};
+  const Timed timed{exchange_seconds_}, part{parts_.refresh};
   if (fluid.size() == fluid_owned_)
     return;
   keep_.assign(fluid_owned_flag_);

@@ -41,7 +41,7 @@ public:
   int ranks() const { return mpi_.size(); }
   exec::Backend backend() const { return backend_; }
   /// How the exchanges read and write the particles' buffers (the backend's memory).
-  comm::RowCopier& rows() { return rows_for(backend_, device_rows_); }
+  comm::RowCopier& rows() { return *timed_rows_; }
   const Decomposition& decomposition() const { return *decomposition_; }
   const comm::MpiContext& mpi() const { return mpi_; }
 
@@ -115,6 +115,14 @@ public:
   /// The split's own work outside this class (KnitHalo) counts in exchange_seconds() too.
   Timed time_exchange() { return Timed{exchange_seconds_}; }
   std::uint64_t repartitions() const { return repartitions_; }
+  /// The split's seconds by part (within exchange_seconds(); the knit's ghosts are the rest).
+  struct Parts {
+    double migration = 0; // fluid leaving, migrating, its ghosts chosen and received
+    double refresh = 0;   // the fluid's and the boundary's ghost refreshes, the ghosts dropped
+    double rebalance = 0; // the imbalance checks and re-partitions with their migrations
+    double packing = 0;   // inside all of them (the knit's too): packing and unpacking rows
+  };
+  const Parts& parts() const { return parts_; }
   /// Seconds spent in the split's own work (migration, ghosts, refreshes, re-partitions).
   double exchange_seconds() const { return exchange_seconds_; }
   double last_imbalance() const { return last_imbalance_; }
@@ -134,6 +142,8 @@ private:
   const comm::MpiContext& mpi_;
   exec::Backend backend_;
   std::unique_ptr<DeviceRows> device_rows_;
+  Parts parts_;
+  std::optional<TimedRows> timed_rows_;
   double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
   std::uint64_t repartitions_ = 0;
   double block_scale_ = 0; // a block's edge over parallel.block_cells

@@ -127,6 +127,7 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
   sum.particle_steps_per_s =
       sum.wall_seconds > 0 ? double(sum.steps) * double(particles) / sum.wall_seconds : 0;
   sum.diagnostics = sim->diagnostics();
+  sum.split = sim->rank_report();
   for (const auto& s : sim->pipeline().stages()) {
     Pipeline::Stage copy{s.name, s.module, s.what, {}, s.seconds, s.calls};
     sum.stages.push_back(std::move(copy));
@@ -171,6 +172,18 @@ std::string format_summary(const RunSummary& s) {
                     static_cast<unsigned long long>(d.outflow_particles), d.outflow_mass);
       o << buf;
     }
+  }
+  if (const auto& r = s.split; r.ranks > 1) {
+    const double knit = std::max(0.0, r.exchange_seconds - r.migration_seconds - r.refresh_seconds -
+                                          r.rebalance_seconds);
+    std::snprintf(buf, sizeof buf,
+                  "split (rank 0 of %d): exchanges %.3f s, %.1f%% of the wall: fluid migration "
+                  "and ghosts %.3f s, ghost refreshes %.3f s, balance %.3f s, knit ghosts %.3f "
+                  "s; packing rows %.3f s of it\n",
+                  r.ranks, r.exchange_seconds,
+                  100 * r.exchange_seconds / std::max(1e-9, s.wall_seconds), r.migration_seconds,
+                  r.refresh_seconds, r.rebalance_seconds, knit, r.packing_seconds);
+    o << buf;
   }
   if (d.knit) {
     std::snprintf(buf, sizeof buf,

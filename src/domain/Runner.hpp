@@ -41,6 +41,7 @@ struct RunSummary {
   std::string last_snapshot;
   Diagnostics diagnostics;
   std::vector<Pipeline::Stage> stages; // with their times when profiled (run functions dropped)
+  Simulation::RankReport split;        // this rank's (rank 0's in the log) on N ranks
 };
 
 RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,

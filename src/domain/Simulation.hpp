@@ -105,10 +105,13 @@ public:
   /// Device memory held by particle sets and grids, in bytes.
   virtual std::size_t memory_bytes() const = 0;
   /// Several ranks: the rank count, the compute imbalance at the last check and this rank's
-  /// seconds in the split's exchanges (migration, ghosts, refreshes) so far; ranks 1 otherwise.
+  /// seconds in the split's exchanges (migration, ghosts, refreshes) so far, and of them those
+  /// of the fluid's migration and ghosts, the ghost refreshes, the re-partitions, and the
+  /// packing (in all of these); ranks 1 otherwise.
   struct RankReport {
     int ranks = 1;
     double imbalance = 0, exchange_seconds = 0;
+    double migration_seconds = 0, refresh_seconds = 0, rebalance_seconds = 0, packing_seconds = 0;
   };
   virtual RankReport rank_report() const { return {}; }
   /// Measure each stage's time (synchronising the device after each stage).

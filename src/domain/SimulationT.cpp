@@ -228,7 +228,10 @@ public:
   RankReport rank_report() const override {
     if (!ranks_)
       return {};
-    return {ranks_->ranks(), ranks_->last_imbalance(), ranks_->exchange_seconds()};
+    const auto& p = ranks_->parts();
+    return {ranks_->ranks(), ranks_->last_imbalance(), ranks_->exchange_seconds(),
+            p.migration,     p.refresh,                p.rebalance,
+            p.packing};
   }
   void set_profiling(bool on) override {
     profiling_ = on;
