@@ -1,11 +1,12 @@
 #include "comm/RowCopier.hpp"
 
+#include <chrono>
 #include <cstring>
 
 namespace kf::comm {
 
-void RowCopier::gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                       unsigned char* out) {
+void RowCopier::do_gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                          unsigned char* out) {
   for (const Column& c : cols) {
     const auto* src = static_cast<const unsigned char*>(c.data);
     for (std::uint32_t i : rows) {
@@ -15,8 +16,8 @@ void RowCopier::gather(std::span<const Column> cols, std::span<const std::uint32
   }
 }
 
-void RowCopier::scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                        const unsigned char* in) {
+void RowCopier::do_scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                           const unsigned char* in) {
   for (const Column& c : cols) {
     auto* dst = static_cast<unsigned char*>(c.data);
     for (std::uint32_t i : rows) {
@@ -26,8 +27,8 @@ void RowCopier::scatter(std::span<const Column> cols, std::span<const std::uint3
   }
 }
 
-void RowCopier::put(std::span<const Column> cols, std::size_t first, std::size_t n,
-                    const unsigned char* in) {
+void RowCopier::do_put(std::span<const Column> cols, std::size_t first, std::size_t n,
+                       const unsigned char* in) {
   if (n == 0)
     return;
   for (const Column& c : cols) {
@@ -36,7 +37,7 @@ void RowCopier::put(std::span<const Column> cols, std::size_t first, std::size_t
   }
 }
 
-void RowCopier::compact(std::span<const Column> cols, std::span<const std::uint32_t> keep) {
+void RowCopier::do_compact(std::span<const Column> cols, std::span<const std::uint32_t> keep) {
   for (const Column& c : cols) {
     auto* d = static_cast<unsigned char*>(c.data);
     const std::size_t e = c.elem_bytes;
@@ -44,6 +45,36 @@ void RowCopier::compact(std::span<const Column> cols, std::span<const std::uint3
       if (keep[k] != k)
         std::memcpy(d + k * e, d + std::size_t(keep[k]) * e, e);
   }
+}
+
+namespace {
+struct AddTime {
+  double& sum;
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+  ~AddTime() {
+    sum += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+};
+} // namespace
+
+void RowCopier::gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                       unsigned char* out) {
+  const AddTime t{seconds_};
+  do_gather(cols, rows, out);
+}
+void RowCopier::scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                        const unsigned char* in) {
+  const AddTime t{seconds_};
+  do_scatter(cols, rows, in);
+}
+void RowCopier::put(std::span<const Column> cols, std::size_t first, std::size_t n,
+                    const unsigned char* in) {
+  const AddTime t{seconds_};
+  do_put(cols, first, n, in);
+}
+void RowCopier::compact(std::span<const Column> cols, std::span<const std::uint32_t> keep) {
+  const AddTime t{seconds_};
+  do_compact(cols, keep);
 }
 
 RowCopier& host_rows() {

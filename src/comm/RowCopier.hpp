@@ -16,24 +16,39 @@ struct Column {
 };
 
 /// Packed buffers are host memory, column-major: each column's values for the rows in a run,
-/// the columns in the order given (so unpacking is one copy a column).
+/// the columns in the order given (so unpacking is one copy a column). The public calls time
+/// themselves (the split's packing); a backend overrides the do_ functions.
 class RowCopier {
 public:
   virtual ~RowCopier() = default;
   /// out <- the rows `rows` of each column in turn.
-  virtual void gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                      unsigned char* out);
+  void gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+              unsigned char* out);
   /// The rows `rows` of each column <- in, packed as gather packs.
-  virtual void scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                       const unsigned char* in);
+  void scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+               const unsigned char* in);
   /// Rows first .. first + n - 1 of each column <- in, packed as gather packs.
-  virtual void put(std::span<const Column> cols, std::size_t first, std::size_t n,
-                   const unsigned char* in);
+  void put(std::span<const Column> cols, std::size_t first, std::size_t n, const unsigned char* in);
   /// The rows `keep` (ascending) of each column close up to rows 0, 1, ... in order.
-  virtual void compact(std::span<const Column> cols, std::span<const std::uint32_t> keep);
+  void compact(std::span<const Column> cols, std::span<const std::uint32_t> keep);
+  /// Seconds spent in the calls above so far.
+  double seconds() const { return seconds_; }
+
+protected:
+  // The host's memcpy.
+  virtual void do_gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                         unsigned char* out);
+  virtual void do_scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                          const unsigned char* in);
+  virtual void do_put(std::span<const Column> cols, std::size_t first, std::size_t n,
+                      const unsigned char* in);
+  virtual void do_compact(std::span<const Column> cols, std::span<const std::uint32_t> keep);
+
+private:
+  double seconds_ = 0;
 };
 
-/// The host's copier (memcpy).
+/// A host copier shared by callers that need no timing of their own (the default argument).
 RowCopier& host_rows();
 
 /// Bytes of one row over the columns.

@@ -2,7 +2,6 @@
 
 #include "kernels/exec/RowCopy.hpp"
 
-#include <chrono>
 #include <memory>
 
 namespace kf {
@@ -10,8 +9,8 @@ namespace kf {
 DeviceRows::DeviceRows(exec::Backend backend)
     : backend_(backend), rows_(backend, 0, "ranks.rows"), packed_(backend, 0, "ranks.packed") {}
 
-void DeviceRows::gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                        unsigned char* out) {
+void DeviceRows::do_gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+                           unsigned char* out) {
   const std::size_t n = rows.size(), bytes = n * comm::row_bytes(cols);
   if (bytes == 0)
     return;
@@ -26,8 +25,8 @@ void DeviceRows::gather(std::span<const comm::Column> cols, std::span<const std:
   exec::copy_bytes(out, exec::Backend::Cpu, packed_.data(), backend_, bytes);
 }
 
-void DeviceRows::scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                         const unsigned char* in) {
+void DeviceRows::do_scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+                            const unsigned char* in) {
   const std::size_t n = rows.size(), bytes = n * comm::row_bytes(cols);
   if (bytes == 0)
     return;
@@ -41,8 +40,8 @@ void DeviceRows::scatter(std::span<const comm::Column> cols, std::span<const std
   }
 }
 
-void DeviceRows::put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
-                     const unsigned char* in) {
+void DeviceRows::do_put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
+                        const unsigned char* in) {
   for (const comm::Column& c : cols) {
     if (n)
       exec::copy_bytes(static_cast<unsigned char*>(c.data) + first * c.elem_bytes, backend_, in,
@@ -51,7 +50,8 @@ void DeviceRows::put(std::span<const comm::Column> cols, std::size_t first, std:
   }
 }
 
-void DeviceRows::compact(std::span<const comm::Column> cols, std::span<const std::uint32_t> keep) {
+void DeviceRows::do_compact(std::span<const comm::Column> cols,
+                            std::span<const std::uint32_t> keep) {
   const std::size_t n = keep.size();
   if (n == 0)
     return;
@@ -65,42 +65,10 @@ void DeviceRows::compact(std::span<const comm::Column> cols, std::span<const std
   }
 }
 
-namespace {
-struct AddTime {
-  double& sum;
-  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
-  ~AddTime() {
-    sum += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  }
-};
-} // namespace
-
-void TimedRows::gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                       unsigned char* out) {
-  const AddTime t{seconds_};
-  inner_.gather(cols, rows, out);
-}
-void TimedRows::scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                        const unsigned char* in) {
-  const AddTime t{seconds_};
-  inner_.scatter(cols, rows, in);
-}
-void TimedRows::put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
-                    const unsigned char* in) {
-  const AddTime t{seconds_};
-  inner_.put(cols, first, n, in);
-}
-void TimedRows::compact(std::span<const comm::Column> cols, std::span<const std::uint32_t> keep) {
-  const AddTime t{seconds_};
-  inner_.compact(cols, keep);
-}
-
-comm::RowCopier& rows_for(exec::Backend backend, std::unique_ptr<DeviceRows>& device) {
+std::unique_ptr<comm::RowCopier> make_rows(exec::Backend backend) {
   if (backend == exec::Backend::Cpu)
-    return comm::host_rows();
-  if (!device)
-    device = std::make_unique<DeviceRows>(backend);
-  return *device;
+    return std::make_unique<comm::RowCopier>();
+  return std::make_unique<DeviceRows>(backend);
 }
 
 } // namespace kf

@@ -14,13 +14,14 @@ class DeviceRows final : public comm::RowCopier {
 public:
   explicit DeviceRows(exec::Backend backend);
 
-  void gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-              unsigned char* out) override;
-  void scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-               const unsigned char* in) override;
-  void put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
-           const unsigned char* in) override;
-  void compact(std::span<const comm::Column> cols, std::span<const std::uint32_t> keep) override;
+protected:
+  void do_gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+                 unsigned char* out) override;
+  void do_scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+                  const unsigned char* in) override;
+  void do_put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
+              const unsigned char* in) override;
+  void do_compact(std::span<const comm::Column> cols, std::span<const std::uint32_t> keep) override;
 
 private:
   exec::Backend backend_;
@@ -28,24 +29,8 @@ private:
   exec::DeviceBuffer<unsigned char> packed_;
 };
 
-/// Another copier, its time added to `seconds` (the split's packing and unpacking).
-class TimedRows final : public comm::RowCopier {
-public:
-  TimedRows(comm::RowCopier& inner, double& seconds) : inner_(inner), seconds_(seconds) {}
-  void gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-              unsigned char* out) override;
-  void scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-               const unsigned char* in) override;
-  void put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
-           const unsigned char* in) override;
-  void compact(std::span<const comm::Column> cols, std::span<const std::uint32_t> keep) override;
-
-private:
-  comm::RowCopier& inner_;
-  double& seconds_;
-};
-
-/// The copier for a backend's buffers: the host's on the CPU.
-comm::RowCopier& rows_for(exec::Backend backend, std::unique_ptr<DeviceRows>& device);
+/// The copier for a backend's buffers: the host's memcpy on the CPU (comm's, which cannot launch
+/// kernels), DeviceRows on a device.
+std::unique_ptr<comm::RowCopier> make_rows(exec::Backend backend);
 
 } // namespace kf

@@ -50,7 +50,8 @@ std::vector<std::uint32_t> inverse(std::span<const std::uint32_t> perm) {
 template <typename T>
 RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
                               exec::Backend backend, double knit_width, double coupling_reach)
-    : mpi_(mpi), backend_(backend), scene_(scene), keep_(backend, 0, "ranks.owned") {
+    : mpi_(mpi), backend_(backend), rows_(make_rows(backend)), scene_(scene),
+      keep_(backend, 0, "ranks.owned") {
   const auto refuse = [&](const std::string& what) {
     throw Error("on " + std::to_string(mpi.size()) +
                 " ranks knitflow runs fluid, static boundaries, the knit and their coupling "
@@ -70,7 +71,6 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   if (backend != exec::Backend::Cpu && knit_width > 0)
     refuse("the knit on the GPU backend");
   transport_ = comm::make_transport(mpi, comm::TransportKind::Mpi, comm::MemorySpace::Host);
-  timed_rows_.emplace(rows_for(backend_, device_rows_), parts_.packing);
   costs_.knit_substeps = scene.knit.substeps;
   fluid_width_ = std::max(scene.support_radius(), coupling_reach);
   boundary_width_ = scene.support_radius();

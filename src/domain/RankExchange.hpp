@@ -41,7 +41,7 @@ public:
   int ranks() const { return mpi_.size(); }
   exec::Backend backend() const { return backend_; }
   /// How the exchanges read and write the particles' buffers (the backend's memory).
-  comm::RowCopier& rows() { return *timed_rows_; }
+  comm::RowCopier& rows() { return *rows_; }
   const Decomposition& decomposition() const { return *decomposition_; }
   const comm::MpiContext& mpi() const { return mpi_; }
 
@@ -122,7 +122,11 @@ public:
     double rebalance = 0; // the imbalance checks and re-partitions with their migrations
     double packing = 0;   // inside all of them (the knit's too): packing and unpacking rows
   };
-  const Parts& parts() const { return parts_; }
+  Parts parts() const {
+    Parts p = parts_;
+    p.packing = rows_->seconds();
+    return p;
+  }
   /// Seconds spent in the split's own work (migration, ghosts, refreshes, re-partitions).
   double exchange_seconds() const { return exchange_seconds_; }
   double last_imbalance() const { return last_imbalance_; }
@@ -141,9 +145,8 @@ private:
 
   const comm::MpiContext& mpi_;
   exec::Backend backend_;
-  std::unique_ptr<DeviceRows> device_rows_;
-  Parts parts_;
-  std::optional<TimedRows> timed_rows_;
+  std::unique_ptr<comm::RowCopier> rows_;
+  Parts parts_; // all but packing (the copier's)
   double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
   std::uint64_t repartitions_ = 0;
   double block_scale_ = 0; // a block's edge over parallel.block_cells

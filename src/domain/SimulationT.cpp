@@ -228,9 +228,13 @@ public:
   RankReport rank_report() const override {
     if (!ranks_)
       return {};
-    const auto& p = ranks_->parts();
-    return {ranks_->ranks(), ranks_->last_imbalance(), ranks_->exchange_seconds(),
-            p.migration,     p.refresh,                p.rebalance,
+    const auto p = ranks_->parts();
+    return {ranks_->ranks(),
+            ranks_->last_imbalance(),
+            ranks_->exchange_seconds(),
+            p.migration,
+            p.refresh,
+            p.rebalance,
             p.packing};
   }
   void set_profiling(bool on) override {
