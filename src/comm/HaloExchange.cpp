@@ -67,39 +67,66 @@ void HaloExchange::finish() {
   pending_.clear();
 }
 
-void HaloExchange::remap(std::span<const std::uint32_t> new_of_old, std::size_t first_ghost) {
-  if (first_ghost + recv_total_ > new_of_old.size())
-    throw Error("halo exchange: a remap of " + std::to_string(new_of_old.size()) +
-                " elements for " + std::to_string(first_ghost) + " owned and " +
-                std::to_string(recv_total_) + " ghosts");
+void HaloExchange::remap(Column new_of_old, std::size_t first_ghost) {
+  if (new_of_old.elem_bytes != sizeof(std::uint32_t))
+    throw Error("halo exchange: a remap needs a column of 32-bit indices");
+  const Column map[] = {new_of_old};
   for (auto& list : send_)
-    for (std::uint32_t& i : list)
-      i = new_of_old[i];
-  std::vector<std::uint32_t> slots(recv_total_);
-  for (std::size_t k = 0; k < recv_total_; ++k)
-    slots[k] = recv_slot_.empty() ? new_of_old[first_ghost + k] : new_of_old[recv_slot_[k]];
-  recv_slot_ = std::move(slots);
+    if (!list.empty()) {
+      std::vector<std::uint32_t> moved(list.size());
+      rows_.gather(map, list, reinterpret_cast<unsigned char*>(moved.data()));
+      list = std::move(moved);
+    }
+  std::vector<std::uint32_t> at = recv_slot_;
+  if (at.empty()) {
+    at.resize(recv_total_);
+    for (std::size_t k = 0; k < recv_total_; ++k)
+      at[k] = static_cast<std::uint32_t>(first_ghost + k);
+  }
+  recv_slot_.resize(recv_total_);
+  if (recv_total_)
+    rows_.gather(map, at, reinterpret_cast<unsigned char*>(recv_slot_.data()));
+}
+
+Departures Departures::of(std::span<const int> destination, int me) {
+  Departures d;
+  d.n = destination.size();
+  for (std::size_t i = 0; i < d.n; ++i)
+    if (destination[i] != me) {
+      d.index.push_back(static_cast<std::uint32_t>(i));
+      d.to.push_back(destination[i]);
+    }
+  return d;
 }
 
 std::size_t migrate(Transport& transport, std::span<const int> peers,
                     std::span<const int> destination, std::span<MigrationColumn> columns,
                     RowCopier& rows) {
-  const std::size_t n = destination.size();
+  return migrate(transport, peers, Departures::of(destination, transport.rank()), columns, rows);
+}
+
+std::size_t migrate(Transport& transport, std::span<const int> peers, const Departures& leaving,
+                    std::span<MigrationColumn> columns, RowCopier& rows) {
+  const std::size_t n = leaving.n;
   const int me = transport.rank();
-  std::vector<std::vector<std::uint32_t>> leaving(peers.size());
-  std::vector<std::uint32_t> staying;
-  staying.reserve(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const int d = destination[i];
-    if (d == me)
-      staying.push_back(static_cast<std::uint32_t>(i));
-    if (d == me || d < 0)
+  if (leaving.to.size() != leaving.index.size())
+    throw Error("migration: " + std::to_string(leaving.index.size()) + " leavers with " +
+                std::to_string(leaving.to.size()) + " destinations");
+  std::vector<std::vector<std::uint32_t>> out_rows(peers.size());
+  for (std::size_t k = 0; k < leaving.index.size(); ++k) {
+    const std::uint32_t i = leaving.index[k];
+    const int d = leaving.to[k];
+    if (i >= n || (k > 0 && i <= leaving.index[k - 1]) || d == me)
+      throw Error("migration: leaver " + std::to_string(k) + " (particle " + std::to_string(i) +
+                  " of " + std::to_string(n) + ", to rank " + std::to_string(d) +
+                  ") is out of order or stays");
+    if (d < 0)
       continue;
     const auto it = std::find(peers.begin(), peers.end(), d);
     if (it == peers.end())
       throw Error("migration: particle " + std::to_string(i) + " goes to rank " +
                   std::to_string(d) + ", which is not a neighbour of rank " + std::to_string(me));
-    leaving[it - peers.begin()].push_back(static_cast<std::uint32_t>(i));
+    out_rows[it - peers.begin()].push_back(i);
   }
   std::vector<Column> cols(columns.size());
   for (std::size_t c = 0; c < columns.size(); ++c) // the current data (the size does not change)
@@ -109,9 +136,9 @@ std::size_t migrate(Transport& transport, std::span<const int> peers,
   std::vector<std::uint64_t> counts(peers.size());
   std::vector<std::vector<unsigned char>> out(peers.size());
   for (std::size_t k = 0; k < peers.size(); ++k) {
-    counts[k] = leaving[k].size();
-    out[k].resize(leaving[k].size() * row);
-    rows.gather(cols, leaving[k], out[k].data());
+    counts[k] = out_rows[k].size();
+    out[k].resize(out_rows[k].size() * row);
+    rows.gather(cols, out_rows[k], out[k].data());
   }
   const auto arriving = transport.exchange_sizes(peers, counts);
   std::vector<std::vector<unsigned char>> in(peers.size());
@@ -126,10 +153,10 @@ std::size_t migrate(Transport& transport, std::span<const int> peers,
   }
   transport.start(sends, recvs);
   // Meanwhile the particles that stay close up, in order.
-  if (staying.size() != n)
-    rows.compact(cols, staying);
+  if (!leaving.index.empty())
+    rows.remove(cols, n, leaving.index);
   transport.finish();
-  const std::size_t kept = staying.size(), total = kept + arrivals;
+  const std::size_t kept = n - leaving.index.size(), total = kept + arrivals;
   for (std::size_t c = 0; c < columns.size(); ++c)
     cols[c].data = columns[c].resize(total);
   std::size_t at = kept;

@@ -45,10 +45,11 @@ public:
   /// Bytes sent by the last exchange (all peers).
   std::size_t last_bytes() const { return last_bytes_; }
 
-  /// After the arrays were reordered (new_of_old[i]: where element i went, over owned and
-  /// ghosts): the send lists follow their particles, and the ghosts, received at
-  /// first_ghost + k, are scattered to where they went from then on.
-  void remap(std::span<const std::uint32_t> new_of_old, std::size_t first_ghost);
+  /// After the arrays were reordered (new_of_old: a column of uint32, element i where element i
+  /// went, over owned and ghosts, in the copier's memory): the send lists follow their
+  /// particles, and the ghosts, received at first_ghost + k, are scattered to where they went
+  /// from then on. Reads only the listed elements (through the copier).
+  void remap(Column new_of_old, std::size_t first_ghost);
 
 private:
   Transport& transport_;
@@ -70,12 +71,24 @@ struct MigrationColumn {
   std::function<unsigned char*(std::size_t)> resize;
 };
 
+/// The particles that leave a rank's n at a migration: `index` ascending, `to[k]` the new rank
+/// of particle index[k] (-1: it is dropped, e.g. it left the domain); the others stay.
+struct Departures {
+  std::size_t n = 0;
+  std::vector<std::uint32_t> index;
+  std::vector<int> to;
+  /// From every particle's destination (this rank: it stays).
+  static Departures of(std::span<const int> destination, int me);
+};
+
 /// Moves particles to the ranks that now own them (DESIGN §6: at a rebuild, with every field).
-/// `destination[i]` is particle i's new rank (this rank: it stays; -1: it is dropped, e.g. it
-/// left the domain). Only the leavers are packed; the particles that stay are compacted in place
-/// (keeping their order) while the messages are in flight, and the arrivals follow them, by
-/// sending rank, in the sender's order. `peers` as for HaloExchange (every rank a particle may go
-/// to or come from). `rows` reads and writes the columns' data. Returns the new count.
+/// Only the leavers are packed; the particles that stay close up in place (keeping their order)
+/// while the messages are in flight, and the arrivals follow them, by sending rank, in the
+/// sender's order. `peers` as for HaloExchange (every rank a particle may go to or come from).
+/// `rows` reads and writes the columns' data. Returns the new count.
+std::size_t migrate(Transport& transport, std::span<const int> peers, const Departures& leaving,
+                    std::span<MigrationColumn> columns, RowCopier& rows = host_rows());
+/// The same from every particle's destination (this rank: it stays; -1: it is dropped).
 std::size_t migrate(Transport& transport, std::span<const int> peers,
                     std::span<const int> destination, std::span<MigrationColumn> columns,
                     RowCopier& rows = host_rows());

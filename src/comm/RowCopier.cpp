@@ -37,13 +37,21 @@ void RowCopier::do_put(std::span<const Column> cols, std::size_t first, std::siz
   }
 }
 
-void RowCopier::do_compact(std::span<const Column> cols, std::span<const std::uint32_t> keep) {
+void RowCopier::do_remove(std::span<const Column> cols, std::size_t n,
+                          std::span<const std::uint32_t> gone) {
   for (const Column& c : cols) {
     auto* d = static_cast<unsigned char*>(c.data);
     const std::size_t e = c.elem_bytes;
-    for (std::size_t k = 0; k < keep.size(); ++k) // keep[k] >= k: forward moves only
-      if (keep[k] != k)
-        std::memcpy(d + k * e, d + std::size_t(keep[k]) * e, e);
+    std::size_t to = 0, g = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (g < gone.size() && gone[g] == i) {
+        ++g;
+        continue;
+      }
+      if (to != i) // to < i: forward moves only
+        std::memcpy(d + to * e, d + i * e, e);
+      ++to;
+    }
   }
 }
 
@@ -72,9 +80,10 @@ void RowCopier::put(std::span<const Column> cols, std::size_t first, std::size_t
   const AddTime t{seconds_};
   do_put(cols, first, n, in);
 }
-void RowCopier::compact(std::span<const Column> cols, std::span<const std::uint32_t> keep) {
+void RowCopier::remove(std::span<const Column> cols, std::size_t n,
+                       std::span<const std::uint32_t> gone) {
   const AddTime t{seconds_};
-  do_compact(cols, keep);
+  do_remove(cols, n, gone);
 }
 
 RowCopier& host_rows() {

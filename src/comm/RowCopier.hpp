@@ -29,8 +29,10 @@ public:
                const unsigned char* in);
   /// Rows first .. first + n - 1 of each column <- in, packed as gather packs.
   void put(std::span<const Column> cols, std::size_t first, std::size_t n, const unsigned char* in);
-  /// The rows `keep` (ascending) of each column close up to rows 0, 1, ... in order.
-  void compact(std::span<const Column> cols, std::span<const std::uint32_t> keep);
+  /// Of rows 0 .. n - 1 of each column, the rows `gone` (ascending) are removed and the others
+  /// close up to rows 0, 1, ... in order: only the leavers' indices are passed, so a device
+  /// backend finds the rows that stay where they are.
+  void remove(std::span<const Column> cols, std::size_t n, std::span<const std::uint32_t> gone);
   /// Seconds spent in the calls above so far.
   double seconds() const { return seconds_; }
 
@@ -42,7 +44,8 @@ protected:
                           const unsigned char* in);
   virtual void do_put(std::span<const Column> cols, std::size_t first, std::size_t n,
                       const unsigned char* in);
-  virtual void do_compact(std::span<const Column> cols, std::span<const std::uint32_t> keep);
+  virtual void do_remove(std::span<const Column> cols, std::size_t n,
+                         std::span<const std::uint32_t> gone);
 
 private:
   double seconds_ = 0;

@@ -40,14 +40,8 @@ std::array<int, 3> BlockGrid::coords(int b) const {
 }
 
 std::array<int, 3> BlockGrid::coords_of(const Vec3d& x) const {
-  std::array<int, 3> c{};
-  for (int d = 0; d < 3; ++d) {
-    const double u = ((&x.x)[d] - (&lo_.x)[d]) / edge_;
-    // NaN and far-away points land in an edge block, never out of range.
-    const int i = u >= 0 ? (u < n_[d] ? static_cast<int>(u) : n_[d] - 1) : 0;
-    c[d] = i;
-  }
-  return c;
+  const BlockGridView g = view();
+  return {g.coord(x, 0), g.coord(x, 1), g.coord(x, 2)};
 }
 
 int BlockGrid::block_of(const Vec3d& x) const {
@@ -57,17 +51,16 @@ int BlockGrid::block_of(const Vec3d& x) const {
 
 double BlockGrid::distance(const Vec3d& x, int b) const {
   const auto c = coords(b);
-  double d2 = 0;
-  for (int d = 0; d < 3; ++d) {
-    const double u = (&x.x)[d] - (&lo_.x)[d];
-    // Edge blocks are open outward: points beyond the grid belong to them.
-    const double a = c[d] == 0 ? -std::numeric_limits<double>::infinity() : c[d] * edge_;
-    const double z =
-        c[d] == n_[d] - 1 ? std::numeric_limits<double>::infinity() : (c[d] + 1) * edge_;
-    const double out = u < a ? a - u : (u > z ? u - z : 0.0);
-    d2 += out * out;
-  }
-  return std::sqrt(d2);
+  return std::sqrt(view().distance2(x, c.data()));
+}
+
+BlockGridView BlockGrid::view() const {
+  BlockGridView g;
+  g.lo = lo_;
+  g.edge = edge_;
+  for (int d = 0; d < 3; ++d)
+    g.n[d] = n_[d];
+  return g;
 }
 
 int BlockGrid::reach(double width) const {
@@ -174,29 +167,10 @@ void Decomposition::ghost_ranks(const Vec3d& x, double width, std::vector<int>& 
   out.clear();
   if (ranks_ == 1)
     return;
-  const auto c = grid_.coords_of(x);
-  // Along each axis only the blocks the width reaches from x: most points touch no other block,
-  // a point near a face one, near an edge three (this is the hot loop of a rebuild).
-  int lo[3], hi[3];
-  const int r = grid_.reach(width);
-  for (int d = 0; d < 3; ++d) {
-    const double u = (&x.x)[d] - (&grid_.origin().x)[d] - c[d] * grid_.edge();
-    lo[d] = std::max(0, c[d] - (u < width ? r : 0));
-    hi[d] = std::min(grid_.dim(d) - 1, c[d] + (grid_.edge() - u < width ? r : 0));
-  }
-  if (lo[0] == hi[0] && lo[1] == hi[1] && lo[2] == hi[2])
-    return;
-  const int own = owner_[grid_.index(c[0], c[1], c[2])];
-  for (int k = lo[2]; k <= hi[2]; ++k)
-    for (int j = lo[1]; j <= hi[1]; ++j)
-      for (int i = lo[0]; i <= hi[0]; ++i) {
-        const int b = grid_.index(i, j, k);
-        const int o = owner_[b];
-        if (o == own || std::find(out.begin(), out.end(), o) != out.end())
-          continue;
-        if (grid_.distance(x, b) < width)
-          out.push_back(o);
-      }
+  for_each_ghost_rank(grid_.view(), owner_.data(), x, width, grid_.reach(width), [&](int o) {
+    if (std::find(out.begin(), out.end(), o) == out.end())
+      out.push_back(o);
+  });
   std::sort(out.begin(), out.end());
 }
 

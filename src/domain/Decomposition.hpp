@@ -6,6 +6,7 @@
 // ghost width of one of that rank's blocks. Host-only and deterministic: every rank computes the
 // same partition from the same counts. No MPI here: counts are reduced by the caller.
 #include "core/Vec3.hpp"
+#include "kernels/grid/BlockOwners_K.hpp"
 
 #include <array>
 #include <cstdint>
@@ -55,6 +56,8 @@ public:
   double distance(const Vec3d& x, int b) const;
   /// How many blocks a ghost width spans on each side.
   int reach(double width) const;
+  /// The grid as the owner and ghost evaluators take it (BlockOwners_K.hpp).
+  BlockGridView view() const;
 
 private:
   Vec3d lo_{0, 0, 0};

@@ -7,7 +7,9 @@
 namespace kf {
 
 DeviceRows::DeviceRows(exec::Backend backend)
-    : backend_(backend), rows_(backend, 0, "ranks.rows"), packed_(backend, 0, "ranks.packed") {}
+    : backend_(backend), rows_(backend, 0, "ranks.rows"), flags_(backend, 0, "ranks.flags"),
+      offsets_(backend, 0, "ranks.offsets"), keep_(backend, 0, "ranks.keep"),
+      packed_(backend, 0, "ranks.packed") {}
 
 void DeviceRows::do_gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
                            unsigned char* out) {
@@ -50,18 +52,22 @@ void DeviceRows::do_put(std::span<const comm::Column> cols, std::size_t first, s
   }
 }
 
-void DeviceRows::do_compact(std::span<const comm::Column> cols,
-                            std::span<const std::uint32_t> keep) {
-  const std::size_t n = keep.size();
-  if (n == 0)
+void DeviceRows::do_remove(std::span<const comm::Column> cols, std::size_t n,
+                           std::span<const std::uint32_t> gone) {
+  if (gone.empty() || n == 0)
     return;
-  rows_.assign(keep.data(), n);
+  // The rows that stay, found on the device from the few that go.
+  const exec::Exec ex{backend_};
+  flags_.resize(n);
+  exec::fill(ex, flags_, std::uint32_t{1}, "ranks.remove");
+  rows_.assign(gone.data(), gone.size());
+  exec::clear_flags_at(ex, flags_.data(), rows_.data(), gone.size(), "ranks.remove");
+  const std::size_t k = exec::flagged_indices(ex, flags_, offsets_, keep_, "ranks.remove");
   // Through a scratch run: the rows move forward, which in parallel would overwrite unread ones.
   for (const comm::Column& c : cols) {
-    packed_.resize(n * c.elem_bytes);
-    exec::gather_rows({backend_}, packed_.data(), c.data, rows_.data(), n, c.elem_bytes,
-                      "ranks.compact");
-    exec::copy_bytes(c.data, backend_, packed_.data(), backend_, n * c.elem_bytes);
+    packed_.resize(k * c.elem_bytes);
+    exec::gather_rows(ex, packed_.data(), c.data, keep_.data(), k, c.elem_bytes, "ranks.remove");
+    exec::copy_bytes(c.data, backend_, packed_.data(), backend_, k * c.elem_bytes);
   }
 }
 

@@ -21,11 +21,12 @@ protected:
                   const unsigned char* in) override;
   void do_put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
               const unsigned char* in) override;
-  void do_compact(std::span<const comm::Column> cols, std::span<const std::uint32_t> keep) override;
+  void do_remove(std::span<const comm::Column> cols, std::size_t n,
+                 std::span<const std::uint32_t> gone) override;
 
 private:
   exec::Backend backend_;
-  exec::DeviceBuffer<std::uint32_t> rows_;
+  exec::DeviceBuffer<std::uint32_t> rows_, flags_, offsets_, keep_;
   exec::DeviceBuffer<unsigned char> packed_;
 };
 

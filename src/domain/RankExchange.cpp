@@ -3,6 +3,7 @@
 #include "core/Error.hpp"
 #include "domain/ExchangeColumns.hpp"
 #include "domain/GhostSelection.hpp"
+#include "kernels/grid/RankSelection.hpp"
 
 #include <algorithm>
 #include <cstring>
@@ -38,20 +39,13 @@ std::vector<comm::MigrationColumn> boundary_state(BoundarySet<T>& b) {
           resizable(b.id)};
 }
 
-std::vector<std::uint32_t> inverse(std::span<const std::uint32_t> perm) {
-  std::vector<std::uint32_t> inv(perm.size());
-  for (std::size_t k = 0; k < perm.size(); ++k)
-    inv[perm[k]] = static_cast<std::uint32_t>(k);
-  return inv;
-}
-
 } // namespace
 
 template <typename T>
 RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
                               exec::Backend backend, double knit_width, double coupling_reach)
-    : mpi_(mpi), backend_(backend), rows_(make_rows(backend)), scene_(scene),
-      keep_(backend, 0, "ranks.owned") {
+    : mpi_(mpi), backend_(backend), rows_(make_rows(backend)), scene_(scene), select_(backend),
+      keep_(backend, 0, "ranks.owned"), inverse_(backend, 0, "ranks.inverse") {
   const auto refuse = [&](const std::string& what) {
     throw Error("on " + std::to_string(mpi.size()) +
                 " ranks knitflow runs fluid, static boundaries, the knit and their coupling "
@@ -108,6 +102,7 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
   for (const auto& q : knit)
     counts[grid.block_of(vec_cast<double>(q))][static_cast<int>(Phase::Knit)] += 1;
   decomposition_.emplace(Decomposition::partition(grid, counts, costs(), ranks(), fluid_width_));
+  select_.set(*decomposition_, me);
   // A particle moves less than a support radius a step (CFL): the blocks next to this rank's.
   migration_peers_ = neighbour_ranks(*decomposition_, me, grid.edge());
 
@@ -116,7 +111,7 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
     auto state = fluid_state(*fluid, true);
     fluid->resize(comm::migrate(*transport_, {}, owners(fx, true), state, rows()));
     fluid_owned_ = fluid->size();
-    fluid_owned_flag_.assign(fluid_owned_, 1);
+    all_owned();
   }
   if (boundary) {
     auto state = boundary_state(*boundary);
@@ -127,13 +122,9 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
 
 template <typename T>
 void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t n) {
-  const HostValues<Vec3<T>> bx(boundary.x, n);
-  std::vector<Vec3d> xd(n);
-  for (std::size_t i = 0; i < n; ++i)
-    xd[i] = vec_cast<double>(bx[i]);
   // The ghosts come from their owners (not from this rank's copy of the scene), so their order
   // is the one the owners' refreshes will send in.
-  const GhostLists gl = select_ghosts(*decomposition_, rank(), xd, boundary_width_);
+  const GhostLists gl = select_.ghosts(boundary.x, n, boundary_width_);
   boundary_halo_.emplace(*transport_, gl.peers, gl.send, rows());
   const std::size_t total = n + boundary_halo_->received();
   boundary.resize(total);
@@ -204,6 +195,7 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
     costs_.per_particle[static_cast<int>(Phase::Knit)] =
         c_knit / c_fluid / std::max(1, costs_.knit_substeps);
   decomposition_.emplace(Decomposition::partition(grid, per_block, costs(), ranks(), fluid_width_));
+  select_.set(*decomposition_, rank());
   migration_peers_ = neighbour_ranks(*decomposition_, rank(), grid.edge());
   // A block may change hands across the domain: every rank is a peer of this one exchange.
   const std::vector<int> everyone = other_ranks();
@@ -213,7 +205,7 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
     const std::size_t n = comm::migrate(*transport_, everyone, dest, state, rows());
     fluid->resize(n);
     fluid_owned_ = n;
-    fluid_owned_flag_.assign(n, 1);
+    all_owned();
   }
   if (boundary) {
     // The owned boundary goes to its new owners; the ghosts are dropped and received anew.
@@ -251,12 +243,26 @@ std::vector<int> RankExchange<T>::other_ranks() const {
 }
 
 template <typename T>
+void RankExchange<T>::remap(comm::HaloExchange& halo, const exec::DeviceBuffer<std::uint32_t>& perm,
+                            std::size_t n, std::size_t owned) {
+  inverse_.resize(n);
+  invert_permutation({backend_}, perm.data(), n, inverse_.data());
+  halo.remap(column(inverse_), owned);
+}
+
+template <typename T>
+void RankExchange<T>::all_owned() {
+  keep_.resize(fluid_owned_);
+  flag_below({backend_}, nullptr, fluid_owned_, fluid_owned_, keep_.data());
+}
+
+template <typename T>
 void RankExchange<T>::boundary_sorted(const exec::DeviceBuffer<std::uint32_t>& perm_buffer,
                                       std::size_t n) {
   if (!boundary_halo_)
     return;
-  const HostValues<std::uint32_t> perm(perm_buffer, n);
-  boundary_halo_->remap(inverse(perm.span()), boundary_own_count_);
+  remap(*boundary_halo_, perm_buffer, n, boundary_own_count_);
+  const HostValues<std::uint32_t> perm(perm_buffer, n); // at the start and re-partitions only
   boundary_owned_ = pick(boundary_owned_, perm.span());
 }
 
@@ -265,37 +271,16 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
                                                            const Vec3<T>& hi,
                                                            const std::array<bool, 6>& walls) {
   const Timed timed{exchange_seconds_}, part{parts_.migration};
-  const int me = rank();
   const std::size_t n = fluid.size();
-  // The owners are chosen on the host (on a device backend from copies of x and m).
-  const HostValues<Vec3<T>> x(fluid.x, n);
-  const HostValues<T> m(fluid.m, n);
-  // Fluid past an open side leaves the job (the single-rank sort removes it the same way).
-  Removed gone;
-  std::vector<int> dest(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    bool out = false;
-    for (int d = 0; d < 3; ++d) {
-      const T c = (&x[i].x)[d];
-      out = out || (!walls[2 * d] && c < (&lo.x)[d]) || (!walls[2 * d + 1] && c > (&hi.x)[d]);
-    }
-    if (out) {
-      dest[i] = -1;
-      ++gone.particles;
-      gone.mass += double(m[i]);
-    } else {
-      dest[i] = decomposition_->owner(vec_cast<double>(x[i]));
-    }
-  }
+  // Who leaves (to another rank, or out of the domain past an open side as the single-rank
+  // sort removes it), chosen on the fluid's backend: only the leavers' indices come back.
+  const auto leaving = select_.departures(fluid.x, fluid.m, n, lo, hi, walls);
   // Every state column the steps to come read (a: the forces pass writes it before its use).
   auto state = fluid_state(fluid, false);
-  const std::size_t owned = comm::migrate(*transport_, migration_peers_, dest, state, rows());
+  const std::size_t owned =
+      comm::migrate(*transport_, migration_peers_, leaving.leaving, state, rows());
   // The ghosts: every owned particle within the support of another rank's region goes there.
-  const HostValues<Vec3<T>> xo(fluid.x, owned);
-  std::vector<Vec3d> xd(owned);
-  for (std::size_t i = 0; i < owned; ++i)
-    xd[i] = vec_cast<double>(xo[i]);
-  const GhostLists gl = select_ghosts(*decomposition_, me, xd, fluid_width_);
+  const GhostLists gl = select_.ghosts(fluid.x, owned, fluid_width_);
   fluid_halo_.emplace(*transport_, gl.peers, gl.send, rows());
   const std::size_t total = owned + fluid_halo_->received();
   fluid.resize(total);
@@ -304,9 +289,9 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
                                column(fluid.drho_prev), column(fluid.id)};
   fluid_halo_->exchange(cols, owned);
   fluid_owned_ = owned;
-  fluid_owned_flag_.assign(total, 0);
-  std::fill(fluid_owned_flag_.begin(), fluid_owned_flag_.begin() + owned, 1);
-  return gone;
+  keep_.resize(total);
+  flag_below({backend_}, nullptr, total, owned, keep_.data());
+  return Removed{leaving.removed, leaving.removed_mass};
 }
 
 template <typename T>
@@ -315,9 +300,10 @@ void RankExchange<T>::fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm
   const Timed timed{exchange_seconds_}, part{parts_.migration};
   if (!fluid_halo_)
     return;
-  const HostValues<std::uint32_t> perm(perm_buffer, n);
-  fluid_halo_->remap(inverse(perm.span()), fluid_owned_);
-  fluid_owned_flag_ = pick(fluid_owned_flag_, perm.span());
+  remap(*fluid_halo_, perm_buffer, n, fluid_owned_);
+  // The owned were the first fluid_owned_ before the sort.
+  keep_.resize(n);
+  flag_below({backend_}, perm_buffer.data(), n, fluid_owned_, keep_.data());
 }
 
 template <typename T>
@@ -354,9 +340,8 @@ void RankExchange<T>::drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid) {
   const Timed timed{exchange_seconds_}, part{parts_.refresh};
   if (fluid.size() == fluid_owned_)
     return;
-  keep_.assign(fluid_owned_flag_);
   fluid.keep_flagged(ex, keep_);
-  fluid_owned_flag_.assign(fluid.size(), 1);
+  all_owned();
   fluid_halo_.reset();
 }
 

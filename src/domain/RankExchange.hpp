@@ -7,12 +7,13 @@
 // values that a pass computes from neighbours a ghost lacks (summation density, wall pressure)
 // are refreshed from their owners. On a device backend the particles stay in device memory: the
 // rows that move are packed there (DeviceRows) and staged through the host for MPI; the owners
-// and the ghosts are chosen on the host from a copy of the positions.
+// and the ghosts are chosen there too (RankSelector), only their indices coming to the host.
 #include "comm/HaloExchange.hpp"
 #include "comm/MpiContext.hpp"
 #include "comm/Transport.hpp"
 #include "domain/Decomposition.hpp"
 #include "domain/DeviceRows.hpp"
+#include "domain/RankSelector.hpp"
 #include "domain/Scene.hpp"
 #include "kernels/particles/FluidSet.hpp"
 
@@ -73,8 +74,9 @@ public:
   /// around each knit point): after the kick, their velocities, accelerations and densities from
   /// their owners.
   void refresh_motion(FluidSet<T>& fluid);
-  /// 1 for the fluid this rank owns, 0 for its ghosts, in the set's order.
-  const std::vector<std::uint32_t>& fluid_owned() const { return fluid_owned_flag_; }
+  /// 1 for the fluid this rank owns, 0 for its ghosts, in the set's order (a copy to the host:
+  /// for the output's cadence).
+  std::vector<std::uint32_t> fluid_owned() const { return keep_.to_host(); }
   std::size_t fluid_owned_count() const { return fluid_owned_; }
 
   /// Seconds of local work (passes that wait for no other rank) on one phase's particles, for
@@ -142,6 +144,11 @@ private:
   /// The boundary ghosts of this rank's region from their owners, appended after the `owned`
   /// particles (which come first in the set).
   void receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t owned);
+  /// After a sort (perm: its first n), the halo's lists follow their particles.
+  void remap(comm::HaloExchange& halo, const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n,
+             std::size_t owned);
+  /// The fluid holds only what this rank owns: every flag 1.
+  void all_owned();
 
   const comm::MpiContext& mpi_;
   exec::Backend backend_;
@@ -156,14 +163,15 @@ private:
   Scene scene_;
   std::unique_ptr<comm::Transport> transport_;
   std::optional<Decomposition> decomposition_;
+  RankSelector<T> select_;
   double fluid_width_ = 0, boundary_width_ = 0;
   std::vector<int> migration_peers_;
   std::optional<comm::HaloExchange> fluid_halo_, boundary_halo_;
   std::size_t fluid_owned_ = 0, boundary_own_count_ = 0;
-  // 1 owned, 0 ghost, per particle in the sets' order (the fluid's as keep_flagged takes them).
-  std::vector<std::uint32_t> fluid_owned_flag_;
   std::vector<std::uint8_t> boundary_owned_;
-  exec::DeviceBuffer<std::uint32_t> keep_;
+  // The fluid's 1 owned, 0 ghost, in the set's order (as keep_flagged takes them), on the
+  // backend; a sort's inverse permutation.
+  exec::DeviceBuffer<std::uint32_t> keep_, inverse_;
 };
 
 } // namespace kf

@@ -275,8 +275,10 @@ TEST_F(Halo, DeviceRowsMoveTheSameBytesAsTheHost) {
     for (std::size_t k = 0; k < ng; ++k)
       hx[rev[n + k]] = Vec3d{std::nan(""), 0, 0};
     dx.assign(hx);
-    host.remap(rev, n);
-    dev.remap(rev, n);
+    exec::DeviceBuffer<std::uint32_t> drev(b, 0, "test.rev");
+    drev.assign(rev);
+    host.remap({rev.data(), sizeof(std::uint32_t)}, n);
+    dev.remap(column(drev), n);
     const comm::Column hc1[] = {{hx.data(), sizeof(Vec3d)}};
     const comm::Column dc1[] = {column(dx)};
     host.exchange(hc1, n);

@@ -45,7 +45,18 @@ void move_rows(const Exec& ex, void* dst, const void* src, const std::uint32_t* 
   }
 }
 
+struct ClearAt {
+  std::uint32_t* flags;
+  const std::uint32_t* rows;
+  KF_HD KF_INLINE void operator()(std::size_t k) const { flags[rows[k]] = 0; }
+};
+
 } // namespace
+
+void clear_flags_at(const Exec& ex, std::uint32_t* flags, const std::uint32_t* rows, std::size_t n,
+                    const char* label) {
+  for_each(ex, n, ClearAt{flags, rows}, label);
+}
 
 void gather_rows(const Exec& ex, void* dst, const void* src, const std::uint32_t* rows,
                  std::size_t n, std::size_t elem_bytes, const char* label) {

@@ -1,0 +1,109 @@
+#include "domain/RankSelector.hpp"
+
+#include "kernels/exec/RowCopy.hpp"
+#include "kernels/grid/RankSelection.hpp"
+
+#include <algorithm>
+
+namespace kf {
+
+template <typename T>
+RankSelector<T>::RankSelector(exec::Backend backend)
+    : backend_(backend), owner_(backend, 0, "ranks.block_owner"),
+      slot_(backend, 0, "ranks.peer_slot"), dest_(backend, 0, "ranks.destination"),
+      picked_dest_(backend, 0, "ranks.leaver_destination"), flags_(backend, 0, "ranks.flags"),
+      offsets_(backend, 0, "ranks.offsets"), idx_(backend, 0, "ranks.indices"),
+      mask_(backend, 0, "ranks.ghost_mask"), picked_m_(backend, 0, "ranks.leaver_mass") {}
+
+template <typename T>
+void RankSelector<T>::set(const Decomposition& d, int rank) {
+  decomposition_ = &d;
+  rank_ = rank;
+  grid_ = d.grid().view();
+  owner_.assign(d.owners());
+  peers_.clear();
+}
+
+template <typename T>
+std::vector<std::uint32_t> RankSelector<T>::indices(std::size_t n) const {
+  std::vector<std::uint32_t> v(n);
+  if (n)
+    exec::copy_bytes(v.data(), exec::Backend::Cpu, idx_.data(), backend_,
+                     n * sizeof(std::uint32_t));
+  return v;
+}
+
+template <typename T>
+typename RankSelector<T>::Departures
+RankSelector<T>::departures(const exec::DeviceBuffer<Vec3<T>>& x, const exec::DeviceBuffer<T>& m,
+                            std::size_t n, const Vec3<T>& lo, const Vec3<T>& hi,
+                            const std::array<bool, 6>& walls) {
+  const exec::Exec ex{backend_};
+  dest_.resize(n);
+  flags_.resize(n);
+  block_destinations(ex, x.data(), n, BlockOwners{grid_, owner_.data()}, lo, hi, walls, rank_,
+                     dest_.data(), flags_.data());
+  const std::size_t k = exec::flagged_indices(ex, flags_, offsets_, idx_, "ranks.leavers");
+  Departures d;
+  d.leaving.n = n;
+  d.leaving.index = indices(k);
+  d.leaving.to.resize(k);
+  std::vector<T> mass(k);
+  if (k) {
+    picked_dest_.resize(k);
+    picked_m_.resize(k);
+    exec::gather_rows(ex, picked_dest_.data(), dest_.data(), idx_.data(), k, sizeof(int),
+                      "ranks.leavers");
+    exec::gather_rows(ex, picked_m_.data(), m.data(), idx_.data(), k, sizeof(T), "ranks.leavers");
+    exec::copy_bytes(d.leaving.to.data(), exec::Backend::Cpu, picked_dest_.data(), backend_,
+                     k * sizeof(int));
+    exec::copy_bytes(mass.data(), exec::Backend::Cpu, picked_m_.data(), backend_, k * sizeof(T));
+  }
+  for (std::size_t j = 0; j < k; ++j) // ascending, as the sort removing them on one rank adds
+    if (d.leaving.to[j] < 0) {
+      ++d.removed;
+      d.removed_mass += double(mass[j]);
+    }
+  return d;
+}
+
+template <typename T>
+GhostLists RankSelector<T>::ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n,
+                                   double width) {
+  if (!decomposition_)
+    throw Error("internal: ghosts chosen before the blocks' owners were set");
+  GhostLists g;
+  auto it =
+      std::find_if(peers_.begin(), peers_.end(), [&](const auto& p) { return p.first == width; });
+  if (it == peers_.end()) {
+    peers_.emplace_back(width, neighbour_ranks(*decomposition_, rank_, width));
+    it = peers_.end() - 1;
+  }
+  g.peers = it->second;
+  g.send.resize(g.peers.size());
+  if (g.peers.empty())
+    return g;
+  std::vector<int> slot(decomposition_->ranks(), -1);
+  for (std::size_t s = 0; s < g.peers.size(); ++s)
+    slot[g.peers[s]] = static_cast<int>(s);
+  slot_.assign(slot);
+  const exec::Exec ex{backend_};
+  const int reach = decomposition_->grid().reach(width);
+  mask_.resize(n);
+  flags_.resize(n);
+  // 64 peers a pass (a rank in the middle of a 3-D split has 26).
+  for (std::size_t first = 0; first < g.peers.size(); first += 64) {
+    ghost_peer_masks(ex, x.data(), n, BlockOwners{grid_, owner_.data()}, width, reach, slot_.data(),
+                     static_cast<int>(first), mask_.data());
+    for (std::size_t s = first; s < std::min(g.peers.size(), first + 64); ++s) {
+      mask_bit_flags(ex, mask_.data(), n, static_cast<int>(s - first), flags_.data());
+      g.send[s] = indices(exec::flagged_indices(ex, flags_, offsets_, idx_, "ranks.ghosts"));
+    }
+  }
+  return g;
+}
+
+template class RankSelector<float>;
+template class RankSelector<double>;
+
+} // namespace kf

@@ -1,0 +1,55 @@
+#pragma once
+// A rebuild's choices on N ranks, made on the particles' backend (DESIGN §6; the kernels in
+// kernels/grid/RankSelection): which particles leave this rank (and where to) and which go to
+// each neighbour as ghosts. The blocks' owners live in the backend's memory, uploaded at each
+// partition; only the indices of the particles that move or are sent come to the host.
+#include "comm/HaloExchange.hpp"
+#include "domain/Decomposition.hpp"
+#include "domain/GhostSelection.hpp"
+#include "kernels/exec/DeviceBuffer.hpp"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace kf {
+
+template <typename T>
+class RankSelector {
+public:
+  explicit RankSelector(exec::Backend backend);
+
+  /// After every partition: the blocks' owners as `rank` sees them.
+  void set(const Decomposition& d, int rank);
+
+  struct Departures {
+    comm::Departures leaving;
+    std::uint64_t removed = 0; // of them, those past an open side (to = -1)
+    double removed_mass = 0;
+  };
+  /// Of the first n particles (positions x, masses m): those whose block another rank owns and
+  /// those past [lo, hi] on a side without a wall (walls: low x, high x, low y, ...).
+  Departures departures(const exec::DeviceBuffer<Vec3<T>>& x, const exec::DeviceBuffer<T>& m,
+                        std::size_t n, const Vec3<T>& lo, const Vec3<T>& hi,
+                        const std::array<bool, 6>& walls);
+  /// For the first n positions (owned by this rank): the local indices each neighbouring rank
+  /// needs as ghosts, those within `width` of its blocks (select_ghosts' lists, ascending).
+  GhostLists ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width);
+
+private:
+  /// The first n elements of idx, on the host.
+  std::vector<std::uint32_t> indices(std::size_t n) const;
+
+  exec::Backend backend_;
+  const Decomposition* decomposition_ = nullptr;
+  int rank_ = 0;
+  BlockGridView grid_;
+  exec::DeviceBuffer<int> owner_, slot_, dest_, picked_dest_;
+  exec::DeviceBuffer<std::uint32_t> flags_, offsets_, idx_;
+  exec::DeviceBuffer<std::uint64_t> mask_;
+  exec::DeviceBuffer<T> picked_m_;
+  // The neighbours within a width, found over the blocks once a partition and width.
+  std::vector<std::pair<double, std::vector<int>>> peers_;
+};
+
+} // namespace kf

@@ -1,0 +1,175 @@
+// A rebuild's choices made on the particles' backend (domain/RankSelector, the kernels of
+// kernels/grid/RankSelection) are the host's: the leavers and their destinations are those of the
+// decomposition's owner() and the open sides, the removed mass their sum, and the ghosts sent to
+// each neighbour are select_ghosts' lists, which test_decomposition checks against a brute-force
+// distance to every block. On the CPU backend, and on CUDA where a GPU is visible; also with more
+// than 64 neighbours (the ghost masks' windows).
+#include "domain/GhostSelection.hpp"
+#include "domain/RankSelector.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
+#include <vector>
+
+using namespace kf;
+
+namespace {
+
+std::vector<exec::Backend> backends() {
+  std::vector<exec::Backend> b{exec::Backend::Cpu};
+  if (exec::cuda_available())
+    b.push_back(exec::Backend::Cuda);
+  return b;
+}
+
+std::vector<Vec3d> uniform_points(std::size_t n, const Vec3d& lo, const Vec3d& hi,
+                                  std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<Vec3d> x(n);
+  for (auto& q : x)
+    q = {lo.x + u(rng) * (hi.x - lo.x), lo.y + u(rng) * (hi.y - lo.y),
+         lo.z + u(rng) * (hi.z - lo.z)};
+  return x;
+}
+
+Decomposition split(const BlockGrid& g, const std::vector<Vec3d>& x, int ranks) {
+  std::vector<std::array<double, kPhases>> c(g.count(), {0, 0, 0});
+  for (const Vec3d& q : x)
+    c[g.block_of(q)][0] += 1;
+  return Decomposition::partition(g, c, PhaseCosts{}, ranks, 0.02);
+}
+
+template <typename T>
+std::vector<Vec3<T>> as(const std::vector<Vec3d>& x) {
+  std::vector<Vec3<T>> out(x.size());
+  for (std::size_t i = 0; i < x.size(); ++i)
+    out[i] = vec_cast<T>(x[i]);
+  return out;
+}
+
+template <typename T>
+void departures_are_the_hosts(exec::Backend b) {
+  // Points spilling past the box on every side; the high x and low z sides are open.
+  const Vec3d lo{0, 0, 0}, hi{0.6, 0.3, 0.4};
+  const BlockGrid g(lo, hi, 0.05);
+  const auto xd = uniform_points(20000, {-0.03, -0.03, -0.03}, {0.63, 0.33, 0.43}, 7);
+  const std::array<bool, 6> walls{true, false, true, true, false, true};
+  const auto x = as<T>(xd);
+  std::vector<T> m(x.size());
+  for (std::size_t i = 0; i < m.size(); ++i)
+    m[i] = T(1) + T(i % 13) / T(7);
+  for (int ranks : {3, 5}) {
+    const Decomposition d = split(g, xd, ranks);
+    for (int me = 0; me < ranks; ++me) {
+      RankSelector<T> sel(b);
+      sel.set(d, me);
+      exec::DeviceBuffer<Vec3<T>> bx(b, 0, "test.x");
+      exec::DeviceBuffer<T> bm(b, 0, "test.m");
+      bx.assign(x);
+      bm.assign(m);
+      const std::size_t n = x.size() - 100; // only the first n are looked at
+      const auto got = sel.departures(bx, bm, n, vec_cast<T>(lo), vec_cast<T>(hi), walls);
+      // The host's rule (RankExchange's before it moved to the backend).
+      std::vector<std::uint32_t> index;
+      std::vector<int> to;
+      std::uint64_t removed = 0;
+      double mass = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        bool out = false;
+        for (int a = 0; a < 3; ++a) {
+          const T c = (&x[i].x)[a];
+          out = out || (!walls[2 * a] && c < T((&lo.x)[a])) ||
+                (!walls[2 * a + 1] && c > T((&hi.x)[a]));
+        }
+        const int dest = out ? -1 : d.owner(vec_cast<double>(x[i]));
+        if (dest == me)
+          continue;
+        index.push_back(static_cast<std::uint32_t>(i));
+        to.push_back(dest);
+        if (dest < 0) {
+          ++removed;
+          mass += double(m[i]);
+        }
+      }
+      ASSERT_EQ(got.leaving.n, n);
+      EXPECT_EQ(got.leaving.index, index) << ranks << " ranks, rank " << me;
+      EXPECT_EQ(got.leaving.to, to) << ranks << " ranks, rank " << me;
+      EXPECT_EQ(got.removed, removed);
+      EXPECT_EQ(got.removed_mass, mass); // the same sum in the same order
+      EXPECT_GT(removed, 0u) << "no point left through an open side: the test tests little";
+      EXPECT_GT(index.size(), removed) << "no point moves to another rank";
+    }
+  }
+}
+
+template <typename T>
+std::size_t ghosts_are_select_ghosts(exec::Backend b, int ranks, const std::vector<double>& widths,
+                                     std::size_t points = 9000) {
+  // Two thirds piled into one corner, so the parts are uneven in shape.
+  const Vec3d lo{0, 0, 0}, hi{0.8, 0.4, 0.6};
+  const BlockGrid g(lo, hi, 0.05);
+  auto xd = uniform_points(points * 2 / 3, lo, {0.4, 0.4, 0.3}, 3);
+  const auto spread = uniform_points(points - xd.size(), lo, hi, 4);
+  xd.insert(xd.end(), spread.begin(), spread.end());
+  const Decomposition d = split(g, xd, ranks);
+  std::size_t sent = 0;
+  for (int me = 0; me < ranks; ++me) {
+    // This rank's points, in the precision the particles are held in.
+    std::vector<Vec3<T>> mine;
+    std::vector<Vec3d> mine_d;
+    for (const Vec3d& q : xd)
+      if (d.owner(q) == me) {
+        mine.push_back(vec_cast<T>(q));
+        mine_d.push_back(vec_cast<double>(mine.back()));
+      }
+    RankSelector<T> sel(b);
+    sel.set(d, me);
+    exec::DeviceBuffer<Vec3<T>> bx(b, 0, "test.x");
+    bx.assign(mine);
+    for (double w : widths) {
+      const GhostLists want = select_ghosts(d, me, mine_d, w);
+      const GhostLists got = sel.ghosts(bx, mine.size(), w);
+      EXPECT_EQ(got.peers, want.peers) << ranks << " ranks, rank " << me << ", width " << w;
+      EXPECT_EQ(got.send, want.send) << ranks << " ranks, rank " << me << ", width " << w;
+      for (const auto& s : got.send)
+        sent += s.size();
+    }
+  }
+  return sent;
+}
+
+} // namespace
+
+TEST(RankSelector, DeparturesAreTheHostsOwnersAndOpenSides) {
+  for (exec::Backend b : backends()) {
+    SCOPED_TRACE(std::string(exec::to_string(b)));
+    departures_are_the_hosts<float>(b);
+    departures_are_the_hosts<double>(b);
+  }
+}
+
+// Widths below, at and above a block edge (0.05): one and two blocks of reach.
+TEST(RankSelector, GhostsAreSelectGhostsLists) {
+  for (exec::Backend b : backends()) {
+    SCOPED_TRACE(std::string(exec::to_string(b)));
+    for (int ranks : {2, 3, 7}) {
+      const std::size_t sent = ghosts_are_select_ghosts<float>(b, ranks, {0.013, 0.05, 0.071});
+      EXPECT_GT(sent, 1000u) << "too few ghosts for the check to mean much";
+      ghosts_are_select_ghosts<double>(b, ranks, {0.013, 0.071});
+    }
+  }
+}
+
+// 80 ranks on small blocks and a width across the whole box: every rank has more than 64
+// neighbours, so the ghosts are chosen in two windows of peers.
+TEST(RankSelector, MoreThan64NeighboursTakeSeveralWindows) {
+  for (exec::Backend b : backends()) {
+    SCOPED_TRACE(std::string(exec::to_string(b)));
+    const std::size_t sent = ghosts_are_select_ghosts<float>(b, 80, {1.2}, 600);
+    // Every point goes to every other rank (each holds blocks: METIS leaves no part empty here).
+    EXPECT_EQ(sent, std::size_t(600) * 79);
+  }
+}
