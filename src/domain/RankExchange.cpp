@@ -43,15 +43,16 @@ std::vector<comm::MigrationColumn> boundary_state(BoundarySet<T>& b) {
 
 template <typename T>
 RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
-                              exec::Backend backend, double knit_width, double coupling_reach)
+                              exec::Backend backend, double knit_width, double coupling_reach,
+                              double skin)
     : mpi_(mpi), backend_(backend), rows_(make_rows(backend)), scene_(scene), select_(backend),
       keep_(backend, 0, "ranks.owned"), inverse_(backend, 0, "ranks.inverse") {
   const auto refuse = [&](const std::string& what) {
     throw Error("on " + std::to_string(mpi.size()) +
                 " ranks knitflow runs fluid, static boundaries, the knit and their coupling "
                 "(the paper's model; the knit on the CPU backend) so far (the conserving "
-                "absorption, moving solids, \"verlet\" lists and the knit on the GPU join in "
-                "later stages of P5); this run has " +
+                "absorption, moving solids and the knit on the GPU join in later stages of P5); "
+                "this run has " +
                 what + ": run it on one rank");
   };
   if (scene.has(Module::Knit) && scene.has(Module::Fluid) && scene.has(Module::Capillary) &&
@@ -60,14 +61,16 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   for (const auto& o : scene.obstacles)
     if (o.velocity.x != 0 || o.velocity.y != 0 || o.velocity.z != 0)
       refuse("a moving obstacle ('" + o.name + "')");
-  if (scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet)
-    refuse("solver.neighbour_list = \"verlet\"");
+  keeps_ghosts_ = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet &&
+                  scene.has(Module::Fluid);
   if (backend != exec::Backend::Cpu && knit_width > 0)
     refuse("the knit on the GPU backend");
   transport_ = comm::make_transport(mpi, comm::TransportKind::Mpi, comm::MemorySpace::Host);
   costs_.knit_substeps = scene.knit.substeps;
-  fluid_width_ = std::max(scene.support_radius(), coupling_reach);
-  boundary_width_ = scene.support_radius();
+  // A pair within the support now was within support + skin at the sort.
+  fluid_width_ = std::max(scene.support_radius(), coupling_reach) + (keeps_ghosts_ ? skin : 0.0);
+  // The owned fluid strays up to the skin out of the region between sorts ("verlet").
+  boundary_width_ = scene.support_radius() + (keeps_ghosts_ ? skin : 0.0);
   // Blocks of block_cells support radii; the knit's ghost width where there is no fluid (as
   // `knitflow plan` cuts them).
   block_scale_ = scene.has(Module::Fluid) ? fluid_width_ : std::max(knit_width, 1e-6);
@@ -77,8 +80,9 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
 
 template <typename T>
 void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
-                                 std::span<const Vec3<T>> knit) {
+                                 std::span<const Vec3<T>> knit, std::uint64_t step) {
   const int me = rank();
+  last_window_ = step / static_cast<std::uint64_t>(scene_.parallel.check_every);
   std::vector<Vec3<T>> fx, bx;
   if (fluid)
     fx = fluid->x.to_host();
@@ -141,9 +145,12 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
                                                            BoundarySet<T>* boundary,
                                                            std::span<const Vec3<T>> knit) {
   Balance b;
-  const int every = scene_.parallel.check_every;
-  if (step == 0 || step % static_cast<std::uint64_t>(every) != 0)
+  // At the first sort of each window of check_every steps after the one the run started in
+  // (with lists kept over steps the sorts come when the fluid has moved, not every step).
+  const std::uint64_t window = step / static_cast<std::uint64_t>(scene_.parallel.check_every);
+  if (window <= last_window_)
     return b;
+  last_window_ = window;
   const Timed part{parts_.rebalance};
   const double most = mpi_.max(compute_seconds_), mean = mpi_.sum(compute_seconds_) / ranks();
   compute_seconds_ = 0;
@@ -332,6 +339,15 @@ void RankExchange<T>::refresh_motion(FluidSet<T>& fluid) {
     return;
   const comm::Column cols[] = {column(fluid.v), column(fluid.a),    column(fluid.rho),
                                column(fluid.p), column(fluid.drho), column(fluid.drho_prev)};
+  fluid_halo_->exchange(cols, fluid_owned_);
+}
+
+template <typename T>
+void RankExchange<T>::refresh_positions(FluidSet<T>& fluid) {
+  const Timed timed{exchange_seconds_}, part{parts_.refresh};
+  if (!fluid_halo_)
+    return;
+  const comm::Column cols[] = {column(fluid.x), column(fluid.v)};
   fluid_halo_->exchange(cols, fluid_owned_);
 }
 

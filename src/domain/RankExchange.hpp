@@ -30,15 +30,19 @@ template <typename T>
 class RankExchange {
 public:
   /// Refuses (kf::Error) what the split does not carry yet: the conserving absorption, moving
-  /// solids, "verlet" lists, the knit on the GPU backend.
+  /// solids, the knit on the GPU backend.
   /// knit_width: the knit's ghost width (KnitHalo::base_width; 0 without knit), the blocks'
   /// scale where there is no fluid.
   /// coupling_reach: how far the knit-fluid coupling reaches (0 without): the fluid's ghosts
   /// then reach that far too.
+  /// With "verlet" lists (skin: theirs, absolute) the fluid's ghosts reach the skin farther and
+  /// are kept between the sorts (keeps_ghosts()), their state refreshed after each forces pass.
   RankExchange(const comm::MpiContext& mpi, const Scene& scene, exec::Backend backend,
-               double knit_width = 0, double coupling_reach = 0);
+               double knit_width = 0, double coupling_reach = 0, double skin = 0);
 
   int rank() const { return mpi_.rank(); }
+  /// Whether the fluid's ghosts stay from one sort to the next ("verlet" lists).
+  bool keeps_ghosts() const { return keeps_ghosts_; }
   int ranks() const { return mpi_.size(); }
   exec::Backend backend() const { return backend_; }
   /// How the exchanges read and write the particles' buffers (the backend's memory).
@@ -51,7 +55,9 @@ public:
   /// boundary ghosts (sort the boundary after, then boundary_sorted()).
   /// knit: the knit points' positions (the whole knit, as every rank built it), counted in the
   /// blocks' costs; KnitHalo keeps this rank's share.
-  void distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary, std::span<const Vec3<T>> knit = {});
+  /// step: the run's (a restart's), from which the imbalance checks count.
+  void distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary, std::span<const Vec3<T>> knit = {},
+                  std::uint64_t step = 0);
   void boundary_sorted(const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n);
 
   struct Removed {
@@ -70,14 +76,20 @@ public:
   void refresh_boundary(BoundarySet<T>& boundary);
   /// After the forces pass: only the owned fluid stays.
   void drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid);
-  /// With the knit coupled, the ghosts stay until the next drift (the coupling reads the fluid
-  /// around each knit point): after the kick, their velocities, accelerations and densities from
-  /// their owners.
+  /// Ghosts that outlive the forces pass take their owners' velocities, accelerations and
+  /// densities: with the knit coupled after the kick (the coupling reads the fluid around each
+  /// knit point before the next drift); with "verlet" lists after the forces pass, so that the
+  /// kick and the drift then move each ghost exactly as its owner moves it.
   void refresh_motion(FluidSet<T>& fluid);
+  /// Kept ghosts' positions and velocities from their owners (after a drift that moved a ghost
+  /// otherwise than its owner).
+  void refresh_positions(FluidSet<T>& fluid);
   /// 1 for the fluid this rank owns, 0 for its ghosts, in the set's order (a copy to the host:
   /// for the output's cadence).
   std::vector<std::uint32_t> fluid_owned() const { return keep_.to_host(); }
   std::size_t fluid_owned_count() const { return fluid_owned_; }
+  /// fluid_owned() on the backend (valid until the fluid's next sort or resize).
+  const std::uint32_t* owned_flags() const { return keep_.data(); }
 
   /// Seconds of local work (passes that wait for no other rank) on one phase's particles, for
   /// the imbalance and the phases' measured costs.
@@ -89,12 +101,12 @@ public:
     double imbalance = 0; // slowest rank's compute over the mean since the last check (0: none)
     bool repartitioned = false;
   };
-  /// Every [parallel] check_every steps (call before a rebuild, the fluid holding only what this
-  /// rank owns): when the measured imbalance passes [parallel] imbalance, the blocks are
-  /// partitioned anew by the particles' current counts, each phase's weighed by its measured
-  /// cost a particle (the job's seconds on the phase over its particles since the last check),
-  /// and the fluid and the boundary migrate to their new owners (sort the boundary after, then
-  /// boundary_sorted()); the knit follows at KnitHalo's next choice.
+  /// At the first sort [parallel] check_every steps or more after the last check (call before a
+  /// rebuild, the fluid holding only what this rank owns): when the measured imbalance passes
+  /// [parallel] imbalance, the blocks are partitioned anew by the particles' current counts, each
+  /// phase's weighed by its measured cost a particle (the job's seconds on the phase over its
+  /// particles since the last check), and the fluid and the boundary migrate to their new owners
+  /// (sort the boundary after, then boundary_sorted()); the knit follows at KnitHalo's next choice.
   Balance balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary,
                   std::span<const Vec3<T>> knit = {});
   /// What the knit's exchange shares: the transport, the ranks next to this one's blocks (a
@@ -157,6 +169,8 @@ private:
   double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
   std::uint64_t repartitions_ = 0;
   double block_scale_ = 0; // a block's edge over parallel.block_cells
+  bool keeps_ghosts_ = false;
+  std::uint64_t last_window_ = 0; // step / check_every at the last imbalance check
   PhaseCosts costs() const { return costs_; }
   PhaseCosts costs_;
   std::array<double, kPhases> phase_seconds_{};

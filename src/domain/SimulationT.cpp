@@ -30,6 +30,7 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <type_traits>
 #include <vector>
 
 namespace kf {
@@ -313,10 +314,23 @@ private:
                           absorption_ ? absorption_->capacity().data() : nullptr,
                           static_cast<T>(knit_->expected_motion(dt_)), share);
   }
-  /// Before the fluid's drift on N ranks with the knit coupled: the ghosts the coupling read go.
+  /// Before the fluid's drift on N ranks with the knit coupled: the ghosts the coupling read go
+  /// (with "verlet" lists they stay until the next sort: after_drift()).
   void drop_coupled_ghosts() {
-    if (ranks_ && coupling_on_)
+    if (ranks_ && coupling_on_ && !ranks_->keeps_ghosts())
       ranks_->drop_ghosts(ex_, *fluid_);
+  }
+  /// After the fluid's drift on N ranks with the knit coupled and the ghosts kept: the coupling's
+  /// impulse on a ghost is not its owner's, so the ghosts take their owners' positions and
+  /// velocities.
+  /// On N ranks with ghosts kept over steps, 1 for the owned fluid and 0 for the ghosts (on the
+  /// backend); else null.
+  const std::uint32_t* kept_ghosts_flags() const {
+    return ranks_ && ranks_->keeps_ghosts() ? ranks_->owned_flags() : nullptr;
+  }
+  void after_drift() {
+    if (ranks_ && coupling_on_ && ranks_->keeps_ghosts())
+      ranks_->refresh_positions(*fluid_);
   }
   /// The fluid rows this rank writes and counts: all, or on N ranks with the knit coupled
   /// (ghosts kept between steps) the owned ones.
@@ -442,7 +456,12 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     // reach that much farther.
     const double knit_skin = c ? h_ : 0.0;
     ranks_.emplace(*mpi, scene_, backend, knit_ ? KnitHalo<T>::base_width(*knit_, c) : 0.0,
-                   c ? reach + 0.5 * knit_skin : 0.0);
+                   c ? reach + 0.5 * knit_skin : 0.0, skin_);
+    if (fluid_list_) // every rank keeps or builds its lists at the same steps
+      fluid_list_->combine_readings([this](T* m, int k) {
+        MPI_Allreduce(MPI_IN_PLACE, m, k, std::is_same_v<T, float> ? MPI_FLOAT : MPI_DOUBLE,
+                      MPI_MAX, ranks_->mpi().comm());
+      });
     ranks_->distribute(fluid_ ? &*fluid_ : nullptr, boundary_ ? &*boundary_ : nullptr,
                        all_knit_positions());
     if (knit_) {
@@ -675,7 +694,9 @@ void SimulationT<T>::build_pipeline() {
                     kick_drift_contact(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_),
                                        damping_keep(dt_), false, Prescribed<T>{}, shapes_.data(),
                                        shapes_.size(), static_cast<T>(margin_), T(0),
-                                       guard_count_.data(), "integrate.kick_drift", planned_dt());
+                                       guard_count_.data(), "integrate.kick_drift", planned_dt(),
+                                       kept_ghosts_flags());
+                    after_drift();
                     settle_step();
                   });
   else if (fluid_on_)
@@ -684,6 +705,7 @@ void SimulationT<T>::build_pipeline() {
       auto f = fluid_->view();
       kick_drift(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_),
                  "integrate.kick_drift", {}, planned_dt());
+      after_drift();
       settle_step();
     });
   if (boundary_on_ && moving_) {
@@ -721,13 +743,16 @@ void SimulationT<T>::build_pipeline() {
                     [this, open] {
                       // The continuity predictor reads no neighbours: the GPU runs it while the
                       // host waits for the lists' reading (it runs again after a sort).
+                      // On N ranks it runs after the sort: the ghosts received there would lack
+                      // its gather copies.
                       std::function<void()> meanwhile;
-                      if (continuity())
+                      if (continuity() && !ranks_)
                         meanwhile = [this] {
                           fluid_density(static_cast<T>(dt_));
                           density_done_ = true;
                         };
                       // Moving solids are sorted every step: their list entries would not last.
+                      // On N ranks all take the same answer (SphLists::combine_readings).
                       if (fluid_list_->stale_after(ex_, *fluid_,
                                                    static_cast<T>(fluid_step_motion()), moving_,
                                                    meanwhile)) {
@@ -792,6 +817,8 @@ template <typename T>
 void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry carry) {
   ++fluid_sorts_;
   if (ranks_) {
+    // Ghosts kept since the last sort ("verlet" lists) go: the sort chooses them anew.
+    ranks_->drop_ghosts(ex_, *fluid_);
     // Every [parallel] check_every steps the measured imbalance may share the blocks out anew.
     if (ranks_->balance(steps_, &*fluid_, boundary_on_ ? &*boundary_ : nullptr, knit_positions())
             .repartitioned &&
@@ -893,9 +920,15 @@ void SimulationT<T>::fluid_forces(T dt) {
                fluid_list_view(), dt);
   }
   // Their work is done: between steps a rank holds only the fluid it owns; with the knit
-  // coupled they stay until the next drift (the coupling reads the fluid around the knit).
-  if (ranks_ && !coupling_on_)
-    ranks_->drop_ghosts(ex_, *fluid_);
+  // coupled they stay until the next drift (the coupling reads the fluid around the knit);
+  // with "verlet" lists until the next sort, taking their owners' state now, so that the kick,
+  // the drift and the next density pass give each the values its owner computes.
+  if (ranks_ && !coupling_on_) {
+    if (ranks_->keeps_ghosts())
+      ranks_->refresh_motion(*fluid_);
+    else
+      ranks_->drop_ghosts(ex_, *fluid_);
+  }
 }
 
 template <typename T>
@@ -1261,7 +1294,9 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     // The blocks are partitioned anew from the frame's particles (the results do not depend on
     // the partition), each rank keeps its share, and the next step's sort rebuilds the rest.
     ranks_->distribute(fluid_on_ ? &*fluid_ : nullptr, boundary_on_ ? &*boundary_ : nullptr,
-                       all_knit_positions());
+                       all_knit_positions(), steps_);
+    if (fluid_list_) // "verlet" lists: built at the next step for the positions then
+      fluid_list_->forget();
     if (boundary_on_)
       sort_boundary();
     if (knit_halo_) {

@@ -38,6 +38,7 @@ struct KickDriftContact {
   Prescribed<T> fixed;
   RigidContact<T> contact;
   const double* dt_device;
+  const std::uint32_t* counted;
 
   KF_HD std::uint64_t operator()(std::size_t i) const {
     const T step = drift_step(dt, dt_device);
@@ -47,7 +48,8 @@ struct KickDriftContact {
     const Vec3<T> vh = half_kick(i, v, a, half, keep, fixed);
     v[i] = vh;
     x[i] += vh * step;
-    return contact.n_shapes ? contact(i) : 0;
+    const std::uint64_t put_back = contact.n_shapes ? contact(i) : 0;
+    return counted && !counted[i] ? 0 : put_back;
   }
 };
 
@@ -57,12 +59,13 @@ template <typename T>
 void kick_drift_contact(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a,
                         std::size_t n, T dt, T keep, bool close_previous, Prescribed<T> fixed,
                         const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
-                        std::uint64_t* count, const char* label, const double* dt_device) {
+                        std::uint64_t* count, const char* label, const double* dt_device,
+                        const std::uint32_t* counted) {
   exec::transform_reduce_into(
       ex, n, exec::SumOp{},
       KickDriftContact<T>{x, v, a, dt, keep, close_previous, fixed,
                           RigidContact<T>{x, v, shapes, n_shapes, margin, friction, fixed.handle},
-                          dt_device},
+                          dt_device, counted},
       count, label);
 }
 
@@ -91,7 +94,7 @@ T min_rigid_distance(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
   template void kick_drift_contact<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, const Vec3<T>*,       \
                                       std::size_t, T, T, bool, Prescribed<T>,                      \
                                       const RigidShape<T>*, std::size_t, T, T, std::uint64_t*,     \
-                                      const char*, const double*);                                 \
+                                      const char*, const double*, const std::uint32_t*);           \
   template T min_rigid_distance<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                 \
                                    const RigidShape<T>*, std::size_t);
 KF_INSTANTIATE(float)

@@ -29,11 +29,14 @@ void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::siz
 /// three calls in a row (bit for bit): a prescribed point's velocity is set by the second kick
 /// whatever the first left, so `fixed` may already hold this substep's velocities. With
 /// dt_device, dt is T(*dt_device), read on the device (a step planned there, StepSize_K.hpp).
+/// counted (null: all): the points whose corrections are counted (1), the others moved alike
+/// (a rank's ghosts, kept over steps, which their owners count).
 template <typename T>
 void kick_drift_contact(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3<T>* a,
                         std::size_t n, T dt, T keep, bool close_previous, Prescribed<T> fixed,
                         const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
-                        std::uint64_t* count, const char* label, const double* dt_device = nullptr);
+                        std::uint64_t* count, const char* label, const double* dt_device = nullptr,
+                        const std::uint32_t* counted = nullptr);
 
 /// Smallest signed distance of any of the n points to any shape (negative: inside a solid),
 /// used by tests and diagnostics.

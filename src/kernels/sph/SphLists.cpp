@@ -170,7 +170,13 @@ void SphLists<T>::settle(const exec::Exec& ex) {
 template <typename T>
 bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force,
                               const std::function<void()>& meanwhile) {
-  if (!(skin_ > T(0)) || force || x0_.size() != f.size())
+  bool rebuild = !(skin_ > T(0)) || force || x0_.size() != f.size();
+  if (combine_) { // one rank's reason is every rank's: the readings below are collective
+    T any = rebuild ? T(1) : T(0);
+    combine_(&any, 1);
+    rebuild = any > T(0);
+  }
+  if (rebuild)
     return true;
   bound_ += motion;
   pair_ += T(2) * motion;
@@ -185,6 +191,8 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
     meanwhile();
   const auto reading = read_.wait();
   std::vector<T> m(reading.begin(), reading.end());
+  if (combine_)
+    combine_(m.data(), 7);
   const double s = double(skin_);
   const double largest = std::sqrt(double(m[0]));
   const double bx = double(m[1]) + double(m[2]), by = double(m[3]) + double(m[4]),
@@ -208,6 +216,8 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
                               moved_.data() + 7, "fluid.moved_box");
     read_.start(moved_.data());
     m[7] = read_.wait()[7];
+    if (combine_)
+      combine_(m.data() + 7, 1);
     local = std::sqrt(double(m[7]));
     pair = std::min(pair, local);
   }

@@ -61,6 +61,14 @@ public:
   /// is needed.
   bool stale_after(const exec::Exec& ex, const FluidSet<T>& f, T motion, bool force,
                    const std::function<void()>& meanwhile = {});
+  /// On N ranks, each holding its own fluid and ghosts (domain/RankExchange): `combine`
+  /// replaces k readings by their largest over the job (in place, collective; stale_after then
+  /// is too), so that every rank takes the same decision at the same step, the one a single rank
+  /// holding all the fluid would take from the first seven (largest displacement, the
+  /// displacements' box). The eighth, the local bound, is the largest over the ranks of each rank's
+  /// own: a bound for the pairs each rank lists (all their partners are its owned or ghost
+  /// particles).
+  void combine_readings(std::function<void(T*, int)> combine) { combine_ = std::move(combine); }
   /// The fluid's arrays were replaced (a restart): the next stale_after says so.
   void forget() {
     x0_.resize(0);
@@ -155,6 +163,7 @@ private:
   T pair_ = std::numeric_limits<T>::infinity();  // host bound on the pairs' |d_i - d_j|
   T last_largest_ = 0, last_pair_ = 0, last_local_ = 0;
   Ends ends_;
+  std::function<void(T*, int)> combine_; // the readings' largest over the job (N ranks)
 };
 
 } // namespace kf
