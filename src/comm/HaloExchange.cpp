@@ -25,7 +25,6 @@ HaloExchange::HaloExchange(Transport& transport, std::vector<int> peers,
     recv_offset_[k] = recv_total_;
     recv_total_ += recv_count_[k];
   }
-  out_.resize(peers_.size());
   in_.resize(peers_.size());
 }
 
@@ -42,13 +41,13 @@ void HaloExchange::start(std::span<const Column> columns, std::size_t first_ghos
   std::vector<RecvBuffer> recvs(peers_.size());
   last_bytes_ = 0;
   for (std::size_t k = 0; k < peers_.size(); ++k) {
-    auto& out = out_[k];
-    out.resize(send_[k].size() * row);
-    rows_.gather(columns, send_[k], out.data());
-    in_[k].resize(recv_count_[k] * row);
-    sends[k] = {peers_[k], out.data(), out.size()};
-    recvs[k] = {peers_[k], in_[k].data(), in_[k].size()};
-    last_bytes_ += out.size();
+    const std::size_t out_bytes = send_[k].size() * row, in_bytes = recv_count_[k] * row;
+    unsigned char* out = rows_.message(2 * k, out_bytes);
+    rows_.gather(columns, send_[k], out);
+    in_[k] = rows_.message(2 * k + 1, in_bytes);
+    sends[k] = {peers_[k], out, out_bytes};
+    recvs[k] = {peers_[k], in_[k], in_bytes};
+    last_bytes_ += out_bytes;
   }
   pending_.assign(columns.begin(), columns.end());
   pending_first_ = first_ghost;
@@ -60,9 +59,9 @@ void HaloExchange::finish() {
   for (std::size_t k = 0; k < peers_.size(); ++k) {
     const std::size_t n = recv_count_[k];
     if (recv_slot_.empty())
-      rows_.put(pending_, pending_first_ + recv_offset_[k], n, in_[k].data());
+      rows_.put(pending_, pending_first_ + recv_offset_[k], n, in_[k]);
     else
-      rows_.scatter(pending_, {recv_slot_.data() + recv_offset_[k], n}, in_[k].data());
+      rows_.scatter(pending_, {recv_slot_.data() + recv_offset_[k], n}, in_[k]);
   }
   pending_.clear();
 }
@@ -134,21 +133,20 @@ std::size_t migrate(Transport& transport, std::span<const int> peers, const Depa
   const std::size_t row = row_bytes(cols);
   // The leavers, packed per peer.
   std::vector<std::uint64_t> counts(peers.size());
-  std::vector<std::vector<unsigned char>> out(peers.size());
+  std::vector<unsigned char*> out(peers.size()), in(peers.size());
   for (std::size_t k = 0; k < peers.size(); ++k) {
     counts[k] = out_rows[k].size();
-    out[k].resize(out_rows[k].size() * row);
-    rows.gather(cols, out_rows[k], out[k].data());
+    out[k] = rows.message(2 * k, out_rows[k].size() * row);
+    rows.gather(cols, out_rows[k], out[k]);
   }
   const auto arriving = transport.exchange_sizes(peers, counts);
-  std::vector<std::vector<unsigned char>> in(peers.size());
   std::vector<SendBuffer> sends(peers.size());
   std::vector<RecvBuffer> recvs(peers.size());
   std::size_t arrivals = 0;
   for (std::size_t k = 0; k < peers.size(); ++k) {
-    in[k].resize(arriving[k] * row);
-    sends[k] = {peers[k], out[k].data(), out[k].size()};
-    recvs[k] = {peers[k], in[k].data(), in[k].size()};
+    in[k] = rows.message(2 * k + 1, arriving[k] * row);
+    sends[k] = {peers[k], out[k], out_rows[k].size() * row};
+    recvs[k] = {peers[k], in[k], arriving[k] * row};
     arrivals += arriving[k];
   }
   transport.start(sends, recvs);
@@ -161,7 +159,7 @@ std::size_t migrate(Transport& transport, std::span<const int> peers, const Depa
     cols[c].data = columns[c].resize(total);
   std::size_t at = kept;
   for (std::size_t k = 0; k < peers.size(); ++k) {
-    rows.put(cols, at, arriving[k], in[k].data());
+    rows.put(cols, at, arriving[k], in[k]);
     at += arriving[k];
   }
   return total;

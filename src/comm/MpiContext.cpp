@@ -39,6 +39,8 @@ std::uint64_t MpiContext::exscan(std::uint64_t v) const {
   MPI_Exscan(&v, &r, 1, MPI_UINT64_T, MPI_SUM, comm_);
   return rank_ == 0 ? 0 : r;
 }
-void MpiContext::barrier() const { MPI_Barrier(comm_); }
+void MpiContext::barrier() const {
+  MPI_Barrier(comm_);
+}
 
 } // namespace kf::comm

@@ -55,6 +55,15 @@ void RowCopier::do_remove(std::span<const Column> cols, std::size_t n,
   }
 }
 
+unsigned char* RowCopier::do_message(std::size_t slot, std::size_t bytes) {
+  if (messages_.size() <= slot)
+    messages_.resize(slot + 1);
+  auto& m = messages_[slot];
+  if (m.size() < bytes)
+    m.resize(bytes);
+  return m.data();
+}
+
 namespace {
 struct AddTime {
   double& sum;

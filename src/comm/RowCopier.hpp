@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 namespace kf::comm {
 
@@ -35,6 +36,10 @@ public:
   void remove(std::span<const Column> cols, std::size_t n, std::span<const std::uint32_t> gone);
   /// Seconds spent in the calls above so far.
   double seconds() const { return seconds_; }
+  /// Host memory for message `slot` of an exchange (at least `bytes`; kept and reused, its
+  /// contents not): page-locked on a device backend, so the packed rows cross the bus at full
+  /// speed. Valid until the next call for the same slot: one exchange at a time per copier.
+  unsigned char* message(std::size_t slot, std::size_t bytes) { return do_message(slot, bytes); }
 
 protected:
   // The host's memcpy.
@@ -46,9 +51,11 @@ protected:
                       const unsigned char* in);
   virtual void do_remove(std::span<const Column> cols, std::size_t n,
                          std::span<const std::uint32_t> gone);
+  virtual unsigned char* do_message(std::size_t slot, std::size_t bytes);
 
 private:
   double seconds_ = 0;
+  std::vector<std::vector<unsigned char>> messages_;
 };
 
 /// A host copier shared by callers that need no timing of their own (the default argument).

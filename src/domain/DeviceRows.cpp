@@ -2,6 +2,7 @@
 
 #include "kernels/exec/RowCopy.hpp"
 
+#include <algorithm>
 #include <memory>
 
 namespace kf {
@@ -59,9 +60,8 @@ void DeviceRows::do_remove(std::span<const comm::Column> cols, std::size_t n,
   // The rows that stay, found on the device from the few that go.
   const exec::Exec ex{backend_};
   flags_.resize(n);
-  exec::fill(ex, flags_, std::uint32_t{1}, "ranks.remove");
   rows_.assign(gone.data(), gone.size());
-  exec::clear_flags_at(ex, flags_.data(), rows_.data(), gone.size(), "ranks.remove");
+  exec::flag_all_but(ex, flags_.data(), n, rows_.data(), gone.size(), "ranks.remove");
   const std::size_t k = exec::flagged_indices(ex, flags_, offsets_, keep_, "ranks.remove");
   // Through a scratch run: the rows move forward, which in parallel would overwrite unread ones.
   for (const comm::Column& c : cols) {
@@ -69,6 +69,22 @@ void DeviceRows::do_remove(std::span<const comm::Column> cols, std::size_t n,
     exec::gather_rows(ex, packed_.data(), c.data, keep_.data(), k, c.elem_bytes, "ranks.remove");
     exec::copy_bytes(c.data, backend_, packed_.data(), backend_, k * c.elem_bytes);
   }
+}
+
+unsigned char* DeviceRows::do_message(std::size_t slot, std::size_t bytes) {
+  while (messages_.size() <= slot)
+    messages_.emplace_back(backend_);
+  Staging& m = messages_[slot];
+  if (m.bytes < bytes) {
+    // Grown by half again: a halo's size drifts a little from one rebuild to the next.
+    const std::size_t want = std::max(bytes, m.bytes + m.bytes / 2);
+    exec::free_host_staging(backend_, m.p);
+    m.p = nullptr;
+    m.bytes = 0;
+    m.p = exec::alloc_host_staging(backend_, want, "ranks.message");
+    m.bytes = want;
+  }
+  return static_cast<unsigned char*>(m.p);
 }
 
 std::unique_ptr<comm::RowCopier> make_rows(exec::Backend backend) {

@@ -7,6 +7,7 @@
 #include "kernels/exec/DeviceBuffer.hpp"
 
 #include <memory>
+#include <vector>
 
 namespace kf {
 
@@ -23,11 +24,23 @@ protected:
               const unsigned char* in) override;
   void do_remove(std::span<const comm::Column> cols, std::size_t n,
                  std::span<const std::uint32_t> gone) override;
+  unsigned char* do_message(std::size_t slot, std::size_t bytes) override;
 
 private:
   exec::Backend backend_;
   exec::DeviceBuffer<std::uint32_t> rows_, flags_, offsets_, keep_;
   exec::DeviceBuffer<unsigned char> packed_;
+  /// Page-locked host messages (HaloExchange's and migrate's), kept between exchanges.
+  struct Staging {
+    exec::Backend backend;
+    void* p = nullptr;
+    std::size_t bytes = 0;
+    explicit Staging(exec::Backend b) : backend(b) {}
+    Staging(Staging&& o) noexcept : backend(o.backend), p(o.p), bytes(o.bytes) { o.p = nullptr; }
+    Staging(const Staging&) = delete;
+    ~Staging() { exec::free_host_staging(backend, p); }
+  };
+  std::vector<Staging> messages_;
 };
 
 /// The copier for a backend's buffers: the host's memcpy on the CPU (comm's, which cannot launch

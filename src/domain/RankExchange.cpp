@@ -343,6 +343,16 @@ void RankExchange<T>::refresh_motion(FluidSet<T>& fluid) {
 }
 
 template <typename T>
+void RankExchange<T>::refresh_forces(FluidSet<T>& fluid, bool continuity) {
+  const Timed timed{exchange_seconds_}, part{parts_.refresh};
+  if (!fluid_halo_)
+    return;
+  const comm::Column all[] = {column(fluid.a), column(fluid.rho), column(fluid.drho),
+                              column(fluid.drho_prev)};
+  fluid_halo_->exchange(std::span<const comm::Column>(all, continuity ? 4 : 1), fluid_owned_);
+}
+
+template <typename T>
 void RankExchange<T>::refresh_positions(FluidSet<T>& fluid) {
   const Timed timed{exchange_seconds_}, part{parts_.refresh};
   if (!fluid_halo_)

@@ -81,6 +81,10 @@ public:
   /// knit point before the next drift); with "verlet" lists after the forces pass, so that the
   /// kick and the drift then move each ghost exactly as its owner moves it.
   void refresh_motion(FluidSet<T>& fluid);
+  /// With "verlet" lists, after the forces pass: what it wrote (a; under continuity also rho,
+  /// drho and drho_prev) from the owners, so that the kick and the drift then move each ghost
+  /// exactly as its owner moves it (its v and x follow: the same arithmetic on the same values).
+  void refresh_forces(FluidSet<T>& fluid, bool continuity);
   /// Kept ghosts' positions and velocities from their owners (after a drift that moved a ghost
   /// otherwise than its owner).
   void refresh_positions(FluidSet<T>& fluid);

@@ -925,7 +925,7 @@ void SimulationT<T>::fluid_forces(T dt) {
   // the drift and the next density pass give each the values its owner computes.
   if (ranks_ && !coupling_on_) {
     if (ranks_->keeps_ghosts())
-      ranks_->refresh_motion(*fluid_);
+      ranks_->refresh_forces(*fluid_, continuity());
     else
       ranks_->drop_ghosts(ex_, *fluid_);
   }

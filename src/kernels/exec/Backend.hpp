@@ -8,7 +8,9 @@ namespace kf::exec {
 /// Where data lives and kernels run. Every build has Cpu; Cuda exists when built with nvcc.
 enum class Backend { Cpu, Cuda };
 
-inline std::string_view to_string(Backend b) { return b == Backend::Cpu ? "cpu" : "cuda"; }
+inline std::string_view to_string(Backend b) {
+  return b == Backend::Cpu ? "cpu" : "cuda";
+}
 
 /// True when this binary was built with the CUDA backend.
 bool cuda_compiled();
@@ -17,7 +19,8 @@ bool cuda_available();
 /// Selects the CUDA device this process uses: its rank-local index modulo the visible devices
 /// (more ranks than devices on a node share them round-robin); no-op on CPU builds.
 void cuda_select_device(int local_rank);
-/// One-line description of the device in use ("NVIDIA H100 80GB HBM3, 132 SMs" or "CPU, 2 threads").
+/// One-line description of the device in use ("NVIDIA H100 80GB HBM3, 132 SMs" or "CPU, 2
+/// threads").
 std::string describe(Backend b);
 
 /// Raw memory on a backend. All host<->device traffic goes through copy_bytes.
@@ -26,6 +29,11 @@ void free_bytes(Backend b, void* p) noexcept;
 void copy_bytes(void* dst, Backend dst_b, const void* src, Backend src_b, std::size_t bytes);
 /// Waits until all work queued on the backend is finished (no-op on CPU).
 void synchronize(Backend b);
+/// Host memory that copies to and from the backend move at full speed: page-locked for a device
+/// (a copy from pageable memory is staged through a driver buffer at a fraction of the bus's
+/// bandwidth), plain on the CPU.
+void* alloc_host_staging(Backend b, std::size_t bytes, const char* what);
+void free_host_staging(Backend b, void* p) noexcept;
 
 /// A small device-to-host read that the host collects later (PendingRead.hpp wraps it): page-
 /// locked staging memory the copy lands in and an event marking its arrival. On the CPU the copy

@@ -130,6 +130,27 @@ void copy_bytes(void* dst, Backend dst_b, const void* src, Backend src_b, std::s
 #endif
 }
 
+void* alloc_host_staging(Backend b, std::size_t bytes, const char* what) {
+  if (b == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    return cuda_alloc_pinned(bytes, what);
+#else
+    no_cuda(what);
+#endif
+  }
+  return alloc_bytes(Backend::Cpu, bytes, what);
+}
+
+void free_host_staging(Backend b, void* p) noexcept {
+  if (b == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    cuda_free_pinned(p);
+#endif
+    return;
+  }
+  free_bytes(Backend::Cpu, p);
+}
+
 void synchronize(Backend b) {
 #if defined(KF_WITH_CUDA)
   if (b == Backend::Cuda)

@@ -53,9 +53,10 @@ struct ClearAt {
 
 } // namespace
 
-void clear_flags_at(const Exec& ex, std::uint32_t* flags, const std::uint32_t* rows, std::size_t n,
-                    const char* label) {
-  for_each(ex, n, ClearAt{flags, rows}, label);
+void flag_all_but(const Exec& ex, std::uint32_t* flags, std::size_t n, const std::uint32_t* gone,
+                  std::size_t n_gone, const char* label) {
+  for_each(ex, n, FillWith<std::uint32_t>{flags, 1u}, label);
+  for_each(ex, n_gone, ClearAt{flags, gone}, label);
 }
 
 void gather_rows(const Exec& ex, void* dst, const void* src, const std::uint32_t* rows,

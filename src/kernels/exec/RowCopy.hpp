@@ -17,8 +17,8 @@ void gather_rows(const Exec& ex, void* dst, const void* src, const std::uint32_t
 void scatter_rows(const Exec& ex, void* dst, const std::uint32_t* rows, const void* src,
                   std::size_t n, std::size_t elem_bytes, const char* label);
 
-/// flags[rows[k]] = 0 for k < n.
-void clear_flags_at(const Exec& ex, std::uint32_t* flags, const std::uint32_t* rows, std::size_t n,
-                    const char* label);
+/// flags[i] = 1 for i < n, then flags[gone[k]] = 0 for k < n_gone: the rows that stay.
+void flag_all_but(const Exec& ex, std::uint32_t* flags, std::size_t n, const std::uint32_t* gone,
+                  std::size_t n_gone, const char* label);
 
 } // namespace kf::exec
