@@ -73,7 +73,7 @@ void HaloExchange::remap(Column new_of_old, std::size_t first_ghost) {
   for (auto& list : send_)
     if (!list.empty()) {
       std::vector<std::uint32_t> moved(list.size());
-      rows_.gather(map, list, reinterpret_cast<unsigned char*>(moved.data()));
+      rows_.gather_to_host(map, list, reinterpret_cast<unsigned char*>(moved.data()));
       list = std::move(moved);
     }
   std::vector<std::uint32_t> at = recv_slot_;
@@ -84,7 +84,7 @@ void HaloExchange::remap(Column new_of_old, std::size_t first_ghost) {
   }
   recv_slot_.resize(recv_total_);
   if (recv_total_)
-    rows_.gather(map, at, reinterpret_cast<unsigned char*>(recv_slot_.data()));
+    rows_.gather_to_host(map, at, reinterpret_cast<unsigned char*>(recv_slot_.data()));
 }
 
 Departures Departures::of(std::span<const int> destination, int me) {

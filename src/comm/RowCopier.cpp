@@ -79,6 +79,11 @@ void RowCopier::gather(std::span<const Column> cols, std::span<const std::uint32
   const AddTime t{seconds_};
   do_gather(cols, rows, out);
 }
+void RowCopier::gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                               unsigned char* out) {
+  const AddTime t{seconds_};
+  do_gather_to_host(cols, rows, out);
+}
 void RowCopier::scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                         const unsigned char* in) {
   const AddTime t{seconds_};

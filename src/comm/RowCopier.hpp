@@ -16,7 +16,8 @@ struct Column {
   std::size_t elem_bytes = 0;
 };
 
-/// Packed buffers are host memory, column-major: each column's values for the rows in a run,
+/// Packed buffers (messages) are host memory, or device memory where a device copier feeds a
+/// transport of device buffers (NCCL), column-major: each column's values for the rows in a run,
 /// the columns in the order given (so unpacking is one copy a column). The public calls time
 /// themselves (the split's packing); a backend overrides the do_ functions.
 class RowCopier {
@@ -25,6 +26,10 @@ public:
   /// out <- the rows `rows` of each column in turn.
   void gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
               unsigned char* out);
+  /// The same into host memory, whatever memory the messages live in (lists of indices that the
+  /// host keeps).
+  void gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                      unsigned char* out);
   /// The rows `rows` of each column <- in, packed as gather packs.
   void scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                const unsigned char* in);
@@ -52,6 +57,10 @@ protected:
   virtual void do_remove(std::span<const Column> cols, std::size_t n,
                          std::span<const std::uint32_t> gone);
   virtual unsigned char* do_message(std::size_t slot, std::size_t bytes);
+  virtual void do_gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                                 unsigned char* out) {
+    do_gather(cols, rows, out);
+  }
 
 private:
   double seconds_ = 0;

@@ -7,24 +7,39 @@
 
 namespace kf {
 
-DeviceRows::DeviceRows(exec::Backend backend)
-    : backend_(backend), rows_(backend, 0, "ranks.rows"), flags_(backend, 0, "ranks.flags"),
-      offsets_(backend, 0, "ranks.offsets"), keep_(backend, 0, "ranks.keep"),
-      packed_(backend, 0, "ranks.packed") {}
+DeviceRows::DeviceRows(exec::Backend backend, bool device_messages)
+    : backend_(backend), device_messages_(device_messages), rows_(backend, 0, "ranks.rows"),
+      flags_(backend, 0, "ranks.flags"), offsets_(backend, 0, "ranks.offsets"),
+      keep_(backend, 0, "ranks.keep"), packed_(backend, 0, "ranks.packed") {}
+
+void DeviceRows::pack(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+                      unsigned char* dst) {
+  const std::size_t n = rows.size();
+  rows_.assign(rows.data(), n);
+  std::size_t at = 0;
+  for (const comm::Column& c : cols) {
+    exec::gather_rows({backend_}, dst + at, c.data, rows_.data(), n, c.elem_bytes, "ranks.pack");
+    at += n * c.elem_bytes;
+  }
+}
 
 void DeviceRows::do_gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
                            unsigned char* out) {
-  const std::size_t n = rows.size(), bytes = n * comm::row_bytes(cols);
+  if (device_messages_) {
+    if (!rows.empty())
+      pack(cols, rows, out);
+    return;
+  }
+  do_gather_to_host(cols, rows, out);
+}
+
+void DeviceRows::do_gather_to_host(std::span<const comm::Column> cols,
+                                   std::span<const std::uint32_t> rows, unsigned char* out) {
+  const std::size_t bytes = rows.size() * comm::row_bytes(cols);
   if (bytes == 0)
     return;
-  rows_.assign(rows.data(), n);
   packed_.resize(bytes);
-  std::size_t at = 0;
-  for (const comm::Column& c : cols) {
-    exec::gather_rows({backend_}, packed_.data() + at, c.data, rows_.data(), n, c.elem_bytes,
-                      "ranks.pack");
-    at += n * c.elem_bytes;
-  }
+  pack(cols, rows, packed_.data());
   exec::copy_bytes(out, exec::Backend::Cpu, packed_.data(), backend_, bytes);
 }
 
@@ -34,11 +49,14 @@ void DeviceRows::do_scatter(std::span<const comm::Column> cols, std::span<const 
   if (bytes == 0)
     return;
   rows_.assign(rows.data(), n);
-  packed_.assign(in, bytes);
+  const unsigned char* src = in;
+  if (!device_messages_) {
+    packed_.assign(in, bytes);
+    src = packed_.data();
+  }
   std::size_t at = 0;
   for (const comm::Column& c : cols) {
-    exec::scatter_rows({backend_}, c.data, rows_.data(), packed_.data() + at, n, c.elem_bytes,
-                       "ranks.unpack");
+    exec::scatter_rows({backend_}, c.data, rows_.data(), src + at, n, c.elem_bytes, "ranks.unpack");
     at += n * c.elem_bytes;
   }
 }
@@ -48,7 +66,7 @@ void DeviceRows::do_put(std::span<const comm::Column> cols, std::size_t first, s
   for (const comm::Column& c : cols) {
     if (n)
       exec::copy_bytes(static_cast<unsigned char*>(c.data) + first * c.elem_bytes, backend_, in,
-                       exec::Backend::Cpu, n * c.elem_bytes);
+                       device_messages_ ? backend_ : exec::Backend::Cpu, n * c.elem_bytes);
     in += n * c.elem_bytes;
   }
 }
@@ -72,6 +90,14 @@ void DeviceRows::do_remove(std::span<const comm::Column> cols, std::size_t n,
 }
 
 unsigned char* DeviceRows::do_message(std::size_t slot, std::size_t bytes) {
+  if (device_messages_) {
+    while (device_messages_slots_.size() <= slot)
+      device_messages_slots_.emplace_back(backend_, 0, "ranks.message");
+    auto& m = device_messages_slots_[slot];
+    if (m.size() < bytes)
+      m.resize(bytes);
+    return m.data();
+  }
   while (messages_.size() <= slot)
     messages_.emplace_back(backend_);
   Staging& m = messages_[slot];
@@ -87,10 +113,10 @@ unsigned char* DeviceRows::do_message(std::size_t slot, std::size_t bytes) {
   return static_cast<unsigned char*>(m.p);
 }
 
-std::unique_ptr<comm::RowCopier> make_rows(exec::Backend backend) {
+std::unique_ptr<comm::RowCopier> make_rows(exec::Backend backend, bool device_messages) {
   if (backend == exec::Backend::Cpu)
     return std::make_unique<comm::RowCopier>();
-  return std::make_unique<DeviceRows>(backend);
+  return std::make_unique<DeviceRows>(backend, device_messages);
 }
 
 } // namespace kf

@@ -1,8 +1,9 @@
 #pragma once
 // The ranks' halo and migration rows on a device backend (comm::RowCopier): the columns are
-// device memory; a message is packed on the device (one gather kernel a column) and copied to
-// the host buffer the MPI transport sends, and a received one copied up and scattered, so only
-// the rows that move cross the bus.
+// device memory; a message is packed on the device (one gather kernel a column). For the MPI
+// transport it is copied to a page-locked host buffer, and a received one copied up and
+// scattered, so only the rows that move cross the bus; for NCCL (device messages) the messages
+// stay in device memory.
 #include "comm/RowCopier.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
 
@@ -13,7 +14,8 @@ namespace kf {
 
 class DeviceRows final : public comm::RowCopier {
 public:
-  explicit DeviceRows(exec::Backend backend);
+  /// device_messages: the messages live in device memory (a transport of device buffers).
+  explicit DeviceRows(exec::Backend backend, bool device_messages = false);
 
 protected:
   void do_gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
@@ -25,9 +27,16 @@ protected:
   void do_remove(std::span<const comm::Column> cols, std::size_t n,
                  std::span<const std::uint32_t> gone) override;
   unsigned char* do_message(std::size_t slot, std::size_t bytes) override;
+  void do_gather_to_host(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+                         unsigned char* out) override;
 
 private:
   exec::Backend backend_;
+  bool device_messages_ = false;
+  /// Packs the rows into dst (device memory).
+  void pack(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+            unsigned char* dst);
+  std::vector<exec::DeviceBuffer<unsigned char>> device_messages_slots_;
   exec::DeviceBuffer<std::uint32_t> rows_, flags_, offsets_, keep_;
   exec::DeviceBuffer<unsigned char> packed_;
   /// Page-locked host messages (HaloExchange's and migrate's), kept between exchanges.
@@ -44,7 +53,8 @@ private:
 };
 
 /// The copier for a backend's buffers: the host's memcpy on the CPU (comm's, which cannot launch
-/// kernels), DeviceRows on a device.
-std::unique_ptr<comm::RowCopier> make_rows(exec::Backend backend);
+/// kernels), DeviceRows on a device, its messages in device memory for a transport of device
+/// buffers.
+std::unique_ptr<comm::RowCopier> make_rows(exec::Backend backend, bool device_messages = false);
 
 } // namespace kf

@@ -45,7 +45,7 @@ template <typename T>
 RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
                               exec::Backend backend, double knit_width, double coupling_reach,
                               double skin)
-    : mpi_(mpi), backend_(backend), rows_(make_rows(backend)), scene_(scene), select_(backend),
+    : mpi_(mpi), backend_(backend), scene_(scene), select_(backend),
       keep_(backend, 0, "ranks.owned"), inverse_(backend, 0, "ranks.inverse") {
   const auto refuse = [&](const std::string& what) {
     throw Error("on " + std::to_string(mpi.size()) +
@@ -65,7 +65,17 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
                   scene.has(Module::Fluid);
   if (backend != exec::Backend::Cpu && knit_width > 0)
     refuse("the knit on the GPU backend");
-  transport_ = comm::make_transport(mpi, comm::TransportKind::Mpi, comm::MemorySpace::Host);
+  // NCCL between device buffers where every rank has a GPU of its own (auto), else MPI through
+  // page-locked host memory; the knit's exchanges are host code (CPU backend only so far).
+  const auto kind = scene.parallel.transport == Scene::Parallel::Transport::Mpi
+                        ? comm::TransportKind::Mpi
+                        : (scene.parallel.transport == Scene::Parallel::Transport::Nccl
+                               ? comm::TransportKind::Nccl
+                               : comm::TransportKind::Auto);
+  transport_ = comm::make_transport(mpi, kind,
+                                    backend == exec::Backend::Cpu ? comm::MemorySpace::Host
+                                                                  : comm::MemorySpace::Device);
+  rows_ = make_rows(backend, transport_->memory_space() == comm::MemorySpace::Device);
   costs_.knit_substeps = scene.knit.substeps;
   // A pair within the support now was within support + skin at the sort.
   fluid_width_ = std::max(scene.support_radius(), coupling_reach) + (keeps_ghosts_ ? skin : 0.0);

@@ -116,6 +116,7 @@ public:
   /// What the knit's exchange shares: the transport, the ranks next to this one's blocks (a
   /// particle moves less than a block a step), and the split's own time.
   comm::Transport& transport() { return *transport_; }
+  std::string_view transport_name() const { return transport_->name(); }
   /// Each position's owning rank (-1 for other ranks' with others_dropped: a migration's
   /// destinations that keep only this rank's particles).
   std::vector<int> owners(std::span<const Vec3<T>> x, bool others_dropped = false) const;

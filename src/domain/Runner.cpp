@@ -177,10 +177,10 @@ std::string format_summary(const RunSummary& s) {
     const double knit = std::max(0.0, r.exchange_seconds - r.migration_seconds - r.refresh_seconds -
                                           r.rebalance_seconds);
     std::snprintf(buf, sizeof buf,
-                  "split (rank 0 of %d): exchanges %.3f s, %.1f%% of the wall: fluid migration "
-                  "and ghosts %.3f s, ghost refreshes %.3f s, balance %.3f s, knit ghosts %.3f "
-                  "s; packing rows %.3f s of it\n",
-                  r.ranks, r.exchange_seconds,
+                  "split (rank 0 of %d, %s): exchanges %.3f s, %.1f%% of the wall: fluid "
+                  "migration and ghosts %.3f s, ghost refreshes %.3f s, balance %.3f s, knit "
+                  "ghosts %.3f s; packing rows %.3f s of it\n",
+                  r.ranks, r.transport.c_str(), r.exchange_seconds,
                   100 * r.exchange_seconds / std::max(1e-9, s.wall_seconds), r.migration_seconds,
                   r.refresh_seconds, r.rebalance_seconds, knit, r.packing_seconds);
     o << buf;

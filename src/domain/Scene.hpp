@@ -210,6 +210,10 @@ struct Scene {
     // measured over every `check_every` steps.
     double imbalance = 1.1;
     int check_every = 100;
+    // How the ranks' messages move: "auto" (NCCL between device buffers when every rank has a
+    // GPU of its own, else MPI through host memory), "mpi" or "nccl" (an error where it cannot
+    // run).
+    enum class Transport { Auto, Mpi, Nccl } transport = Transport::Auto;
   } parallel;
 
   bool has(Module m) const {

@@ -45,6 +45,10 @@ constexpr std::array kNeighbourLists{
     Choice<Scene::Solver::NeighbourLists>{"on", Scene::Solver::NeighbourLists::On},
     Choice<Scene::Solver::NeighbourLists>{"off", Scene::Solver::NeighbourLists::Off},
     Choice<Scene::Solver::NeighbourLists>{"verlet", Scene::Solver::NeighbourLists::Verlet}};
+constexpr std::array kTransports{
+    Choice<Scene::Parallel::Transport>{"auto", Scene::Parallel::Transport::Auto},
+    Choice<Scene::Parallel::Transport>{"mpi", Scene::Parallel::Transport::Mpi},
+    Choice<Scene::Parallel::Transport>{"nccl", Scene::Parallel::Transport::Nccl}};
 constexpr std::array kDensityModels{Choice<DensityModel>{"summation", DensityModel::Summation},
                                     Choice<DensityModel>{"continuity", DensityModel::Continuity}};
 constexpr std::array kInitialDensities{
@@ -528,10 +532,11 @@ void read_knit(const TableReader& sim, const TableReader& t, Scene& s,
 
 /// [parallel]: the decomposition into blocks and its rebalancing (domain/Decomposition).
 void read_parallel(const TableReader& t, Scene::Parallel& p) {
-  t.allow_only({"block_cells", "imbalance", "check_every"});
+  t.allow_only({"block_cells", "imbalance", "check_every", "transport"});
   p.block_cells = read_count(t, "block_cells", p.block_cells, 1, 1024);
   t.read("imbalance", p.imbalance, Range::at_least(1));
   p.check_every = read_count(t, "check_every", p.check_every, 1, 1000000000);
+  t.read("transport", p.transport, kTransports);
 }
 
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {

@@ -112,6 +112,7 @@ public:
     int ranks = 1;
     double imbalance = 0, exchange_seconds = 0;
     double migration_seconds = 0, refresh_seconds = 0, rebalance_seconds = 0, packing_seconds = 0;
+    std::string transport; // "mpi" or "nccl"
   };
   virtual RankReport rank_report() const { return {}; }
   /// Measure each stage's time (synchronising the device after each stage).

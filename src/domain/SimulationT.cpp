@@ -236,7 +236,8 @@ public:
             p.migration,
             p.refresh,
             p.rebalance,
-            p.packing};
+            p.packing,
+            std::string(ranks_->transport_name())};
   }
   void set_profiling(bool on) override {
     profiling_ = on;

@@ -9,7 +9,9 @@
 //   re-partitioned by the measured counts and migrated below the default threshold of 1.1;
 // - a device backend's copier (DeviceRows: packing by kernels, staged through the host) moves
 //   the same bytes as the host's, for refreshes into contiguous and into remapped ghost slots and
-//   for a migration (on the CPU backend here and in CI, and on CUDA where a GPU is visible).
+//   for a migration (on the CPU backend here and in CI, and on CUDA where a GPU is visible:
+//   staged through page-locked host messages for MPI, and kept in device memory for NCCL where
+//   every rank has a GPU of its own).
 #include "comm/HaloExchange.hpp"
 #include "comm/MpiContext.hpp"
 #include "comm/Transport.hpp"
@@ -239,11 +241,26 @@ TEST_F(Halo, DeviceRowsMoveTheSameBytesAsTheHost) {
   const Particles mine = owned_part(all, d, mpi.rank());
   const std::size_t n = mine.x.size();
   const GhostLists gl = select_ghosts(d, mpi.rank(), mine.x, 0.04);
-  std::vector<exec::Backend> backends{exec::Backend::Cpu};
-  if (exec::cuda_available())
-    backends.push_back(exec::Backend::Cuda);
-  for (exec::Backend b : backends) {
-    SCOPED_TRACE(std::string(exec::to_string(b)));
+  // Each way: the host copier; on a GPU, device packing staged through page-locked host
+  // messages (MPI) and, where every rank has a GPU of its own, device messages over NCCL.
+  struct Way {
+    exec::Backend backend;
+    comm::Transport* transport;
+    bool device_messages;
+  };
+  std::vector<Way> ways{{exec::Backend::Cpu, t.get(), false}};
+  std::unique_ptr<comm::Transport> nccl;
+  if (exec::cuda_available()) {
+    ways.push_back({exec::Backend::Cuda, t.get(), false});
+    nccl = comm::make_transport(mpi, comm::TransportKind::Auto, comm::MemorySpace::Device);
+    if (nccl->name() == std::string_view("nccl"))
+      ways.push_back({exec::Backend::Cuda, nccl.get(), true});
+  }
+  for (const Way& way : ways) {
+    const exec::Backend b = way.backend;
+    const std::string name =
+        std::string(exec::to_string(b)) + (way.device_messages ? " over nccl" : "");
+    SCOPED_TRACE(name);
     // The reference: the host's copier on host vectors.
     comm::HaloExchange host(*t, gl.peers, gl.send);
     const std::size_t ng = host.received();
@@ -252,8 +269,8 @@ TEST_F(Halo, DeviceRowsMoveTheSameBytesAsTheHost) {
     hx.resize(n + ng, Vec3d{std::nan(""), 0, 0});
     hid.resize(n + ng, ~0ull);
     // The same on the backend's buffers, poisoned where the ghosts go.
-    DeviceRows rows(b);
-    comm::HaloExchange dev(*t, gl.peers, gl.send, rows);
+    DeviceRows rows(b, way.device_messages);
+    comm::HaloExchange dev(*way.transport, gl.peers, gl.send, rows);
     exec::DeviceBuffer<Vec3d> dx(b, 0, "test.x");
     exec::DeviceBuffer<std::uint64_t> did(b, 0, "test.id");
     dx.assign(hx);
@@ -299,13 +316,13 @@ TEST_F(Halo, DeviceRowsMoveTheSameBytesAsTheHost) {
     dx.assign(mine.x);
     did.assign(mine.id);
     auto dcols = ExchangeColumns::of(dx, did).migration;
-    const std::size_t nd = comm::migrate(*t, peers, dest, dcols, rows);
+    const std::size_t nd = comm::migrate(*way.transport, peers, dest, dcols, rows);
     ASSERT_EQ(nh, nd);
     EXPECT_EQ(bytes_of(dx.to_host()), bx);
     EXPECT_EQ(bytes_of(did.to_host()), bid);
     EXPECT_EQ(all_ids(from_bytes<std::uint64_t>(bid)), std::vector<std::uint64_t>(all.id));
     if (mpi.root())
-      std::printf("%s: %zu ghosts, %zu after migration, same bytes as the host's\n",
-                  std::string(exec::to_string(b)).c_str(), ng, nd);
+      std::printf("%s: %zu ghosts, %zu after migration, same bytes as the host's\n", name.c_str(),
+                  ng, nd);
   }
 }
