@@ -189,8 +189,13 @@ std::string nccl_unusable(const MpiContext& ctx, int& device) {
   // NCCL itself compares when it refuses two ranks on one device. Where every rank sees every
   // device this is the same as "node-local ranks <= device count".
   std::array<char, 32> bus{};
+  // The device this process already uses (knitflow and the tests choose local rank % count):
+  // the transport must not move the process to another one under its buffers.
+  if (count > 0 && cudaGetDevice(&device) != cudaSuccess) {
+    (void)cudaGetLastError();
+    count = 0;
+  }
   if (count > 0) {
-    device = ctx.local_rank() % count;
     if (cudaDeviceGetPCIBusId(bus.data(), int(bus.size()), device) != cudaSuccess) {
       (void)cudaGetLastError();
       bus.fill(0);

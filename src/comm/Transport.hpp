@@ -108,7 +108,8 @@ std::string mpi_error_string(int rc);
 /// otherwise, whose buffers are host memory (staging device data is the caller's job). Every rank
 /// makes the same choice. Nccl where it cannot work is a kf::Error saying why.
 /// `stream`: the CUDA stream NCCL work is queued on (null: the legacy default stream); unused by
-/// MPI. Rank -> GPU is local_rank % device count.
+/// MPI. NCCL runs on the device the process already uses (knitflow selects local rank % device
+/// count at start).
 std::unique_ptr<Transport> make_transport(const MpiContext& ctx, TransportKind kind,
                                           MemorySpace data, CUstream_st* stream = nullptr);
 

@@ -1,5 +1,9 @@
 // gtest main for every knitflow test: initialises MPI (snapshots are written through MPI-IO even
-// on one rank) and lets only rank 0 print, so mpiexec -n 2 output stays readable.
+// on one rank), gives each rank its GPU as knitflow does (local rank % devices; a no-op without
+// CUDA) and lets only rank 0 print, so mpiexec -n 2 output stays readable.
+#include "comm/MpiContext.hpp"
+#include "kernels/exec/Backend.hpp"
+
 #include <gtest/gtest.h>
 #include <mpi.h>
 
@@ -8,6 +12,10 @@ int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);
   int rank = 0;
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  {
+    const kf::comm::MpiContext mpi;
+    kf::exec::cuda_select_device(mpi.local_rank());
+  }
   if (rank != 0) {
     auto& listeners = ::testing::UnitTest::GetInstance()->listeners();
     delete listeners.Release(listeners.default_result_printer());
