@@ -5,11 +5,12 @@
 #include "core/Error.hpp"
 #include "domain/Decomposition.hpp"
 
+#include "support/RandomPoints.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdio>
-#include <random>
 #include <set>
 #include <vector>
 
@@ -26,16 +27,7 @@ Counts count_points(const BlockGrid& g, const std::vector<Vec3d>& x, Phase p) {
   return c;
 }
 
-std::vector<Vec3d> uniform_points(std::size_t n, const Vec3d& lo, const Vec3d& hi,
-                                  std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::vector<Vec3d> x(n);
-  for (auto& q : x)
-    q = {lo.x + u(rng) * (hi.x - lo.x), lo.y + u(rng) * (hi.y - lo.y),
-         lo.z + u(rng) * (hi.z - lo.z)};
-  return x;
-}
+using test::uniform_points;
 
 } // namespace
 

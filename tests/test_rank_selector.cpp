@@ -7,10 +7,11 @@
 #include "domain/GhostSelection.hpp"
 #include "domain/RankSelector.hpp"
 
+#include "support/RandomPoints.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
-#include <random>
 #include <vector>
 
 using namespace kf;
@@ -24,16 +25,7 @@ std::vector<exec::Backend> backends() {
   return b;
 }
 
-std::vector<Vec3d> uniform_points(std::size_t n, const Vec3d& lo, const Vec3d& hi,
-                                  std::uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::vector<Vec3d> x(n);
-  for (auto& q : x)
-    q = {lo.x + u(rng) * (hi.x - lo.x), lo.y + u(rng) * (hi.y - lo.y),
-         lo.z + u(rng) * (hi.z - lo.z)};
-  return x;
-}
+using test::uniform_points;
 
 Decomposition split(const BlockGrid& g, const std::vector<Vec3d>& x, int ranks) {
   std::vector<std::array<double, kPhases>> c(g.count(), {0, 0, 0});
