@@ -10,10 +10,12 @@ namespace kf::comm {
 
 HaloExchange::HaloExchange(Transport& transport, std::vector<int> peers,
                            std::vector<std::vector<std::uint32_t>> send, RowCopier& rows)
-    : transport_(transport), rows_(rows), peers_(std::move(peers)), send_(std::move(send)) {
-  if (send_.size() != peers_.size())
-    throw Error("halo exchange: " + std::to_string(send_.size()) + " send lists for " +
+    : transport_(transport), rows_(rows), peers_(std::move(peers)) {
+  if (send.size() != peers_.size())
+    throw Error("halo exchange: " + std::to_string(send.size()) + " send lists for " +
                 std::to_string(peers_.size()) + " peers");
+  for (auto& list : send)
+    send_.emplace_back(std::move(list));
   // Counts of particles, not bytes: the columns are chosen per refresh.
   std::vector<std::uint64_t> counts(peers_.size());
   for (std::size_t k = 0; k < peers_.size(); ++k)
@@ -58,10 +60,10 @@ void HaloExchange::finish() {
   transport_.finish();
   for (std::size_t k = 0; k < peers_.size(); ++k) {
     const std::size_t n = recv_count_[k];
-    if (recv_slot_.empty())
+    if (recv_slot_.size() == 0)
       rows_.put(pending_, pending_first_ + recv_offset_[k], n, in_[k]);
     else
-      rows_.scatter(pending_, {recv_slot_.data() + recv_offset_[k], n}, in_[k]);
+      rows_.scatter(pending_, recv_slot_, recv_offset_[k], n, in_[k]);
   }
   pending_.clear();
 }
@@ -71,20 +73,21 @@ void HaloExchange::remap(Column new_of_old, std::size_t first_ghost) {
     throw Error("halo exchange: a remap needs a column of 32-bit indices");
   const Column map[] = {new_of_old};
   for (auto& list : send_)
-    if (!list.empty()) {
+    if (list.size() > 0) {
       std::vector<std::uint32_t> moved(list.size());
-      rows_.gather_to_host(map, list, reinterpret_cast<unsigned char*>(moved.data()));
-      list = std::move(moved);
+      rows_.gather_to_host(map, list.rows, reinterpret_cast<unsigned char*>(moved.data()));
+      list.set(std::move(moved));
     }
-  std::vector<std::uint32_t> at = recv_slot_;
+  std::vector<std::uint32_t> at = recv_slot_.rows;
   if (at.empty()) {
     at.resize(recv_total_);
     for (std::size_t k = 0; k < recv_total_; ++k)
       at[k] = static_cast<std::uint32_t>(first_ghost + k);
   }
-  recv_slot_.resize(recv_total_);
+  std::vector<std::uint32_t> slots(recv_total_);
   if (recv_total_)
-    rows_.gather_to_host(map, at, reinterpret_cast<unsigned char*>(recv_slot_.data()));
+    rows_.gather_to_host(map, at, reinterpret_cast<unsigned char*>(slots.data()));
+  recv_slot_.set(std::move(slots));
 }
 
 Departures Departures::of(std::span<const int> destination, int me) {

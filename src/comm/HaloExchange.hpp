@@ -55,11 +55,11 @@ private:
   Transport& transport_;
   RowCopier& rows_;
   std::vector<int> peers_;
-  std::vector<std::vector<std::uint32_t>> send_;
+  std::vector<RowList> send_;
   std::vector<std::size_t> recv_count_, recv_offset_;
   std::size_t recv_total_ = 0;
-  std::vector<std::uint32_t> recv_slot_; // empty: contiguous from first_ghost
-  std::vector<unsigned char*> in_;       // the copier's messages, between start and finish
+  RowList recv_slot_;              // empty: contiguous from first_ghost
+  std::vector<unsigned char*> in_; // the copier's messages, between start and finish
   std::vector<Column> pending_;
   std::size_t pending_first_ = 0, last_bytes_ = 0;
 };

@@ -79,6 +79,15 @@ void RowCopier::gather(std::span<const Column> cols, std::span<const std::uint32
   const AddTime t{seconds_};
   do_gather(cols, rows, out);
 }
+void RowCopier::gather(std::span<const Column> cols, const RowList& list, unsigned char* out) {
+  const AddTime t{seconds_};
+  do_gather_list(cols, list, out);
+}
+void RowCopier::scatter(std::span<const Column> cols, const RowList& list, std::size_t first,
+                        std::size_t n, const unsigned char* in) {
+  const AddTime t{seconds_};
+  do_scatter_list(cols, list, first, n, in);
+}
 void RowCopier::gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                                unsigned char* out) {
   const AddTime t{seconds_};

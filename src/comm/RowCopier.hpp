@@ -5,6 +5,7 @@
 // no physics: columns are bytes.
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -14,6 +15,21 @@ namespace kf::comm {
 struct Column {
   void* data = nullptr;
   std::size_t elem_bytes = 0;
+};
+
+/// A list of rows used over many calls (a halo's send list, its ghosts' slots): a copier may
+/// keep its own copy in `cache` (a device copier: the list uploaded once, not at every refresh).
+/// Change the rows only through set(), which drops the copy.
+struct RowList {
+  std::vector<std::uint32_t> rows;
+  mutable std::shared_ptr<void> cache;
+  RowList() = default;
+  explicit RowList(std::vector<std::uint32_t> r) : rows(std::move(r)) {}
+  void set(std::vector<std::uint32_t> r) {
+    rows = std::move(r);
+    cache.reset();
+  }
+  std::size_t size() const { return rows.size(); }
 };
 
 /// Packed buffers (messages) are host memory, or device memory where a device copier feeds a
@@ -26,6 +42,10 @@ public:
   /// out <- the rows `rows` of each column in turn.
   void gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
               unsigned char* out);
+  /// gather and scatter over rows first .. first + n - 1 of a kept list.
+  void gather(std::span<const Column> cols, const RowList& list, unsigned char* out);
+  void scatter(std::span<const Column> cols, const RowList& list, std::size_t first, std::size_t n,
+               const unsigned char* in);
   /// The same into host memory, whatever memory the messages live in (lists of indices that the
   /// host keeps).
   void gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
@@ -57,6 +77,14 @@ protected:
   virtual void do_remove(std::span<const Column> cols, std::size_t n,
                          std::span<const std::uint32_t> gone);
   virtual unsigned char* do_message(std::size_t slot, std::size_t bytes);
+  virtual void do_gather_list(std::span<const Column> cols, const RowList& list,
+                              unsigned char* out) {
+    do_gather(cols, list.rows, out);
+  }
+  virtual void do_scatter_list(std::span<const Column> cols, const RowList& list, std::size_t first,
+                               std::size_t n, const unsigned char* in) {
+    do_scatter(cols, std::span<const std::uint32_t>(list.rows).subspan(first, n), in);
+  }
   virtual void do_gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                                  unsigned char* out) {
     do_gather(cols, rows, out);

@@ -12,43 +12,18 @@ DeviceRows::DeviceRows(exec::Backend backend, bool device_messages)
       flags_(backend, 0, "ranks.flags"), offsets_(backend, 0, "ranks.offsets"),
       keep_(backend, 0, "ranks.keep"), packed_(backend, 0, "ranks.packed") {}
 
-void DeviceRows::pack(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+void DeviceRows::pack(std::span<const comm::Column> cols, const std::uint32_t* rows, std::size_t n,
                       unsigned char* dst) {
-  const std::size_t n = rows.size();
-  rows_.assign(rows.data(), n);
   std::size_t at = 0;
   for (const comm::Column& c : cols) {
-    exec::gather_rows({backend_}, dst + at, c.data, rows_.data(), n, c.elem_bytes, "ranks.pack");
+    exec::gather_rows({backend_}, dst + at, c.data, rows, n, c.elem_bytes, "ranks.pack");
     at += n * c.elem_bytes;
   }
 }
 
-void DeviceRows::do_gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                           unsigned char* out) {
-  if (device_messages_) {
-    if (!rows.empty())
-      pack(cols, rows, out);
-    return;
-  }
-  do_gather_to_host(cols, rows, out);
-}
-
-void DeviceRows::do_gather_to_host(std::span<const comm::Column> cols,
-                                   std::span<const std::uint32_t> rows, unsigned char* out) {
-  const std::size_t bytes = rows.size() * comm::row_bytes(cols);
-  if (bytes == 0)
-    return;
-  packed_.resize(bytes);
-  pack(cols, rows, packed_.data());
-  exec::copy_bytes(out, exec::Backend::Cpu, packed_.data(), backend_, bytes);
-}
-
-void DeviceRows::do_scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                            const unsigned char* in) {
-  const std::size_t n = rows.size(), bytes = n * comm::row_bytes(cols);
-  if (bytes == 0)
-    return;
-  rows_.assign(rows.data(), n);
+void DeviceRows::unpack(std::span<const comm::Column> cols, const std::uint32_t* rows,
+                        std::size_t n, const unsigned char* in) {
+  const std::size_t bytes = n * comm::row_bytes(cols);
   const unsigned char* src = in;
   if (!device_messages_) {
     packed_.assign(in, bytes);
@@ -56,9 +31,71 @@ void DeviceRows::do_scatter(std::span<const comm::Column> cols, std::span<const 
   }
   std::size_t at = 0;
   for (const comm::Column& c : cols) {
-    exec::scatter_rows({backend_}, c.data, rows_.data(), src + at, n, c.elem_bytes, "ranks.unpack");
+    exec::scatter_rows({backend_}, c.data, rows, src + at, n, c.elem_bytes, "ranks.unpack");
     at += n * c.elem_bytes;
   }
+}
+
+const std::uint32_t* DeviceRows::device_list(const comm::RowList& list) {
+  if (!list.cache) {
+    auto copy = std::make_shared<exec::DeviceBuffer<std::uint32_t>>(backend_, 0, "ranks.list");
+    copy->assign(list.rows);
+    list.cache = copy;
+  }
+  return static_cast<const exec::DeviceBuffer<std::uint32_t>*>(list.cache.get())->data();
+}
+
+void DeviceRows::do_gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+                           unsigned char* out) {
+  if (!device_messages_) {
+    do_gather_to_host(cols, rows, out);
+    return;
+  }
+  if (rows.empty())
+    return;
+  rows_.assign(rows.data(), rows.size());
+  pack(cols, rows_.data(), rows.size(), out);
+}
+
+void DeviceRows::do_gather_list(std::span<const comm::Column> cols, const comm::RowList& list,
+                                unsigned char* out) {
+  const std::size_t n = list.size(), bytes = n * comm::row_bytes(cols);
+  if (bytes == 0)
+    return;
+  const std::uint32_t* rows = device_list(list);
+  if (device_messages_) {
+    pack(cols, rows, n, out);
+    return;
+  }
+  packed_.resize(bytes);
+  pack(cols, rows, n, packed_.data());
+  exec::copy_bytes(out, exec::Backend::Cpu, packed_.data(), backend_, bytes);
+}
+
+void DeviceRows::do_gather_to_host(std::span<const comm::Column> cols,
+                                   std::span<const std::uint32_t> rows, unsigned char* out) {
+  const std::size_t bytes = rows.size() * comm::row_bytes(cols);
+  if (bytes == 0)
+    return;
+  rows_.assign(rows.data(), rows.size());
+  packed_.resize(bytes);
+  pack(cols, rows_.data(), rows.size(), packed_.data());
+  exec::copy_bytes(out, exec::Backend::Cpu, packed_.data(), backend_, bytes);
+}
+
+void DeviceRows::do_scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+                            const unsigned char* in) {
+  if (rows.empty() || comm::row_bytes(cols) == 0)
+    return;
+  rows_.assign(rows.data(), rows.size());
+  unpack(cols, rows_.data(), rows.size(), in);
+}
+
+void DeviceRows::do_scatter_list(std::span<const comm::Column> cols, const comm::RowList& list,
+                                 std::size_t first, std::size_t n, const unsigned char* in) {
+  if (n == 0 || comm::row_bytes(cols) == 0)
+    return;
+  unpack(cols, device_list(list) + first, n, in);
 }
 
 void DeviceRows::do_put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,

@@ -29,13 +29,22 @@ protected:
   unsigned char* do_message(std::size_t slot, std::size_t bytes) override;
   void do_gather_to_host(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
                          unsigned char* out) override;
+  void do_gather_list(std::span<const comm::Column> cols, const comm::RowList& list,
+                      unsigned char* out) override;
+  void do_scatter_list(std::span<const comm::Column> cols, const comm::RowList& list,
+                       std::size_t first, std::size_t n, const unsigned char* in) override;
 
 private:
   exec::Backend backend_;
   bool device_messages_ = false;
-  /// Packs the rows into dst (device memory).
-  void pack(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
+  /// Packs the n rows listed at `rows` (device memory) into dst (device memory).
+  void pack(std::span<const comm::Column> cols, const std::uint32_t* rows, std::size_t n,
             unsigned char* dst);
+  /// The n rows listed at `rows` (device memory) <- in (host or device memory, as messages are).
+  void unpack(std::span<const comm::Column> cols, const std::uint32_t* rows, std::size_t n,
+              const unsigned char* in);
+  /// A kept list's rows in device memory, uploaded at its first use.
+  const std::uint32_t* device_list(const comm::RowList& list);
   std::vector<exec::DeviceBuffer<unsigned char>> device_messages_slots_;
   exec::DeviceBuffer<std::uint32_t> rows_, flags_, offsets_, keep_;
   exec::DeviceBuffer<unsigned char> packed_;
