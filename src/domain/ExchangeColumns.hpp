@@ -2,7 +2,8 @@
 // How the split's exchanges see a particle set's buffers (RankExchange, KnitHalo): as columns of
 // bytes that a halo refresh writes into, or that a migration resizes in place (on the buffers'
 // backend: a device backend's are read and written through DeviceRows), and as host values
-// where the split decides on the host (owners, ghosts).
+// where the split still decides on the host (the start, re-partitions, the knit's ghosts; a
+// rebuild's owners and ghosts are chosen on the backend: RankSelector).
 #include "comm/HaloExchange.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
 
