@@ -16,8 +16,9 @@ void RowCopier::do_gather(std::span<const Column> cols, std::span<const std::uin
   }
 }
 
-void RowCopier::do_scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                           const unsigned char* in) {
+void RowCopier::do_scatter_list(std::span<const Column> cols, const RowList& list,
+                                std::size_t first, std::size_t n, const unsigned char* in) {
+  const std::span<const std::uint32_t> rows(list.rows.data() + first, n);
   for (const Column& c : cols) {
     auto* dst = static_cast<unsigned char*>(c.data);
     for (std::uint32_t i : rows) {
@@ -92,11 +93,6 @@ void RowCopier::gather_to_host(std::span<const Column> cols, std::span<const std
                                unsigned char* out) {
   const AddTime t{seconds_};
   do_gather_to_host(cols, rows, out);
-}
-void RowCopier::scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                        const unsigned char* in) {
-  const AddTime t{seconds_};
-  do_scatter(cols, rows, in);
 }
 void RowCopier::put(std::span<const Column> cols, std::size_t first, std::size_t n,
                     const unsigned char* in) {

@@ -42,7 +42,8 @@ public:
   /// out <- the rows `rows` of each column in turn.
   void gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
               unsigned char* out);
-  /// gather and scatter over rows first .. first + n - 1 of a kept list.
+  /// gather over a kept list; scatter: its rows first .. first + n - 1 of each column <- in,
+  /// packed as gather packs.
   void gather(std::span<const Column> cols, const RowList& list, unsigned char* out);
   void scatter(std::span<const Column> cols, const RowList& list, std::size_t first, std::size_t n,
                const unsigned char* in);
@@ -50,9 +51,6 @@ public:
   /// host keeps).
   void gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                       unsigned char* out);
-  /// The rows `rows` of each column <- in, packed as gather packs.
-  void scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-               const unsigned char* in);
   /// Rows first .. first + n - 1 of each column <- in, packed as gather packs.
   void put(std::span<const Column> cols, std::size_t first, std::size_t n, const unsigned char* in);
   /// Of rows 0 .. n - 1 of each column, the rows `gone` (ascending) are removed and the others
@@ -70,8 +68,6 @@ protected:
   // The host's memcpy.
   virtual void do_gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                          unsigned char* out);
-  virtual void do_scatter(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                          const unsigned char* in);
   virtual void do_put(std::span<const Column> cols, std::size_t first, std::size_t n,
                       const unsigned char* in);
   virtual void do_remove(std::span<const Column> cols, std::size_t n,
@@ -82,9 +78,7 @@ protected:
     do_gather(cols, list.rows, out);
   }
   virtual void do_scatter_list(std::span<const Column> cols, const RowList& list, std::size_t first,
-                               std::size_t n, const unsigned char* in) {
-    do_scatter(cols, std::span<const std::uint32_t>(list.rows).subspan(first, n), in);
-  }
+                               std::size_t n, const unsigned char* in);
   virtual void do_gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                                  unsigned char* out) {
     do_gather(cols, rows, out);

@@ -83,14 +83,6 @@ void DeviceRows::do_gather_to_host(std::span<const comm::Column> cols,
   exec::copy_bytes(out, exec::Backend::Cpu, packed_.data(), backend_, bytes);
 }
 
-void DeviceRows::do_scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                            const unsigned char* in) {
-  if (rows.empty() || comm::row_bytes(cols) == 0)
-    return;
-  rows_.assign(rows.data(), rows.size());
-  unpack(cols, rows_.data(), rows.size(), in);
-}
-
 void DeviceRows::do_scatter_list(std::span<const comm::Column> cols, const comm::RowList& list,
                                  std::size_t first, std::size_t n, const unsigned char* in) {
   if (n == 0 || comm::row_bytes(cols) == 0)

@@ -20,8 +20,6 @@ public:
 protected:
   void do_gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
                  unsigned char* out) override;
-  void do_scatter(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                  const unsigned char* in) override;
   void do_put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
               const unsigned char* in) override;
   void do_remove(std::span<const comm::Column> cols, std::size_t n,

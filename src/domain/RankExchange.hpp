@@ -76,10 +76,9 @@ public:
   void refresh_boundary(BoundarySet<T>& boundary);
   /// After the forces pass: only the owned fluid stays.
   void drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid);
-  /// Ghosts that outlive the forces pass take their owners' velocities, accelerations and
-  /// densities: with the knit coupled after the kick (the coupling reads the fluid around each
-  /// knit point before the next drift); with "verlet" lists after the forces pass, so that the
-  /// kick and the drift then move each ghost exactly as its owner moves it.
+  /// With the knit coupled, after the kick: the ghosts' velocities, accelerations and densities
+  /// from their owners (the coupling reads the fluid around each knit point before the next
+  /// drift).
   void refresh_motion(FluidSet<T>& fluid);
   /// With "verlet" lists, after the forces pass: what it wrote (a; under continuity also rho,
   /// drho and drho_prev) from the owners, so that the kick and the drift then move each ghost

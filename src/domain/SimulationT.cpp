@@ -321,20 +321,20 @@ private:
     if (ranks_ && coupling_on_ && !ranks_->keeps_ghosts())
       ranks_->drop_ghosts(ex_, *fluid_);
   }
-  /// After the fluid's drift on N ranks with the knit coupled and the ghosts kept: the coupling's
-  /// impulse on a ghost is not its owner's, so the ghosts take their owners' positions and
-  /// velocities.
   /// On N ranks with ghosts kept over steps, 1 for the owned fluid and 0 for the ghosts (on the
   /// backend); else null.
   const std::uint32_t* kept_ghosts_flags() const {
     return ranks_ && ranks_->keeps_ghosts() ? ranks_->owned_flags() : nullptr;
   }
+  /// After the fluid's drift on N ranks with the knit coupled and the ghosts kept: the coupling's
+  /// impulse on a ghost is not its owner's, so the ghosts take their owners' positions and
+  /// velocities.
   void after_drift() {
     if (ranks_ && coupling_on_ && ranks_->keeps_ghosts())
       ranks_->refresh_positions(*fluid_);
   }
-  /// The fluid rows this rank writes and counts: all, or on N ranks with the knit coupled
-  /// (ghosts kept between steps) the owned ones.
+  /// The fluid rows this rank writes and counts: all, or on N ranks with ghosts kept between
+  /// steps (the knit coupled, or "verlet" lists) the owned ones.
   std::vector<std::uint8_t> fluid_owned_rows() const {
     std::vector<std::uint8_t> m(fluid_->size(), 1);
     if (ranks_ && fluid_->size() != ranks_->fluid_owned_count()) {
