@@ -65,8 +65,13 @@ double KnitHalo<T>::base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* 
 template <typename T>
 ExchangeColumns KnitHalo<T>::state() {
   auto& s = knit_.set();
-  return ExchangeColumns::of(s.x, s.v, s.a, s.x_rest, s.m, s.handle, s.layer, s.piece, s.id,
-                             self_ref_.x0, coupling_ref_.x0);
+  auto c = ExchangeColumns::of(s.x, s.v, s.a, s.x_rest, s.m, s.handle, s.layer, s.piece, s.id,
+                               self_ref_.x0, coupling_ref_.x0);
+  for (auto* b : carried_) {
+    c.halo.push_back(column(*b));
+    c.migration.push_back(resizable(*b));
+  }
+  return c;
 }
 
 template <typename T>
@@ -184,6 +189,12 @@ void KnitHalo<T>::rebuild() {
   std::sort(order.begin(), order.end(), [&](auto a, auto b) { return ids[a] < ids[b]; });
   by_id_.assign(order);
   knit_.localize(ids, owned_);
+  std::vector<std::uint32_t> local(mesh_points_, kAbsent);
+  for (std::size_t k = 0; k < ids.size(); ++k)
+    local[ids[k]] = static_cast<std::uint32_t>(k);
+  local_of_id_.assign(local);
+  if (localized_)
+    localized_(ids, owned_);
   if (knit_.self_collision())
     knit_.restore_self_contact(self_ref_.state(set.size()));
   if (coupling_) {
@@ -197,6 +208,8 @@ void KnitHalo<T>::resize(std::size_t n) {
   knit_.set().resize(n);
   self_ref_.x0.resize(n);
   coupling_ref_.x0.resize(n);
+  for (auto* b : carried_)
+    b->resize(n);
 }
 
 template <typename T>

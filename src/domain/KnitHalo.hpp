@@ -56,14 +56,36 @@ public:
   void refresh();
   /// Between steps (diagnostics; collective): the ghosts chosen last, refreshed (chosen first
   /// when there are none), so that values kept per local point stay valid.
+  /// After a re-partition the ghosts chosen last still serve (the points stay with their owners
+  /// until the next step's choice), and the values kept per local point (the coupling's
+  /// saturation) stay in their places.
   void current() {
-    if (!built_ || ranks_.repartitions() != repartitions_seen_)
+    if (!built_)
       begin(0.0);
     else
       refresh();
   }
   /// Ghost values of per-point columns (the set's order) from their owners.
   void refresh(std::span<const comm::Column> columns);
+  /// Ghosts present for the blocks' current owners (chosen when there are none or after a
+  /// re-partition; collective), without the motion check of begin().
+  void ready() {
+    if (!built_ || ranks_.repartitions() != repartitions_seen_)
+      begin(0.0);
+  }
+
+  /// Per-point state of another stage that travels with the points (migrated, copied to the
+  /// ghosts): the conserving absorption's masses. Before distribute(). localized(ids, owned)
+  /// follows each choice of ghosts, as KnitSystem::localize does.
+  using Localized = std::function<void(const std::vector<std::uint64_t>&, std::size_t)>;
+  void carry(std::vector<exec::DeviceBuffer<T>*> columns, Localized localized) {
+    carried_ = std::move(columns);
+    localized_ = std::move(localized);
+  }
+  /// Each knit id's local index (kAbsent where the point is neither owned nor a ghost here),
+  /// valid from one choice of ghosts to the next.
+  static constexpr std::uint32_t kAbsent = 0xFFFFFFFFu;
+  const exec::DeviceBuffer<std::uint32_t>& local_of_id() const { return local_of_id_; }
 
   /// The self-contact's state over the owned points (snapshots; collective): reference
   /// positions, the job's recorded motion, the host's bound.
@@ -127,6 +149,9 @@ private:
   exec::DeviceBuffer<std::uint32_t> by_id_{exec::Backend::Cpu, 0, "knit.halo.by_id"};
   std::optional<comm::HaloExchange> halo_;
   std::vector<std::int64_t> local_; // mesh index -> local index (-1: not here)
+  exec::DeviceBuffer<std::uint32_t> local_of_id_{exec::Backend::Cpu, 0, "knit.halo.local"};
+  std::vector<exec::DeviceBuffer<T>*> carried_;
+  Localized localized_;
   // Per mesh point, its partners (springs and volume cells), compressed rows.
   std::vector<std::uint32_t> partner_start_, partner_;
 };

@@ -49,15 +49,11 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
       keep_(backend, 0, "ranks.owned"), inverse_(backend, 0, "ranks.inverse") {
   const auto refuse = [&](const std::string& what) {
     throw Error("on " + std::to_string(mpi.size()) +
-                " ranks knitflow runs fluid, static boundaries, the knit and their coupling "
-                "(the paper's model; the knit on the CPU backend) so far (the conserving "
-                "absorption, moving solids and the knit on the GPU join in later stages of P5); "
-                "this run has " +
+                " ranks knitflow runs fluid, static boundaries, the knit (on the CPU backend) and "
+                "their coupling so far (moving solids and the knit on the GPU join in later "
+                "stages of P5); this run has " +
                 what + ": run it on one rank");
   };
-  if (scene.has(Module::Knit) && scene.has(Module::Fluid) && scene.has(Module::Capillary) &&
-      scene.capillary.model == Scene::AbsorptionModel::Conserving)
-    refuse("the conserving absorption (capillary.model = \"conserving\")");
   for (const auto& o : scene.obstacles)
     if (o.velocity.x != 0 || o.velocity.y != 0 || o.velocity.z != 0)
       refuse("a moving obstacle ('" + o.name + "')");
@@ -369,6 +365,32 @@ void RankExchange<T>::refresh_positions(FluidSet<T>& fluid) {
     return;
   const comm::Column cols[] = {column(fluid.x), column(fluid.v)};
   fluid_halo_->exchange(cols, fluid_owned_);
+}
+
+template <typename T>
+void RankExchange<T>::refresh(std::span<const comm::Column> columns) {
+  const Timed timed{exchange_seconds_}, part{parts_.refresh};
+  if (!fluid_halo_)
+    return;
+  fluid_halo_->exchange(columns, fluid_owned_);
+}
+
+template <typename T>
+void RankExchange<T>::remove(const exec::Exec& ex, FluidSet<T>& fluid,
+                             const exec::DeviceBuffer<std::uint32_t>& keep) {
+  const Timed timed{exchange_seconds_}, part{parts_.refresh};
+  fluid.keep_flagged(ex, keep);
+  fluid_owned_ = fluid.size();
+  all_owned();
+  fluid_halo_.reset();
+}
+
+template <typename T>
+void RankExchange<T>::appended(const FluidSet<T>& fluid) {
+  if (fluid_halo_)
+    throw Error("rank exchange: particles appended to the fluid while it holds ghosts");
+  fluid_owned_ = fluid.size();
+  all_owned();
 }
 
 template <typename T>

@@ -29,8 +29,8 @@ namespace kf {
 template <typename T>
 class RankExchange {
 public:
-  /// Refuses (kf::Error) what the split does not carry yet: the conserving absorption, moving
-  /// solids, the knit on the GPU backend.
+  /// Refuses (kf::Error) what the split does not carry yet: moving solids, the knit on the GPU
+  /// backend.
   /// knit_width: the knit's ghost width (KnitHalo::base_width; 0 without knit), the blocks'
   /// scale where there is no fluid.
   /// coupling_reach: how far the knit-fluid coupling reaches (0 without): the fluid's ghosts
@@ -87,6 +87,15 @@ public:
   /// Kept ghosts' positions and velocities from their owners (after a drift that moved a ghost
   /// otherwise than its owner).
   void refresh_positions(FluidSet<T>& fluid);
+  /// The ghosts' rows of further columns (the set's order) from their owners.
+  void refresh(std::span<const comm::Column> columns);
+  /// Keeps the owned fluid flagged 1 in keep (the set's order; ghosts flagged 0): the ghosts go
+  /// with the rest (sort the fluid after, collectively).
+  void remove(const exec::Exec& ex, FluidSet<T>& fluid,
+              const exec::DeviceBuffer<std::uint32_t>& keep);
+  /// After particles were appended to the fluid holding only the owned (drop_ghosts): they are
+  /// this rank's until the next sort sends them to their owners.
+  void appended(const FluidSet<T>& fluid);
   /// 1 for the fluid this rank owns, 0 for its ghosts, in the set's order (a copy to the host:
   /// for the output's cadence).
   std::vector<std::uint32_t> fluid_owned() const { return keep_.to_host(); }

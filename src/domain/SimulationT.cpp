@@ -1,5 +1,6 @@
 // SimulationT<T>: the fluid + boundary pipeline of P1 in precision T on one backend.
 #include "core/Error.hpp"
+#include "domain/AbsorptionRanks.hpp"
 #include "domain/FrameFields.hpp"
 #include "domain/KnitBuilder.hpp"
 #include "domain/KnitHalo.hpp"
@@ -380,7 +381,8 @@ private:
   }
   // The job's split in space (more than one rank): migration, ghosts and their refreshes.
   std::optional<RankExchange<T>> ranks_;
-  std::optional<KnitHalo<T>> knit_halo_; // the knit's share and ghosts on N ranks
+  std::optional<KnitHalo<T>> knit_halo_;               // the knit's share and ghosts on N ranks
+  std::optional<AbsorptionRanks<T>> absorption_ranks_; // the conserving absorption on N ranks
   /// f() with the knit's ghosts present and current on N ranks (a pass that reads partners).
   template <typename F>
   void with_knit_ghosts(F&& f) {
@@ -467,6 +469,8 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
                        all_knit_positions());
     if (knit_) {
       knit_halo_.emplace(*ranks_, *knit_, coupling_ ? &*coupling_ : nullptr, knit_skin);
+      if (absorption_)
+        absorption_ranks_.emplace(*ranks_, *knit_halo_, *knit_, *absorption_);
       knit_halo_->distribute();
     }
   }
@@ -629,17 +633,40 @@ void SimulationT<T>::build_pipeline() {
         "fluid particles touching an unsaturated knit point join its absorbed mass "
         "(mass and momentum kept; the particles are removed)",
         [this] {
-          if (absorption_->absorb(ex_, knit_->set(), *fluid_, fluid_grid_->view(), *coupling_))
+          if (absorption_ranks_) {
+            const auto split = absorption_ranks_->split(ex_, *fluid_);
+            const auto got = absorption_->absorb(ex_, knit_->set(), *fluid_, fluid_grid_->view(),
+                                                 *coupling_, &split);
+            if (absorption_ranks_->settle(ex_, *fluid_, got))
+              sort_fluid();
+          } else if (absorption_
+                         ->absorb(ex_, knit_->set(), *fluid_, fluid_grid_->view(), *coupling_)
+                         .removed) {
             sort_fluid();
+          }
         });
     pipeline_.add("capillary.diffuse", "capillary",
                   "absorbed fluid moves between neighbouring knit points (Darcy: capillary "
                   "suction and gravity)",
-                  [this] { absorption_->diffuse(ex_, knit_->set(), dt_); });
+                  [this] {
+                    if (absorption_ranks_) {
+                      const auto split = absorption_ranks_->split(ex_, *fluid_);
+                      absorption_->diffuse(ex_, knit_->set(), dt_, &split);
+                    } else {
+                      absorption_->diffuse(ex_, knit_->set(), dt_);
+                    }
+                  });
     pipeline_.add("capillary.emit", "capillary",
                   "oversaturated knit points emit drops (fluid particles)", [this] {
-                    if (absorption_->emit(ex_, knit_->set(), *fluid_, next_fluid_id_))
+                    if (absorption_ranks_) {
+                      const auto split = absorption_ranks_->split(ex_, *fluid_);
+                      if (absorption_->emit(ex_, knit_->set(), *fluid_, next_fluid_id_, &split)) {
+                        absorption_ranks_->appended(*fluid_);
+                        sort_fluid();
+                      }
+                    } else if (absorption_->emit(ex_, knit_->set(), *fluid_, next_fluid_id_)) {
                       sort_fluid();
+                    }
                   });
   }
   if (coupling_on_)
@@ -1290,6 +1317,13 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     knit_phase = *p;
     rows_by_id(*knit_phase); // in mesh order, whatever rank count wrote it
     knit_->restore(*knit_phase);
+    if (absorption_) { // the whole knit's, before N ranks share the points out again
+      const io::Field* a = knit_phase->find("fluid_mass");
+      if (!a)
+        throw Error("restart: the snapshot's knit has no fluid_mass but the scene absorbs fluid "
+                    "(capillary.model = \"conserving\")");
+      absorption_->restore(ex_, knit_->set(), a->as<T>());
+    }
   }
   if (ranks_) {
     // The blocks are partitioned anew from the frame's particles (the results do not depend on
@@ -1320,13 +1354,6 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   }
   if (knit_on_) {
     const io::Phase* p = &*knit_phase;
-    if (absorption_) {
-      const io::Field* a = p->find("fluid_mass");
-      if (!a)
-        throw Error("restart: the snapshot's knit has no fluid_mass but the scene absorbs fluid "
-                    "(capillary.model = \"conserving\")");
-      absorption_->restore(ex_, knit_->set(), a->as<T>());
-    }
     // Without their state (an older snapshot) the grids stay as built for the scene's start:
     // correct (their watches measure from there), but not sorted when the run it continues
     // sorted them, so rounding may differ.
@@ -1429,13 +1456,21 @@ Diagnostics SimulationT<T>::diagnostics() const {
         d.wet_points = mpi.sum(std::uint64_t(d.wet_points));
       }
       if (absorption_) {
-        d.absorbed_particles = absorption_->stats().absorbed_particles;
-        d.emitted_particles = absorption_->stats().emitted_particles;
-        d.diffused_mass = absorption_->stats().diffused_mass;
+        const AbsorptionStats& st = absorption_->stats();
         const auto a = absorption_->absorbed().to_host();
         d.absorbed_mass = 0;
-        for (T q : a)
-          d.absorbed_mass += double(q);
+        for (std::size_t i = 0; i < k.owned(); ++i) // on N ranks the ghosts are their owners'
+          d.absorbed_mass += double(a[i]);
+        d.absorbed_particles = st.absorbed_particles;
+        d.emitted_particles = st.emitted_particles;
+        d.diffused_mass = st.diffused_mass;
+        if (ranks_) { // the job's (each rank's over its own points and particles)
+          const comm::MpiContext& mpi = ranks_->mpi();
+          d.absorbed_mass = mpi.sum(d.absorbed_mass);
+          d.absorbed_particles = mpi.sum(std::uint64_t(d.absorbed_particles));
+          d.emitted_particles = mpi.sum(std::uint64_t(d.emitted_particles));
+          d.diffused_mass = mpi.sum(d.diffused_mass);
+        }
       }
     }
     d.knit_min_rigid_distance = solids_.empty()

@@ -5,7 +5,10 @@
 #include "kernels/exec/Backend.hpp"
 
 #include <gtest/gtest.h>
+
+#include <cstdlib>
 #include <mpi.h>
+#include <string>
 
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);
@@ -16,7 +19,9 @@ int main(int argc, char** argv) {
     const kf::comm::MpiContext mpi;
     kf::exec::cuda_select_device(mpi.local_rank());
   }
-  if (rank != 0) {
+  // KF_TEST_ALL_RANKS=1: every rank prints (a failure seen on one rank only).
+  const char* every = std::getenv("KF_TEST_ALL_RANKS");
+  if (rank != 0 && !(every && std::string(every) == "1")) {
     auto& listeners = ::testing::UnitTest::GetInstance()->listeners();
     delete listeners.Release(listeners.default_result_printer());
   }

@@ -1,5 +1,7 @@
 #include "kernels/coupling/Absorption.hpp"
 
+#include "core/Error.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -15,12 +17,13 @@ ConservingAbsorption<T>::ConservingAbsorption(
       s_sorted_(b, 0, "absorb.s_sorted"), link_start_(b, 0, "absorb.link_start"),
       link_other_(b, 0, "absorb.link_other"), target_(b, 0, "absorb.target"),
       keep_(b, 0, "absorb.keep"), emit_(b, 0, "absorb.emit"), offsets_(b, 0, "absorb.offsets"),
-      link_k_(b, 0, "absorb.link_k"), fraction_(b, 0, "absorb.fraction"),
+      link_k_(b, 0, "absorb.link_k"), degree_(b, 0, "absorb.degree"),
+      fraction_(b, 0, "absorb.fraction"), drop_id_(b, 0, "absorb.drop_id"),
       dmom_(b, 0, "absorb.delta_momentum"), start_(b, 0, "absorb.start") {
   const std::size_t n = dry_mass.size();
-  dry_.assign(dry_mass);
+  mesh_dry_ = dry_mass;
+  mesh_capacity_ = capacity;
   absorbed_.assign(std::vector<T>(n, T(0)));
-  capacity_.assign(capacity);
   delta_.resize(n);
   // Each link in both ends' rows (gather: each point sums its own fluxes).
   std::vector<std::uint32_t> start(n + 1, 0), other(2 * links.size());
@@ -42,9 +45,10 @@ ConservingAbsorption<T>::ConservingAbsorption(
     sum_k[i] += conductance[l];
     sum_k[j] += conductance[l];
   }
-  link_start_.assign(start);
-  link_other_.assign(other);
-  link_k_.assign(k);
+  mesh_start_ = std::move(start);
+  mesh_other_ = std::move(other);
+  mesh_k_ = std::move(k);
+  whole();
   // Explicit stability: dPhi/dm = -scale J'(s) / C with |J'| <= 4.5 for s in [0, 1.5].
   for (std::size_t i = 0; i < n; ++i)
     if (sum_k[i] > 0)
@@ -54,14 +58,58 @@ ConservingAbsorption<T>::ConservingAbsorption(
 }
 
 template <typename T>
-std::size_t ConservingAbsorption<T>::absorb(const exec::Exec& ex, KnitSet<T>& knit,
-                                            FluidSet<T>& fluid, CellView<T> fluid_cells,
-                                            KnitFluidCoupling<T>& coupling) {
+void ConservingAbsorption<T>::whole() {
+  const std::size_t n = mesh_dry_.size();
+  dry_.assign(mesh_dry_);
+  capacity_.assign(mesh_capacity_);
+  std::vector<T> degree(n);
+  for (std::size_t i = 0; i < n; ++i)
+    degree[i] = static_cast<T>(mesh_start_[i + 1] - mesh_start_[i]);
+  link_start_.assign(mesh_start_);
+  link_other_.assign(mesh_other_);
+  link_k_.assign(mesh_k_);
+  degree_.assign(degree);
+}
+
+template <typename T>
+void ConservingAbsorption<T>::localize(const std::vector<std::uint64_t>& ids, std::size_t owned) {
+  const std::size_t n = ids.size();
+  std::vector<std::int64_t> local(mesh_start_.size() - 1, -1); // id -> local index
+  for (std::size_t k = 0; k < n; ++k)
+    local[ids[k]] = static_cast<std::int64_t>(k);
+  std::vector<std::uint32_t> start(n + 1, 0), other;
+  std::vector<T> k, degree(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint64_t id = ids[i];
+    degree[i] = static_cast<T>(mesh_start_[id + 1] - mesh_start_[id]);
+    if (i < owned)
+      for (std::uint32_t e = mesh_start_[id]; e < mesh_start_[id + 1]; ++e) {
+        const std::int64_t j = local[mesh_other_[e]];
+        if (j < 0)
+          throw Error("absorption on N ranks: point " + std::to_string(mesh_other_[e]) +
+                      ", linked to an owned point, is neither owned nor a ghost here");
+        other.push_back(static_cast<std::uint32_t>(j));
+        k.push_back(mesh_k_[e]);
+      }
+    start[i + 1] = static_cast<std::uint32_t>(other.size());
+  }
+  link_start_.assign(start);
+  link_other_.assign(other);
+  link_k_.assign(k);
+  degree_.assign(degree);
+}
+
+template <typename T>
+typename ConservingAbsorption<T>::Absorbed
+ConservingAbsorption<T>::absorb(const exec::Exec& ex, KnitSet<T>& knit, FluidSet<T>& fluid,
+                                CellView<T> fluid_cells, KnitFluidCoupling<T>& coupling,
+                                const AbsorptionSplit<T>* split) {
   const std::size_t nf = fluid.size(), n = knit.size();
-  if (nf == 0 || n == 0)
-    return 0;
+  // Split: every rank takes part in the exchanges below, whatever it holds.
+  if (!split && (nf == 0 || n == 0))
+    return {};
   coupling.sync_knit(ex, knit);
-  const auto& perm = coupling.knit_grid().permutation();
+  const auto& perm = coupling.perm();
   // Saturation in the grid's order, for the fluid side's choice.
   s_sorted_.resize(n);
   {
@@ -76,30 +124,73 @@ std::size_t ConservingAbsorption<T>::absorb(const exec::Exec& ex, KnitSet<T>& kn
   exec::for_each(ex, nf,
                  AbsorbTargetEvaluator<T>{
                      fluid.x.data(), coupling.sorted_x().data(), s_sorted_.data(), perm.data(),
-                     coupling.knit_grid().view(), params_.reach, target_.data()},
+                     knit.id.data(), coupling.knit_grid().view(), params_.reach, target_.data()},
                  "absorb.target");
+  std::uint32_t* t = target_.data();
+  if (split) {
+    // A ghost's choice is its owner's (who sees every knit point within its reach): the
+    // choices travel as ids and come back as this rank's indices.
+    const std::uint64_t* kid = knit.id.data();
+    exec::for_each(
+        ex, nf,
+        [=] KF_HD(std::size_t j) {
+          if (t[j] != kNoTarget)
+            t[j] = static_cast<std::uint32_t>(kid[t[j]]);
+        },
+        "absorb.target_ids");
+    split->fluid_ghost_rows(target_);
+    const std::uint32_t* local = split->knit_of_id;
+    exec::for_each(
+        ex, nf,
+        [=] KF_HD(std::size_t j) {
+          if (t[j] != kNoTarget)
+            t[j] = local[t[j]];
+        },
+        "absorb.target_local");
+  }
+  // The points this rank owns take in; a ghost's fraction is its owner's.
+  const std::size_t takers = split ? split->knit_owned : n;
   fraction_.resize(n);
-  exec::for_each(ex, n,
+  exec::for_each(ex, takers,
                  AbsorbFractionEvaluator<T>{knit.x.data(), absorbed_.data(), capacity_.data(),
                                             fluid.m.data(), target_.data(), fluid_cells,
                                             fraction_.data()},
                  "absorb.fraction");
+  if (split)
+    split->knit_ghost_rows(fraction_);
   const T m_min = params_.min_particle_mass;
-  exec::for_each(ex, n,
+  exec::for_each(ex, takers,
                  AbsorbGatherEvaluator<T>{knit.view(), dry_.data(), absorbed_.data(),
                                           fraction_.data(), fluid.x.data(), fluid.v.data(),
                                           fluid.m.data(), target_.data(), fluid_cells, m_min},
                  "absorb.gather");
   keep_.resize(nf);
-  const std::uint32_t* t = target_.data();
   const T* fr = fraction_.data();
   T* fm = fluid.m.data();
+  const std::uint32_t* own = split ? split->fluid_owned : nullptr;
+  Absorbed out;
+  if (split) { // counted before the gifts: particles taken whole (low half), in part (high)
+    const std::uint64_t both = exec::transform_reduce(
+        ex, nf, std::uint64_t(0), exec::SumOp{},
+        [=] KF_HD(std::size_t j) -> std::uint64_t {
+          if (!own[j] || t[j] == kNoTarget || fr[t[j]] <= T(0))
+            return 0;
+          return absorbed_amount(fr[t[j]], fm[j], m_min) == fm[j] ? 1 : (std::uint64_t(1) << 32);
+        },
+        "absorb.count");
+    out.removed = both & 0xFFFFFFFFu;
+    out.partial = both >> 32;
+  }
   Vec3<T>* fa = fluid.a.data();
   std::uint32_t* kp = keep_.data();
   exec::for_each(
       ex, nf,
       [=] KF_HD(std::size_t j) {
         kp[j] = 1u;
+        if (own && !own[j]) { // a ghost: its owner gives (the caller removes the ghosts)
+          kp[j] = 0u;
+          return;
+        }
         if (t[j] == kNoTarget || fr[t[j]] <= T(0))
           return;
         const T give = absorbed_amount(fr[t[j]], fm[j], m_min);
@@ -114,22 +205,30 @@ std::size_t ConservingAbsorption<T>::absorb(const exec::Exec& ex, KnitSet<T>& kn
         fa[j] = fa[j] * (m_old / fm[j]);
       },
       "absorb.give");
-  const std::size_t gone = fluid.keep_flagged(ex, keep_);
-  stats_.absorbed_particles += gone;
-  return gone;
+  if (split) {
+    split->knit_ghost_state();
+  } else {
+    out.removed = fluid.keep_flagged(ex, keep_);
+  }
+  stats_.absorbed_particles += out.removed;
+  return out;
 }
 
 template <typename T>
-void ConservingAbsorption<T>::diffuse(const exec::Exec& ex, KnitSet<T>& knit, double dt) {
-  const std::size_t n = knit.size();
-  if (n == 0 || link_other_.size() == 0 || !(dt > 0))
+void ConservingAbsorption<T>::diffuse(const exec::Exec& ex, KnitSet<T>& knit, double dt,
+                                      const AbsorptionSplit<T>* split) {
+  // Split: the owned points move fluid, their ghosts follow after each substep.
+  const std::size_t n = split ? split->knit_owned : knit.size();
+  if (!(dt > 0) || (!split && (n == 0 || link_other_.size() == 0)))
     return;
   const int sub = static_cast<int>(std::min(1e4, std::ceil(dt / stable_substep_)));
   const T h = static_cast<T>(dt / sub);
-  const PoreLinksView<T> links{link_start_.data(), link_other_.data(), link_k_.data()};
+  const PoreLinksView<T> links{link_start_.data(), link_other_.data(), link_k_.data(),
+                               degree_.data()};
+  delta_.resize(n);
+  dmom_.resize(n);
   T* a = absorbed_.data();
   const T* d = delta_.data();
-  dmom_.resize(n);
   const Vec3<T>* dp = dmom_.data();
   const T* dry = dry_.data();
   const KnitView<T> kv = knit.view();
@@ -153,6 +252,8 @@ void ConservingAbsorption<T>::diffuse(const exec::Exec& ex, KnitSet<T>& knit, do
             kv.v[i] = (kv.v[i] * m_old + dp[i]) * (T(1) / kv.m[i]);
         },
         "absorb.apply");
+    if (split)
+      split->knit_ghost_state();
   }
   stats_.diffused_mass += 0.5 * exec::transform_reduce(
                                     ex, n, 0.0, exec::SumOp{},
@@ -165,9 +266,10 @@ void ConservingAbsorption<T>::diffuse(const exec::Exec& ex, KnitSet<T>& knit, do
 
 template <typename T>
 std::size_t ConservingAbsorption<T>::emit(const exec::Exec& ex, KnitSet<T>& knit,
-                                          FluidSet<T>& fluid, std::uint64_t& next_id) {
-  const std::size_t n = knit.size();
-  if (n == 0)
+                                          FluidSet<T>& fluid, std::uint64_t& next_id,
+                                          const AbsorptionSplit<T>* split) {
+  const std::size_t n = split ? split->knit_owned : knit.size();
+  if (!split && n == 0)
     return 0;
   emit_.resize(n);
   offsets_.resize(n);
@@ -186,14 +288,33 @@ std::size_t ConservingAbsorption<T>::emit(const exec::Exec& ex, KnitSet<T>& knit
         "absorb.emit_count");
   }
   const std::size_t count = exec::exclusive_scan(ex, emit_, offsets_, "absorb.emit_scan");
-  if (count == 0)
+  std::size_t job = count;
+  if (split) {
+    // The drops are numbered as one rank numbers them: by their points' ids.
+    std::vector<std::uint64_t> ids;
+    ids.reserve(count);
+    {
+      const auto flags = emit_.to_host();
+      const auto id = knit.id.to_host();
+      for (std::size_t i = 0; i < n; ++i)
+        if (flags[i])
+          ids.push_back(id[i]);
+    }
+    job = split->number_drops(ids);
+    if (job == 0)
+      return 0;
+    split->drop_fluid_ghosts();
+    drop_id_.assign(ids);
+  } else if (count == 0) {
     return 0;
+  }
   const std::size_t first = fluid.size();
   fluid.resize(first + count);
   const FluidView<T> f = fluid.view();
   const KnitView<T> p = knit.view();
   const std::uint32_t* e = emit_.data();
   const std::uint32_t* o = offsets_.data();
+  const std::uint64_t* place = split ? drop_id_.data() : nullptr;
   T* a = absorbed_.data();
   const T* c = capacity_.data();
   const T* dry = dry_.data();
@@ -219,17 +340,23 @@ std::size_t ConservingAbsorption<T>::emit(const exec::Exec& ex, KnitSet<T>& knit
         f.p[j] = T(0);
         f.drho[j] = T(0);
         f.drho_prev[j] = T(0);
-        f.id[j] = id0 + o[i];
+        f.id[j] = id0 + (place ? place[o[i]] : o[i]);
       },
       "absorb.emit");
-  next_id += count;
+  if (split)
+    split->knit_ghost_state();
+  next_id += job;
   stats_.emitted_particles += count;
-  return count;
+  return job;
 }
 
 template <typename T>
 void ConservingAbsorption<T>::restore(const exec::Exec& ex, KnitSet<T>& knit,
                                       const std::vector<T>& absorbed) {
+  if (absorbed.size() != mesh_dry_.size() || knit.size() != absorbed.size())
+    throw Error("restart: " + std::to_string(absorbed.size()) + " absorbed masses for a knit of " +
+                std::to_string(mesh_dry_.size()) + " points");
+  whole();
   absorbed_.assign(absorbed);
   const T* a = absorbed_.data();
   const T* dry = dry_.data();
@@ -240,11 +367,12 @@ void ConservingAbsorption<T>::restore(const exec::Exec& ex, KnitSet<T>& knit,
 
 template <typename T>
 std::size_t ConservingAbsorption<T>::bytes() const {
-  return fraction_.capacity_bytes() + dmom_.capacity_bytes() + start_.capacity_bytes() +
-         dry_.capacity_bytes() + absorbed_.capacity_bytes() + capacity_.capacity_bytes() +
-         delta_.capacity_bytes() + s_sorted_.capacity_bytes() + link_start_.capacity_bytes() +
-         link_other_.capacity_bytes() + target_.capacity_bytes() + keep_.capacity_bytes() +
-         emit_.capacity_bytes() + offsets_.capacity_bytes() + link_k_.capacity_bytes();
+  return fraction_.capacity_bytes() + degree_.capacity_bytes() + drop_id_.capacity_bytes() +
+         dmom_.capacity_bytes() + start_.capacity_bytes() + dry_.capacity_bytes() +
+         absorbed_.capacity_bytes() + capacity_.capacity_bytes() + delta_.capacity_bytes() +
+         s_sorted_.capacity_bytes() + link_start_.capacity_bytes() + link_other_.capacity_bytes() +
+         target_.capacity_bytes() + keep_.capacity_bytes() + emit_.capacity_bytes() +
+         offsets_.capacity_bytes() + link_k_.capacity_bytes();
 }
 
 template class ConservingAbsorption<float>;

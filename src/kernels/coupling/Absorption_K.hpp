@@ -41,6 +41,7 @@ struct AbsorbTargetEvaluator {
   const Vec3<T>* knit_x_sorted;
   const T* knit_s_sorted;
   const std::uint32_t* knit_index; // sorted position -> knit index (the grid's permutation)
+  const std::uint64_t* knit_id;    // knit index -> global id (mesh index)
   CellView<T> knit_cells;
   T reach;
   std::uint32_t* target;
@@ -51,9 +52,10 @@ struct AbsorbTargetEvaluator {
     std::uint32_t pick = kNoTarget;
     knit_cells.for_each_candidate(xj, [&](std::uint32_t k) {
       const T r2 = norm2(xj - knit_x_sorted[k]);
-      // Ties go to the lower knit index, so the choice does not depend on the grid order.
-      if (knit_s_sorted[k] < T(1) &&
-          (r2 < best || (r2 == best && pick != kNoTarget && knit_index[k] < pick))) {
+      // Ties go to the lower id, so the choice depends neither on the grid's order nor on where
+      // a rank keeps the point.
+      if (knit_s_sorted[k] < T(1) && (r2 < best || (r2 == best && pick != kNoTarget &&
+                                                    knit_id[knit_index[k]] < knit_id[pick]))) {
         best = r2;
         pick = knit_index[k];
       }
@@ -158,11 +160,14 @@ KF_HD KF_INLINE T pore_potential(T s, const Vec3<T>& x, const AbsorptionParams<T
   return -prm.pressure_scale * leverett_j(sc) - prm.rho0 * dot(prm.gravity, x);
 }
 
+/// Each point's links (compressed rows; on N ranks only the owned points have rows, their other
+/// ends owned or ghosts) and every point's number of links in the whole knit.
 template <typename T>
 struct PoreLinksView {
   const std::uint32_t* start;
   const std::uint32_t* other;
   const T* conductance;
+  const T* degree;
 };
 
 /// Each point's net inflow over dt and the momentum it carries (the donor's velocity), so moving
@@ -183,13 +188,13 @@ struct DiffusionEvaluator {
     const T si = absorbed[i] / capacity[i];
     const T phi_i = pore_potential(si, x[i], prm);
     const std::uint32_t b = links.start[i], e = links.start[i + 1];
-    const T deg_i = T(e - b);
+    const T deg_i = links.degree[i];
     T sum = T(0);
     Vec3<T> mom{T(0), T(0), T(0)};
     for (std::uint32_t l = b; l < e; ++l) {
       const std::uint32_t j = links.other[l];
       const T sj = absorbed[j] / capacity[j];
-      const T deg_j = T(links.start[j + 1] - links.start[j]);
+      const T deg_j = links.degree[j];
       const T q = darcy_flux(links.conductance[l], phi_i, pore_potential(sj, x[j], prm), si, sj,
                              absorbed[i], absorbed[j], deg_i, deg_j, dt);
       sum += q;

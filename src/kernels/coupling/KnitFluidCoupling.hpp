@@ -98,6 +98,11 @@ public:
   /// The knit grid sorted for the current positions and the sorted positions gathered.
   void sync_knit(const exec::Exec& ex, KnitSet<T>& knit);
   const NeighbourGrid<T>& knit_grid() const { return grid_; }
+  /// The set's index of the point in each of the grid's slots (on N ranks not the grid's own
+  /// permutation: the grid sorts in id order).
+  const exec::DeviceBuffer<std::uint32_t>& perm() const {
+    return order_ ? perm_ : grid_.permutation();
+  }
   const exec::DeviceBuffer<Vec3<T>>& sorted_x() const { return x_; }
   /// Flags the fluid particles with a knit point in their knit-grid cells (public: nvcc's
   /// device lambdas may not live in private members).
@@ -135,9 +140,6 @@ private:
   T list_skin_;
   std::uint32_t list_capacity_;
   // N ranks (distribute): as KnitSelfContact's.
-  const exec::DeviceBuffer<std::uint32_t>& perm() const {
-    return order_ ? perm_ : grid_.permutation();
-  }
   std::size_t active(const KnitSet<T>& knit) const { return std::min(active_, knit.size()); }
   const exec::DeviceBuffer<std::uint32_t>* order_ = nullptr;
   exec::DeviceBuffer<std::uint32_t> perm_;
