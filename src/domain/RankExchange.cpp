@@ -47,20 +47,13 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
                               double skin)
     : mpi_(mpi), backend_(backend), scene_(scene), select_(backend),
       keep_(backend, 0, "ranks.owned"), inverse_(backend, 0, "ranks.inverse") {
-  const auto refuse = [&](const std::string& what) {
-    throw Error("on " + std::to_string(mpi.size()) +
-                " ranks knitflow runs fluid, static boundaries, the knit (on the CPU backend) and "
-                "their coupling so far (moving solids and the knit on the GPU join in later "
-                "stages of P5); this run has " +
-                what + ": run it on one rank");
-  };
-  for (const auto& o : scene.obstacles)
-    if (o.velocity.x != 0 || o.velocity.y != 0 || o.velocity.z != 0)
-      refuse("a moving obstacle ('" + o.name + "')");
   keeps_ghosts_ = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet &&
                   scene.has(Module::Fluid);
   if (backend != exec::Backend::Cpu && knit_width > 0)
-    refuse("the knit on the GPU backend");
+    throw Error("on " + std::to_string(mpi.size()) +
+                " ranks the knit runs on the CPU backend so far (its exchanges are host code; the "
+                "knit on the GPU joins in a later stage of P5): this run has the knit on the GPU "
+                "backend: run it with --device cpu, or on one rank");
   // NCCL between device buffers where every rank has a GPU of its own (auto), else MPI through
   // page-locked host memory; the knit's exchanges are host code (CPU backend only so far).
   const auto kind = scene.parallel.transport == Scene::Parallel::Transport::Mpi
@@ -128,6 +121,29 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
     boundary->resize(comm::migrate(*transport_, {}, owners(bx, true), state, rows()));
     receive_boundary_ghosts(*boundary, boundary->size());
   }
+}
+
+template <typename T>
+void RankExchange<T>::boundary_moved(BoundarySet<T>& boundary) {
+  const Timed timed{exchange_seconds_}, part{parts_.migration};
+  const HostValues<Vec3<T>> bx(boundary.x);
+  // The owned particles go to their blocks' owners, the ghosts are dropped and received anew.
+  const int me = rank();
+  std::vector<int> dest(boundary.size());
+  int far = 0; // a destination beyond the neighbours (a solid faster than a block a step)
+  for (std::size_t i = 0; i < dest.size(); ++i) {
+    dest[i] = boundary_owned_[i] ? decomposition_->owner(vec_cast<double>(bx[i])) : -1;
+    if (dest[i] >= 0 && dest[i] != me &&
+        std::find(migration_peers_.begin(), migration_peers_.end(), dest[i]) ==
+            migration_peers_.end())
+      far = 1;
+  }
+  MPI_Allreduce(MPI_IN_PLACE, &far, 1, MPI_INT, MPI_MAX, mpi_.comm());
+  auto state = boundary_state(boundary);
+  const std::size_t n =
+      comm::migrate(*transport_, far ? other_ranks() : migration_peers_, dest, state, rows());
+  boundary.resize(n);
+  receive_boundary_ghosts(boundary, n);
 }
 
 template <typename T>

@@ -3,7 +3,8 @@
 // docs/ARCHITECTURE.md, "The step on N ranks"). Between steps a rank holds only the fluid it
 // owns; at each sort (rebuild) the fluid that left its blocks migrates to their owners and the
 // ghosts within the support of its region are received and appended, to be dropped again after
-// the forces pass. The boundary is static: owned particles plus ghosts received once. Ghost
+// the forces pass. The boundary: owned particles plus ghosts received once, or at every step
+// where solids move (boundary_moved). Ghost
 // values that a pass computes from neighbours a ghost lacks (summation density, wall pressure)
 // are refreshed from their owners. On a device backend the particles stay in device memory: the
 // rows that move are packed there (DeviceRows) and staged through the host for MPI; the owners
@@ -29,8 +30,7 @@ namespace kf {
 template <typename T>
 class RankExchange {
 public:
-  /// Refuses (kf::Error) what the split does not carry yet: moving solids, the knit on the GPU
-  /// backend.
+  /// Refuses (kf::Error) what the split does not carry yet: the knit on the GPU backend.
   /// knit_width: the knit's ghost width (KnitHalo::base_width; 0 without knit), the blocks'
   /// scale where there is no fluid.
   /// coupling_reach: how far the knit-fluid coupling reaches (0 without): the fluid's ghosts
@@ -59,6 +59,10 @@ public:
   void distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary, std::span<const Vec3<T>> knit = {},
                   std::uint64_t step = 0);
   void boundary_sorted(const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n);
+  /// After moving solids moved their boundary particles (every rank its owned and ghost ones,
+  /// alike): the owned go to their blocks' owners and the ghosts are chosen anew (collective;
+  /// sort the boundary after, then boundary_sorted()).
+  void boundary_moved(BoundarySet<T>& boundary);
 
   struct Removed {
     std::uint64_t particles = 0;

@@ -740,6 +740,8 @@ void SimulationT<T>::build_pipeline() {
     pipeline_.add("boundary.move", "boundary", "translate moving obstacles", [this] {
       update_shapes(time_ + dt_);
       move_boundary(ex_, boundary_->view(), shapes_.data());
+      if (ranks_) // the owners and the ghosts follow the solids
+        ranks_->boundary_moved(*boundary_);
     });
     pipeline_.add("grid.boundary", "boundary", "sort boundary particles by cell",
                   [this] { sort_boundary(); });
