@@ -127,21 +127,28 @@ template <typename T>
 void RankExchange<T>::boundary_moved(BoundarySet<T>& boundary) {
   const Timed timed{exchange_seconds_}, part{parts_.migration};
   const HostValues<Vec3<T>> bx(boundary.x);
-  // The owned particles go to their blocks' owners, the ghosts are dropped and received anew.
+  // To the neighbours, or to anyone where a solid moved more than a block in a step.
   const int me = rank();
-  std::vector<int> dest(boundary.size());
-  int far = 0; // a destination beyond the neighbours (a solid faster than a block a step)
-  for (std::size_t i = 0; i < dest.size(); ++i) {
-    dest[i] = boundary_owned_[i] ? decomposition_->owner(vec_cast<double>(bx[i])) : -1;
-    if (dest[i] >= 0 && dest[i] != me &&
-        std::find(migration_peers_.begin(), migration_peers_.end(), dest[i]) ==
-            migration_peers_.end())
-      far = 1;
-  }
+  int far = 0;
+  for (std::size_t i = 0; i < bx.size() && !far; ++i)
+    if (boundary_owned_[i]) {
+      const int o = decomposition_->owner(vec_cast<double>(bx[i]));
+      far = o != me && std::find(migration_peers_.begin(), migration_peers_.end(), o) ==
+                           migration_peers_.end();
+    }
   MPI_Allreduce(MPI_IN_PLACE, &far, 1, MPI_INT, MPI_MAX, mpi_.comm());
+  migrate_boundary(boundary, bx.span(), far ? other_ranks() : migration_peers_);
+}
+
+template <typename T>
+void RankExchange<T>::migrate_boundary(BoundarySet<T>& boundary, std::span<const Vec3<T>> x,
+                                       const std::vector<int>& peers) {
+  // The owned boundary goes to its blocks' owners; the ghosts are dropped and received anew.
+  std::vector<int> dest(boundary.size());
+  for (std::size_t i = 0; i < dest.size(); ++i)
+    dest[i] = boundary_owned_[i] ? decomposition_->owner(vec_cast<double>(x[i])) : -1;
   auto state = boundary_state(boundary);
-  const std::size_t n =
-      comm::migrate(*transport_, far ? other_ranks() : migration_peers_, dest, state, rows());
+  const std::size_t n = comm::migrate(*transport_, peers, dest, state, rows());
   boundary.resize(n);
   receive_boundary_ghosts(boundary, n);
 }
@@ -236,16 +243,8 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
     fluid_owned_ = n;
     all_owned();
   }
-  if (boundary) {
-    // The owned boundary goes to its new owners; the ghosts are dropped and received anew.
-    std::vector<int> dest(boundary->size());
-    for (std::size_t i = 0; i < dest.size(); ++i)
-      dest[i] = boundary_owned_[i] ? decomposition_->owner(vec_cast<double>((*bx)[i])) : -1;
-    auto state = boundary_state(*boundary);
-    const std::size_t n = comm::migrate(*transport_, everyone, dest, state, rows());
-    boundary->resize(n);
-    receive_boundary_ghosts(*boundary, n);
-  }
+  if (boundary)
+    migrate_boundary(*boundary, bx->span(), everyone);
   b.repartitioned = true;
   ++repartitions_;
   return b;
@@ -337,12 +336,9 @@ void RankExchange<T>::fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm
 
 template <typename T>
 void RankExchange<T>::refresh_density(FluidSet<T>& fluid) {
-  const Timed timed{exchange_seconds_}, part{parts_.refresh};
-  if (!fluid_halo_)
-    return;
   const comm::Column cols[] = {column(fluid.rho), column(fluid.p), column(fluid.vp),
                                column(fluid.vol)};
-  fluid_halo_->exchange(cols, fluid_owned_);
+  refresh(cols);
 }
 
 template <typename T>
@@ -355,40 +351,31 @@ void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary) {
 }
 
 template <typename T>
-void RankExchange<T>::refresh_motion(FluidSet<T>& fluid) {
+void RankExchange<T>::refresh(std::span<const comm::Column> columns) {
   const Timed timed{exchange_seconds_}, part{parts_.refresh};
   if (!fluid_halo_) // collective over the peers: also where this rank received no ghost
     return;
+  fluid_halo_->exchange(columns, fluid_owned_);
+}
+
+template <typename T>
+void RankExchange<T>::refresh_motion(FluidSet<T>& fluid) {
   const comm::Column cols[] = {column(fluid.v), column(fluid.a),    column(fluid.rho),
                                column(fluid.p), column(fluid.drho), column(fluid.drho_prev)};
-  fluid_halo_->exchange(cols, fluid_owned_);
+  refresh(cols);
 }
 
 template <typename T>
 void RankExchange<T>::refresh_forces(FluidSet<T>& fluid, bool continuity) {
-  const Timed timed{exchange_seconds_}, part{parts_.refresh};
-  if (!fluid_halo_)
-    return;
   const comm::Column all[] = {column(fluid.a), column(fluid.rho), column(fluid.drho),
                               column(fluid.drho_prev)};
-  fluid_halo_->exchange(std::span<const comm::Column>(all, continuity ? 4 : 1), fluid_owned_);
+  refresh(std::span<const comm::Column>(all, continuity ? 4 : 1));
 }
 
 template <typename T>
 void RankExchange<T>::refresh_positions(FluidSet<T>& fluid) {
-  const Timed timed{exchange_seconds_}, part{parts_.refresh};
-  if (!fluid_halo_)
-    return;
   const comm::Column cols[] = {column(fluid.x), column(fluid.v)};
-  fluid_halo_->exchange(cols, fluid_owned_);
-}
-
-template <typename T>
-void RankExchange<T>::refresh(std::span<const comm::Column> columns) {
-  const Timed timed{exchange_seconds_}, part{parts_.refresh};
-  if (!fluid_halo_)
-    return;
-  fluid_halo_->exchange(columns, fluid_owned_);
+  refresh(cols);
 }
 
 template <typename T>
@@ -411,12 +398,8 @@ void RankExchange<T>::appended(const FluidSet<T>& fluid) {
 
 template <typename T>
 void RankExchange<T>::drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid) {
-  const Timed timed{exchange_seconds_}, part{parts_.refresh};
-  if (fluid.size() == fluid_owned_)
-    return;
-  fluid.keep_flagged(ex, keep_);
-  all_owned();
-  fluid_halo_.reset();
+  if (fluid.size() != fluid_owned_)
+    remove(ex, fluid, keep_); // the owned flags
 }
 
 template class RankExchange<float>;

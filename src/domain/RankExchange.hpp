@@ -173,6 +173,10 @@ private:
   /// The boundary ghosts of this rank's region from their owners, appended after the `owned`
   /// particles (which come first in the set).
   void receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t owned);
+  /// The owned boundary (positions x, host memory) to its blocks' owners among `peers`, the
+  /// ghosts dropped and received anew.
+  void migrate_boundary(BoundarySet<T>& boundary, std::span<const Vec3<T>> x,
+                        const std::vector<int>& peers);
   /// After a sort (perm: its first n), the halo's lists follow their particles.
   void remap(comm::HaloExchange& halo, const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n,
              std::size_t owned);

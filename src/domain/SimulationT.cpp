@@ -383,6 +383,12 @@ private:
   std::optional<RankExchange<T>> ranks_;
   std::optional<KnitHalo<T>> knit_halo_;               // the knit's share and ghosts on N ranks
   std::optional<AbsorptionRanks<T>> absorption_ranks_; // the conserving absorption on N ranks
+  /// The absorption's hooks on N ranks (collective), none on one rank.
+  std::optional<AbsorptionSplit<T>> absorption_split() {
+    if (!absorption_ranks_)
+      return std::nullopt;
+    return absorption_ranks_->split(ex_, *fluid_);
+  }
   /// f() with the knit's ghosts present and current on N ranks (a pass that reads partners).
   template <typename F>
   void with_knit_ghosts(F&& f) {
@@ -633,38 +639,26 @@ void SimulationT<T>::build_pipeline() {
         "fluid particles touching an unsaturated knit point join its absorbed mass "
         "(mass and momentum kept; the particles are removed)",
         [this] {
-          if (absorption_ranks_) {
-            const auto split = absorption_ranks_->split(ex_, *fluid_);
-            const auto got = absorption_->absorb(ex_, knit_->set(), *fluid_, fluid_grid_->view(),
-                                                 *coupling_, &split);
-            if (absorption_ranks_->settle(ex_, *fluid_, got))
-              sort_fluid();
-          } else if (absorption_
-                         ->absorb(ex_, knit_->set(), *fluid_, fluid_grid_->view(), *coupling_)
-                         .removed) {
+          const auto split = absorption_split();
+          const auto got = absorption_->absorb(ex_, knit_->set(), *fluid_, fluid_grid_->view(),
+                                               *coupling_, split ? &*split : nullptr);
+          if (absorption_ranks_ ? absorption_ranks_->settle(ex_, *fluid_, got) : got.removed > 0)
             sort_fluid();
-          }
         });
     pipeline_.add("capillary.diffuse", "capillary",
                   "absorbed fluid moves between neighbouring knit points (Darcy: capillary "
                   "suction and gravity)",
                   [this] {
-                    if (absorption_ranks_) {
-                      const auto split = absorption_ranks_->split(ex_, *fluid_);
-                      absorption_->diffuse(ex_, knit_->set(), dt_, &split);
-                    } else {
-                      absorption_->diffuse(ex_, knit_->set(), dt_);
-                    }
+                    const auto split = absorption_split();
+                    absorption_->diffuse(ex_, knit_->set(), dt_, split ? &*split : nullptr);
                   });
     pipeline_.add("capillary.emit", "capillary",
                   "oversaturated knit points emit drops (fluid particles)", [this] {
-                    if (absorption_ranks_) {
-                      const auto split = absorption_ranks_->split(ex_, *fluid_);
-                      if (absorption_->emit(ex_, knit_->set(), *fluid_, next_fluid_id_, &split)) {
+                    const auto split = absorption_split();
+                    if (absorption_->emit(ex_, knit_->set(), *fluid_, next_fluid_id_,
+                                          split ? &*split : nullptr)) {
+                      if (absorption_ranks_)
                         absorption_ranks_->appended(*fluid_);
-                        sort_fluid();
-                      }
-                    } else if (absorption_->emit(ex_, knit_->set(), *fluid_, next_fluid_id_)) {
                       sort_fluid();
                     }
                   });

@@ -292,10 +292,10 @@ std::size_t ConservingAbsorption<T>::emit(const exec::Exec& ex, KnitSet<T>& knit
   if (split) {
     // The drops are numbered as one rank numbers them: by their points' ids.
     std::vector<std::uint64_t> ids;
-    ids.reserve(count);
-    {
+    if (count > 0) { // the emitters' ids to the host (a few a step)
       const auto flags = emit_.to_host();
       const auto id = knit.id.to_host();
+      ids.reserve(count);
       for (std::size_t i = 0; i < n; ++i)
         if (flags[i])
           ids.push_back(id[i]);
