@@ -37,6 +37,16 @@ std::size_t HaloExchange::sent() const {
   return n;
 }
 
+std::vector<std::uint32_t> HaloExchange::sent_rows() const {
+  std::vector<std::uint32_t> rows;
+  rows.reserve(sent());
+  for (const auto& s : send_)
+    rows.insert(rows.end(), s.rows.begin(), s.rows.end());
+  std::sort(rows.begin(), rows.end());
+  rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
+  return rows;
+}
+
 void HaloExchange::start(std::span<const Column> columns, std::size_t first_ghost) {
   const std::size_t row = row_bytes(columns);
   std::vector<SendBuffer> sends(peers_.size());

@@ -82,12 +82,21 @@ NcclTransport::NcclTransport(const MpiContext& ctx, int device, cudaStream_t str
         "nccl transport on rank " + std::to_string(rank()) + ": " +
         (local_error.empty() ? std::string("another rank failed to set up its GPU") : local_error));
   KF_COMM_NCCL(ncclCommInitRank(&nccl_, size(), root.id, rank()));
+  if (!stream_) {
+    KF_COMM_CUDA(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+    own_stream_ = true;
+  }
+  KF_COMM_CUDA(cudaEventCreateWithFlags(&filled_, cudaEventDisableTiming));
 }
 
 NcclTransport::~NcclTransport() {
   finish_quietly();
   if (nccl_ != nullptr)
     (void)ncclCommDestroy(nccl_);
+  if (filled_)
+    (void)cudaEventDestroy(filled_);
+  if (own_stream_)
+    (void)cudaStreamDestroy(stream_);
 }
 
 void NcclTransport::do_start(std::span<const SendBuffer> sends,
@@ -109,6 +118,11 @@ void NcclTransport::do_start(std::span<const SendBuffer> sends,
     check_device(s.data, s.bytes, "send", s.peer);
   for (const RecvBuffer& r : receives)
     check_device(r.data, r.bytes, "receive", r.peer);
+
+  // The send buffers are filled by kernels on the legacy default stream (and the receive buffers
+  // read by the last exchange's unpacking there): NCCL's stream waits for them on the device.
+  KF_COMM_CUDA(cudaEventRecord(filled_, cudaStreamLegacy));
+  KF_COMM_CUDA(cudaStreamWaitEvent(stream_, filled_, 0));
 
   // Messages to this rank are device copies, paired in order like any peer's messages.
   self_sends_.clear();

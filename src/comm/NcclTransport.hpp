@@ -1,6 +1,7 @@
 #pragma once
-// The NCCL transport (CUDA build only): grouped ncclSend/ncclRecv of device buffers on one CUDA
-// stream. NCCL needs a GPU a rank; make_transport picks it only then.
+// The NCCL transport (CUDA build only): grouped ncclSend/ncclRecv of device buffers on a CUDA
+// stream of its own, so that the kernels queued after start() (the interior of a rank's region)
+// run while the messages move. NCCL needs a GPU a rank; make_transport picks it only then.
 #include "comm/Transport.hpp"
 
 #include <cuda_runtime.h>
@@ -12,7 +13,9 @@ class NcclTransport final : public Transport {
 public:
   /// Collective over ctx's communicator: makes `device` this process's current device and builds
   /// the NCCL communicator from a unique id that rank 0 broadcasts over MPI. Work is queued on
-  /// `stream` (null: the legacy default stream), which must belong to `device`.
+  /// `stream`, which must belong to `device` (null: a non-blocking stream of its own). Each
+  /// start() waits for the work queued before it on the legacy default stream (where the kernels
+  /// filling the send buffers run) through an event, not the host.
   NcclTransport(const MpiContext& ctx, int device, cudaStream_t stream);
   ~NcclTransport() override;
 
@@ -28,6 +31,8 @@ private:
 
   int device_;
   cudaStream_t stream_;
+  bool own_stream_ = false;
+  cudaEvent_t filled_ = nullptr; // the default stream's work before start()
   ncclComm_t nccl_ = nullptr;
   std::vector<const SendBuffer*> self_sends_; // scratch: messages to this rank, in order
   std::vector<const RecvBuffer*> self_receives_;

@@ -47,6 +47,14 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
                               double skin)
     : mpi_(mpi), backend_(backend), scene_(scene), select_(backend),
       keep_(backend, 0, "ranks.owned"), inverse_(backend, 0, "ranks.inverse") {
+  for (auto& c : clocks_)
+    c = std::make_unique<exec::Stopwatch>(backend);
+  for (SplitRows* r : {&fluid_split_, &boundary_split_}) {
+    r->border = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.border");
+    r->interior = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.interior");
+    r->flags = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.interior_flags");
+    r->scratch = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.interior_scan");
+  }
   keeps_ghosts_ = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet &&
                   scene.has(Module::Fluid);
   if (backend != exec::Backend::Cpu && knit_width > 0)
@@ -167,6 +175,7 @@ void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::siz
   boundary_own_count_ = n;
   boundary_owned_.assign(total, 0);
   std::fill(boundary_owned_.begin(), boundary_owned_.begin() + n, 1);
+  boundary_split_.current = false;
 }
 
 template <typename T>
@@ -181,6 +190,11 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
     return b;
   last_window_ = window;
   const Timed part{parts_.rebalance};
+  for (int p = 0; p < kPhases; ++p) {
+    const double s = clocks_[p]->collect();
+    compute_seconds_ += s;
+    phase_seconds_[p] += s;
+  }
   const double most = mpi_.max(compute_seconds_), mean = mpi_.sum(compute_seconds_) / ranks();
   compute_seconds_ = 0;
   std::array<double, kPhases> seconds = phase_seconds_;
@@ -282,6 +296,68 @@ template <typename T>
 void RankExchange<T>::all_owned() {
   keep_.resize(fluid_owned_);
   flag_below({backend_}, nullptr, fluid_owned_, fluid_owned_, keep_.data());
+  fluid_split_.current = false;
+}
+
+template <typename T>
+void RankExchange<T>::split(const comm::HaloExchange& halo, SplitRows& out) {
+  out.border.assign(halo.sent_rows());
+  clear_listed({backend_}, out.border.data(), out.border.size(), out.flags.data());
+  flagged_indices({backend_}, out.flags, out.scratch, out.interior, "ranks.interior");
+  out.current = true;
+}
+
+template <typename T>
+typename RankExchange<T>::SplitRows& RankExchange<T>::fluid_rows() {
+  if (!fluid_split_.current) {
+    const Timed timed{exchange_seconds_}, part{parts_.refresh};
+    fluid_split_.flags.resize(keep_.size());
+    fluid_split_.flags.copy_from(keep_, keep_.size());
+    split(*fluid_halo_, fluid_split_);
+  }
+  return fluid_split_;
+}
+
+template <typename T>
+typename RankExchange<T>::SplitRows& RankExchange<T>::boundary_rows() {
+  if (!boundary_split_.current) {
+    const Timed timed{exchange_seconds_}, part{parts_.refresh};
+    boundary_split_.flags.assign(
+        std::vector<std::uint32_t>(boundary_owned_.begin(), boundary_owned_.end()));
+    split(*boundary_halo_, boundary_split_);
+  }
+  return boundary_split_;
+}
+
+template <typename T>
+void RankExchange<T>::overlapped(comm::HaloExchange& halo, const SplitRows* rows,
+                                 std::span<const comm::Column> cols, std::size_t first_ghost,
+                                 std::size_t n, const Pass& pass) {
+  if (!rows) {
+    pass(exec::Rows{nullptr, n});
+    const Timed timed{exchange_seconds_}, part{parts_.refresh};
+    halo.exchange(cols, first_ghost);
+    return;
+  }
+  pass(exec::Rows{rows->border.data(), rows->border.size()});
+  {
+    const Timed timed{exchange_seconds_}, part{parts_.refresh};
+    halo.start(cols, first_ghost);
+  }
+  pass(exec::Rows{rows->interior.data(), rows->interior.size()});
+  const Timed timed{exchange_seconds_}, part{parts_.refresh};
+  halo.finish();
+}
+
+template <typename T>
+void RankExchange<T>::owned_pass(std::size_t n, const Pass& pass) {
+  if (!fluid_halo_ || !scene_.parallel.overlap) {
+    pass(exec::Rows{nullptr, n});
+    return;
+  }
+  const SplitRows& rows = fluid_rows();
+  pass(exec::Rows{rows.border.data(), rows.border.size()});
+  pass(exec::Rows{rows.interior.data(), rows.interior.size()});
 }
 
 template <typename T>
@@ -292,6 +368,7 @@ void RankExchange<T>::boundary_sorted(const exec::DeviceBuffer<std::uint32_t>& p
   remap(*boundary_halo_, perm_buffer, n, boundary_own_count_);
   const HostValues<std::uint32_t> perm(perm_buffer, n); // at the start and re-partitions only
   boundary_owned_ = pick(boundary_owned_, perm.span());
+  boundary_split_.current = false;
 }
 
 template <typename T>
@@ -319,6 +396,7 @@ typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, c
   fluid_owned_ = owned;
   keep_.resize(total);
   flag_below({backend_}, nullptr, total, owned, keep_.data());
+  fluid_split_.current = false;
   return Removed{leaving.removed, leaving.removed_mass};
 }
 
@@ -332,22 +410,36 @@ void RankExchange<T>::fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm
   // The owned were the first fluid_owned_ before the sort.
   keep_.resize(n);
   flag_below({backend_}, perm_buffer.data(), n, fluid_owned_, keep_.data());
+  fluid_split_.current = false;
 }
 
 template <typename T>
-void RankExchange<T>::refresh_density(FluidSet<T>& fluid) {
+void RankExchange<T>::fluid_pass(std::span<const comm::Column> cols, std::size_t n,
+                                 const Pass& pass) {
+  if (!fluid_halo_) { // collective over the peers: also where this rank received no ghost
+    pass(exec::Rows{nullptr, n});
+    return;
+  }
+  overlapped(*fluid_halo_, scene_.parallel.overlap ? &fluid_rows() : nullptr, cols, fluid_owned_, n,
+             pass);
+}
+
+template <typename T>
+void RankExchange<T>::refresh_density(FluidSet<T>& fluid, const Pass& pass) {
   const comm::Column cols[] = {column(fluid.rho), column(fluid.p), column(fluid.vp),
                                column(fluid.vol)};
-  refresh(cols);
+  fluid_pass(cols, fluid.size(), pass);
 }
 
 template <typename T>
-void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary) {
-  const Timed timed{exchange_seconds_}, part{parts_.refresh};
-  if (!boundary_halo_)
+void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary, const Pass& pass) {
+  if (!boundary_halo_) {
+    pass(exec::Rows{nullptr, boundary.size()});
     return;
+  }
   const comm::Column cols[] = {column(boundary.p), column(boundary.vp), column(boundary.inv_rho)};
-  boundary_halo_->exchange(cols, boundary_own_count_);
+  overlapped(*boundary_halo_, scene_.parallel.overlap ? &boundary_rows() : nullptr, cols,
+             boundary_own_count_, boundary.size(), pass);
 }
 
 template <typename T>
@@ -366,10 +458,10 @@ void RankExchange<T>::refresh_motion(FluidSet<T>& fluid) {
 }
 
 template <typename T>
-void RankExchange<T>::refresh_forces(FluidSet<T>& fluid, bool continuity) {
+void RankExchange<T>::refresh_forces(FluidSet<T>& fluid, bool continuity, const Pass& pass) {
   const comm::Column all[] = {column(fluid.a), column(fluid.rho), column(fluid.drho),
                               column(fluid.drho_prev)};
-  refresh(std::span<const comm::Column>(all, continuity ? 4 : 1));
+  fluid_pass(std::span<const comm::Column>(all, continuity ? 4 : 1), fluid.size(), pass);
 }
 
 template <typename T>

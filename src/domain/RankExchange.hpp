@@ -16,10 +16,12 @@
 #include "domain/DeviceRows.hpp"
 #include "domain/RankSelector.hpp"
 #include "domain/Scene.hpp"
+#include "kernels/exec/Stopwatch.hpp"
 #include "kernels/particles/FluidSet.hpp"
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -74,20 +76,30 @@ public:
                   const std::array<bool, 6>& walls);
   /// After the fluid's sort (perm[k]: where the particle now at k was; its first n).
   void fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n);
-  /// Ghosts' rho, P and the packed copies the density pass writes (vp, vol), from their owners.
-  void refresh_density(FluidSet<T>& fluid);
-  /// Boundary ghosts' pressure and its packed copies (vp, inv_rho), from their owners.
-  void refresh_boundary(BoundarySet<T>& boundary);
+  /// A pass over the particles `rows` names (the caller's kernels, its own timing).
+  using Pass = std::function<void(const exec::Rows&)>;
+  /// The density pass, and the ghosts' rho, P and the packed copies it writes (vp, vol) from
+  /// their owners. With [parallel] overlap the pass runs over the owned rows the peers receive,
+  /// then over the other owned rows while the exchange is in flight (a ghost's own values would
+  /// be overwritten: it is not computed); without, over every row, then the exchange.
+  void refresh_density(FluidSet<T>& fluid, const Pass& pass);
+  /// The same for the walls' pressure pass: the boundary ghosts' p and its packed copies (vp,
+  /// inv_rho).
+  void refresh_boundary(BoundarySet<T>& boundary, const Pass& pass);
   /// After the forces pass: only the owned fluid stays.
   void drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid);
   /// With the knit coupled, after the kick: the ghosts' velocities, accelerations and densities
   /// from their owners (the coupling reads the fluid around each knit point before the next
   /// drift).
   void refresh_motion(FluidSet<T>& fluid);
-  /// With "verlet" lists, after the forces pass: what it wrote (a; under continuity also rho,
-  /// drho and drho_prev) from the owners, so that the kick and the drift then move each ghost
-  /// exactly as its owner moves it (its v and x follow: the same arithmetic on the same values).
-  void refresh_forces(FluidSet<T>& fluid, bool continuity);
+  /// With "verlet" lists: the forces pass, as refresh_density runs it, and what it wrote (a;
+  /// under continuity also rho, drho and drho_prev) from the owners, so that the kick and the
+  /// drift then move each ghost exactly as its owner moves it (its v and x follow: the same
+  /// arithmetic on the same values).
+  void refresh_forces(FluidSet<T>& fluid, bool continuity, const Pass& pass);
+  /// The forces pass where the ghosts go after it (drop_ghosts): over the owned rows only (with
+  /// [parallel] overlap; else over all n).
+  void owned_pass(std::size_t n, const Pass& pass);
   /// Kept ghosts' positions and velocities from their owners (after a drift that moved a ghost
   /// otherwise than its owner).
   void refresh_positions(FluidSet<T>& fluid);
@@ -113,6 +125,9 @@ public:
     compute_seconds_ += seconds;
     phase_seconds_[static_cast<int>(phase)] += seconds;
   }
+  /// The same, timed on the backend: the work queued between start() and stop() (read at the
+  /// imbalance check, without stalling the host behind the device before).
+  exec::Stopwatch& clock(Phase phase) { return *clocks_[static_cast<int>(phase)]; }
   struct Balance {
     double imbalance = 0; // slowest rank's compute over the mean since the last check (0: none)
     bool repartitioned = false;
@@ -182,6 +197,26 @@ private:
              std::size_t owned);
   /// The fluid holds only what this rank owns: every flag 1.
   void all_owned();
+  /// A halo's owned rows split for a pass around its exchange: those it sends (the border), and
+  /// the others, on the backend. Built at the first pass after the halo or the order changed.
+  struct SplitRows {
+    exec::DeviceBuffer<std::uint32_t> border, interior, flags, scratch;
+    bool current = false;
+  };
+  /// out.flags (1 owned, 0 ghost, filled by the caller) less the halo's sent rows: out.interior,
+  /// and the sent rows: out.border.
+  void split(const comm::HaloExchange& halo, SplitRows& out);
+  /// overlapped over the fluid's halo (or the pass over all n rows where there is none).
+  void fluid_pass(std::span<const comm::Column> cols, std::size_t n, const Pass& pass);
+  /// pass over the owned rows and the halo's exchange of cols, overlapped where the scene asks.
+  /// (rows null: over all n rows, then the exchange.)
+  void overlapped(comm::HaloExchange& halo, const SplitRows* rows,
+                  std::span<const comm::Column> cols, std::size_t first_ghost, std::size_t n,
+                  const Pass& pass);
+  /// The fluid's and the boundary's split, current.
+  SplitRows& fluid_rows();
+  SplitRows& boundary_rows();
+  SplitRows fluid_split_, boundary_split_;
 
   const comm::MpiContext& mpi_;
   exec::Backend backend_;
@@ -195,6 +230,7 @@ private:
   PhaseCosts costs() const { return costs_; }
   PhaseCosts costs_;
   std::array<double, kPhases> phase_seconds_{};
+  std::array<std::unique_ptr<exec::Stopwatch>, kPhases> clocks_;
   Scene scene_;
   std::unique_ptr<comm::Transport> transport_;
   std::optional<Decomposition> decomposition_;

@@ -214,6 +214,9 @@ struct Scene {
     // GPU of its own, else MPI through host memory), "mpi" or "nccl" (an error where it cannot
     // run).
     enum class Transport { Auto, Mpi, Nccl } transport = Transport::Auto;
+    // The passes whose results refresh ghosts compute the rows their peers receive first, then
+    // the rest while the exchange is in flight (false: all rows, then the exchange).
+    bool overlap = true;
   } parallel;
 
   bool has(Module m) const {

@@ -114,33 +114,32 @@ std::optional<typename SkinWatch<T>::State> get_watch(const io::Frame& fr, const
 }
 
 /// Times a pass of local work (one that waits for no other rank) for the ranks' imbalance, until
-/// stop() or the end of the scope; nothing on one rank.
+/// stop() or the end of the scope; nothing on one rank. On a device the time is the stream's
+/// between two events, read at the imbalance check: the host does not wait for the pass here.
 template <typename T>
 class LocalWork {
 public:
   explicit LocalWork(RankExchange<T>* ranks, Phase phase = Phase::Fluid)
-      : ranks_(ranks), phase_(phase),
-        t0_(ranks ? std::chrono::steady_clock::now() : std::chrono::steady_clock::time_point{}),
-        exchange0_(ranks ? ranks->exchange_seconds() : 0.0) {}
+      : ranks_(ranks), phase_(phase), exchange0_(ranks ? ranks->exchange_seconds() : 0.0) {
+    if (ranks_)
+      ranks_->clock(phase_).start();
+  }
   ~LocalWork() { stop(); }
   void stop() const {
     if (!ranks_)
       return;
-    // A device's kernels run behind the host: their time is the pass's once they are done.
-    if (ranks_->backend() != exec::Backend::Cpu)
-      exec::synchronize(ranks_->backend());
-    // Less the exchanges inside the scope (the knit's ghost refreshes between substeps).
+    ranks_->clock(phase_).stop();
+    // Less the exchanges inside the scope (the knit's ghost refreshes between substeps, host
+    // code: the knit on N ranks runs on the CPU backend, whose clock is the host's).
     const double waited = ranks_->exchange_seconds() - exchange0_;
-    ranks_->add_compute(
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count() - waited,
-        phase_);
+    if (waited > 0)
+      ranks_->add_compute(-waited, phase_);
     ranks_ = nullptr;
   }
 
 private:
   mutable RankExchange<T>* ranks_;
   Phase phase_;
-  std::chrono::steady_clock::time_point t0_;
   double exchange0_;
 };
 
@@ -923,35 +922,54 @@ BoundaryNeighbours<T> SimulationT<T>::boundary_neighbours() {
 
 template <typename T>
 void SimulationT<T>::fluid_density(T dt) {
-  const LocalWork work(ranks_ ? &*ranks_ : nullptr);
-  if (continuity())
+  if (continuity()) {
+    const LocalWork work(ranks_ ? &*ranks_ : nullptr);
     sph_density_predict(ex_, sph_, fluid_->view(), dt);
-  else {
+    return;
+  }
+  if (!ranks_) {
     sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
                 fluid_list_view());
-    work.stop();
-    // An outer ghost lacks neighbours past the halo: its owner's density replaces it.
-    if (ranks_)
-      ranks_->refresh_density(*fluid_);
+    return;
   }
+  {
+    const LocalWork work(&*ranks_);
+    sph_pack(ex_, fluid_->view());
+  }
+  // An outer ghost lacks neighbours past the halo: its owner's density replaces it.
+  ranks_->refresh_density(*fluid_, [&](const exec::Rows& rows) {
+    const LocalWork work(&*ranks_);
+    sph_density_rows(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+                     fluid_list_view(), rows);
+  });
 }
 
 template <typename T>
 void SimulationT<T>::fluid_forces(T dt) {
-  {
+  auto pass = [&](const exec::Rows* rows) {
     const LocalWork work(ranks_ ? &*ranks_ : nullptr);
     sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
-               fluid_list_view(), dt);
+               fluid_list_view(), dt, rows);
+  };
+  if (!ranks_) {
+    pass(nullptr);
+    return;
   }
-  // Their work is done: between steps a rank holds only the fluid it owns; with the knit
-  // coupled they stay until the next drift (the coupling reads the fluid around the knit);
-  // with "verlet" lists until the next sort, taking their owners' state now, so that the kick,
-  // the drift and the next density pass give each the values its owner computes.
-  if (ranks_ && !coupling_on_) {
-    if (ranks_->keeps_ghosts())
-      ranks_->refresh_forces(*fluid_, continuity());
-    else
-      ranks_->drop_ghosts(ex_, *fluid_);
+  // With the knit coupled the ghosts stay until the next drift (the coupling reads the fluid
+  // around the knit), their motion refreshed after the kick: every row is computed.
+  if (coupling_on_) {
+    pass(nullptr);
+    return;
+  }
+  const auto on_rows = [&](const exec::Rows& rows) { pass(&rows); };
+  // Their work is done: between steps a rank holds only the fluid it owns; with "verlet" lists
+  // the ghosts stay until the next sort, taking their owners' state now, so that the kick, the
+  // drift and the next density pass give each the values its owner computes.
+  if (ranks_->keeps_ghosts())
+    ranks_->refresh_forces(*fluid_, continuity(), on_rows);
+  else {
+    ranks_->owned_pass(fluid_->size(), on_rows);
+    ranks_->drop_ghosts(ex_, *fluid_);
   }
 }
 
@@ -966,14 +984,19 @@ void SimulationT<T>::compute_forces() {
 
 template <typename T>
 void SimulationT<T>::extrapolate_boundary_pressure() {
-  const LocalWork work(ranks_ ? &*ranks_ : nullptr);
-  if (boundary_->size() > 0)
-    boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
-                      shapes_.data(), fluid_near_.data(),
-                      fluid_list_ ? fluid_list_->walls() : ListView<T>{});
-  work.stop();
-  if (ranks_) // collective over the peers, so also where this rank holds no boundary
-    ranks_->refresh_boundary(*boundary_);
+  auto pass = [&](const exec::Rows* rows) {
+    const LocalWork work(ranks_ ? &*ranks_ : nullptr);
+    if (boundary_->size() > 0)
+      boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
+                        shapes_.data(), fluid_near_.data(),
+                        fluid_list_ ? fluid_list_->walls() : ListView<T>{}, rows);
+  };
+  if (!ranks_) {
+    pass(nullptr);
+    return;
+  }
+  // Collective over the peers, so also where this rank holds no boundary.
+  ranks_->refresh_boundary(*boundary_, [&](const exec::Rows& rows) { pass(&rows); });
 }
 
 template <typename T>

@@ -252,6 +252,17 @@ TEST(Distributed, VerletListsAreTheOneRankRun) {
   expect_same_run(s, 160, 40, "dam break, verlet lists, re-partitioned", exec::Backend::Cpu, true);
 }
 
+// The passes that refresh ghosts run over the border's rows, then the interior's while the
+// exchange is in flight (the default), or over every row before it: the same values either way.
+// A row of neither list would keep last step's density and part the runs at once.
+TEST(Distributed, OverlapOrNotIsTheOneRankRun) {
+  Scene s = dambreak("float", "summation");
+  s.parallel.overlap = false;
+  expect_same_run(s, 200, 50, "dam break, no overlap");
+  s.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
+  expect_same_run(s, 200, 50, "dam break, verlet lists, no overlap", exec::Backend::Cpu, true);
+}
+
 TEST(Distributed, RepartitioningKeepsTheOneRankRun) {
   comm::MpiContext mpi;
   Scene s = dambreak("float", "summation");
@@ -320,6 +331,8 @@ TEST(Distributed, OnTheGpuTheSplitIsTheOneRankGpuRun) {
   Scene verlet = dambreak("float", "summation");
   verlet.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
   expect_same_run(verlet, 200, 50, "GPU dam break, verlet lists", gpu, true);
+  verlet.parallel.overlap = false;
+  expect_same_run(verlet, 200, 50, "GPU dam break, verlet lists, no overlap", gpu, true);
   expect_same_run(moving_sphere(), 200, 50, "GPU sphere moving through a tank", gpu, true);
   // The knit's split is host code so far: refused on the GPU, with what to do.
   comm::MpiContext mpi;

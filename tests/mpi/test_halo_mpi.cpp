@@ -128,6 +128,16 @@ TEST_F(Halo, GhostsAreExactlyTheParticlesWithinTheWidthOfTheRegion) {
     std::sort(got.begin(), got.end());
     EXPECT_EQ(got, want) << "rank " << mpi.rank() << ", width " << width;
     EXPECT_GT(got.size(), 0u);
+    // The border a pass computes before the exchange starts: exactly the owned particles within
+    // the width of another rank's region, each once, ascending.
+    std::vector<std::uint32_t> border;
+    for (std::size_t i = 0; i < n; ++i)
+      for (int r = 0; r < mpi.size(); ++r)
+        if (r != mpi.rank() && d.distance_to_region(mine.x[i], r) < width) {
+          border.push_back(static_cast<std::uint32_t>(i));
+          break;
+        }
+    EXPECT_EQ(ex.sent_rows(), border) << "rank " << mpi.rank() << ", width " << width;
     // And each ghost carries its particle's position, bit for bit.
     for (std::size_t k = n; k < n + ng; ++k) {
       const std::size_t i = (id[k] - 1000) / 7;

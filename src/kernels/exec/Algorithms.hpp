@@ -260,6 +260,32 @@ void for_each(const Exec& ex, std::size_t n, const F& f, const char* label) {
   for_each_lanes<1, 256>(ex, n, WithoutLanes<F>{f}, label);
 }
 
+/// The elements a pass runs over: the first n when index is null, else index[0 .. n) (a rank's
+/// owned particles its peers receive as ghosts, or the rest: the pass split around a halo
+/// exchange in flight).
+struct Rows {
+  const std::uint32_t* index = nullptr;
+  std::size_t n = 0;
+};
+
+/// Adapts a per-element functor f(i) to the elements of an index list.
+template <typename F>
+struct OnListedRows {
+  static constexpr unsigned kBlocksPerSm = BlocksPerSmOf<F>::value;
+  const std::uint32_t* index;
+  F f;
+  KF_HD KF_INLINE void operator()(std::size_t k) const { f(index[k]); }
+};
+
+/// Calls f(i) for the elements `rows` names, as for_each does for [0, n).
+template <typename F>
+void for_rows(const Exec& ex, const Rows& rows, const F& f, const char* label) {
+  if (rows.index)
+    for_each(ex, rows.n, OnListedRows<F>{rows.index, f}, label);
+  else
+    for_each(ex, rows.n, f, label);
+}
+
 struct SumOp {
   template <typename T>
   KF_HD KF_INLINE T operator()(const T& a, const T& b) const {

@@ -366,6 +366,24 @@ void cuda_event_destroy(void* e) noexcept {
     (void)cudaGetLastError();
 }
 
+void* cuda_timing_event_create(const char* what) {
+  cudaEvent_t e = nullptr;
+  KF_CUDA(cudaEventCreate(&e), std::string("creating a timing event for '") + what + "'");
+  return e;
+}
+
+void cuda_event_record(void* e, const char* label) {
+  KF_CUDA(cudaEventRecord(static_cast<cudaEvent_t>(e), 0),
+          std::string(label) + ": recording an event");
+}
+
+double cuda_event_seconds(void* start, void* end, const char* label) {
+  float ms = 0;
+  KF_CUDA(cudaEventElapsedTime(&ms, static_cast<cudaEvent_t>(start), static_cast<cudaEvent_t>(end)),
+          std::string(label) + ": reading the time between two events");
+  return 1e-3 * double(ms);
+}
+
 void cuda_copy_to_host_async(void* dst, const void* src, std::size_t bytes, void* event,
                              const char* label) {
   if (bytes)

@@ -48,7 +48,8 @@ public:
     if (n > capacity_) {
       std::size_t cap = capacity_ == 0 ? n : std::max(n, capacity_ + capacity_ / 2);
       T* p = static_cast<T*>(alloc_bytes(backend_, cap * sizeof(T), what_));
-      if (size_ > 0) copy_bytes(p, backend_, ptr_, backend_, size_ * sizeof(T));
+      if (size_ > 0)
+        copy_bytes(p, backend_, ptr_, backend_, size_ * sizeof(T));
       free_bytes(backend_, ptr_);
       ptr_ = p;
       capacity_ = cap;
@@ -59,26 +60,30 @@ public:
   /// Replaces the contents with host data.
   void assign(const T* src, std::size_t n) {
     resize(n);
-    if (n) copy_bytes(ptr_, backend_, src, Backend::Cpu, n * sizeof(T));
+    if (n)
+      copy_bytes(ptr_, backend_, src, Backend::Cpu, n * sizeof(T));
   }
   void assign(const std::vector<T>& v) { assign(v.data(), v.size()); }
 
   /// Copies the contents to a host vector.
   std::vector<T> to_host() const {
     std::vector<T> v(size_);
-    if (size_) copy_bytes(v.data(), Backend::Cpu, ptr_, backend_, size_ * sizeof(T));
+    if (size_)
+      copy_bytes(v.data(), Backend::Cpu, ptr_, backend_, size_ * sizeof(T));
     return v;
   }
 
   /// Copies `n` elements from another buffer (any backend) starting at the given offsets.
   void copy_from(const DeviceBuffer& src, std::size_t n, std::size_t dst_off = 0,
                  std::size_t src_off = 0) {
-    if (n) copy_bytes(ptr_ + dst_off, backend_, src.ptr_ + src_off, src.backend_, n * sizeof(T));
+    if (n)
+      copy_bytes(ptr_ + dst_off, backend_, src.ptr_ + src_off, src.backend_, n * sizeof(T));
   }
 
   /// Fills every byte with `byte` (tests poison outputs with 0xFF so unwritten elements show).
   void poison(unsigned char byte = 0xFF) {
-    if (!size_) return;
+    if (!size_)
+      return;
     std::vector<unsigned char> h(bytes(), byte);
     copy_bytes(ptr_, backend_, h.data(), Backend::Cpu, bytes());
   }

@@ -8,27 +8,41 @@
 namespace kf {
 
 template <typename T>
-void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                 const BoundaryNeighbours<T>& b, const ListView<T>& list) {
+void sph_pack(const exec::Exec& ex, FluidView<T> f) {
   exec::for_each(ex, f.n, PackPositionMass<T>{f}, "sph.pack");
+}
+
+template <typename T>
+void sph_density_rows(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f,
+                      CellView<T> cells, const BoundaryNeighbours<T>& b, const ListView<T>& list,
+                      const exec::Rows& rows) {
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
     using K = decltype(k);
     if (list.count)
-      exec::for_each(ex, f.n, DensityEvaluator<T, K, SphList<T>>{k, prm.eos, f, {list}, b},
+      exec::for_rows(ex, rows, DensityEvaluator<T, K, SphList<T>>{k, prm.eos, f, {list}, b},
                      "sph.density");
     else
-      exec::for_each(ex, f.n, DensityEvaluator<T, K, SphCellWalk<T>>{k, prm.eos, f, {cells, b}, b},
+      exec::for_rows(ex, rows, DensityEvaluator<T, K, SphCellWalk<T>>{k, prm.eos, f, {cells, b}, b},
                      "sph.density");
   });
 }
 
 template <typename T>
+void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
+                 const BoundaryNeighbours<T>& b, const ListView<T>& list) {
+  sph_pack(ex, f);
+  sph_density_rows(ex, prm, f, cells, b, list, exec::Rows{nullptr, f.n});
+}
+
+template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
                        const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes,
-                       const std::uint8_t* fluid_near, const ListView<T>& walls) {
+                       const std::uint8_t* fluid_near, const ListView<T>& walls,
+                       const exec::Rows* rows) {
+  const exec::Rows over = rows ? *rows : exec::Rows{nullptr, b.n};
   auto run = [&](auto k, auto listed) {
     using E = BoundaryPressureEvaluator<T, decltype(k), decltype(listed)::value>;
-    exec::for_each(ex, b.n, E{k, prm, b, f, fluid_cells, shapes, fluid_near, walls},
+    exec::for_rows(ex, over, E{k, prm, b, f, fluid_cells, shapes, fluid_near, walls},
                    "boundary.pressure");
   };
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
@@ -46,15 +60,18 @@ void sph_density_predict(const exec::Exec& ex, const SphParams<T>& prm, FluidVie
 
 template <typename T>
 void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                const BoundaryNeighbours<T>& b, const ListView<T>& list, T dt) {
+                const BoundaryNeighbours<T>& b, const ListView<T>& list, T dt,
+                const exec::Rows* rows) {
+  const exec::Rows over = rows ? *rows : exec::Rows{nullptr, f.n};
   auto run = [&](auto k, auto continuity) {
     using K = decltype(k);
     constexpr bool C = decltype(continuity)::value;
     if (list.count)
-      exec::for_each(ex, f.n, ForceEvaluator<T, K, SphList<T>, C>{k, prm, f, {list}, b, dt},
+      exec::for_rows(ex, over, ForceEvaluator<T, K, SphList<T>, C>{k, prm, f, {list}, b, dt},
                      "sph.forces");
     else
-      exec::for_each(ex, f.n, ForceEvaluator<T, K, SphCellWalk<T>, C>{k, prm, f, {cells, b}, b, dt},
+      exec::for_rows(ex, over,
+                     ForceEvaluator<T, K, SphCellWalk<T>, C>{k, prm, f, {cells, b}, b, dt},
                      "sph.forces");
   };
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
@@ -68,12 +85,17 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
 #define KF_INSTANTIATE(T)                                                                          \
   template void sph_density<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,  \
                                const BoundaryNeighbours<T>&, const ListView<T>&);                  \
+  template void sph_pack<T>(const exec::Exec&, FluidView<T>);                                      \
+  template void sph_density_rows<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>,          \
+                                    CellView<T>, const BoundaryNeighbours<T>&, const ListView<T>&, \
+                                    const exec::Rows&);                                            \
   template void boundary_pressure<T>(const exec::Exec&, const SphParams<T>&, BoundaryView<T>,      \
                                      const FluidView<T>&, CellView<T>, const RigidShape<T>*,       \
-                                     const std::uint8_t*, const ListView<T>&);                     \
+                                     const std::uint8_t*, const ListView<T>&, const exec::Rows*);  \
   template void sph_density_predict<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, T);   \
   template void sph_forces<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,   \
-                              const BoundaryNeighbours<T>&, const ListView<T>&, T);
+                              const BoundaryNeighbours<T>&, const ListView<T>&, T,                 \
+                              const exec::Rows*);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

@@ -62,6 +62,14 @@ struct BoundaryNeighbours {
 template <typename T>
 void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
                  const BoundaryNeighbours<T>& b, const ListView<T>& list = {});
+/// sph_density in parts, for a pass split around a halo exchange: the gather copies of position
+/// and mass (xm) for every fluid particle, then the density of the particles `rows` names.
+template <typename T>
+void sph_pack(const exec::Exec& ex, FluidView<T> f);
+template <typename T>
+void sph_density_rows(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f,
+                      CellView<T> cells, const BoundaryNeighbours<T>& b, const ListView<T>& list,
+                      const exec::Rows& rows);
 
 /// Boundary pressure from the fluid around each boundary particle (Adami et al. 2012):
 /// P_b = (sum_f P_f W + (g - a_b) . sum_f rho_f (x_b - x_f) W) / sum_f W, and rho_b from the EOS.
@@ -73,11 +81,13 @@ void sph_density(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, 
 /// whose cell has no fluid candidate around skips the walk, which would find nothing (P_b = 0).
 /// Reads the fluid's gather copies (xm, vp): after sph_density or sph_density_predict at the same
 /// positions. `walls` (SphLists::walls, or empty): each boundary particle's fluid candidates,
-/// read instead of the walk where its row is complete.
+/// read instead of the walk where its row is complete. `rows` (null: every boundary particle):
+/// the particles the pass runs over.
 template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
                        const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes,
-                       const std::uint8_t* fluid_near = nullptr, const ListView<T>& walls = {});
+                       const std::uint8_t* fluid_near = nullptr, const ListView<T>& walls = {},
+                       const exec::Rows* rows = nullptr);
 
 /// The continuity equation's part of a step before the neighbour pass (prm.density =
 /// Continuity): the pressure of the density predicted for the step's end, rho + dt (2 drho -
@@ -89,8 +99,10 @@ void sph_density_predict(const exec::Exec& ex, const SphParams<T>& prm, FluidVie
 /// After sph_density (or sph_density_predict, with the same dt) at the same positions: it reads
 /// the gather copies that pass wrote. Under the continuity equation the same pass also gives
 /// drho_i/dt and takes the density's step, rho += dt drho (dt 0: the rate at t = 0 only).
+/// `rows` (null: every fluid particle): the particles the pass runs over.
 template <typename T>
 void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, CellView<T> cells,
-                const BoundaryNeighbours<T>& b, const ListView<T>& list = {}, T dt = T(0));
+                const BoundaryNeighbours<T>& b, const ListView<T>& list = {}, T dt = T(0),
+                const exec::Rows* rows = nullptr);
 
 } // namespace kf
