@@ -83,7 +83,11 @@ NcclTransport::NcclTransport(const MpiContext& ctx, int device, cudaStream_t str
         (local_error.empty() ? std::string("another rank failed to set up its GPU") : local_error));
   KF_COMM_NCCL(ncclCommInitRank(&nccl_, size(), root.id, rank()));
   if (!stream_) {
-    KF_COMM_CUDA(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+    // The highest priority: the interior's kernels fill every SM, and the messages' kernels
+    // would otherwise wait for blocks of theirs to retire.
+    int least = 0, greatest = 0;
+    KF_COMM_CUDA(cudaDeviceGetStreamPriorityRange(&least, &greatest));
+    KF_COMM_CUDA(cudaStreamCreateWithPriority(&stream_, cudaStreamNonBlocking, greatest));
     own_stream_ = true;
   }
   KF_COMM_CUDA(cudaEventCreateWithFlags(&filled_, cudaEventDisableTiming));

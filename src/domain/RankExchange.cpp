@@ -57,6 +57,10 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   }
   keeps_ghosts_ = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet &&
                   scene.has(Module::Fluid);
+  // Not with the knit coupled yet: its fluid ghosts live to the next drift, and after a
+  // re-partition the overlapped passes parted a double "verlet" hammock pour from the one-rank
+  // run (tests/mpi/test_distributed_knit_mpi), which the passes over every row do not.
+  overlap_ = scene.parallel.overlap && coupling_reach == 0;
   if (backend != exec::Backend::Cpu && knit_width > 0)
     throw Error("on " + std::to_string(mpi.size()) +
                 " ranks the knit runs on the CPU backend so far (its exchanges are host code; the "
@@ -351,7 +355,7 @@ void RankExchange<T>::overlapped(comm::HaloExchange& halo, const SplitRows* rows
 
 template <typename T>
 void RankExchange<T>::owned_pass(std::size_t n, const Pass& pass) {
-  if (!fluid_halo_ || !scene_.parallel.overlap) {
+  if (!fluid_halo_ || !overlap_) {
     pass(exec::Rows{nullptr, n});
     return;
   }
@@ -420,8 +424,7 @@ void RankExchange<T>::fluid_pass(std::span<const comm::Column> cols, std::size_t
     pass(exec::Rows{nullptr, n});
     return;
   }
-  overlapped(*fluid_halo_, scene_.parallel.overlap ? &fluid_rows() : nullptr, cols, fluid_owned_, n,
-             pass);
+  overlapped(*fluid_halo_, overlap_ ? &fluid_rows() : nullptr, cols, fluid_owned_, n, pass);
 }
 
 template <typename T>
@@ -438,8 +441,8 @@ void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary, const Pass& pas
     return;
   }
   const comm::Column cols[] = {column(boundary.p), column(boundary.vp), column(boundary.inv_rho)};
-  overlapped(*boundary_halo_, scene_.parallel.overlap ? &boundary_rows() : nullptr, cols,
-             boundary_own_count_, boundary.size(), pass);
+  overlapped(*boundary_halo_, overlap_ ? &boundary_rows() : nullptr, cols, boundary_own_count_,
+             boundary.size(), pass);
 }
 
 template <typename T>

@@ -226,6 +226,7 @@ private:
   std::uint64_t repartitions_ = 0;
   double block_scale_ = 0; // a block's edge over parallel.block_cells
   bool keeps_ghosts_ = false;
+  bool overlap_ = false;          // [parallel] overlap, where it applies
   std::uint64_t last_window_ = 0; // step / check_every at the last imbalance check
   PhaseCosts costs() const { return costs_; }
   PhaseCosts costs_;

@@ -504,6 +504,13 @@ TEST(DistributedKnit, CoupledPourIsTheOneRankRun) {
   Scene verlet = hammock("float");
   verlet.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
   expect_same_coupled_run(verlet, 400, 200, "hammock pour, float, verlet lists");
+  // Re-partitioned every 20 steps, in double: the passes' overlap with the halo parted this run
+  // (it stays off with the knit coupled, RankExchange).
+  Scene d = hammock("double");
+  d.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
+  d.parallel.imbalance = 1.0;
+  d.parallel.check_every = 20;
+  expect_same_coupled_run(d, 400, 200, "hammock pour, double, verlet lists, re-partitioned");
 }
 
 // The conserving absorption on N ranks (capillary.model = "conserving"): particles taken whole
