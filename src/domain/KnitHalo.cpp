@@ -3,6 +3,7 @@
 #include "core/Error.hpp"
 #include "domain/ExchangeColumns.hpp"
 #include "domain/GhostSelection.hpp"
+#include "domain/StageParts.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -14,7 +15,12 @@ namespace kf {
 template <typename T>
 KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoupling<T>* coupling,
                       double skin)
-    : ranks_(ranks), knit_(knit), coupling_(coupling), mesh_points_(knit.size()) {
+    : ranks_(ranks), knit_(knit), coupling_(coupling), mesh_points_(knit.size()),
+      by_id_(knit.set().x.backend(), 0, "knit.halo.by_id"),
+      local_of_id_(knit.set().x.backend(), 0, "knit.halo.local") {
+  const exec::Backend b = knit.set().x.backend();
+  self_ref_.x0 = exec::DeviceBuffer<Vec3<T>>(b, 0, "knit.halo.self_x0");
+  coupling_ref_.x0 = exec::DeviceBuffer<Vec3<T>>(b, 0, "knit.halo.coupling_x0");
   // Each point's partners: the other ends of its springs and the other points of its cells.
   std::vector<std::vector<std::uint32_t>> rows(mesh_points_);
   for (const Spring& sp : knit.mesh_springs()) {
@@ -82,8 +88,9 @@ void KnitHalo<T>::distribute(const typename SkinWatch<T>::State& self_state,
   self_ref_.start(set.x, self_state, "self-contact");
   coupling_ref_.start(set.x, coupling_state, "coupling");
   auto columns = state();
-  owned_ = comm::migrate(ranks_.transport(), {}, ranks_.owners({set.x.data(), set.size()}, true),
-                         columns.migration, ranks_.rows());
+  owned_ =
+      comm::migrate(ranks_.transport(), {}, ranks_.owners(HostValues<Vec3<T>>(set.x).span(), true),
+                    columns.migration, ranks_.rows());
   set.resize(owned_);
   repartitions_seen_ = ranks_.repartitions();
   halo_.reset();
@@ -93,8 +100,8 @@ void KnitHalo<T>::distribute(const typename SkinWatch<T>::State& self_state,
 template <typename T>
 bool KnitHalo<T>::partners_present() {
   const auto& set = knit_.set();
-  const std::uint64_t* id = set.id.data();
-  const Vec3<T>* x = set.x.data();
+  const HostValues<std::uint64_t> id(set.id);
+  const HostValues<Vec3<T>> x(set.x);
   local_.assign(mesh_points_, -1);
   for (std::size_t k = 0; k < set.size(); ++k)
     local_[id[k]] = static_cast<std::int64_t>(k);
@@ -117,14 +124,26 @@ template <typename T>
 void KnitHalo<T>::begin(double motion) {
   const auto timed = ranks_.time_exchange();
   auto& set = knit_.set();
+  // The coming step's motion, twice the estimate (from the job's speed and acceleration bounds,
+  // the same on every rank), as SkinWatch allows for one.
+  const double ahead = 2 * motion;
   if (built_ && ranks_.repartitions() == repartitions_seen_) {
     // The ghosts last while no point can have moved half the skin since they were chosen: a
-    // partner within reach then was within reach + skin of this rank's region.
+    // partner within reach then was within reach + skin of this rank's region. The estimates
+    // summed since the choice decide without a reading while they stay inside; past that the
+    // positions are read (a copy to the host and a reduction: the knit's one wait a step).
+    if (travelled_ + ahead <= 0.5 * skin_) {
+      travelled_ += ahead;
+      exchange_motion();
+      return;
+    }
     double moved = 0;
+    const HostValues<Vec3<T>> x(set.x, owned_);
     for (std::size_t i = 0; i < owned_; ++i)
-      moved = std::max(moved, double(norm(set.x.data()[i] - x_built_[i])));
+      moved = std::max(moved, double(norm(x[i] - x_built_[i])));
     moved = ranks_.mpi().max(std::isnan(moved) ? 1e300 : moved);
-    if (moved + motion <= 0.5 * skin_) {
+    if (moved + ahead <= 0.5 * skin_) {
+      travelled_ = moved + ahead;
       exchange_motion();
       return;
     }
@@ -139,10 +158,12 @@ void KnitHalo<T>::begin(double motion) {
     resize(owned_);
   }
   rebuild();
+  travelled_ = ahead;
 }
 
 template <typename T>
 void KnitHalo<T>::rebuild() {
+  stage_parts::Scope part("knit ghosts chosen anew (migration, choice, topology, grids)");
   auto& set = knit_.set();
   const Decomposition& d = ranks_.decomposition();
   const int me = ranks_.rank();
@@ -154,7 +175,8 @@ void KnitHalo<T>::rebuild() {
     repartitions_seen_ = ranks_.repartitions();
   }
   auto columns = state();
-  owned_ = comm::migrate(ranks_.transport(), peers, ranks_.owners({set.x.data(), owned_}),
+  owned_ = comm::migrate(ranks_.transport(), peers,
+                         ranks_.owners(HostValues<Vec3<T>>(set.x, owned_).span()),
                          columns.migration, ranks_.rows());
   set.resize(owned_);
   // The ghosts: the width covers the partners as stretched at the last choice (the check below
@@ -163,10 +185,14 @@ void KnitHalo<T>::rebuild() {
   double width = std::max(base_width_, 1.25 * reach_) + skin_;
   const BlockGrid& g = d.grid();
   const double most = 4 * g.edge() * (g.nx() + g.ny() + g.nz()) + base_width_;
+  { // (a copy: the set grows below)
+    const HostValues<Vec3<T>> x(set.x, owned_);
+    x_built_.assign(x.span().begin(), x.span().end());
+  }
+  std::vector<Vec3d> xd(owned_);
+  for (std::size_t i = 0; i < owned_; ++i)
+    xd[i] = vec_cast<double>(x_built_[i]);
   for (;;) {
-    std::vector<Vec3d> xd(owned_);
-    for (std::size_t i = 0; i < owned_; ++i)
-      xd[i] = vec_cast<double>(set.x.data()[i]);
     const GhostLists gl = select_ghosts(d, me, xd, width);
     halo_.emplace(ranks_.transport(), gl.peers, gl.send, ranks_.rows());
     resize(owned_ + halo_->received());
@@ -181,9 +207,8 @@ void KnitHalo<T>::rebuild() {
     resize(owned_);
   }
   width_ = width;
-  x_built_.assign(set.x.data(), set.x.data() + owned_);
   built_ = true;
-  const std::vector<std::uint64_t> ids(set.id.data(), set.id.data() + set.size());
+  const std::vector<std::uint64_t> ids = set.id.to_host();
   std::vector<std::uint32_t> order(ids.size());
   std::iota(order.begin(), order.end(), 0u);
   std::sort(order.begin(), order.end(), [&](auto a, auto b) { return ids[a] < ids[b]; });
@@ -198,7 +223,7 @@ void KnitHalo<T>::rebuild() {
   if (knit_.self_collision())
     knit_.restore_self_contact(self_ref_.state(set.size()));
   if (coupling_) {
-    coupling_->restore(exec::Exec{exec::Backend::Cpu}, set, coupling_ref_.state(set.size()));
+    coupling_->restore(knit_.exec(), set, coupling_ref_.state(set.size()));
     coupling_->set_active(owned_);
   }
 }
@@ -275,7 +300,9 @@ void KnitHalo<T>::Reference::start(const exec::DeviceBuffer<Vec3<T>>& x,
 template <typename T>
 void KnitHalo<T>::Reference::take(const typename SkinWatch<T>::State& s, std::size_t owned,
                                   const comm::MpiContext& mpi) {
-  std::copy(s.x0.begin(), s.x0.begin() + owned, x0.data());
+  if (owned)
+    exec::copy_bytes(x0.data(), x0.backend(), s.x0.data(), exec::Backend::Cpu,
+                     owned * sizeof(Vec3<T>));
   moved2 = static_cast<T>(mpi.max(double(s.moved2)));
   bound = s.bound;
 }
@@ -290,11 +317,11 @@ template <typename T>
 std::vector<double>
 KnitHalo<T>::gather_on_root(int width, const std::function<void(std::size_t, double*)>& row) const {
   // Each owned point's id and its `width` values, from every rank, placed by id on rank 0.
-  const auto& set = knit_.set();
+  const HostValues<std::uint64_t> id(knit_.set().id, owned_);
   const std::size_t w = std::size_t(width) + 1;
   std::vector<double> mine(w * owned_);
   for (std::size_t i = 0; i < owned_; ++i) {
-    mine[w * i] = double(set.id.data()[i]);
+    mine[w * i] = double(id[i]);
     row(i, &mine[w * i + 1]);
   }
   const bool root = ranks_.rank() == 0;
@@ -315,8 +342,8 @@ KnitHalo<T>::gather_on_root(int width, const std::function<void(std::size_t, dou
 
 template <typename T>
 std::vector<Vec3<T>> KnitHalo<T>::positions_on_root() const {
-  const Vec3<T>* x = knit_.set().x.data();
-  const auto all = gather_on_root(3, [x](std::size_t i, double* r) {
+  const HostValues<Vec3<T>> x(knit_.set().x, owned_);
+  const auto all = gather_on_root(3, [&x](std::size_t i, double* r) {
     r[0] = double(x[i].x), r[1] = double(x[i].y), r[2] = double(x[i].z);
   });
   std::vector<Vec3<T>> out(all.size() / 3);

@@ -6,12 +6,14 @@
 // and volume-cell partner of an owned point (checked, by global id; the width doubles until none
 // is missing) and every point its self-contact lists or cell walks can reach, plus a skin. The
 // ghosts stay, refreshed (positions, velocities) at each step's start and after every drift,
-// until a point may have moved half the skin: then migration and the choice run again (like
-// "verlet" lists; a point owned by a rank stays its until then). The self-contact grid's
-// reference positions travel with the points, and its
-// motion readings are the job's, so it is sorted when the one-rank run sorts it and lists the
-// same partners in the same order: the split knit is the one-rank knit bit for bit. Host
-// memory: the CPU backend.
+// until a point may have moved half the skin (the steps' estimated motions summed, then read): then
+// migration and the choice run again (like "verlet" lists; a point owned by a rank stays its until
+// then). The self-contact grid's reference positions travel with the points, and its motion
+// readings are the job's, so it is sorted when the one-rank run sorts it and lists the same
+// partners in the same order: the split knit is the one-rank knit bit for bit. The points stay on
+// the set's backend: the choices (migration, ghosts, partners) read copies of positions and ids on
+// the host and happen only when the ghosts are chosen anew; the refreshes between substeps move
+// device rows (RankExchange's copier and transport).
 #include "comm/HaloExchange.hpp"
 #include "domain/ExchangeColumns.hpp"
 #include "domain/KnitSystem.hpp"
@@ -103,7 +105,7 @@ public:
 private:
   /// A sorted grid's reference positions (parallel to the set) and the job's record of it.
   struct Reference {
-    exec::DeviceBuffer<Vec3<T>> x0;
+    exec::DeviceBuffer<Vec3<T>> x0{exec::Backend::Cpu, 0, "knit.halo.x0"};
     T moved2 = T(0), bound = T(0);
     /// From a restart's state in mesh order, or (empty x0) the positions x now.
     void start(const exec::DeviceBuffer<Vec3<T>>& x, const typename SkinWatch<T>::State& s,
@@ -138,18 +140,17 @@ private:
   KnitSystem<T>& knit_;
   KnitFluidCoupling<T>* coupling_ = nullptr;
   // The self-contact's and the coupling's knit grids, carried with the points.
-  Reference self_ref_{exec::DeviceBuffer<Vec3<T>>(exec::Backend::Cpu, 0, "knit.halo.self_x0")};
-  Reference coupling_ref_{
-      exec::DeviceBuffer<Vec3<T>>(exec::Backend::Cpu, 0, "knit.halo.coupling_x0")};
+  Reference self_ref_, coupling_ref_; // on the set's backend
   double base_width_ = 0, width_ = 0, reach_ = 0, skin_ = 0;
   bool built_ = false;           // ghosts present (chosen for the positions x_built_)
+  double travelled_ = 0;         // a bound on any point's motion since then (the job's)
   std::vector<Vec3<T>> x_built_; // the owned points' positions when the ghosts were chosen
   std::size_t owned_ = 0, mesh_points_ = 0;
   std::uint64_t repartitions_seen_ = 0;
-  exec::DeviceBuffer<std::uint32_t> by_id_{exec::Backend::Cpu, 0, "knit.halo.by_id"};
+  exec::DeviceBuffer<std::uint32_t> by_id_; // on the set's backend, as local_of_id_
   std::optional<comm::HaloExchange> halo_;
   std::vector<std::int64_t> local_; // mesh index -> local index (-1: not here)
-  exec::DeviceBuffer<std::uint32_t> local_of_id_{exec::Backend::Cpu, 0, "knit.halo.local"};
+  exec::DeviceBuffer<std::uint32_t> local_of_id_;
   std::vector<exec::DeviceBuffer<T>*> carried_;
   Localized localized_;
   // Per mesh point, its partners (springs and volume cells), compressed rows.

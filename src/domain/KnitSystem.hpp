@@ -95,6 +95,7 @@ public:
   const SpringTopology<T>& springs() const { return springs_; }
   std::size_t volume_cells() const { return volumes_.cells(); }
   KnitSet<T>& set() { return set_; }
+  const exec::Exec& exec() const { return ex_; }
   double min_rigid_distance(const RigidShape<T>* shapes, std::size_t n_shapes);
   const std::vector<KnitPieceLayout>& pieces() const { return pieces_; }
   /// The longest rest length of a stretch spring: the widest gap between points of a sheet.

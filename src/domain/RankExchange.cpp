@@ -58,13 +58,8 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   keeps_ghosts_ = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet &&
                   scene.has(Module::Fluid);
   overlap_ = scene.parallel.overlap;
-  if (backend != exec::Backend::Cpu && knit_width > 0)
-    throw Error("on " + std::to_string(mpi.size()) +
-                " ranks the knit runs on the CPU backend so far (its exchanges are host code; the "
-                "knit on the GPU joins in a later stage of P5): this run has the knit on the GPU "
-                "backend: run it with --device cpu, or on one rank");
   // NCCL between device buffers where every rank has a GPU of its own (auto), else MPI through
-  // page-locked host memory; the knit's exchanges are host code (CPU backend only so far).
+  // page-locked host memory.
   const auto kind = scene.parallel.transport == Scene::Parallel::Transport::Mpi
                         ? comm::TransportKind::Mpi
                         : (scene.parallel.transport == Scene::Parallel::Transport::Nccl
@@ -180,9 +175,9 @@ void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::siz
 }
 
 template <typename T>
-typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid,
-                                                           BoundarySet<T>* boundary,
-                                                           std::span<const Vec3<T>> knit) {
+typename RankExchange<T>::Balance
+RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary,
+                         const exec::DeviceBuffer<Vec3<T>>* knit_x, std::size_t knit_owned) {
   Balance b;
   // At the first sort of each window of check_every steps after the one the run started in
   // (with lists kept over steps the sorts come when the fluid has moved, not every step).
@@ -224,8 +219,11 @@ typename RankExchange<T>::Balance RankExchange<T>::balance(std::uint64_t step, F
       if (boundary_owned_[i])
         count((*bx)[i], Phase::Boundary);
   }
-  for (const auto& q : knit)
-    count(q, Phase::Knit);
+  if (knit_x) {
+    const HostValues<Vec3<T>> kx(*knit_x, knit_owned);
+    for (std::size_t i = 0; i < kx.size(); ++i)
+      count(kx[i], Phase::Knit);
+  }
   MPI_Allreduce(MPI_IN_PLACE, counts.data(), static_cast<int>(counts.size()), MPI_DOUBLE, MPI_SUM,
                 mpi_.comm());
   std::vector<std::array<double, kPhases>> per_block(grid.count(), {0, 0, 0});

@@ -138,8 +138,10 @@ public:
   /// phase's weighed by its measured cost a particle (the job's seconds on the phase over its
   /// particles since the last check), and the fluid and the boundary migrate to their new owners
   /// (sort the boundary after, then boundary_sorted()); the knit follows at KnitHalo's next choice.
+  /// knit_x: the knit's positions, the first knit_owned this rank's (read only at a
+  /// re-partition).
   Balance balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary,
-                  std::span<const Vec3<T>> knit = {});
+                  const exec::DeviceBuffer<Vec3<T>>* knit_x = nullptr, std::size_t knit_owned = 0);
   /// What the knit's exchange shares: the transport, the ranks next to this one's blocks (a
   /// particle moves less than a block a step), and the split's own time.
   comm::Transport& transport() { return *transport_; }

@@ -129,8 +129,8 @@ public:
     if (!ranks_)
       return;
     ranks_->clock(phase_).stop();
-    // Less the exchanges inside the scope (the knit's ghost refreshes between substeps, host
-    // code: the knit on N ranks runs on the CPU backend, whose clock is the host's).
+    // Less the exchanges inside the scope (the knit's ghost refreshes between substeps, timed
+    // on the host: each waits for its rows, so the device idles for about as long).
     const double waited = ranks_->exchange_seconds() - exchange0_;
     if (waited > 0)
       ranks_->add_compute(-waited, phase_);
@@ -302,8 +302,12 @@ private:
   void begin_coupling() {
     std::function<void()> share;
     if (knit_halo_) { // the knit's ghosts current, and their saturation their owners'
-      knit_halo_->begin(knit_->expected_motion(dt_));
+      {
+        stage_parts::Scope part("coupling.begin: knit ghosts (refreshed, or chosen anew)");
+        knit_halo_->begin(knit_->expected_motion(dt_));
+      }
       share = [this] {
+        stage_parts::Scope part("coupling.begin: knit ghosts' saturation from their owners");
         const auto v = coupling_->knit_values();
         const comm::Column cols[] = {
             {v[0]->data(), sizeof(T)}, {v[1]->data(), sizeof(T)}, {v[2]->data(), sizeof(T)}};
@@ -397,18 +401,15 @@ private:
   }
   /// The job's largest speed and acceleration on N ranks (max over ranks, NaN kept as inf).
   void job_bounds(MotionBounds<T>* mb, int n) const;
-  /// The knit points this rank owns (between steps), for the blocks' costs; none on one rank.
-  std::span<const Vec3<T>> knit_positions() {
-    if (!knit_halo_)
-      return {};
-    return {knit_->set().x.data(), knit_->owned()};
-  }
-  /// Every knit point this rank holds (the whole knit before distribute; host memory).
+
+  /// Every knit point this rank holds (the whole knit before distribute).
   std::span<const Vec3<T>> all_knit_positions() {
     if (!knit_)
       return {};
-    return {knit_->set().x.data(), knit_->size()};
+    knit_host_.emplace(knit_->set().x); // a copy from a device, valid until the next call
+    return knit_host_->span();
   }
+  std::optional<HostValues<Vec3<T>>> knit_host_;
   RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
   exec::DeviceBuffer<RigidShape<T>> shapes_;
   Pipeline pipeline_;
@@ -689,7 +690,7 @@ void SimulationT<T>::build_pipeline() {
             };
           if (knit_halo_ && !coupling_on_) { // else coupling.begin did
             if (!fluid_on_)                  // else the fluid's sort checks the balance
-              ranks_->balance(steps_, nullptr, nullptr, knit_positions());
+              ranks_->balance(steps_, nullptr, nullptr, &knit_->set().x, knit_->owned());
             knit_halo_->begin(knit_->expected_motion(dt_));
           }
           {
@@ -843,7 +844,9 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     // Ghosts kept since the last sort ("verlet" lists) go: the sort chooses them anew.
     ranks_->drop_ghosts(ex_, *fluid_);
     // Every [parallel] check_every steps the measured imbalance may share the blocks out anew.
-    if (ranks_->balance(steps_, &*fluid_, boundary_on_ ? &*boundary_ : nullptr, knit_positions())
+    if (ranks_
+            ->balance(steps_, &*fluid_, boundary_on_ ? &*boundary_ : nullptr,
+                      knit_halo_ ? &knit_->set().x : nullptr, knit_halo_ ? knit_->owned() : 0)
             .repartitioned &&
         boundary_on_)
       sort_boundary();

@@ -334,16 +334,6 @@ TEST(Distributed, OnTheGpuTheSplitIsTheOneRankGpuRun) {
   verlet.parallel.overlap = false;
   expect_same_run(verlet, 200, 50, "GPU dam break, verlet lists, no overlap", gpu, true);
   expect_same_run(moving_sphere(), 200, 50, "GPU sphere moving through a tank", gpu, true);
-  // The knit's split is host code so far: refused on the GPU, with what to do.
-  comm::MpiContext mpi;
-  try {
-    Simulation::create(load_scene((test::source_dir() / "scenes" / "drape.toml").string(),
-                                  {"output.enabled=false"}),
-                       gpu, &mpi);
-    FAIL() << "the knit on the GPU on N ranks was accepted";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("knit on the GPU"), std::string::npos) << e.what();
-  }
 }
 
 // A sphere ploughing through a tank at 1 m/s: its boundary particles cross blocks (of one
