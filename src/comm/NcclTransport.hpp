@@ -26,13 +26,17 @@ public:
 
 private:
   void do_start(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives) override;
-  /// Synchronises the stream: the exchange and any work queued on it before finish() are done.
+  /// Orders the legacy default stream after the exchange (an event, not a host wait): the work
+  /// queued there after finish() sees the received data; the host does not wait for it (it
+  /// reads device data only through copies on that stream, which are ordered after it).
+  /// NCCL's asynchronous errors are checked without waiting, so one surfaces at a later finish.
   void do_finish() override;
 
   int device_;
   cudaStream_t stream_;
   bool own_stream_ = false;
   cudaEvent_t filled_ = nullptr; // the default stream's work before start()
+  cudaEvent_t moved_ = nullptr;  // the exchange's end on NCCL's stream
   ncclComm_t nccl_ = nullptr;
   std::vector<const SendBuffer*> self_sends_; // scratch: messages to this rank, in order
   std::vector<const RecvBuffer*> self_receives_;

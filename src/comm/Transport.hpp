@@ -60,7 +60,8 @@ public:
   /// The buffers must stay untouched (sends) or unread (receives) until finish() returns. One
   /// exchange at a time: starting while another is in flight is an error. Empty lists are fine.
   void start(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives);
-  /// Waits for everything start() posted; then the receive buffers hold the data. A no-op when
+  /// Waits for everything start() posted; then the receive buffers hold the data (NCCL: for the
+  /// work queued on the legacy default stream after it, without a host wait). A no-op when
   /// nothing is in flight. A failure (MPI, NCCL or CUDA, or a size mismatch MPI can see) is a
   /// kf::Error, and the transport is then idle again.
   void finish();

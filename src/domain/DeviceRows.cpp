@@ -12,13 +12,18 @@ DeviceRows::DeviceRows(exec::Backend backend, bool device_messages)
       flags_(backend, 0, "ranks.flags"), offsets_(backend, 0, "ranks.offsets"),
       keep_(backend, 0, "ranks.keep"), packed_(backend, 0, "ranks.packed") {}
 
+const std::vector<exec::RowColumn>& DeviceRows::columns(std::span<const comm::Column> cols) {
+  columns_.clear();
+  for (const comm::Column& c : cols)
+    columns_.push_back({c.data, c.elem_bytes});
+  return columns_;
+}
+
 void DeviceRows::pack(std::span<const comm::Column> cols, const std::uint32_t* rows, std::size_t n,
                       unsigned char* dst) {
-  std::size_t at = 0;
-  for (const comm::Column& c : cols) {
-    exec::gather_rows({backend_}, dst + at, c.data, rows, n, c.elem_bytes, "ranks.pack");
-    at += n * c.elem_bytes;
-  }
+  // One launch for every column of a message: a refresh's launches were its latency (P5 stage 8).
+  const auto& c = columns(cols);
+  exec::gather_columns({backend_}, dst, c.data(), c.size(), rows, n, "ranks.pack");
 }
 
 void DeviceRows::unpack(std::span<const comm::Column> cols, const std::uint32_t* rows,
@@ -29,11 +34,8 @@ void DeviceRows::unpack(std::span<const comm::Column> cols, const std::uint32_t*
     packed_.assign(in, bytes);
     src = packed_.data();
   }
-  std::size_t at = 0;
-  for (const comm::Column& c : cols) {
-    exec::scatter_rows({backend_}, c.data, rows, src + at, n, c.elem_bytes, "ranks.unpack");
-    at += n * c.elem_bytes;
-  }
+  const auto& c = columns(cols);
+  exec::scatter_columns({backend_}, c.data(), c.size(), rows, src, n, "ranks.unpack");
 }
 
 const std::uint32_t* DeviceRows::device_list(const comm::RowList& list) {

@@ -1,11 +1,12 @@
 #pragma once
 // The ranks' halo and migration rows on a device backend (comm::RowCopier): the columns are
-// device memory; a message is packed on the device (one gather kernel a column). For the MPI
+// device memory; a message is packed on the device (one gather kernel for its columns). For the MPI
 // transport it is copied to a page-locked host buffer, and a received one copied up and
 // scattered, so only the rows that move cross the bus; for NCCL (device messages) the messages
 // stay in device memory.
 #include "comm/RowCopier.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
+#include "kernels/exec/RowCopy.hpp"
 
 #include <memory>
 #include <vector>
@@ -36,6 +37,9 @@ private:
   exec::Backend backend_;
   bool device_messages_ = false;
   /// Packs the n rows listed at `rows` (device memory) into dst (device memory).
+  /// The columns as the kernels take them (a scratch list).
+  const std::vector<exec::RowColumn>& columns(std::span<const comm::Column> cols);
+  std::vector<exec::RowColumn> columns_;
   void pack(std::span<const comm::Column> cols, const std::uint32_t* rows, std::size_t n,
             unsigned char* dst);
   /// The n rows listed at `rows` (device memory) <- in (host or device memory, as messages are).

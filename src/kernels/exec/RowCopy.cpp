@@ -45,6 +45,66 @@ void move_rows(const Exec& ex, void* dst, const void* src, const std::uint32_t* 
   }
 }
 
+/// Word i of a packed run of several columns (column-major: column c's words from start[c]):
+/// the column found by a walk over at most kPackedColumns starts, then as MoveWords.
+template <bool Gather>
+struct MoveColumnWords {
+  std::uint32_t* packed;
+  const std::uint32_t* rows;
+  std::uint32_t* column[kPackedColumns];
+  std::size_t start[kPackedColumns + 1]; // in words; start[count] = the run's length
+  std::uint32_t words[kPackedColumns];
+  int count;
+  KF_HD KF_INLINE void operator()(std::size_t i) const {
+    int c = 0;
+    while (c + 1 < count && i >= start[c + 1])
+      ++c;
+    const std::size_t j = i - start[c], k = j / words[c], w = j % words[c];
+    std::uint32_t* row = column[c] + std::size_t(rows[k]) * words[c] + w;
+    if constexpr (Gather)
+      packed[i] = *row;
+    else
+      *row = packed[i];
+  }
+};
+
+template <bool Gather>
+void move_columns(const Exec& ex, void* run, const RowColumn* cols, std::size_t n_cols,
+                  const std::uint32_t* rows, std::size_t n, const char* label) {
+  if (n == 0 || n_cols == 0)
+    return;
+  bool words =
+      n_cols <= std::size_t(kPackedColumns) && reinterpret_cast<std::uintptr_t>(run) % 4 == 0;
+  for (std::size_t c = 0; c < n_cols && words; ++c)
+    words = cols[c].elem_bytes % 4 == 0 && reinterpret_cast<std::uintptr_t>(cols[c].data) % 4 == 0;
+  if (!words) { // a launch a column (any element size, any alignment)
+    std::size_t at = 0;
+    for (std::size_t c = 0; c < n_cols; ++c) {
+      unsigned char* part = static_cast<unsigned char*>(run) + at;
+      if constexpr (Gather)
+        move_rows<true>(ex, part, cols[c].data, rows, n, cols[c].elem_bytes, label);
+      else
+        move_rows<false>(ex, cols[c].data, part, rows, n, cols[c].elem_bytes, label);
+      at += n * cols[c].elem_bytes;
+    }
+    return;
+  }
+  MoveColumnWords<Gather> m{static_cast<std::uint32_t*>(run), rows, {}, {}, {}, 0};
+  std::size_t at = 0;
+  for (std::size_t c = 0; c < n_cols; ++c) {
+    if (cols[c].elem_bytes == 0)
+      continue;
+    m.column[m.count] = static_cast<std::uint32_t*>(cols[c].data);
+    m.words[m.count] = static_cast<std::uint32_t>(cols[c].elem_bytes / 4);
+    m.start[m.count] = at;
+    at += n * m.words[m.count];
+    ++m.count;
+  }
+  m.start[m.count] = at;
+  if (m.count)
+    for_each(ex, at, m, label);
+}
+
 struct ClearAt {
   std::uint32_t* flags;
   const std::uint32_t* rows;
@@ -67,6 +127,16 @@ void gather_rows(const Exec& ex, void* dst, const void* src, const std::uint32_t
 void scatter_rows(const Exec& ex, void* dst, const std::uint32_t* rows, const void* src,
                   std::size_t n, std::size_t elem_bytes, const char* label) {
   move_rows<false>(ex, dst, src, rows, n, elem_bytes, label);
+}
+
+void gather_columns(const Exec& ex, void* dst, const RowColumn* cols, std::size_t n_cols,
+                    const std::uint32_t* rows, std::size_t n, const char* label) {
+  move_columns<true>(ex, dst, cols, n_cols, rows, n, label);
+}
+
+void scatter_columns(const Exec& ex, const RowColumn* cols, std::size_t n_cols,
+                     const std::uint32_t* rows, const void* src, std::size_t n, const char* label) {
+  move_columns<false>(ex, const_cast<void*>(src), cols, n_cols, rows, n, label);
 }
 
 } // namespace kf::exec

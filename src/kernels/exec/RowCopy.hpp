@@ -17,6 +17,21 @@ void gather_rows(const Exec& ex, void* dst, const void* src, const std::uint32_t
 void scatter_rows(const Exec& ex, void* dst, const std::uint32_t* rows, const void* src,
                   std::size_t n, std::size_t elem_bytes, const char* label);
 
+/// A column of rows: `elem_bytes` bytes a row from `data`.
+struct RowColumn {
+  void* data = nullptr;
+  std::size_t elem_bytes = 0;
+};
+/// Every column's rows[k] packed into one run, column after column (column c's n rows start at
+/// n times the row bytes of the columns before it): one launch for up to kPackedColumns
+/// columns of 4-byte words, else one a column.
+inline constexpr int kPackedColumns = 16;
+void gather_columns(const Exec& ex, void* dst, const RowColumn* cols, std::size_t n_cols,
+                    const std::uint32_t* rows, std::size_t n, const char* label);
+/// The inverse: column c's rows[k] from the packed run (rows distinct).
+void scatter_columns(const Exec& ex, const RowColumn* cols, std::size_t n_cols,
+                     const std::uint32_t* rows, const void* src, std::size_t n, const char* label);
+
 /// flags[i] = 1 for i < n, then flags[gone[k]] = 0 for k < n_gone: the rows that stay.
 void flag_all_but(const Exec& ex, std::uint32_t* flags, std::size_t n, const std::uint32_t* gone,
                   std::size_t n_gone, const char* label);
