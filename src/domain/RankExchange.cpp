@@ -299,33 +299,33 @@ void RankExchange<T>::all_owned() {
 }
 
 template <typename T>
-void RankExchange<T>::split(const comm::HaloExchange& halo, SplitRows& out) {
+typename RankExchange<T>::SplitRows&
+RankExchange<T>::split(const comm::HaloExchange& halo, SplitRows& out,
+                       const std::function<void(exec::DeviceBuffer<std::uint32_t>&)>& owned) {
+  if (out.current)
+    return out;
+  const Timed timed{exchange_seconds_}, part{parts_.refresh};
+  owned(out.flags);
   out.border.assign(halo.sent_rows());
   clear_listed({backend_}, out.border.data(), out.border.size(), out.flags.data());
   flagged_indices({backend_}, out.flags, out.scratch, out.interior, "ranks.interior");
   out.current = true;
+  return out;
 }
 
 template <typename T>
 typename RankExchange<T>::SplitRows& RankExchange<T>::fluid_rows() {
-  if (!fluid_split_.current) {
-    const Timed timed{exchange_seconds_}, part{parts_.refresh};
-    fluid_split_.flags.resize(keep_.size());
-    fluid_split_.flags.copy_from(keep_, keep_.size());
-    split(*fluid_halo_, fluid_split_);
-  }
-  return fluid_split_;
+  return split(*fluid_halo_, fluid_split_, [this](exec::DeviceBuffer<std::uint32_t>& flags) {
+    flags.resize(keep_.size());
+    flags.copy_from(keep_, keep_.size());
+  });
 }
 
 template <typename T>
 typename RankExchange<T>::SplitRows& RankExchange<T>::boundary_rows() {
-  if (!boundary_split_.current) {
-    const Timed timed{exchange_seconds_}, part{parts_.refresh};
-    boundary_split_.flags.assign(
-        std::vector<std::uint32_t>(boundary_owned_.begin(), boundary_owned_.end()));
-    split(*boundary_halo_, boundary_split_);
-  }
-  return boundary_split_;
+  return split(*boundary_halo_, boundary_split_, [this](exec::DeviceBuffer<std::uint32_t>& flags) {
+    flags.assign(std::vector<std::uint32_t>(boundary_owned_.begin(), boundary_owned_.end()));
+  });
 }
 
 template <typename T>

@@ -205,9 +205,10 @@ private:
     exec::DeviceBuffer<std::uint32_t> border, interior, flags, scratch;
     bool current = false;
   };
-  /// out.flags (1 owned, 0 ghost, filled by the caller) less the halo's sent rows: out.interior,
-  /// and the sent rows: out.border.
-  void split(const comm::HaloExchange& halo, SplitRows& out);
+  /// `out` current: owned(out.flags) writes 1 for an owned row and 0 for a ghost; those less the
+  /// halo's sent rows become out.interior, the sent rows out.border.
+  SplitRows& split(const comm::HaloExchange& halo, SplitRows& out,
+                   const std::function<void(exec::DeviceBuffer<std::uint32_t>&)>& owned);
   /// overlapped over the fluid's halo (or the pass over all n rows where there is none).
   void fluid_pass(std::span<const comm::Column> cols, std::size_t n, const Pass& pass);
   /// pass over the owned rows and the halo's exchange of cols, overlapped where the scene asks.
