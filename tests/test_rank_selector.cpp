@@ -9,6 +9,8 @@
 
 #include "support/RandomPoints.hpp"
 
+#include "support/Backends.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -18,12 +20,7 @@ using namespace kf;
 
 namespace {
 
-std::vector<exec::Backend> backends() {
-  std::vector<exec::Backend> b{exec::Backend::Cpu};
-  if (exec::cuda_available())
-    b.push_back(exec::Backend::Cuda);
-  return b;
-}
+using test::backends;
 
 using test::uniform_points;
 

@@ -6,6 +6,8 @@
 #include "kernels/exec/DeviceBuffer.hpp"
 #include "kernels/exec/RowCopy.hpp"
 
+#include "support/Backends.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -18,12 +20,7 @@ using namespace kf;
 
 namespace {
 
-std::vector<exec::Backend> backends() {
-  std::vector<exec::Backend> b{exec::Backend::Cpu};
-  if (exec::cuda_available())
-    b.push_back(exec::Backend::Cuda);
-  return b;
-}
+using test::backends;
 
 /// Columns of the given element sizes over `rows` rows, filled with distinct bytes.
 struct Columns {

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Every test program with GPU cases, on a GPU machine (after `. .devrt/prelude.sh`, from the
 # project root); run it after each change to a kernel. A program has GPU cases when its source
-# names Backend::Cuda or asks cuda_available: the rule tests/CMakeLists.txt labels `gpu` by
+# names Backend::Cuda, asks cuda_available or includes support/Backends.hpp: the rule
+# tests/CMakeLists.txt labels `gpu` by
 # (`ctest -L gpu` in a build tree), applied here to the sources since the GPU machine has no build
 # tree. Binaries are found on PATH (.devrt/bin from scripts/pack-gpu.sh) or in build/cuda/tests.
 #
@@ -20,7 +21,7 @@ root="$(cd "$(dirname "$0")/../.." && pwd)"
 programs() {
   local src
   for src in "$root"/tests/test_*.cpp; do
-    if grep -qF -e 'Backend::Cuda' -e 'cuda_available' "$src"; then
+    if grep -qF -e 'Backend::Cuda' -e 'cuda_available' -e 'support/Backends.hpp' "$src"; then
       basename "$src" .cpp
     fi
   done

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Two builds side by side on a host with two GPUs (after `. .devrt/prelude.sh`, from the project
 # root): the 4M dam break ("verlet" lists, 300 steps, output off) on one GPU, on 2 GPUs strong
-# (4M in all) and weak (4M a rank), one rank a GPU (NCCL), and the paper's pour on 2 GPUs,
+# (4M in all) and weak (4M a rank), one rank a GPU (NCCL), and the paper's pour on 1 and 2 GPUs,
 # alternating OLD and NEW ROUNDS times.
 # Usage: jobs/gpu/p5_two_builds.sh OLD NEW [STEPS] [ROUNDS]   (prints each run's done line)
 set -uo pipefail
@@ -18,6 +18,7 @@ for r in $(seq "$rounds"); do
     run "$exe" 1 dambreak 0.0015874 "dam break 4M"
     run "$exe" 2 dambreak 0.0015874 "dam break 4M, strong"
     run "$exe" 2 dambreak 0.0012599 "dam break 8M, weak"
+    run "$exe" 1 pour "" "pour"
     run "$exe" 2 pour "" "pour"
   done
 done
