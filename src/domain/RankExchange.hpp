@@ -149,6 +149,11 @@ public:
   /// Each position's owning rank (-1 for other ranks' with others_dropped: a migration's
   /// destinations that keep only this rank's particles).
   std::vector<int> owners(std::span<const Vec3<T>> x, bool others_dropped = false) const;
+  /// Of the first n positions (this rank's), those each neighbour needs as ghosts: within `width`
+  /// of its blocks (select_ghosts' lists), chosen on the positions' backend.
+  GhostLists ghost_lists(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width) {
+    return select_.ghosts(x, n, width);
+  }
   /// Every rank but this one (the peers of a migration after a re-partition).
   std::vector<int> other_ranks() const;
   const std::vector<int>& migration_peers() const { return migration_peers_; }

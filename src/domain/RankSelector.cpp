@@ -73,12 +73,18 @@ GhostLists RankSelector<T>::ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::si
   if (!decomposition_)
     throw Error("internal: ghosts chosen before the blocks' owners were set");
   GhostLists g;
+  // The fluid's and the boundary's widths are fixed; the knit's changes at each choice of its
+  // ghosts: the widths used last are kept (the latest at the back), the least recent dropped.
   auto it =
       std::find_if(peers_.begin(), peers_.end(), [&](const auto& p) { return p.first == width; });
   if (it == peers_.end()) {
+    if (peers_.size() >= 6)
+      peers_.erase(peers_.begin());
     peers_.emplace_back(width, neighbour_ranks(*decomposition_, rank_, width));
-    it = peers_.end() - 1;
+  } else {
+    std::rotate(it, it + 1, peers_.end());
   }
+  it = peers_.end() - 1;
   g.peers = it->second;
   g.send.resize(g.peers.size());
   if (g.peers.empty())

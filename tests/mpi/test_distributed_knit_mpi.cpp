@@ -538,12 +538,23 @@ TEST(DistributedKnit, ConservingAbsorptionIsTheOneRankRun) {
 // on the device, the ghosts' refreshes between substeps move device rows, and the choices of
 // ghosts read copies on the host. The same cases against the one-rank GPU run: the GPU's knit
 // passes gather each point's springs, cells and pairs in the one-rank order, as the CPU's do.
+// Measured: identical on 2 ranks (a GPU each over NCCL, and sharing one over MPI) and, for the
+// knit alone, on 3 ranks sharing one.
 TEST(DistributedKnit, OnTheGpuTheSplitKnitIsTheOneRankGpuRun) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device visible";
   const auto gpu = exec::Backend::Cuda;
   expect_same_knit_run(small_drape("float"), 1500, 500, "GPU drape, float", 0, false, gpu);
   expect_same_knit_run(fold("float"), 12000, 3000, "GPU folding strip, float", 1, true, gpu);
+}
+
+// The coupled and absorbing hammocks on the GPU. Identical to the one-rank GPU run on 2 ranks.
+// On 3 ranks sharing one H100 the double hammock pour parted from it by step 500 (2026-11-26,
+// not yet explained: the same case is identical on 3 ranks on the CPU, and on 2 on the GPU).
+TEST(DistributedKnit, OnTheGpuTheCoupledSplitIsTheOneRankGpuRun) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device visible";
+  const auto gpu = exec::Backend::Cuda;
   expect_same_coupled_run(fixed(hammock("double")), 1000, 250, "GPU hammock pour, double", false,
                           gpu);
   Scene verlet = fixed(hammock("float"));
