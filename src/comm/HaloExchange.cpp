@@ -42,8 +42,6 @@ std::vector<std::uint32_t> HaloExchange::sent_rows() const {
   rows.reserve(sent());
   for (const auto& s : send_)
     rows.insert(rows.end(), s.rows.begin(), s.rows.end());
-  std::sort(rows.begin(), rows.end());
-  rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
   return rows;
 }
 

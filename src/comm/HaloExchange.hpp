@@ -31,8 +31,8 @@ public:
   std::size_t received_from(std::size_t k) const { return recv_count_[k]; }
   std::size_t offset_of(std::size_t k) const { return recv_offset_[k]; }
   std::size_t sent() const;
-  /// The local indices sent to any peer, ascending, each once (the border of this rank's region:
-  /// what a pass must have computed before start()).
+  /// The local indices sent to any peer, peer after peer (a row sent to two peers is listed
+  /// twice): the border of this rank's region, what a pass must have computed before start().
   std::vector<std::uint32_t> sent_rows() const;
 
   /// Packs the columns' values of the listed particles and posts the exchange; returns at once.

@@ -3,6 +3,7 @@
 #include "core/Error.hpp"
 #include "domain/ExchangeColumns.hpp"
 #include "domain/GhostSelection.hpp"
+#include "kernels/exec/RowCopy.hpp"
 #include "kernels/grid/RankSelection.hpp"
 
 #include <algorithm>
@@ -54,6 +55,7 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
     r->interior = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.interior");
     r->flags = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.interior_flags");
     r->scratch = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.interior_scan");
+    r->sent = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.sent");
   }
   keeps_ghosts_ = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet &&
                   scene.has(Module::Fluid);
@@ -305,10 +307,15 @@ RankExchange<T>::split(const comm::HaloExchange& halo, SplitRows& out,
   if (out.current)
     return out;
   const Timed timed{exchange_seconds_}, part{parts_.refresh};
+  // Flags on the backend, not a sorted union on the host: with lists off this runs every step.
+  const exec::Exec ex{backend_};
   owned(out.flags);
-  out.border.assign(halo.sent_rows());
-  clear_listed({backend_}, out.border.data(), out.border.size(), out.flags.data());
-  flagged_indices({backend_}, out.flags, out.scratch, out.interior, "ranks.interior");
+  out.sent.assign(halo.sent_rows());
+  exec::set_listed(ex, out.flags.data(), out.sent.data(), out.sent.size(), 0u, "ranks.interior");
+  flagged_indices(ex, out.flags, out.scratch, out.interior, "ranks.interior");
+  exec::flag_only(ex, out.flags.data(), out.flags.size(), out.sent.data(), out.sent.size(),
+                  "ranks.border");
+  flagged_indices(ex, out.flags, out.scratch, out.border, "ranks.border");
   out.current = true;
   return out;
 }

@@ -207,11 +207,11 @@ private:
   /// A halo's owned rows split for a pass around its exchange: those it sends (the border), and
   /// the others, on the backend. Built at the first pass after the halo or the order changed.
   struct SplitRows {
-    exec::DeviceBuffer<std::uint32_t> border, interior, flags, scratch;
+    exec::DeviceBuffer<std::uint32_t> border, interior, flags, scratch, sent;
     bool current = false;
   };
   /// `out` current: owned(out.flags) writes 1 for an owned row and 0 for a ghost; those less the
-  /// halo's sent rows become out.interior, the sent rows out.border.
+  /// halo's sent rows become out.interior, the sent rows (each once, ascending) out.border.
   SplitRows& split(const comm::HaloExchange& halo, SplitRows& out,
                    const std::function<void(exec::DeviceBuffer<std::uint32_t>&)>& owned);
   /// overlapped over the fluid's halo (or the pass over all n rows where there is none).

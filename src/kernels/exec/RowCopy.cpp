@@ -105,10 +105,11 @@ void move_columns(const Exec& ex, void* run, const RowColumn* cols, std::size_t 
     for_each(ex, at, m, label);
 }
 
-struct ClearAt {
+struct SetAt {
   std::uint32_t* flags;
   const std::uint32_t* rows;
-  KF_HD KF_INLINE void operator()(std::size_t k) const { flags[rows[k]] = 0; }
+  std::uint32_t value;
+  KF_HD KF_INLINE void operator()(std::size_t k) const { flags[rows[k]] = value; }
 };
 
 } // namespace
@@ -116,7 +117,18 @@ struct ClearAt {
 void flag_all_but(const Exec& ex, std::uint32_t* flags, std::size_t n, const std::uint32_t* gone,
                   std::size_t n_gone, const char* label) {
   for_each(ex, n, FillWith<std::uint32_t>{flags, 1u}, label);
-  for_each(ex, n_gone, ClearAt{flags, gone}, label);
+  set_listed(ex, flags, gone, n_gone, 0u, label);
+}
+
+void flag_only(const Exec& ex, std::uint32_t* flags, std::size_t n, const std::uint32_t* rows,
+               std::size_t count, const char* label) {
+  for_each(ex, n, FillWith<std::uint32_t>{flags, 0u}, label);
+  set_listed(ex, flags, rows, count, 1u, label);
+}
+
+void set_listed(const Exec& ex, std::uint32_t* flags, const std::uint32_t* rows, std::size_t count,
+                std::uint32_t value, const char* label) {
+  for_each(ex, count, SetAt{flags, rows, value}, label);
 }
 
 void gather_rows(const Exec& ex, void* dst, const void* src, const std::uint32_t* rows,

@@ -32,6 +32,12 @@ void gather_columns(const Exec& ex, void* dst, const RowColumn* cols, std::size_
 void scatter_columns(const Exec& ex, const RowColumn* cols, std::size_t n_cols,
                      const std::uint32_t* rows, const void* src, std::size_t n, const char* label);
 
+/// flags[rows[k]] = value for k < count (rows may repeat).
+void set_listed(const Exec& ex, std::uint32_t* flags, const std::uint32_t* rows, std::size_t count,
+                std::uint32_t value, const char* label);
+/// flags[i] = 0 for i < n, then flags[rows[k]] = 1 for k < count: the listed rows.
+void flag_only(const Exec& ex, std::uint32_t* flags, std::size_t n, const std::uint32_t* rows,
+               std::size_t count, const char* label);
 /// flags[i] = 1 for i < n, then flags[gone[k]] = 0 for k < n_gone: the rows that stay.
 void flag_all_but(const Exec& ex, std::uint32_t* flags, std::size_t n, const std::uint32_t* gone,
                   std::size_t n_gone, const char* label);

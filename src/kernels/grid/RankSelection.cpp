@@ -76,12 +76,6 @@ struct Below {
   }
 };
 
-struct ClearListed {
-  const std::uint32_t* rows;
-  std::uint32_t* flags;
-  KF_HD KF_INLINE void operator()(std::size_t k) const { flags[rows[k]] = 0u; }
-};
-
 } // namespace
 
 template <typename T>
@@ -116,11 +110,6 @@ void invert_permutation(const exec::Exec& ex, const std::uint32_t* perm, std::si
 void flag_below(const exec::Exec& ex, const std::uint32_t* perm, std::size_t n, std::size_t bound,
                 std::uint32_t* flags) {
   exec::for_each(ex, n, Below{perm, bound, flags}, "ranks.flag_below");
-}
-
-void clear_listed(const exec::Exec& ex, const std::uint32_t* rows, std::size_t count,
-                  std::uint32_t* flags) {
-  exec::for_each(ex, count, ClearListed{rows, flags}, "ranks.clear_listed");
 }
 
 #define KF_INSTANTIATE(T)                                                                          \

@@ -47,8 +47,4 @@ void invert_permutation(const exec::Exec& ex, const std::uint32_t* perm, std::si
 void flag_below(const exec::Exec& ex, const std::uint32_t* perm, std::size_t n, std::size_t bound,
                 std::uint32_t* flags);
 
-/// flags[rows[k]] = 0 for k < count.
-void clear_listed(const exec::Exec& ex, const std::uint32_t* rows, std::size_t count,
-                  std::uint32_t* flags);
-
 } // namespace kf
