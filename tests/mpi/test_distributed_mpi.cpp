@@ -122,7 +122,13 @@ void expect_same_run(const Scene& s, int steps, int every, const std::string& wh
     }
     if (parted)
       continue;
-    ASSERT_EQ(one->time(), split->time()) << what << ": the ranks took another dt, step " << k;
+    // A tie parts the runs at rounding level; a dt that differs is often its first sign, before
+    // the next comparison of the fields.
+    if (one->time() != split->time()) {
+      ASSERT_TRUE(lists_may_part) << what << ": the ranks took another dt, step " << k;
+      parted = k;
+      continue;
+    }
     if (k % every != 0 && k != steps)
       continue;
     const Gathered a = by_id(one->frame(), false), b = by_id(split->frame(), true);
