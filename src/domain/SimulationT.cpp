@@ -1193,8 +1193,10 @@ io::Frame SimulationT<T>::frame() const {
           "rank", std::vector<std::uint32_t>(p.fields[0].count, std::uint32_t(ranks_->rank())), 1));
     }
     // "verlet" lists: the positions they were built for and the rule's bounds since, so that a
-    // restart lists and sorts the fluid when this run does (restore_fluid_grid).
-    if (fluid_list_ && skin_ > 0) {
+    // restart lists and sorts the fluid when this run does (restore_fluid_grid). One rank only:
+    // on N ranks each rank lists its ghosts too and builds at steps of its own (the local rule),
+    // and a restart partitions anew and lists at its first step (restore).
+    if (fluid_list_ && skin_ > 0 && !ranks_) {
       const auto st = fluid_list_->state();
       if (!st.x0.empty()) {
         p.fields.push_back(io::Field::from("listed_position", flatten(st.x0), 3));
