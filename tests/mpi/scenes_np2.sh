@@ -1,0 +1,52 @@
+#!/usr/bin/env bash
+# Every scene in scenes/ runs through the app on 2 ranks as it does on one (P5), snapshots
+# included: a few steps of each, on 1 rank and under mpiexec -n 2, and the last frames must hold
+# the same particles of every phase (ids, and the yarn's rows), each written once, with the
+# owning rank's field naming both ranks. The physics of the split is checked particle by
+# particle in test_distributed_*_mpi; this catches what only the app's path meets (the writer's
+# checks that the ranks agree, a rank owning none of a phase, the scenes' own settings).
+# Debian's python3 (/usr/bin: h5py and numpy come as its packages, scripts/install-deps.sh).
+# Usage: scenes_np2.sh KNITFLOW SCENES_DIR MPIEXEC
+set -uo pipefail
+exe=$1 scenes=$2 mpiexec=$3
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+fail=0
+for scene in "$scenes"/*.toml; do
+  name=$(basename "$scene" .toml)
+  # 2 ms of simulated time (40-200 steps), a frame each millisecond.
+  args=(run "$scene" --device cpu --quiet --set simulation.end_time=0.002
+        --set output.interval=0.001)
+  if ! OMP_NUM_THREADS=1 timeout 300 "$exe" "${args[@]}" --output "$out/$name.1" \
+       > "$out/$name.1.log" 2>&1; then
+    echo "FAIL $name: 1 rank"; cat "$out/$name.1.log"; fail=1; continue
+  fi
+  if ! OMP_NUM_THREADS=1 timeout 300 "$mpiexec" -n 2 --oversubscribe "$exe" "${args[@]}" \
+       --output "$out/$name.2" > "$out/$name.2.log" 2>&1; then
+    echo "FAIL $name: 2 ranks"; cat "$out/$name.2.log"; fail=1; continue
+  fi
+  if ! /usr/bin/python3 - "$out/$name.1" "$out/$name.2" <<'EOF'
+import glob, sys
+import h5py, numpy as np
+one, two = (sorted(glob.glob(d + "/frame_*.h5")) for d in sys.argv[1:3])
+assert len(one) == len(two) >= 2, f"frames: {len(one)} on 1 rank, {len(two)} on 2"
+ranks = set()
+with h5py.File(one[-1], "r") as a, h5py.File(two[-1], "r") as b:
+    assert set(a) == set(b), f"phases {sorted(a)} on 1 rank, {sorted(b)} on 2"
+    for phase in a:
+        if "id" in a[phase]:
+            ia, ib = np.sort(a[phase]["id"][:]), np.sort(b[phase]["id"][:])
+            assert ia.shape == ib.shape and (ia == ib).all(), \
+                f"{phase}: {ia.size} ids on 1 rank, {ib.size} on 2 (or others)"
+            ranks |= set(np.unique(b[phase]["rank"][:]).tolist())
+        else:
+            na, nb = (f[phase]["position"].shape[0] for f in (a, b))
+            assert na == nb, f"{phase}: {na} rows on 1 rank, {nb} on 2"
+assert ranks == {0, 1}, f"owning ranks written: {sorted(ranks)}"
+EOF
+  then
+    echo "FAIL $name: the last frames differ"; fail=1; continue
+  fi
+  echo "ok   $name"
+done
+exit $fail
