@@ -300,24 +300,36 @@ private:
   std::optional<ConservingAbsorption<T>> absorption_; // capillary.model = "conserving"
   std::uint64_t next_fluid_id_ = 0;
   void begin_coupling() {
-    std::function<void()> share;
     if (knit_halo_) { // the knit's ghosts current, and their saturation their owners'
-      {
-        stage_parts::Scope part("coupling.begin: knit ghosts (refreshed, or chosen anew)");
-        knit_halo_->begin(knit_->expected_motion(dt_));
-      }
-      share = [this] {
-        stage_parts::Scope part("coupling.begin: knit ghosts' saturation from their owners");
-        const auto v = coupling_->knit_values();
-        const comm::Column cols[] = {
-            {v[0]->data(), sizeof(T)}, {v[1]->data(), sizeof(T)}, {v[2]->data(), sizeof(T)}};
-        knit_halo_->refresh(cols);
-      };
+      stage_parts::Scope part("coupling.begin: knit ghosts (refreshed, or chosen anew)");
+      knit_halo_->begin(knit_->expected_motion(dt_));
     }
     coupling_->begin_step(ex_, knit_->set(), fluid_side(),
                           absorption_ ? absorption_->absorbed().data() : nullptr,
                           absorption_ ? absorption_->capacity().data() : nullptr,
-                          static_cast<T>(knit_->expected_motion(dt_)), share);
+                          static_cast<T>(knit_->expected_motion(dt_)), share_saturation());
+  }
+  /// On N ranks: the knit ghosts take their owners' saturation, capillary pressure and wet mass.
+  std::function<void()> share_saturation() {
+    if (!knit_halo_)
+      return {};
+    return [this] {
+      stage_parts::Scope part("coupling.begin: knit ghosts' saturation from their owners");
+      const auto v = coupling_->knit_values();
+      const comm::Column cols[] = {
+          {v[0]->data(), sizeof(T)}, {v[1]->data(), sizeof(T)}, {v[2]->data(), sizeof(T)}};
+      knit_halo_->refresh(cols);
+    };
+  }
+  /// After a restart: the knit's saturation for the state restored, for snapshots and
+  /// diagnostics before the next step (on N ranks the knit's points were shared out anew).
+  /// The ghosts are chosen first: diagnostics keep the set's points as they are (current()).
+  void update_saturation() {
+    with_knit_ghosts([this] {
+      coupling_->update_saturation(
+          ex_, knit_->set(), fluid_side(), absorption_ ? absorption_->absorbed().data() : nullptr,
+          absorption_ ? absorption_->capacity().data() : nullptr, share_saturation());
+    });
   }
   /// Before the fluid's drift on N ranks with the knit coupled: the ghosts the coupling read go
   /// (with "verlet" lists they stay until the next sort: after_drift()).
@@ -1373,6 +1385,7 @@ void SimulationT<T>::restore(const io::Frame& fr) {
       // and the grid now, for the same positions as the run that wrote the frame sorted them.
       sort_fluid(false, {true});
       ranks_->refresh_motion(*fluid_);
+      update_saturation();
     }
     return;
   }
@@ -1390,6 +1403,8 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   }
   if (fluid_on_)
     restore_fluid_grid(fr);
+  if (coupling_on_)
+    update_saturation();
 }
 
 template <typename T>

@@ -2,7 +2,8 @@
 # Every scene in scenes/ runs through the app on 2 ranks as it does on one (P5), snapshots
 # included: a few steps of each, on 1 rank and under mpiexec -n 2, and the last frames must hold
 # the same particles of every phase (ids, and the yarn's rows), each written once, with the
-# owning rank's field naming both ranks. The physics of the split is checked particle by
+# owning rank's field naming both ranks; a restart on 2 ranks from the first frame then runs to
+# the same end. The physics of the split is checked particle by
 # particle in test_distributed_*_mpi; this catches what only the app's path meets (the writer's
 # checks that the ranks agree, a rank owning none of a phase, the scenes' own settings).
 # Debian's python3 (/usr/bin: h5py and numpy come as its packages, scripts/install-deps.sh).
@@ -46,6 +47,13 @@ assert ranks == {0, 1}, f"owning ranks written: {sorted(ranks)}"
 EOF
   then
     echo "FAIL $name: the last frames differ"; fail=1; continue
+  fi
+  # And the app's restart on 2 ranks from the 2-rank run's first frame to the same end (the
+  # continuation is compared particle by particle in test_distributed_*_mpi).
+  if ! OMP_NUM_THREADS=1 timeout 300 "$mpiexec" -n 2 --oversubscribe "$exe" "${args[@]}" \
+       --restart "$out/$name.2/frame_000001.h5" --output "$out/$name.r" > "$out/$name.r.log" 2>&1 \
+     || [ ! -f "$out/$name.r/$(basename "$(ls "$out/$name.2"/frame_*.h5 | tail -1)")" ]; then
+    echo "FAIL $name: restart on 2 ranks"; cat "$out/$name.r.log"; fail=1; continue
   fi
   echo "ok   $name"
 done

@@ -520,6 +520,74 @@ TEST(DistributedKnit, CoupledPourIsTheOneRankRun) {
   expect_same_coupled_run(verlet, 400, 200, "hammock pour, float, verlet lists");
 }
 
+// Restart across rank counts with the fluid coupled to the knit (the paper's capillary model):
+// the restored run reports, before its first step, the saturation of the state restored (on N
+// ranks the knit's points are shared out anew, so it is computed again), which is the one the
+// uninterrupted run's next step begins with, and ends where that run ends, bit for bit.
+TEST(DistributedKnit, CoupledRestartContinuesOnAnyRankCount) {
+  comm::MpiContext world;
+  const Scene s = fixed(hammock("double"));
+  const int first = 500, total = 800;
+  auto one = Simulation::create(s, exec::Backend::Cpu);
+  io::Frame one_at_first;
+  Diagnostics next_begins; // the saturation step first + 1 begins with
+  for (int k = 1; k <= total; ++k) {
+    one->step(1e9);
+    if (k == first)
+      one_at_first = one->frame();
+    if (k == first + 1)
+      next_begins = one->diagnostics();
+  }
+  ASSERT_GT(next_begins.wet_points, 0u)
+      << "nothing wet at the restart: the saturation went untested";
+  const io::Frame end = one->frame();
+  const KnitRows want = knit_rows(end, false), want_fluid = knit_rows(end, false, "fluid");
+  auto check = [&](Simulation& sim, bool split, const std::string& what) {
+    SCOPED_TRACE(what);
+    ASSERT_EQ(sim.steps(), static_cast<std::uint64_t>(first));
+    const Diagnostics d = sim.diagnostics(); // threw on N ranks: the saturation was never sized
+    EXPECT_EQ(d.wet_points, next_begins.wet_points);
+    EXPECT_EQ(d.max_saturation, next_begins.max_saturation);
+    while (sim.steps() < static_cast<std::uint64_t>(total))
+      sim.step(1e9);
+    const io::Frame f = sim.frame();
+    expect_same_rows(want, knit_rows(f, split), what + ", knit");
+    expect_same_rows(want_fluid, knit_rows(f, split, "fluid"), what + ", fluid");
+  };
+  const auto dir = test::scratch_dir("distributed_coupled_restart");
+  std::string snap;
+  {
+    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
+    for (int k = 1; k <= first; ++k)
+      split->step(1e9);
+    io::SnapshotWriter writer(MPI_COMM_WORLD, dir.string());
+    io::Frame fr = split->frame();
+    fr.index = 1;
+    snap = writer.write(fr);
+  }
+  const io::Frame written = io::read_snapshot(MPI_COMM_WORLD, snap);
+  {
+    auto again = Simulation::create(s, exec::Backend::Cpu, &world);
+    again->restore(written);
+    check(*again, true, "N ranks -> N ranks");
+  }
+  {
+    auto alone = Simulation::create(s, exec::Backend::Cpu);
+    alone->restore(written);
+    check(*alone, false, "N ranks -> 1 rank");
+  }
+  {
+    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
+    split->restore(one_at_first);
+    check(*split, true, "1 rank -> N ranks");
+  }
+  if (world.root())
+    std::printf("coupled restart at step %d of %d (%llu wet points, saturation up to %.3f): "
+                "N -> N, N -> 1, 1 -> N all end as the one-rank run\n",
+                first, total, static_cast<unsigned long long>(next_begins.wet_points),
+                next_begins.max_saturation);
+}
+
 // The conserving absorption on N ranks (capillary.model = "conserving"): particles taken whole
 // and in part across ranks, the absorbed fluid spreading along links between points of
 // different ranks, drops emitted and numbered as on one rank.

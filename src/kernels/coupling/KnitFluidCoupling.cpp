@@ -67,10 +67,10 @@ void KnitFluidCoupling<T>::sync_knit(const exec::Exec& ex, KnitSet<T>& knit) {
 }
 
 template <typename T>
-void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
-                                      const FluidSide<T>& fluid, const T* absorbed,
-                                      const T* capacity, T motion,
-                                      const std::function<void()>& share) {
+void KnitFluidCoupling<T>::update_saturation(const exec::Exec& ex, KnitSet<T>& knit,
+                                             const FluidSide<T>& fluid, const T* absorbed,
+                                             const T* capacity,
+                                             const std::function<void()>& share) {
   const std::size_t n = knit.size();
   const bool fresh = saturation_.size() != n;
   saturation_.resize(n);
@@ -107,6 +107,15 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
   }
   if (share)
     share();
+}
+
+template <typename T>
+void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
+                                      const FluidSide<T>& fluid, const T* absorbed,
+                                      const T* capacity, T motion,
+                                      const std::function<void()>& share) {
+  update_saturation(ex, knit, fluid, absorbed, capacity, share);
+  const std::size_t n = knit.size();
   watch_.before_step(ex, knit.x, motion, x_.size() != n, [&] { sort_now(ex, knit); });
   exec::gather(ex, perm(), pressure_, p_, "coupling.gather");
   exec::gather(ex, perm(), knit.m, m_, "coupling.gather"); // wet mass changes

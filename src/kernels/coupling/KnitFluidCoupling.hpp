@@ -62,6 +62,13 @@ public:
                   const T* absorbed = nullptr, const T* capacity = nullptr,
                   T motion = std::numeric_limits<T>::infinity(),
                   const std::function<void()>& share = {});
+  /// begin_step's first part alone: the knit's saturation, capillary pressure and wet mass from
+  /// the state now (then share), the grid and lists untouched. For snapshots and diagnostics
+  /// before a step where the knit's points changed (a restart shares them out anew on N ranks);
+  /// the next begin_step computes the same values again.
+  void update_saturation(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid,
+                         const T* absorbed = nullptr, const T* capacity = nullptr,
+                         const std::function<void()>& share = {});
   /// On N ranks (the knit set holds owned points, then ghosts): the knit grid sorts the points
   /// in id order (by_id lists the set's indices so), so each fluid particle's knit candidates
   /// come in the one-rank run's order; the host's motion readings are the job's; the knit-side
