@@ -211,11 +211,11 @@ void KnitHalo<T>::rebuild() {
   std::iota(order.begin(), order.end(), 0u);
   std::sort(order.begin(), order.end(), [&](auto a, auto b) { return ids[a] < ids[b]; });
   by_id_.assign(order);
-  knit_.localize(ids, owned_);
   std::vector<std::uint32_t> local(mesh_points_, kAbsent);
   for (std::size_t k = 0; k < ids.size(); ++k)
     local[ids[k]] = static_cast<std::uint32_t>(k);
   local_of_id_.assign(local);
+  knit_.localize(local_of_id_, owned_);
   if (localized_)
     localized_(ids, owned_);
   if (knit_.self_collision())

@@ -127,41 +127,19 @@ void KnitSystem<T>::internal_forces() {
 }
 
 template <typename T>
-void KnitSystem<T>::localize(const std::vector<std::uint64_t>& ids, std::size_t owned) {
-  const std::size_t n = ids.size();
-  std::vector<std::int64_t> local(mesh_rest_.size(), -1); // mesh index -> local index (-1: none)
-  for (std::size_t k = 0; k < n; ++k)
-    local[ids[k]] = static_cast<std::int64_t>(k);
-  const auto is_owned = [&](std::uint32_t id) {
-    return local[id] >= 0 && std::size_t(local[id]) < owned;
-  };
-  const auto at = [&](std::uint32_t id) {
-    if (local[id] < 0)
-      throw Error("knit on N ranks: point " + std::to_string(id) +
-                  ", a partner of an owned point, is neither owned nor a ghost here");
-    return static_cast<std::uint32_t>(local[id]);
-  };
-  // The owned points' springs and cells in the mesh's order (each row keeps its order).
-  std::vector<Spring> springs;
-  springs.reserve(mesh_springs_.size()); // 461k for the pour: growing them cost half the filter
-  for (const Spring& sp : mesh_springs_)
-    if (is_owned(sp.i) || is_owned(sp.j)) {
-      Spring l = sp;
-      l.i = at(sp.i);
-      l.j = at(sp.j);
-      springs.push_back(l);
-    }
-  std::vector<VolumeCell> cells;
-  cells.reserve(mesh_cells_.size());
-  for (const VolumeCell& c : mesh_cells_)
-    if (std::any_of(c.point.begin(), c.point.end(), is_owned)) {
-      VolumeCell l = c;
-      for (auto& q : l.point)
-        q = at(q);
-      cells.push_back(l);
-    }
-  springs_.build(springs, n);
-  volumes_.build(cells, n);
+void KnitSystem<T>::localize(const exec::DeviceBuffer<std::uint32_t>& local_of_id,
+                             std::size_t owned) {
+  const std::size_t n = set_.size();
+  if (!mesh_spring_rows_) {
+    // The whole mesh's rows, which every choice gathers from: the rows built for the whole
+    // knit until now (the constructor's, or restore's), kept.
+    mesh_spring_rows_.emplace(std::move(springs_));
+    springs_ = SpringTopology<T>(ex_.backend);
+    mesh_volume_rows_.emplace(std::move(volumes_));
+    volumes_ = VolumeTopology<T>(ex_.backend);
+  }
+  springs_.localize(ex_, *mesh_spring_rows_, set_.id.data(), local_of_id.data(), owned, n);
+  volumes_.localize(ex_, *mesh_volume_rows_, set_.id.data(), local_of_id.data(), owned, n);
   owned_ = owned;
   if (self_)
     self_->set_active(owned);
@@ -373,6 +351,7 @@ void KnitSystem<T>::restore(const io::Phase& p) {
 template <typename T>
 std::size_t KnitSystem<T>::bytes() const {
   return set_.size() * KnitSet<T>::bytes_per_particle() + springs_.bytes() + volumes_.bytes() +
+         (mesh_spring_rows_ ? mesh_spring_rows_->bytes() + mesh_volume_rows_->bytes() : 0) +
          (self_ ? self_->bytes() : 0);
 }
 

@@ -76,11 +76,11 @@ public:
 
   /// On N ranks (KnitHalo): the set holds `owned` points, which this rank integrates, then
   /// ghosts (their copies, refreshed by refresh_ghosts after every drift). The springs and
-  /// volume cells of the owned points are rebuilt over the local points, their other ends
-  /// found by global id (ids: the local points' ids, which are mesh indices); each point's
-  /// row keeps the mesh's order, so its forces sum as on one rank. Every partner must be
-  /// present (KnitHalo checks).
-  void localize(const std::vector<std::uint64_t>& ids, std::size_t owned);
+  /// volume cells of the owned points are gathered on the backend from the whole mesh's rows
+  /// (by the set's ids, which are mesh indices), their other ends by local_of_id (each mesh
+  /// index's local index); each point's row keeps the mesh's order, so its forces sum as on one
+  /// rank. Every partner must be present (KnitHalo checks).
+  void localize(const exec::DeviceBuffer<std::uint32_t>& local_of_id, std::size_t owned);
   /// Points this rank integrates (all on one rank).
   std::size_t owned() const { return std::min(owned_, set_.size()); }
   void set_ghost_refresh(std::function<void()> refresh) { refresh_ghosts_ = std::move(refresh); }
@@ -115,6 +115,9 @@ private:
   KnitSet<T> set_;
   SpringTopology<T> springs_;
   VolumeTopology<T> volumes_;
+  // On N ranks, the whole mesh's rows that localize() gathers from (built at its first call).
+  std::optional<SpringTopology<T>> mesh_spring_rows_;
+  std::optional<VolumeTopology<T>> mesh_volume_rows_;
   void set_handle_velocities(double t);
   exec::DeviceBuffer<Vec3<T>> handle_v_;
   std::vector<Vec3<T>> handle_v_host_;

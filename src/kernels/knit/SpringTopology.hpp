@@ -63,7 +63,15 @@ public:
   /// Builds the rows from a spring list over n_points points (each row in the list's order);
   /// rejects i == j and indices >= n.
   void build(const std::vector<Spring>& springs, std::size_t n_points);
+  /// On N ranks, from the whole mesh's rows (`mesh`, built over mesh indices = ids): rows for n
+  /// local points, the first `owned` of which take their mesh point's row (id[k]) whole, in its
+  /// order, the other ends mapped to local indices (local_of_id, by id; every partner of an owned
+  /// point present); the ghosts' rows are empty (no pass reads them). On the backend: a gather,
+  /// where filtering the mesh's spring list on the host cost 20-25 ms a choice of ghosts.
+  void localize(const exec::Exec& ex, const SpringTopology& mesh, const std::uint64_t* id,
+                const std::uint32_t* local_of_id, std::size_t owned, std::size_t n);
   SpringView<T> view() const;
+  /// The springs built from (localized: the mesh's).
   std::size_t springs() const { return springs_; }
   std::size_t bytes() const;
   /// Springs per kind, for `plan` and the summary.
@@ -73,6 +81,7 @@ private:
   exec::DeviceBuffer<std::uint32_t> count_;
   exec::DeviceBuffer<SpringEntry<T>> entry_;
   std::size_t springs_ = 0;
+  std::uint32_t width_ = 0; // the most springs of one point
   std::vector<std::size_t> by_kind_;
 };
 

@@ -46,6 +46,64 @@ void VolumeTopology<T>::build(const std::vector<VolumeCell>& cells, std::size_t 
   rest_.assign(rest);
   k_.assign(k);
   cells_ = cells.size();
+  width_ = width;
+}
+
+namespace {
+
+// Local point k's cells: its mesh point's; ghosts none.
+struct LocalCellRow {
+  const std::uint32_t* mesh_count;
+  const std::uint32_t* mesh_cell;
+  std::size_t mesh_n;
+  const std::uint64_t* id;
+  std::size_t owned, n;
+  std::uint32_t* count;
+  std::uint32_t* cell;
+  KF_HD KF_INLINE void operator()(std::size_t k) const {
+    if (k >= owned) {
+      count[k] = 0;
+      return;
+    }
+    const std::size_t p = static_cast<std::size_t>(id[k]);
+    const std::uint32_t c = mesh_count[p];
+    count[k] = c;
+    for (std::uint32_t e = 0; e < c; ++e)
+      cell[e * n + k] = mesh_cell[e * mesh_n + p];
+  }
+};
+
+// A mesh cell's corner by local index.
+struct LocalCorner {
+  const std::uint32_t* mesh_point;
+  const std::uint32_t* local_of_id;
+  std::uint32_t* point;
+  KF_HD KF_INLINE void operator()(std::size_t q) const { point[q] = local_of_id[mesh_point[q]]; }
+};
+
+} // namespace
+
+template <typename T>
+void VolumeTopology<T>::localize(const exec::Exec& ex, const VolumeTopology& mesh,
+                                 const std::uint64_t* id, const std::uint32_t* local_of_id,
+                                 std::size_t owned, std::size_t n) {
+  cells_ = mesh.cells_;
+  width_ = mesh.width_;
+  if (rest_.size() != mesh.rest_.size()) { // the mesh's constants, by mesh cell index
+    rest_.resize(mesh.rest_.size());
+    rest_.copy_from(mesh.rest_, mesh.rest_.size());
+    k_.resize(mesh.k_.size());
+    k_.copy_from(mesh.k_, mesh.k_.size());
+  }
+  count_.resize(n);
+  cell_.resize(std::size_t(width_) * n);
+  point_.resize(mesh.point_.size());
+  exec::for_each(ex, n,
+                 LocalCellRow{mesh.count_.data(), mesh.cell_.data(), mesh.count_.size(), id, owned,
+                              n, count_.data(), cell_.data()},
+                 "knit.volumes.localize");
+  exec::for_each(ex, point_.size(), LocalCorner{mesh.point_.data(), local_of_id, point_.data()},
+                 "knit.volumes.localize");
 }
 
 template <typename T>

@@ -65,6 +65,11 @@ class VolumeTopology {
 public:
   explicit VolumeTopology(exec::Backend b);
   void build(const std::vector<VolumeCell>& cells, std::size_t n_points);
+  /// On N ranks, as SpringTopology::localize: the first `owned` of n local points take their
+  /// mesh point's cells (mesh cell indices, in the mesh's order), the ghosts none; every mesh
+  /// cell's points are mapped to local indices (absent ones are in no owned point's cell).
+  void localize(const exec::Exec& ex, const VolumeTopology& mesh, const std::uint64_t* id,
+                const std::uint32_t* local_of_id, std::size_t owned, std::size_t n);
   VolumeView<T> view() const;
   std::size_t cells() const { return cells_; }
   std::size_t bytes() const;
@@ -73,6 +78,7 @@ private:
   exec::DeviceBuffer<std::uint32_t> count_, cell_, point_;
   exec::DeviceBuffer<T> rest_, k_;
   std::size_t cells_ = 0;
+  std::uint32_t width_ = 0; // the most cells of one point
 };
 
 } // namespace kf
