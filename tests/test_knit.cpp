@@ -12,6 +12,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <numeric>
 #include <random>
 
 using namespace kf;
@@ -26,6 +28,8 @@ struct Network {
   SpringTopology<double> springs{exec::Backend::Cpu};
   VolumeTopology<double> volumes{exec::Backend::Cpu};
   std::vector<std::uint32_t> handle_free;
+  std::vector<Spring> list;      // the springs built from
+  std::vector<VolumeCell> cells; // the cells built from
 
   explicit Network(std::size_t n, double damping, unsigned seed = 7) {
     std::mt19937 rng(seed);
@@ -37,7 +41,6 @@ struct Network {
       v[i] = {u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5};
       m[i] = 0.5 + u(rng);
     }
-    std::vector<Spring> list;
     for (std::uint32_t i = 0; i < n; ++i)
       for (int k = 0; k < 4; ++k) {
         const auto j = static_cast<std::uint32_t>(rng() % n);
@@ -59,7 +62,6 @@ struct Network {
     set.handle.assign(std::vector<std::uint32_t>(n, kFreePoint));
     springs.build(list, n);
     // Volume cells on random quadruples, their rest volumes off the current ones (loaded).
-    std::vector<VolumeCell> cells;
     for (std::size_t c = 0; c < n / 2; ++c) {
       VolumeCell cell;
       std::uint32_t q[4];
@@ -110,6 +112,84 @@ TEST(KnitSprings, ForceIsMinusTheEnergyGradient) {
       worst = std::max(worst, std::fabs(force + grad) / (1 + std::fabs(grad)));
     }
   EXPECT_LT(worst, 1e-7) << "F = -dE/dx fails by " << worst;
+}
+
+// On N ranks (KnitSystem::localize) a rank holds its owned points, then ghosts, in any order:
+// the rows localized from the whole network's give every owned point the force it has in the
+// whole network, bit for bit (each row in the mesh's order); the ghosts get none (NaN stays).
+TEST(KnitSprings, LocalizedRowsGiveTheOwnedPointsTheirWholeNetworkForce) {
+  const std::size_t n = 300;
+  Network net(n, 0.5);
+  const Vec3d g{0, 0, -9.81};
+  knit_forces(net.ex, net.set.view(), net.springs.view(), g, net.volumes.view());
+  const auto whole = net.set.a.to_host();
+  // Owned: a random third; ghosts: every partner of an owned point not owned, plus a few others.
+  std::mt19937 rng(11);
+  std::vector<std::uint32_t> ids(n);
+  std::iota(ids.begin(), ids.end(), 0u);
+  std::shuffle(ids.begin(), ids.end(), rng);
+  const std::size_t owned = n / 3;
+  std::vector<char> is_owned(n, 0), is_ghost(n, 0);
+  for (std::size_t k = 0; k < owned; ++k)
+    is_owned[ids[k]] = 1;
+  const auto partner = [&](std::uint32_t a, std::uint32_t b) {
+    if (is_owned[a] && !is_owned[b])
+      is_ghost[b] = 1;
+  };
+  for (const Spring& sp : net.list)
+    partner(sp.i, sp.j), partner(sp.j, sp.i);
+  for (const VolumeCell& c : net.cells)
+    for (auto a : c.point)
+      for (auto b : c.point)
+        partner(a, b);
+  for (std::size_t k = owned; k < owned + 10; ++k)
+    is_ghost[ids[k]] = is_owned[ids[k]] ? 0 : 1;
+  std::vector<std::uint64_t> local_ids(ids.begin(), ids.begin() + owned);
+  for (std::size_t k = n; k-- > 0;) // ghosts in another order than the owned ones
+    if (is_ghost[k])
+      local_ids.push_back(k);
+  const std::size_t m = local_ids.size();
+  ASSERT_LT(m, n) << "every point is here: a weak case";
+  std::vector<std::uint32_t> local_of_id(n, 0xFFFFFFFFu);
+  for (std::size_t k = 0; k < m; ++k)
+    local_of_id[local_ids[k]] = static_cast<std::uint32_t>(k);
+  // The local points' state, by id.
+  const auto x = net.set.x.to_host(), v = net.set.v.to_host();
+  const auto mass = net.set.m.to_host();
+  std::vector<Vec3d> lx(m), lv(m);
+  std::vector<double> lm(m);
+  for (std::size_t k = 0; k < m; ++k)
+    lx[k] = x[local_ids[k]], lv[k] = v[local_ids[k]], lm[k] = mass[local_ids[k]];
+  KnitSet<double> local(exec::Backend::Cpu);
+  local.resize(m);
+  local.x.assign(lx);
+  local.v.assign(lv);
+  local.m.assign(lm);
+  local.handle.assign(std::vector<std::uint32_t>(m, kFreePoint));
+  local.id.assign(local_ids);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  local.a.assign(std::vector<Vec3d>(m, Vec3d{nan, nan, nan}));
+  exec::DeviceBuffer<std::uint32_t> lof(exec::Backend::Cpu, 0, "test.local_of_id");
+  lof.assign(local_of_id);
+  SpringTopology<double> springs{exec::Backend::Cpu};
+  VolumeTopology<double> volumes{exec::Backend::Cpu};
+  springs.localize(net.ex, net.springs, local.id.data(), lof.data(), owned, m);
+  volumes.localize(net.ex, net.volumes, local.id.data(), lof.data(), owned, m);
+  auto view = local.view();
+  view.n = owned;
+  knit_forces(net.ex, view, springs.view(), g, volumes.view());
+  const auto a = local.a.to_host();
+  for (std::size_t k = 0; k < owned; ++k) {
+    const Vec3d& w = whole[local_ids[k]];
+    ASSERT_TRUE(a[k].x == w.x && a[k].y == w.y && a[k].z == w.z)
+        << "owned point " << local_ids[k] << ": " << a[k].x << " against " << w.x;
+  }
+  for (std::size_t k = owned; k < m; ++k)
+    ASSERT_TRUE(std::isnan(a[k].x)) << "a ghost's force was written";
+  // The ghosts' rows are empty; each owned row is its mesh point's.
+  const auto count = springs.view(), mesh_count = net.springs.view();
+  for (std::size_t k = 0; k < m; ++k)
+    EXPECT_EQ(count.count[k], k < owned ? mesh_count.count[local_ids[k]] : 0u);
 }
 
 TEST(KnitSprings, PairForcesCancelAndAFreeSystemKeepsItsMomentum) {
