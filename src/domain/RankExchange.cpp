@@ -378,16 +378,18 @@ void RankExchange<T>::boundary_sorted(const exec::DeviceBuffer<std::uint32_t>& p
 }
 
 template <typename T>
-typename RankExchange<T>::Removed RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo,
-                                                           const Vec3<T>& hi,
-                                                           const std::array<bool, 6>& walls) {
+typename RankExchange<T>::Removed
+RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& hi,
+                         const std::array<bool, 6>& walls, bool acceleration) {
   const Timed timed{exchange_seconds_}, part{parts_.migration};
   const std::size_t n = fluid.size();
   // Who leaves (to another rank, or out of the domain past an open side as the single-rank
   // sort removes it), chosen on the fluid's backend: only the leavers' indices come back.
   const auto leaving = select_.departures(fluid.x, fluid.m, n, lo, hi, walls);
-  // Every state column the steps to come read (a: the forces pass writes it before its use).
-  auto state = fluid_state(fluid, false);
+  // Every state column the steps to come read; a where the half kick reads it before the next
+  // forces pass writes it (the migrants' a was left behind before, and a drop emitted into
+  // another rank's region then fell with another rank's a: the absorbing hammock parted).
+  auto state = fluid_state(fluid, acceleration);
   const std::size_t owned =
       comm::migrate(*transport_, migration_peers_, leaving.leaving, state, rows());
   // The ghosts: every owned particle within the support of another rank's region goes there.
@@ -497,6 +499,8 @@ template <typename T>
 void RankExchange<T>::drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid) {
   if (fluid.size() != fluid_owned_)
     remove(ex, fluid, keep_); // the owned flags
+  else
+    fluid_halo_.reset(); // none received here, but this rank's sends were the halo's too
 }
 
 template class RankExchange<float>;

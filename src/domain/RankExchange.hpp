@@ -72,8 +72,10 @@ public:
   };
   /// Before the fluid's sort: the owned fluid outside [lo, hi] on an open side is removed
   /// (counted), the rest migrates to its owners, and the ghosts are received and appended.
+  /// acceleration: the migrants take their a along (FluidSet::Carry's: a sort at a step's start,
+  /// after an absorption or an emission, comes before the half kick that reads it).
   Removed rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& hi,
-                  const std::array<bool, 6>& walls);
+                  const std::array<bool, 6>& walls, bool acceleration);
   /// After the fluid's sort (perm[k]: where the particle now at k was; its first n).
   void fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n);
   /// A pass over the particles `rows` names (the caller's kernels, its own timing).

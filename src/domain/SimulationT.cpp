@@ -867,10 +867,11 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     std::array<bool, 6> walls = d.walls;
     if (!remove_outflow)
       walls.fill(true);
-    const auto gone = ranks_->rebuild(*fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max), walls);
+    const auto gone =
+        ranks_->rebuild(*fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max), walls, carry.acceleration);
     outflow_particles_ += gone.particles;
     outflow_mass_ += gone.mass;
-    fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
+    fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size(), fluid_->id.data());
     fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
     ranks_->fluid_sorted(fluid_grid_->permutation(), fluid_->size());
   } else if (remove_outflow) {
@@ -879,7 +880,7 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
         sort_removing_outside(ex_, *fluid_grid_, *fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max),
                               sorted_outflow_mass_.data(), carry);
   } else {
-    fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size());
+    fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size(), fluid_->id.data());
     fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
   }
   if (boundary_on_) // for boundary.pressure, which walks this grid until the next sort

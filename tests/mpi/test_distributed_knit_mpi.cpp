@@ -366,13 +366,13 @@ double largest_gap(const KnitRows& a, const KnitRows& b, bool doubles) {
   return gap;
 }
 
-/// may_part: the runs may part at rounding level. A pass over the fluid around a point sums a
-/// cell's particles in the order of their sort keys, which owned and ghost particles share;
-/// two particles with one key (one sub-cell: the absorbing hammock packs fluid against the
-/// knit) go in the arrays' order, which is each run's history. From the first difference on,
-/// the split run must stay as close to the one-rank run as a one-rank run summing in another
-/// order (solver.cell_order = 0: within a cell, the arrays' order) stays to it, both run to the
-/// same time; the books are checked throughout.
+/// may_part: the runs may part at rounding level (left for the GPU's absorbing hammock, not yet
+/// measured since two causes were found on the CPU in P5 stage 10: two particles with one sort
+/// key went in the arrays' order, each run's history, where they now go by id; and migrants
+/// left their acceleration behind in the sort after an emission). From the first difference
+/// on, the split run must stay as close to the one-rank run as a one-rank run summing in
+/// another order (solver.cell_order = 0: a cell's particles by id, not by sub-cell) stays to it,
+/// both run to the same time; the books are checked throughout.
 void expect_same_coupled_run(const Scene& s, int steps, int every, const std::string& what,
                              bool may_part = false, exec::Backend backend = exec::Backend::Cpu) {
   comm::MpiContext mpi;
@@ -487,10 +487,9 @@ Scene absorbing_hammock(const std::string& precision) {
       "<absorbing hammock>",
       {"simulation.gravity=[0, 0, -9.81]", "parallel.block_cells=1", "knit.substeps=4",
        "simulation.precision=\"" + precision + "\""});
-  // No re-partition by measured time: the partition, and with it the step the runs part at,
-  // is the same at every run (a drop emitted a step apart after the parting moves its
-  // position by v dt, 5e-5 m, which no rounding envelope covers). The wicking below is
-  // re-partitioned.
+  // No re-partition by measured time: the partition is the same at every run (the wicking below
+  // is re-partitioned). Drops are emitted on one rank into another's region here: before P5
+  // stage 10 they migrated without their acceleration and the runs parted at the first one.
   s.parallel.imbalance = 1e9;
   return s;
 }
@@ -592,14 +591,14 @@ TEST(DistributedKnit, CoupledRestartContinuesOnAnyRankCount) {
 // and in part across ranks, the absorbed fluid spreading along links between points of
 // different ranks, drops emitted and numbered as on one rank.
 TEST(DistributedKnit, ConservingAbsorptionIsTheOneRankRun) {
-  expect_same_coupled_run(absorbing_hammock("double"), 2500, 50, "absorbing hammock, double", true);
-  expect_same_coupled_run(absorbing_hammock("float"), 1000, 50, "absorbing hammock, float", true);
+  expect_same_coupled_run(absorbing_hammock("double"), 2500, 50, "absorbing hammock, double");
+  expect_same_coupled_run(absorbing_hammock("float"), 1000, 50, "absorbing hammock, float");
   // scenes/wicking.toml: the strip dips into the pool at t = 0.01 s (step ~80) and soaks it up.
   // Re-partitioned every 20 steps (the knit migrating with its masses at the next choice).
   const Scene wicking = load_scene((test::source_dir() / "scenes" / "wicking.toml").string(),
                                    {"output.enabled=false", "parallel.block_cells=1",
                                     "parallel.imbalance=1.0", "parallel.check_every=20"});
-  expect_same_coupled_run(wicking, 600, 100, "wicking", true);
+  expect_same_coupled_run(wicking, 600, 100, "wicking");
 }
 
 // The knit on the GPU backend (where a GPU is visible; the ranks may share one): the points stay

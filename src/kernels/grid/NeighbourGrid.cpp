@@ -87,6 +87,34 @@ struct CellRanges {
   }
 };
 
+// Orders each run of equal keys (points sharing a sub-cell) by id: the thread at a run's start
+// insertion-sorts its slots (runs are a few points; a whole cell without sub-cell order). The
+// points outside a keep box stay in their order.
+struct TiesById {
+  const std::uint32_t* keys;
+  std::uint32_t* perm;
+  const std::uint64_t* id;
+  std::size_t n;
+  int sub;
+  std::uint32_t outside;
+  KF_HD KF_INLINE void operator()(std::size_t i) const {
+    const std::uint32_t k = keys[i];
+    if (i + 1 == n || keys[i + 1] != k || (i > 0 && keys[i - 1] == k) || k >> sub == outside)
+      return;
+    std::size_t end = i + 2;
+    while (end < n && keys[end] == k)
+      ++end;
+    for (std::size_t a = i + 1; a < end; ++a) {
+      const std::uint32_t p = perm[a];
+      const std::uint64_t q = id[p];
+      std::size_t b = a;
+      for (; b > i && id[perm[b - 1]] > q; --b)
+        perm[b] = perm[b - 1];
+      perm[b] = p;
+    }
+  }
+};
+
 } // namespace
 
 template <typename T>
@@ -170,14 +198,15 @@ int NeighbourGrid<T>::usable_order_levels(std::uint32_t cells, int order_levels)
 }
 
 template <typename T>
-void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n) {
-  sort(ex, x, n, nullptr);
+void NeighbourGrid<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
+                             const std::uint64_t* tie_id) {
+  sort(ex, x, n, nullptr, tie_id);
 }
 
 template <typename T>
 void NeighbourGrid<T>::build_keeping(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
-                                     const KeepBox<T>& keep) {
-  sort(ex, x, n, &keep);
+                                     const KeepBox<T>& keep, const std::uint64_t* tie_id) {
+  sort(ex, x, n, &keep, tie_id);
   if (n == 0)
     exec::fill(ex, kept_, 0u, "grid.kept");
   if (!kept_read_)
@@ -203,7 +232,7 @@ void NeighbourGrid<T>::drop_outside(std::size_t kept) {
 
 template <typename T>
 void NeighbourGrid<T>::sort(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
-                            const KeepBox<T>* keep) {
+                            const KeepBox<T>* keep, const std::uint64_t* tie_id) {
   // Empty cells must read start = end = 0. Clearing the whole table costs O(cells) per build,
   // which dominates when the particles occupy few cells (a cloth in a room); after the first
   // build only the cells the previous build filled (its keys) are cleared.
@@ -226,6 +255,9 @@ void NeighbourGrid<T>::sort(const exec::Exec& ex, const Vec3<T>* x, std::size_t 
                              keep != nullptr, keep ? *keep : KeepBox<T>{}},
                  "grid.keys");
   exec::sort_by_key(ex, keys_, perm_, key_bits_, "grid.sort");
+  if (tie_id && n > 1)
+    exec::for_each(ex, n, TiesById{keys_.data(), perm_.data(), tie_id, n, sub, outside},
+                   "grid.ties");
   exec::for_each(
       ex, n, CellRanges{keys_.data(), start_.data(), end_.data(), kept_.data(), n, sub, outside},
       "grid.ranges");

@@ -49,12 +49,18 @@ public:
   /// Grid covering [lo, hi] with cells of edge `cell` plus `pad` cells of padding on every side.
   static GridGeometry<T> cover(const Vec3d& lo, const Vec3d& hi, double cell, int pad = 1);
 
-  void build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n);
+  /// tie_id (optional, per point): points sharing a sort key (one sub-cell) go in ascending id,
+  /// not in their input order. The input order is the run's history; on N ranks it differs
+  /// from one rank's (migrants arrive at the end), and a tie then sums a cell's particles in
+  /// another order: by id, every partition orders a cell as one rank does.
+  void build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
+             const std::uint64_t* tie_id = nullptr);
   /// build(), with the points outside `keep` sorted after all the others (in their order) and
   /// in no cell. The count inside is read back behind the sort: kept() waits for it, so the
   /// owner can queue its reorder first. permutation() lists all n until drop_outside(kept)
   /// leaves the first kept (one sort for what was a compaction and a sort).
-  void build_keeping(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const KeepBox<T>& keep);
+  void build_keeping(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const KeepBox<T>& keep,
+                     const std::uint64_t* tie_id = nullptr);
   std::size_t kept();
   void drop_outside(std::size_t kept);
   /// Levels of sub-cell order in use (order_levels, or fewer where the key lacks bits).
@@ -73,7 +79,8 @@ public:
   std::size_t bytes() const;
 
 private:
-  void sort(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const KeepBox<T>* keep);
+  void sort(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const KeepBox<T>* keep,
+            const std::uint64_t* tie_id);
 
   GridGeometry<T> geo_;
   int span_ = 1;

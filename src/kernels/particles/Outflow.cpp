@@ -17,7 +17,7 @@ std::size_t sort_removing_outside(const exec::Exec& ex, NeighbourGrid<T>& grid, 
                                   const Vec3<T>& lo, const Vec3<T>& hi, double* mass,
                                   typename FluidSet<T>::Carry carry) {
   const std::size_t n = fluid.size();
-  grid.build_keeping(ex, fluid.x.data(), n, KeepBox<T>{lo, hi});
+  grid.build_keeping(ex, fluid.x.data(), n, KeepBox<T>{lo, hi}, fluid.id.data());
   fluid.reorder(ex, grid.permutation(), carry); // the outside ones now last, in order
   const std::size_t kept = grid.kept();
   if (kept == n)
