@@ -23,6 +23,7 @@
 #include "support/CouplingScenes.hpp"
 #include "support/KnitScenes.hpp"
 #include "support/MpiGather.hpp"
+#include "support/RestartCases.hpp"
 #include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
@@ -257,50 +258,22 @@ TEST(DistributedKnit, RestartContinuesOnAnyRankCount) {
   comm::MpiContext world;
   const Scene s = fold("float");
   const int first = 10000, total = 11000;
-  auto one = Simulation::create(s, exec::Backend::Cpu);
-  io::Frame one_at_first;
-  for (int k = 1; k <= total; ++k) {
-    one->step(1e9);
-    if (k == first)
-      one_at_first = one->frame();
-  }
-  const KnitRows want = knit_rows(one->frame(), false);
+  const test::OneRankRun one = test::one_rank_run(s, first, total);
+  const KnitRows want = knit_rows(one.sim->frame(), false);
   auto finish = [&](Simulation& sim, bool split) {
     EXPECT_EQ(sim.steps(), static_cast<std::uint64_t>(first));
     while (sim.steps() < static_cast<std::uint64_t>(total))
       sim.step(1e9);
     return knit_rows(sim.frame(), split);
   };
-  const auto dir = test::scratch_dir("distributed_knit_restart");
-  std::string snap;
   std::uint64_t contacts = 0;
-  {
-    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
-    for (int k = 1; k <= first; ++k)
-      split->step(1e9);
-    contacts = split->diagnostics().knit_self_contacts;
-    io::SnapshotWriter writer(MPI_COMM_WORLD, dir.string());
-    io::Frame fr = split->frame();
-    fr.index = 1;
-    snap = writer.write(fr);
-  }
+  test::restart_on_any_rank_count(
+      world, s, first, one.at_first, "distributed_knit_restart",
+      [&](Simulation& sim, bool split, const std::string& what) {
+        expect_same_rows(want, finish(sim, split), what);
+      },
+      [&](Simulation& split) { contacts = split.diagnostics().knit_self_contacts; });
   EXPECT_GT(contacts, 0u) << "no self-contact at the restart: its state went untested";
-  const io::Frame written = io::read_snapshot(MPI_COMM_WORLD, snap);
-  {
-    auto again = Simulation::create(s, exec::Backend::Cpu, &world);
-    again->restore(written);
-    expect_same_rows(want, finish(*again, true), "N ranks -> N ranks");
-  }
-  {
-    auto alone = Simulation::create(s, exec::Backend::Cpu);
-    alone->restore(written);
-    expect_same_rows(want, finish(*alone, false), "N ranks -> 1 rank");
-  }
-  {
-    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
-    split->restore(one_at_first);
-    expect_same_rows(want, finish(*split, true), "1 rank -> N ranks");
-  }
   if (world.root())
     std::printf("knit restart at step %d of %d (%llu self-contacts): N -> N, N -> 1, 1 -> N all "
                 "end as the one-rank run\n",
@@ -527,59 +500,29 @@ TEST(DistributedKnit, CoupledRestartContinuesOnAnyRankCount) {
   comm::MpiContext world;
   const Scene s = fixed(hammock("double"));
   const int first = 500, total = 800;
-  auto one = Simulation::create(s, exec::Backend::Cpu);
-  io::Frame one_at_first;
   Diagnostics next_begins; // the saturation step first + 1 begins with
-  for (int k = 1; k <= total; ++k) {
-    one->step(1e9);
-    if (k == first)
-      one_at_first = one->frame();
+  const test::OneRankRun one = test::one_rank_run(s, first, total, [&](int k, Simulation& sim) {
     if (k == first + 1)
-      next_begins = one->diagnostics();
-  }
+      next_begins = sim.diagnostics();
+  });
   ASSERT_GT(next_begins.wet_points, 0u)
       << "nothing wet at the restart: the saturation went untested";
-  const io::Frame end = one->frame();
+  const io::Frame end = one.sim->frame();
   const KnitRows want = knit_rows(end, false), want_fluid = knit_rows(end, false, "fluid");
-  auto check = [&](Simulation& sim, bool split, const std::string& what) {
-    SCOPED_TRACE(what);
-    ASSERT_EQ(sim.steps(), static_cast<std::uint64_t>(first));
-    const Diagnostics d = sim.diagnostics(); // threw on N ranks: the saturation was never sized
-    EXPECT_EQ(d.wet_points, next_begins.wet_points);
-    EXPECT_EQ(d.max_saturation, next_begins.max_saturation);
-    while (sim.steps() < static_cast<std::uint64_t>(total))
-      sim.step(1e9);
-    const io::Frame f = sim.frame();
-    expect_same_rows(want, knit_rows(f, split), what + ", knit");
-    expect_same_rows(want_fluid, knit_rows(f, split, "fluid"), what + ", fluid");
-  };
-  const auto dir = test::scratch_dir("distributed_coupled_restart");
-  std::string snap;
-  {
-    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
-    for (int k = 1; k <= first; ++k)
-      split->step(1e9);
-    io::SnapshotWriter writer(MPI_COMM_WORLD, dir.string());
-    io::Frame fr = split->frame();
-    fr.index = 1;
-    snap = writer.write(fr);
-  }
-  const io::Frame written = io::read_snapshot(MPI_COMM_WORLD, snap);
-  {
-    auto again = Simulation::create(s, exec::Backend::Cpu, &world);
-    again->restore(written);
-    check(*again, true, "N ranks -> N ranks");
-  }
-  {
-    auto alone = Simulation::create(s, exec::Backend::Cpu);
-    alone->restore(written);
-    check(*alone, false, "N ranks -> 1 rank");
-  }
-  {
-    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
-    split->restore(one_at_first);
-    check(*split, true, "1 rank -> N ranks");
-  }
+  test::restart_on_any_rank_count(
+      world, s, first, one.at_first, "distributed_coupled_restart",
+      [&](Simulation& sim, bool split, const std::string& what) {
+        SCOPED_TRACE(what);
+        ASSERT_EQ(sim.steps(), static_cast<std::uint64_t>(first));
+        const Diagnostics d = sim.diagnostics(); // threw on N ranks: the saturation's old count
+        EXPECT_EQ(d.wet_points, next_begins.wet_points);
+        EXPECT_EQ(d.max_saturation, next_begins.max_saturation);
+        while (sim.steps() < static_cast<std::uint64_t>(total))
+          sim.step(1e9);
+        const io::Frame f = sim.frame();
+        expect_same_rows(want, knit_rows(f, split), what + ", knit");
+        expect_same_rows(want_fluid, knit_rows(f, split, "fluid"), what + ", fluid");
+      });
   if (world.root())
     std::printf("coupled restart at step %d of %d (%llu wet points, saturation up to %.3f): "
                 "N -> N, N -> 1, 1 -> N all end as the one-rank run\n",

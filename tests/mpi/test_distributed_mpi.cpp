@@ -25,6 +25,7 @@
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
 #include "support/MpiGather.hpp"
+#include "support/RestartCases.hpp"
 #include "support/SceneFactory.hpp"
 #include "support/TestPaths.hpp"
 
@@ -394,14 +395,8 @@ TEST(Distributed, RestartWithVerletListsContinuesWithinRounding) {
   Scene s = dambreak("double", "continuity");
   s.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
   const int first = 40, total = 100;
-  auto one = Simulation::create(s, exec::Backend::Cpu);
-  io::Frame one_at_first;
-  for (int k = 1; k <= total; ++k) {
-    one->step(1e9);
-    if (k == first)
-      one_at_first = one->frame();
-  }
-  const Gathered want = by_id(one->frame(), false);
+  const test::OneRankRun one = test::one_rank_run(s, first, total);
+  const Gathered want = by_id(one.sim->frame(), false);
   Scene listing_every_step = s;
   listing_every_step.solver.neighbour_list = Scene::Solver::NeighbourLists::On;
   auto noise = Simulation::create(listing_every_step, exec::Backend::Cpu);
@@ -409,19 +404,6 @@ TEST(Distributed, RestartWithVerletListsContinuesWithinRounding) {
     noise->step(1e9);
   const double reference = largest_gap(want, by_id(noise->frame(), false), true);
   ASSERT_GT(reference, 0.0);
-  const auto dir = test::scratch_dir("distributed_restart_verlet");
-  std::string snap;
-  {
-    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
-    for (int k = 1; k <= first; ++k)
-      split->step(1e9);
-    io::SnapshotWriter writer(MPI_COMM_WORLD, dir.string());
-    io::Frame fr = split->frame();
-    fr.index = 1;
-    snap = writer.write(fr); // threw before: each rank's lists hold its ghosts too
-  }
-  const io::Frame written = io::read_snapshot(MPI_COMM_WORLD, snap);
-  EXPECT_EQ(written.find("fluid")->find("listed_position"), nullptr);
   const auto check = [&](Simulation& sim, bool split, const std::string& what) {
     ASSERT_EQ(sim.steps(), static_cast<std::uint64_t>(first)) << what;
     while (sim.steps() < static_cast<std::uint64_t>(total))
@@ -435,21 +417,13 @@ TEST(Distributed, RestartWithVerletListsContinuesWithinRounding) {
     // Both are summation orders parting at rounding level (measured: see the printed line).
     EXPECT_LE(gap, 2 * reference) << what;
   };
-  {
-    auto again = Simulation::create(s, exec::Backend::Cpu, &world);
-    again->restore(written);
-    check(*again, true, "N ranks -> N ranks");
-  }
-  {
-    auto alone = Simulation::create(s, exec::Backend::Cpu);
-    alone->restore(written);
-    check(*alone, false, "N ranks -> 1 rank");
-  }
-  {
-    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
-    split->restore(one_at_first); // its list state is the one rank's: not used on N ranks
-    check(*split, true, "1 rank -> N ranks");
-  }
+  // The N-rank snapshot threw before (each rank's lists held its ghosts too); it holds no
+  // list state now.
+  test::restart_on_any_rank_count(world, s, first, one.at_first, "distributed_restart_verlet",
+                                  check, {}, [](const io::Frame& written) {
+                                    EXPECT_EQ(written.find("fluid")->find("listed_position"),
+                                              nullptr);
+                                  });
 }
 
 namespace {
@@ -477,48 +451,19 @@ TEST(Distributed, RestartContinuesOnAnyRankCount) {
   const Scene s = dambreak("double", "continuity");
   const int first = 40, total = 100;
   // The reference, on one rank (each rank runs it), with its frame at `first` kept.
-  auto one = Simulation::create(s, exec::Backend::Cpu);
-  io::Frame one_at_first;
-  for (int k = 1; k <= total; ++k) {
-    one->step(1e9);
-    if (k == first)
-      one_at_first = one->frame();
-  }
-  const Gathered want = state_of(*one, false);
+  const test::OneRankRun one = test::one_rank_run(s, first, total);
+  const Gathered want = state_of(*one.sim, false);
   auto finish = [&](Simulation& sim, bool split) {
     EXPECT_EQ(sim.steps(), static_cast<std::uint64_t>(first));
     while (sim.steps() < static_cast<std::uint64_t>(total))
       sim.step(1e9);
     return state_of(sim, split);
   };
-  // N ranks write a snapshot at `first`.
+  test::restart_on_any_rank_count(world, s, first, one.at_first, "distributed_restart",
+                                  [&](Simulation& sim, bool split, const std::string& what) {
+                                    expect_equal(want, finish(sim, split), what);
+                                  });
   const auto dir = test::scratch_dir("distributed_restart");
-  std::string snap;
-  {
-    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
-    for (int k = 1; k <= first; ++k)
-      split->step(1e9);
-    io::SnapshotWriter writer(MPI_COMM_WORLD, dir.string());
-    io::Frame fr = split->frame();
-    fr.index = 1;
-    snap = writer.write(fr);
-  }
-  const io::Frame written = io::read_snapshot(MPI_COMM_WORLD, snap);
-  {
-    auto again = Simulation::create(s, exec::Backend::Cpu, &world);
-    again->restore(written);
-    expect_equal(want, finish(*again, true), "N ranks -> N ranks");
-  }
-  {
-    auto alone = Simulation::create(s, exec::Backend::Cpu);
-    alone->restore(written);
-    expect_equal(want, finish(*alone, false), "N ranks -> 1 rank");
-  }
-  {
-    auto split = Simulation::create(s, exec::Backend::Cpu, &world);
-    split->restore(one_at_first);
-    expect_equal(want, finish(*split, true), "1 rank -> N ranks");
-  }
   if (world.size() == 3) {
     // Ranks 0 and 1 run and write; then all three continue.
     MPI_Comm pair;
@@ -545,7 +490,7 @@ TEST(Distributed, RestartContinuesOnAnyRankCount) {
     if (pair != MPI_COMM_NULL)
       MPI_Comm_free(&pair);
   }
-  const Diagnostics d = one->diagnostics();
+  const Diagnostics d = one.sim->diagnostics();
   if (world.root())
     std::printf("restart at step %d of %d (%zu fluid particles): N -> N, N -> 1, 1 -> N%s all "
                 "end as the one-rank run\n",
