@@ -168,7 +168,7 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
   }
   fx.knit.a.assign(a0);
   // No motion expected over the step: the substeps watch the knit on the device only.
-  cp.begin_step(fx.ex, fx.knit, fx.side(), nullptr, nullptr, T(0));
+  cp.begin_step(fx.ex, fx.knit, fx.side(), {}, T(0));
   fx.knit.x.assign(cast<T>(c.kx));
   const T weight = T(0.25);
   cp.add_forces(fx.ex, fx.knit, fx.side(), weight);

@@ -16,7 +16,6 @@ template <typename T>
 KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoupling<T>* coupling,
                       double skin)
     : ranks_(ranks), knit_(knit), coupling_(coupling), mesh_points_(knit.size()),
-      by_id_(knit.set().x.backend(), 0, "knit.halo.by_id"),
       local_of_id_(knit.set().x.backend(), 0, "knit.halo.local") {
   const exec::Backend b = knit.set().x.backend();
   self_ref_.x0 = exec::DeviceBuffer<Vec3<T>>(b, 0, "knit.halo.self_x0");
@@ -44,9 +43,9 @@ KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoup
   const comm::MpiContext& mpi = ranks_.mpi();
   const auto job_max = [&mpi](T m2) { return static_cast<T>(mpi.max(double(m2))); };
   if (auto* self = knit.self_contact())
-    self->distribute(&by_id_, job_max);
+    self->distribute(job_max);
   if (coupling)
-    coupling->distribute(&by_id_, job_max);
+    coupling->distribute(job_max);
   knit.set_ghost_refresh([this] { refresh(); });
 }
 
@@ -207,10 +206,6 @@ void KnitHalo<T>::rebuild() {
   width_ = width;
   built_ = true;
   const std::vector<std::uint64_t> ids = set.id.to_host();
-  std::vector<std::uint32_t> order(ids.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::sort(order.begin(), order.end(), [&](auto a, auto b) { return ids[a] < ids[b]; });
-  by_id_.assign(order);
   std::vector<std::uint32_t> local(mesh_points_, kAbsent);
   for (std::size_t k = 0; k < ids.size(); ++k)
     local[ids[k]] = static_cast<std::uint32_t>(k);

@@ -147,7 +147,6 @@ private:
   std::vector<Vec3<T>> x_built_; // the owned points' positions when the ghosts were chosen
   std::size_t owned_ = 0, mesh_points_ = 0;
   std::uint64_t repartitions_seen_ = 0;
-  exec::DeviceBuffer<std::uint32_t> by_id_; // on the set's backend, as local_of_id_
   std::optional<comm::HaloExchange> halo_;
   std::vector<std::int64_t> local_; // mesh index -> local index (-1: not here)
   exec::DeviceBuffer<std::uint32_t> local_of_id_;

@@ -81,6 +81,7 @@ public:
 
   const exec::DeviceBuffer<T>& absorbed() const { return absorbed_; }
   const exec::DeviceBuffer<T>& capacity() const { return capacity_; }
+  PoreMass<T> pores() const { return {absorbed_.data(), capacity_.data()}; }
   /// Restart: the absorbed masses of the whole knit as written (id order; on N ranks before the
   /// points are shared out again); the knit's masses follow.
   void restore(const exec::Exec& ex, KnitSet<T>& knit, const std::vector<T>& absorbed);

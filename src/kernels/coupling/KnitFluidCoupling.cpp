@@ -17,7 +17,7 @@ KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
       v_(b, 0, "coupling.knit_v"), m_(b, 0, "coupling.knit_m"), p_(b, 0, "coupling.knit_p"),
       impulse_(b, 0, "coupling.impulse"), near_flag_(b, 0, "coupling.near_flag"), list_(b),
       list_skin_(T(2) * (grid.cell - coupling_reach(params)) / T(3)), list_capacity_(list_capacity),
-      perm_(b, 0, "coupling.perm"), at_by_id_(b, 0, "coupling.x0"), cell_(grid.cell) {
+      cell_(grid.cell) {
   const T reach = coupling_reach(params);
   if (!(grid.cell > reach))
     throw Error("knit-fluid coupling: grid cell " + std::to_string(double(grid.cell)) +
@@ -35,11 +35,7 @@ template <typename T>
 void KnitFluidCoupling<T>::sort_now(const exec::Exec& ex, KnitSet<T>& knit,
                                     const exec::DeviceBuffer<Vec3<T>>& at) {
   const std::size_t n = knit.size();
-  if (order_) { // the grid sorts positions in id order; perm_ maps its slots to set indices
-    build_in_order(ex, grid_, at, *order_, at_by_id_, perm_, "coupling.order");
-  } else {
-    grid_.build(ex, at.data(), n);
-  }
+  grid_.build(ex, at.data(), n, ties_by_id_ ? knit.id.data() : nullptr);
   watch_.reset(ex, at);
   ++sorts_;
   x_.resize(n);
@@ -68,16 +64,17 @@ void KnitFluidCoupling<T>::sync_knit(const exec::Exec& ex, KnitSet<T>& knit) {
 
 template <typename T>
 void KnitFluidCoupling<T>::update_saturation(const exec::Exec& ex, KnitSet<T>& knit,
-                                             const FluidSide<T>& fluid, const T* absorbed,
-                                             const T* capacity,
+                                             const FluidSide<T>& fluid, PoreMass<T> pores,
                                              const std::function<void()>& share) {
   const std::size_t n = knit.size();
   const bool fresh = saturation_.size() != n;
   saturation_.resize(n);
   pressure_.resize(n);
   fluid_mass_.resize(n);
-  conserving_ = absorbed != nullptr;
+  conserving_ = pores.absorbed != nullptr;
   if (conserving_) {
+    const T* absorbed = pores.absorbed;
+    const T* capacity = pores.capacity;
     T* s = saturation_.data();
     T* P = pressure_.data();
     T* mf = fluid_mass_.data();
@@ -111,10 +108,9 @@ void KnitFluidCoupling<T>::update_saturation(const exec::Exec& ex, KnitSet<T>& k
 
 template <typename T>
 void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
-                                      const FluidSide<T>& fluid, const T* absorbed,
-                                      const T* capacity, T motion,
+                                      const FluidSide<T>& fluid, PoreMass<T> pores, T motion,
                                       const std::function<void()>& share) {
-  update_saturation(ex, knit, fluid, absorbed, capacity, share);
+  update_saturation(ex, knit, fluid, pores, share);
   const std::size_t n = knit.size();
   watch_.before_step(ex, knit.x, motion, x_.size() != n, [&] { sort_now(ex, knit); });
   exec::gather(ex, perm(), pressure_, p_, "coupling.gather");
@@ -228,10 +224,9 @@ CouplingStats KnitFluidCoupling<T>::stats(const exec::Exec& ex, KnitSet<T>& knit
 
 template <typename T>
 std::size_t KnitFluidCoupling<T>::bytes() const {
-  return grid_.bytes() + watch_.bytes() + perm_.capacity_bytes() + at_by_id_.capacity_bytes() +
-         near_flag_.capacity_bytes() + list_.bytes() + saturation_.capacity_bytes() +
-         pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() + x_.capacity_bytes() +
-         v_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
+  return grid_.bytes() + watch_.bytes() + near_flag_.capacity_bytes() + list_.bytes() +
+         saturation_.capacity_bytes() + pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() +
+         x_.capacity_bytes() + v_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
          impulse_.capacity_bytes();
 }
 

@@ -37,6 +37,14 @@ struct CouplingStats {
   std::uint64_t wet_points = 0; // knit points with s > 0.01
 };
 
+/// The mass-conserving model's absorbed mass and capacity per knit point (both null: the
+/// paper's model, saturation from the fluid around).
+template <typename T>
+struct PoreMass {
+  const T* absorbed = nullptr;
+  const T* capacity = nullptr;
+};
+
 template <typename T>
 class KnitFluidCoupling {
 public:
@@ -50,7 +58,7 @@ public:
 
   /// Saturation, capillary pressure and absorbed mass of every knit point (when capillary), the
   /// knit grid sorted again if a point moved farther than its skin, fluid impulses zeroed.
-  /// With absorbed and capacity (the mass-conserving model) s = absorbed / capacity and the
+  /// With pores (the mass-conserving model) s = absorbed / capacity and the
   /// absorbed fluid's weight is already in the knit's mass; else s comes from the fluid around.
   /// motion: how far a knit point may move over the coming step (an estimate, from its speed and
   /// acceleration). While the motion expected since the last reading leaves the skin unused,
@@ -59,22 +67,20 @@ public:
   /// share: called after the knit's saturation, capillary pressure and wet mass are computed
   /// (on N ranks the ghosts take their owners' values there).
   void begin_step(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid,
-                  const T* absorbed = nullptr, const T* capacity = nullptr,
-                  T motion = std::numeric_limits<T>::infinity(),
+                  PoreMass<T> pores = {}, T motion = std::numeric_limits<T>::infinity(),
                   const std::function<void()>& share = {});
   /// begin_step's first part alone: the knit's saturation, capillary pressure and wet mass from
   /// the state now (then share), the grid and lists untouched. For snapshots and diagnostics
   /// before a step where the knit's points changed (a restart shares them out anew on N ranks);
   /// the next begin_step computes the same values again.
   void update_saturation(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid,
-                         const T* absorbed = nullptr, const T* capacity = nullptr,
-                         const std::function<void()>& share = {});
-  /// On N ranks (the knit set holds owned points, then ghosts): the knit grid sorts the points
-  /// in id order (by_id lists the set's indices so), so each fluid particle's knit candidates
-  /// come in the one-rank run's order; the host's motion readings are the job's; the knit-side
-  /// passes and stats cover the first `active` points (the owned ones).
-  void distribute(const exec::DeviceBuffer<std::uint32_t>* by_id, std::function<T(T)> job_max) {
-    order_ = by_id;
+                         PoreMass<T> pores = {}, const std::function<void()>& share = {});
+  /// On N ranks (the knit set holds owned points, then ghosts): the knit grid's ties go by id,
+  /// so each fluid particle's knit candidates come in the one-rank run's order; the host's
+  /// motion readings are the job's; the knit-side passes and stats cover the first `active`
+  /// points (the owned ones).
+  void distribute(std::function<T(T)> job_max) {
+    ties_by_id_ = true;
     watch_.set_job_max(std::move(job_max));
   }
   void set_active(std::size_t active) { active_ = active; }
@@ -105,11 +111,8 @@ public:
   /// The knit grid sorted for the current positions and the sorted positions gathered.
   void sync_knit(const exec::Exec& ex, KnitSet<T>& knit);
   const NeighbourGrid<T>& knit_grid() const { return grid_; }
-  /// The set's index of the point in each of the grid's slots (on N ranks not the grid's own
-  /// permutation: the grid sorts in id order).
-  const exec::DeviceBuffer<std::uint32_t>& perm() const {
-    return order_ ? perm_ : grid_.permutation();
-  }
+  /// The set's index of the point in each of the grid's slots.
+  const exec::DeviceBuffer<std::uint32_t>& perm() const { return grid_.permutation(); }
   const exec::DeviceBuffer<Vec3<T>>& sorted_x() const { return x_; }
   /// Flags the fluid particles with a knit point in their knit-grid cells (public: nvcc's
   /// device lambdas may not live in private members).
@@ -148,9 +151,7 @@ private:
   std::uint32_t list_capacity_;
   // N ranks (distribute): as KnitSelfContact's.
   std::size_t active(const KnitSet<T>& knit) const { return std::min(active_, knit.size()); }
-  const exec::DeviceBuffer<std::uint32_t>* order_ = nullptr;
-  exec::DeviceBuffer<std::uint32_t> perm_;
-  exec::DeviceBuffer<Vec3<T>> at_by_id_;
+  bool ties_by_id_ = false;
   std::size_t active_ = std::size_t(-1);
   T cell_;
 };

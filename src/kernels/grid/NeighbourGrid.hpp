@@ -95,21 +95,4 @@ private:
   std::size_t kept_count_ = 0;
 };
 
-/// Sorts `grid` for the positions `at` (in a set's order) taken in the order `order` lists the
-/// set's indices, so that particles sharing a sort key keep that order (on N ranks: id order,
-/// the one-rank run's), and writes perm[k] = the set index at slot k. at_in_order: scratch.
-template <typename T>
-void build_in_order(const exec::Exec& ex, NeighbourGrid<T>& grid,
-                    const exec::DeviceBuffer<Vec3<T>>& at,
-                    const exec::DeviceBuffer<std::uint32_t>& order,
-                    exec::DeviceBuffer<Vec3<T>>& at_in_order,
-                    exec::DeviceBuffer<std::uint32_t>& perm, const char* label) {
-  const std::size_t n = at.size();
-  at_in_order.resize(n);
-  exec::gather(ex, order, at, at_in_order, label);
-  grid.build(ex, at_in_order.data(), n);
-  perm.resize(n);
-  exec::gather(ex, grid.permutation(), order, perm, label);
-}
-
 } // namespace kf

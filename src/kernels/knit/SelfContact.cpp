@@ -9,8 +9,7 @@ KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
       rest_(b, 0, "knit.self.rest"), m_(b, 0, "knit.self.m"), piece_(b, 0, "knit.self.piece"),
       id_(b, 0, "knit.self.id"),
       watch_(b, (geo.cell - T(2) * params.radius) / T(2), "knit.self.moved"), list_(b),
-      cell_(geo.cell), list_capacity_(list_capacity), perm_(b, 0, "knit.self.perm"),
-      at_by_id_(b, 0, "knit.self.x0") {
+      cell_(geo.cell), list_capacity_(list_capacity) {
   if (!(geo.cell > T(2) * params.radius))
     throw Error("knit self-collision: grid cell " + std::to_string(double(geo.cell)) +
                 " m is not larger than the contact reach 2R = " +
@@ -21,11 +20,7 @@ template <typename T>
 void KnitSelfContact<T>::sort(const exec::Exec& ex, KnitSet<T>& set,
                               const exec::DeviceBuffer<Vec3<T>>& at) {
   const std::size_t n = set.size();
-  if (order_) { // the grid sorts positions in id order; perm_ maps its slots to set indices
-    build_in_order(ex, grid_, at, *order_, at_by_id_, perm_, "knit.self.order");
-  } else {
-    grid_.build(ex, at.data(), n);
-  }
+  grid_.build(ex, at.data(), n, ties_by_id_ ? set.id.data() : nullptr);
   const auto& perm = this->perm();
   ++sorts_;
   x_.resize(n);
@@ -135,9 +130,9 @@ SelfContactStats KnitSelfContact<T>::stats(const exec::Exec& ex, KnitSet<T>& set
 
 template <typename T>
 std::size_t KnitSelfContact<T>::bytes() const {
-  return grid_.bytes() + list_.bytes() + perm_.capacity_bytes() + at_by_id_.capacity_bytes() +
-         x_.capacity_bytes() + v_.capacity_bytes() + rest_.capacity_bytes() + m_.capacity_bytes() +
-         piece_.capacity_bytes() + id_.capacity_bytes() + watch_.bytes();
+  return grid_.bytes() + list_.bytes() + x_.capacity_bytes() + v_.capacity_bytes() +
+         rest_.capacity_bytes() + m_.capacity_bytes() + piece_.capacity_bytes() +
+         id_.capacity_bytes() + watch_.bytes();
 }
 
 template class KnitSelfContact<float>;

@@ -35,13 +35,12 @@ public:
   void set_masses_vary(bool vary) { masses_vary_ = vary; }
   /// Call after the points moved, before add_forces.
   void update(const exec::Exec& ex, KnitSet<T>& set);
-  /// On N ranks (the set holds owned points, then ghosts): `by_id` lists the set's indices in
-  /// id order, and the grid sorts the points in that order (within a cell, by id, as the
-  /// one-rank run's set, which is in id order), so every pair list is the one-rank run's; the
-  /// host's motion readings are the job's (job_max). add_forces and stats cover the first
-  /// `active` points (the owned ones).
-  void distribute(const exec::DeviceBuffer<std::uint32_t>* by_id, std::function<T(T)> job_max) {
-    order_ = by_id;
+  /// On N ranks (the set holds owned points, then ghosts): the grid's ties go by id (within a
+  /// sort key, as the one-rank run's set, which is in id order), so every pair list is the
+  /// one-rank run's; the host's motion readings are the job's (job_max). add_forces and stats
+  /// cover the first `active` points (the owned ones).
+  void distribute(std::function<T(T)> job_max) {
+    ties_by_id_ = true;
     watch_.set_job_max(std::move(job_max));
   }
   void set_active(std::size_t active) { active_ = active; }
@@ -70,10 +69,8 @@ public:
 
 private:
   SortedKnitView<T> sorted() const;
-  /// Sorted slot -> set index: the grid's permutation, or through order_ on N ranks.
-  const exec::DeviceBuffer<std::uint32_t>& perm() const {
-    return order_ ? perm_ : grid_.permutation();
-  }
+  /// Sorted slot -> set index.
+  const exec::DeviceBuffer<std::uint32_t>& perm() const { return grid_.permutation(); }
   std::size_t active(const KnitSet<T>& set) const { return std::min(active_, set.size()); }
   SelfContactParams<T> params_;
   NeighbourGrid<T> grid_;
@@ -96,11 +93,8 @@ private:
   bool host_checks_ = true;
   bool masses_vary_ = false;
   std::uint64_t sorts_ = 0, stale_steps_ = 0;
-  // N ranks (distribute): the set's indices in id order, the sort's slots -> set indices
-  // through it, the positions sorted in that order; the owned points' count.
-  const exec::DeviceBuffer<std::uint32_t>* order_ = nullptr;
-  exec::DeviceBuffer<std::uint32_t> perm_;
-  exec::DeviceBuffer<Vec3<T>> at_by_id_;
+  // N ranks (distribute): ties in the sort by id; the owned points' count.
+  bool ties_by_id_ = false;
   std::size_t active_ = std::size_t(-1);
 };
 

@@ -1,6 +1,7 @@
 #include "kernels/knit/SpringTopology.hpp"
 
 #include "core/Error.hpp"
+#include "kernels/knit/LocalRows_K.hpp"
 
 #include <algorithm>
 #include <string>
@@ -45,30 +46,13 @@ void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_
 
 namespace {
 
-// Local point k's row: its mesh point's row, the other ends by local index; ghosts none.
+// A spring entry with its other end made local.
 template <typename T>
-struct LocalSpringRow {
-  const std::uint32_t* mesh_count;
-  const SpringEntry<T>* mesh_entry;
-  std::size_t mesh_n;
-  const std::uint64_t* id;
-  const std::uint32_t* local_of_id;
-  std::size_t owned, n;
-  std::uint32_t* count;
-  SpringEntry<T>* entry;
-  KF_HD KF_INLINE void operator()(std::size_t k) const {
-    if (k >= owned) {
-      count[k] = 0;
-      return;
-    }
-    const std::size_t p = static_cast<std::size_t>(id[k]);
-    const std::uint32_t c = mesh_count[p];
-    count[k] = c;
-    for (std::uint32_t e = 0; e < c; ++e) {
-      SpringEntry<T> s = mesh_entry[e * mesh_n + p];
-      s.other = local_of_id[s.other];
-      entry[e * n + k] = s;
-    }
+struct OtherEndLocal {
+  LocalOfId local;
+  KF_HD KF_INLINE SpringEntry<T> operator()(SpringEntry<T> s) const {
+    s.other = local(s.other);
+    return s;
   }
 };
 
@@ -81,8 +65,15 @@ void SpringTopology<T>::localize(const exec::Exec& ex, const SpringTopology& mes
   count_.resize(n);
   entry_.resize(std::size_t(mesh.width_) * n);
   exec::for_each(ex, n,
-                 LocalSpringRow<T>{mesh.count_.data(), mesh.entry_.data(), mesh.count_.size(), id,
-                                   local_of_id, owned, n, count_.data(), entry_.data()},
+                 LocalRowGather<SpringEntry<T>, OtherEndLocal<T>>{mesh.count_.data(),
+                                                                  mesh.entry_.data(),
+                                                                  mesh.count_.size(),
+                                                                  id,
+                                                                  owned,
+                                                                  n,
+                                                                  count_.data(),
+                                                                  entry_.data(),
+                                                                  {{local_of_id}}},
                  "knit.springs.localize");
   springs_ = mesh.springs_;
   width_ = mesh.width_;

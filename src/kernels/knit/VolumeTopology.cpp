@@ -1,6 +1,7 @@
 #include "kernels/knit/VolumeTopology.hpp"
 
 #include "core/Error.hpp"
+#include "kernels/knit/LocalRows_K.hpp"
 
 #include <algorithm>
 #include <string>
@@ -51,34 +52,12 @@ void VolumeTopology<T>::build(const std::vector<VolumeCell>& cells, std::size_t 
 
 namespace {
 
-// Local point k's cells: its mesh point's; ghosts none.
-struct LocalCellRow {
-  const std::uint32_t* mesh_count;
-  const std::uint32_t* mesh_cell;
-  std::size_t mesh_n;
-  const std::uint64_t* id;
-  std::size_t owned, n;
-  std::uint32_t* count;
-  std::uint32_t* cell;
-  KF_HD KF_INLINE void operator()(std::size_t k) const {
-    if (k >= owned) {
-      count[k] = 0;
-      return;
-    }
-    const std::size_t p = static_cast<std::size_t>(id[k]);
-    const std::uint32_t c = mesh_count[p];
-    count[k] = c;
-    for (std::uint32_t e = 0; e < c; ++e)
-      cell[e * n + k] = mesh_cell[e * mesh_n + p];
-  }
-};
-
 // A mesh cell's corner by local index.
 struct LocalCorner {
   const std::uint32_t* mesh_point;
-  const std::uint32_t* local_of_id;
+  LocalOfId local;
   std::uint32_t* point;
-  KF_HD KF_INLINE void operator()(std::size_t q) const { point[q] = local_of_id[mesh_point[q]]; }
+  KF_HD KF_INLINE void operator()(std::size_t q) const { point[q] = local(mesh_point[q]); }
 };
 
 } // namespace
@@ -99,10 +78,17 @@ void VolumeTopology<T>::localize(const exec::Exec& ex, const VolumeTopology& mes
   cell_.resize(std::size_t(width_) * n);
   point_.resize(mesh.point_.size());
   exec::for_each(ex, n,
-                 LocalCellRow{mesh.count_.data(), mesh.cell_.data(), mesh.count_.size(), id, owned,
-                              n, count_.data(), cell_.data()},
+                 LocalRowGather<std::uint32_t, SameEntry>{mesh.count_.data(),
+                                                          mesh.cell_.data(),
+                                                          mesh.count_.size(),
+                                                          id,
+                                                          owned,
+                                                          n,
+                                                          count_.data(),
+                                                          cell_.data(),
+                                                          {}},
                  "knit.volumes.localize");
-  exec::for_each(ex, point_.size(), LocalCorner{mesh.point_.data(), local_of_id, point_.data()},
+  exec::for_each(ex, point_.size(), LocalCorner{mesh.point_.data(), {local_of_id}, point_.data()},
                  "knit.volumes.localize");
 }
 

@@ -1,0 +1,159 @@
+// SimulationT<T>'s diagnostics (reduced over ranks once per output) and memory use.
+#include "domain/SimulationT.hpp"
+
+namespace kf {
+
+template <typename T>
+Diagnostics SimulationT<T>::diagnostics() const {
+  Diagnostics d;
+  d.guard_corrections = guard_corrections();
+  d.fluid_sorts = fluid_sorts_;
+  if (fluid_list_ && skin_ > 0) {
+    const auto& e = fluid_list_->ends();
+    d.list_ends_far = e.far;
+    d.list_ends_sheared = e.sheared;
+    d.list_skin = static_cast<double>(fluid_list_->skin());
+  }
+  if (boundary_on_)
+    d.boundary = boundary_->size();
+  if (knit_on_) {
+    auto& k = const_cast<KnitSystem<T>&>(*knit_);
+    KnitEnergy e;
+    SelfContactStats sc;
+    // The springs and contacts of owned points reach ghosts on N ranks.
+    const_cast<SimulationT<T>&>(*this).with_knit_ghosts([&] { e = k.energy(&sc); });
+    d.knit = k.owned();
+    d.knit_kinetic_energy = e.kinetic;
+    d.knit_elastic_energy = e.elastic;
+    d.knit_potential_energy = e.potential;
+    d.knit_contacts = k.collisions();
+    d.knit_self_contacts = sc.contacts;
+    d.knit_self_energy = sc.energy;
+    d.knit_self_min_gap = sc.min_gap_ratio;
+    if (coupling_) {
+      auto& self = const_cast<SimulationT<T>&>(*this);
+      const CouplingStats cs = self.coupling_->stats(ex_, self.knit_->set(), self.fluid_side());
+      d.coupling_contacts = cs.contacts;
+      d.coupling_energy = cs.energy;
+      d.absorbed_mass = cs.absorbed_mass;
+      d.max_saturation = cs.max_saturation;
+      d.mean_saturation = cs.mean_saturation;
+      d.wet_points = cs.wet_points;
+      if (ranks_) { // the job's (each rank's over its own knit points)
+        const comm::MpiContext& mpi = ranks_->mpi();
+        const double n = double(k.owned()), all = double(mpi.sum(std::uint64_t(k.owned())));
+        d.coupling_contacts = mpi.sum(std::uint64_t(d.coupling_contacts));
+        d.coupling_energy = mpi.sum(d.coupling_energy);
+        d.absorbed_mass = mpi.sum(d.absorbed_mass);
+        d.max_saturation = mpi.max(d.max_saturation);
+        d.mean_saturation = all > 0 ? mpi.sum(d.mean_saturation * n) / all : 0.0;
+        d.wet_points = mpi.sum(std::uint64_t(d.wet_points));
+      }
+      if (absorption_) {
+        const AbsorptionStats& st = absorption_->stats();
+        const auto a = absorption_->absorbed().to_host();
+        d.absorbed_mass = 0;
+        for (std::size_t i = 0; i < k.owned(); ++i) // on N ranks the ghosts are their owners'
+          d.absorbed_mass += double(a[i]);
+        d.absorbed_particles = st.absorbed_particles;
+        d.emitted_particles = st.emitted_particles;
+        d.diffused_mass = st.diffused_mass;
+        if (ranks_) { // the job's (each rank's over its own points and particles)
+          const comm::MpiContext& mpi = ranks_->mpi();
+          d.absorbed_mass = mpi.sum(d.absorbed_mass);
+          d.absorbed_particles = mpi.sum(std::uint64_t(d.absorbed_particles));
+          d.emitted_particles = mpi.sum(std::uint64_t(d.emitted_particles));
+          d.diffused_mass = mpi.sum(d.diffused_mass);
+        }
+      }
+    }
+    d.knit_min_rigid_distance = solids_.empty()
+                                    ? std::numeric_limits<double>::infinity()
+                                    : k.min_rigid_distance(shapes_.data(), shapes_.size());
+    if (ranks_) { // the job's: each rank holds its own points between steps
+      const comm::MpiContext& mpi = ranks_->mpi();
+      d.knit = mpi.sum(std::uint64_t(d.knit));
+      d.knit_kinetic_energy = mpi.sum(d.knit_kinetic_energy);
+      d.knit_elastic_energy = mpi.sum(d.knit_elastic_energy);
+      d.knit_potential_energy = mpi.sum(d.knit_potential_energy);
+      d.knit_contacts = mpi.sum(std::uint64_t(d.knit_contacts));
+      d.knit_self_contacts = mpi.sum(std::uint64_t(d.knit_self_contacts));
+      d.knit_self_energy = mpi.sum(d.knit_self_energy);
+      d.knit_self_min_gap = mpi.min(d.knit_self_min_gap);
+      d.knit_min_rigid_distance = mpi.min(d.knit_min_rigid_distance);
+      if (!fluid_on_) {
+        d.imbalance = ranks_->last_imbalance();
+        d.repartitions = ranks_->repartitions();
+      }
+    }
+  }
+  if (!fluid_on_)
+    return d;
+  d.outflow_particles = outflow_particles_;
+  d.outflow_mass = outflow_mass();
+  const auto v = fluid_->v.to_host();
+  const auto m = fluid_->m.to_host();
+  const auto rho = fluid_->rho.to_host();
+  const auto own = fluid_owned_rows(); // on N ranks with the knit coupled, ghosts follow
+  d.fluid = std::count(own.begin(), own.end(), 1);
+  const double rho0 = scene_.fluid.rest_density;
+  double sum_err = 0;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (!own[i])
+      continue;
+    const double v2 = norm2(vec_cast<double>(v[i]));
+    d.kinetic_energy += 0.5 * m[i] * v2;
+    d.fluid_mass += m[i];
+    d.max_speed = std::max(d.max_speed, std::sqrt(v2));
+    const double e = (rho[i] - rho0) / rho0;
+    d.max_density_error = std::max(d.max_density_error, e);
+    sum_err += e;
+  }
+  if (d.fluid)
+    d.mean_density_error = sum_err / d.fluid;
+  d.min_rigid_distance =
+      solids_.empty() ? std::numeric_limits<double>::infinity()
+                      : static_cast<double>(min_rigid_distance(
+                            ex_, fluid_->x.data(), fluid_->size(), shapes_.data(), shapes_.size()));
+  if (ranks_) { // the job's figures: each rank holds its owned fluid between steps
+    const comm::MpiContext& mpi = ranks_->mpi();
+    if (boundary_on_) {
+      const auto& own = ranks_->boundary_owned();
+      d.boundary = mpi.sum(std::uint64_t(std::count(own.begin(), own.end(), 1)));
+    }
+    const std::uint64_t local = d.fluid;
+    d.fluid = mpi.sum(local);
+    d.kinetic_energy = mpi.sum(d.kinetic_energy);
+    d.fluid_mass = mpi.sum(d.fluid_mass);
+    d.max_speed = mpi.max(d.max_speed);
+    d.max_density_error = mpi.max(local == 0 ? -1e300 : d.max_density_error);
+    d.mean_density_error = d.fluid ? mpi.sum(sum_err) / double(d.fluid) : 0.0;
+    d.min_rigid_distance = mpi.min(d.min_rigid_distance);
+    d.guard_corrections = mpi.sum(d.guard_corrections);
+    d.outflow_particles = mpi.sum(d.outflow_particles);
+    d.outflow_mass = mpi.sum(d.outflow_mass);
+    d.imbalance = ranks_->last_imbalance();
+    d.repartitions = ranks_->repartitions();
+  }
+  return d;
+}
+
+template <typename T>
+std::size_t SimulationT<T>::memory_bytes() const {
+  std::size_t b = shapes_.capacity_bytes() + solids_.bytes();
+  if (fluid_)
+    b += fluid_->bytes() + fluid_grid_->bytes() + (fluid_list_ ? fluid_list_->bytes() : 0);
+  if (boundary_)
+    b += boundary_->bytes() + boundary_grid_->bytes() + boundary_near_.capacity_bytes() +
+         fluid_near_.capacity_bytes();
+  if (knit_)
+    b += knit_->bytes();
+  return b;
+}
+
+template Diagnostics SimulationT<float>::diagnostics() const;
+template std::size_t SimulationT<float>::memory_bytes() const;
+template Diagnostics SimulationT<double>::diagnostics() const;
+template std::size_t SimulationT<double>::memory_bytes() const;
+
+} // namespace kf

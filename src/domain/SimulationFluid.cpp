@@ -1,0 +1,200 @@
+// SimulationT<T>'s fluid and boundary passes: the sorts, density, forces and the boundary's
+// pressure, each with the halo it reads on N ranks (ghost refreshes just before the pass).
+#include "domain/SimulationT.hpp"
+
+namespace kf {
+
+template <typename T>
+void SimulationT<T>::update_shapes(double t) {
+  for (auto& s : solids_.table())
+    s.offset = {static_cast<T>(s.velocity.x * t), static_cast<T>(s.velocity.y * t),
+                static_cast<T>(s.velocity.z * t)};
+  shapes_.assign(solids_.table());
+}
+
+template <typename T>
+void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry carry) {
+  ++fluid_sorts_;
+  if (ranks_) {
+    // Ghosts kept since the last sort ("verlet" lists) go: the sort chooses them anew.
+    ranks_->drop_ghosts(ex_, *fluid_);
+    // Every [parallel] check_every steps the measured imbalance may share the blocks out anew.
+    if (ranks_
+            ->balance(steps_, &*fluid_, boundary_on_ ? &*boundary_ : nullptr,
+                      knit_halo_ ? &knit_->set().x : nullptr, knit_halo_ ? knit_->owned() : 0)
+            .repartitioned &&
+        boundary_on_)
+      sort_boundary();
+    // Migration and the ghosts first, then the same sort over owned and ghost particles.
+    const auto& d = scene_.domain;
+    std::array<bool, 6> walls = d.walls;
+    if (!remove_outflow)
+      walls.fill(true);
+    const auto gone =
+        ranks_->rebuild(*fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max), walls, carry.acceleration);
+    outflow_particles_ += gone.particles;
+    outflow_mass_ += gone.mass;
+    fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size(), fluid_->id.data());
+    fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
+    ranks_->fluid_sorted(fluid_grid_->permutation(), fluid_->size());
+  } else if (remove_outflow) {
+    const auto& d = scene_.domain;
+    outflow_particles_ +=
+        sort_removing_outside(ex_, *fluid_grid_, *fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max),
+                              sorted_outflow_mass_.data(), carry);
+  } else {
+    fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size(), fluid_->id.data());
+    fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
+  }
+  if (boundary_on_) // for boundary.pressure, which walks this grid until the next sort
+    fluid_grid_->occupied_around(ex_, fluid_near_);
+  if (fluid_list_)
+    fluid_list_->build(ex_, *fluid_, fluid_grid_->view(), boundary_neighbours(), static_cast<T>(h_),
+                       fluid_near_.data());
+}
+
+template <typename T>
+double SimulationT<T>::fluid_step_motion() const {
+  // The two-way coupling changes fluid velocities after the bounds were read: unknown.
+  if (coupling_on_)
+    return std::numeric_limits<double>::infinity();
+  // Velocity Verlet moves a particle by dt (v + a dt / 2) with v and a at the step's start
+  // (damping only slows it); the guard puts a particle that crossed into a solid back on its
+  // surface, no farther from where it started than twice that. Plus rounding of x + dx.
+  const double vmax = std::sqrt(static_cast<double>(fluid_bounds_.v2));
+  const double amax = std::sqrt(static_cast<double>(fluid_bounds_.a2));
+  const double drift = (vmax + 0.5 * amax * dt_) * dt_;
+  const auto& d = scene_.domain;
+  const double extent = std::max({std::abs(d.min.x), std::abs(d.min.y), std::abs(d.min.z),
+                                  std::abs(d.max.x), std::abs(d.max.y), std::abs(d.max.z)});
+  const double rounding = 4 * double(std::numeric_limits<T>::epsilon()) * (extent + h_);
+  return (solids_.empty() ? 1.0 : 2.0) * drift * (1 + 1e-6) + rounding;
+}
+
+template <typename T>
+void SimulationT<T>::sort_boundary() {
+  boundary_grid_->build(ex_, boundary_->x.data(), boundary_->size());
+  boundary_->reorder(ex_, boundary_grid_->permutation());
+  if (ranks_)
+    ranks_->boundary_sorted(boundary_grid_->permutation(), boundary_->size());
+  boundary_grid_->occupied_around(ex_, boundary_near_);
+  if (fluid_list_) // the walls' lists follow the boundary's order: built again with the fluid's
+    fluid_list_->forget_walls();
+}
+
+template <typename T>
+BoundaryNeighbours<T> SimulationT<T>::boundary_neighbours() {
+  if (!boundary_on_ || boundary_->size() == 0)
+    return {};
+  return {boundary_->x.data(),
+          boundary_->volume.data(),
+          boundary_->xv.data(),
+          boundary_->vp.data(),
+          boundary_->inv_rho.data(),
+          sph_.no_slip,
+          boundary_grid_->view(),
+          boundary_->size(),
+          boundary_near_.data(),
+          continuity() ? boundary_->obstacle.data() : nullptr,
+          continuity() && moving_ ? shapes_.data() : nullptr};
+}
+
+template <typename T>
+void SimulationT<T>::fluid_density(T dt) {
+  if (continuity()) {
+    const LocalWork work(ranks_ ? &*ranks_ : nullptr);
+    sph_density_predict(ex_, sph_, fluid_->view(), dt);
+    return;
+  }
+  if (!ranks_) {
+    sph_density(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+                fluid_list_view());
+    return;
+  }
+  {
+    const LocalWork work(&*ranks_);
+    sph_pack(ex_, fluid_->view());
+  }
+  // An outer ghost lacks neighbours past the halo: its owner's density replaces it.
+  ranks_->refresh_density(*fluid_, [&](const exec::Rows& rows) {
+    const LocalWork work(&*ranks_);
+    sph_density_rows(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+                     fluid_list_view(), rows);
+  });
+}
+
+template <typename T>
+void SimulationT<T>::fluid_forces(T dt) {
+  auto pass = [&](const exec::Rows* rows) {
+    const LocalWork work(ranks_ ? &*ranks_ : nullptr);
+    sph_forces(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+               fluid_list_view(), dt, rows);
+  };
+  if (!ranks_) {
+    pass(nullptr);
+    return;
+  }
+  // With the knit coupled the ghosts stay until the next drift (the coupling reads the fluid
+  // around the knit), their motion refreshed after the kick: every row is computed.
+  if (coupling_on_) {
+    pass(nullptr);
+    return;
+  }
+  const auto on_rows = [&](const exec::Rows& rows) { pass(&rows); };
+  // Their work is done: between steps a rank holds only the fluid it owns; with "verlet" lists
+  // the ghosts stay until the next sort, taking their owners' state now, so that the kick, the
+  // drift and the next density pass give each the values its owner computes.
+  if (ranks_->keeps_ghosts())
+    ranks_->refresh_forces(*fluid_, continuity(), on_rows);
+  else {
+    ranks_->owned_pass(fluid_->size(), on_rows);
+    ranks_->drop_ghosts(ex_, *fluid_);
+  }
+}
+
+template <typename T>
+void SimulationT<T>::compute_forces() {
+  // dt 0: the density stays as it is (continuity), only its rate and the forces are evaluated.
+  fluid_density(T(0));
+  if (boundary_on_)
+    extrapolate_boundary_pressure();
+  fluid_forces(T(0));
+}
+
+template <typename T>
+void SimulationT<T>::extrapolate_boundary_pressure() {
+  auto pass = [&](const exec::Rows* rows) {
+    const LocalWork work(ranks_ ? &*ranks_ : nullptr);
+    if (boundary_->size() > 0)
+      boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
+                        shapes_.data(), fluid_near_.data(),
+                        fluid_list_ ? fluid_list_->walls() : ListView<T>{}, rows);
+  };
+  if (!ranks_) {
+    pass(nullptr);
+    return;
+  }
+  // Collective over the peers, so also where this rank holds no boundary.
+  ranks_->refresh_boundary(*boundary_, [&](const exec::Rows& rows) { pass(&rows); });
+}
+
+template void SimulationT<float>::update_shapes(double);
+template void SimulationT<float>::sort_fluid(bool, typename FluidSet<float>::Carry);
+template double SimulationT<float>::fluid_step_motion() const;
+template void SimulationT<float>::sort_boundary();
+template BoundaryNeighbours<float> SimulationT<float>::boundary_neighbours();
+template void SimulationT<float>::fluid_density(float);
+template void SimulationT<float>::fluid_forces(float);
+template void SimulationT<float>::compute_forces();
+template void SimulationT<float>::extrapolate_boundary_pressure();
+template void SimulationT<double>::update_shapes(double);
+template void SimulationT<double>::sort_fluid(bool, typename FluidSet<double>::Carry);
+template double SimulationT<double>::fluid_step_motion() const;
+template void SimulationT<double>::sort_boundary();
+template BoundaryNeighbours<double> SimulationT<double>::boundary_neighbours();
+template void SimulationT<double>::fluid_density(double);
+template void SimulationT<double>::fluid_forces(double);
+template void SimulationT<double>::compute_forces();
+template void SimulationT<double>::extrapolate_boundary_pressure();
+
+} // namespace kf

@@ -1,0 +1,109 @@
+// `knitflow plan`: the scene's stages, particle counts and step limits without running it.
+#include "domain/SimulationT.hpp"
+
+namespace kf {
+
+namespace {
+
+std::string describe_obstacle(const Obstacle& o) {
+  std::string line = o.name + ": " + to_string(o.shape);
+  if (o.shape != ObstacleShape::Mesh || !o.mesh)
+    return line;
+  const MeshObstacle& m = *o.mesh;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                " %s, %zu triangles, volume %.4g m^3, distance sampled on %u x %u x %u nodes "
+                "(cell %.3g m) in %.2f s",
+                o.file.c_str(), m.solid.triangles.size(), m.solid.volume, m.sdf.dims[0],
+                m.sdf.dims[1], m.sdf.dims[2], m.sdf.cell, m.build_seconds);
+  return line + buf;
+}
+
+} // namespace
+
+PlanReport Simulation::plan(const Scene& scene) {
+  PlanReport r;
+  const bool dbl = scene.precision == Precision::Double;
+  std::unique_ptr<Simulation> shell;
+  if (dbl)
+    shell.reset(new SimulationT<double>(scene, exec::Backend::Cpu, true));
+  else
+    shell.reset(new SimulationT<float>(scene, exec::Backend::Cpu, true));
+  for (const auto& s : shell->pipeline().stages())
+    r.stages.push_back({s.name + " [" + s.module + "]", s.what});
+  r.support_radius = scene.support_radius();
+  for (const auto& o : scene.obstacles)
+    r.obstacles.push_back(describe_obstacle(o));
+  r.bytes_solids = dbl ? RigidShapes<double>(scene).bytes() : RigidShapes<float>(scene).bytes();
+  const double h = r.support_radius;
+  const int span = static_cast<int>(scene.solver.cell_span);
+  const auto geo = NeighbourGrid<double>::cover(scene.domain.min, scene.domain.max, h / span, span);
+  r.grid[0] = geo.nx;
+  r.grid[1] = geo.ny;
+  r.grid[2] = geo.nz;
+  const std::size_t grid_bytes = std::size_t(geo.cells()) * 3 * sizeof(std::uint32_t);
+  if (scene.has(Module::Fluid)) {
+    r.fluid = sample_fluid(scene).size();
+    r.bytes_fluid = r.fluid * (dbl ? FluidSet<double>::bytes_per_particle()
+                                   : FluidSet<float>::bytes_per_particle());
+    r.bytes_grid += grid_bytes;
+  }
+  if (scene.has(Module::Boundary)) {
+    r.boundary = sample_boundaries(scene, scene.fluid.spacing, h).x.size();
+    r.bytes_boundary = r.boundary * (dbl ? BoundarySet<double>::bytes_per_particle()
+                                         : BoundarySet<float>::bytes_per_particle());
+    r.bytes_grid += grid_bytes;
+  }
+  // Initial dt from the initial velocities and gravity (the first forces are not evaluated).
+  const auto& s = scene.solver;
+  double vmax = 0;
+  for (const auto& b : scene.fluid.blocks)
+    vmax = std::max(vmax, norm(b.velocity));
+  r.initial_dt = s.dt_max;
+  r.dt_limit = "dt_max";
+  auto limit = [&](double dt, const char* why) {
+    if (dt < r.initial_dt) {
+      r.initial_dt = dt;
+      r.dt_limit = why;
+    }
+  };
+  if (scene.has(Module::Fluid)) {
+    limit(s.cfl * h / (scene.fluid.speed_of_sound + vmax), "CFL (sound speed + velocity)");
+    const double g = norm(scene.gravity);
+    if (g > 0)
+      limit(s.force_factor * std::sqrt(h / g), "force (gravity)");
+    if (scene.fluid.viscosity > 0)
+      limit(s.viscous_factor * h * h * scene.fluid.rest_density / scene.fluid.viscosity,
+            "viscosity");
+  }
+  if (scene.has(Module::Knit)) {
+    // Built in the scene's precision on the host (the CPU backend): plan never touches a device.
+    auto count = [&](auto&& knit) {
+      r.knit = knit.size();
+      r.springs = knit.springs().springs();
+      r.volume_cells = knit.volume_cells();
+      if (const auto* sc = knit.self_contact_params())
+        r.knit_self_radius = double(sc->radius);
+      r.bytes_knit = knit.bytes();
+      if (scene.has(Module::Contact) || scene.has(Module::Capillary)) {
+        const auto p = coupling_params<double>(scene, knit.longest_spacing());
+        r.coupling_reach = p.reach;
+        r.coupling_stiffness = p.contact ? p.dem.k : 0;
+        if (p.contact) {
+          const CouplingLimits lim = coupling_limits(scene, p.dem.k, knit.min_free_mass());
+          knit.set_substep_limit(lim.knit_substep);
+          limit(lim.fluid_step, "fluid-knit contact stiffness (fluid side)");
+        }
+      }
+      limit(knit.stable_dt(), "knit springs / contact stiffness / contact radius (all substeps)");
+    };
+    const exec::Exec host{exec::Backend::Cpu};
+    if (dbl)
+      count(KnitSystem<double>(scene, host));
+    else
+      count(KnitSystem<float>(scene, host));
+  }
+  return r;
+}
+
+} // namespace kf

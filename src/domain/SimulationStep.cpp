@@ -1,0 +1,182 @@
+// SimulationT<T>'s step: the stable step size (one global reduction on N ranks), the step
+// planned on the device, and the report of an unstable one.
+#include "domain/SimulationT.hpp"
+
+#include <sstream>
+
+namespace kf {
+
+template <typename T>
+double SimulationT<T>::stable_dt() {
+  const auto& s = scene_.solver;
+  double dt = s.dt_max;
+  if (!fluid_on_) {
+    if (!knit_on_)
+      return dt;
+    if (!ranks_)
+      return std::min(dt, knit_->stable_dt());
+    knit_->motion_bounds_to(bounds_.data());
+    auto kb = bounds_.to_host()[0];
+    job_bounds(&kb, 1);
+    return std::min(dt, knit_->stable_dt(kb));
+  }
+  auto f = fluid_->view();
+  MotionBounds<T> mb;
+  if (knit_on_) { // both sets' bounds in one read
+    knit_->motion_bounds_to(bounds_.data());
+    motion_bounds_to(ex_, f.v, f.a, f.n, bounds_.data() + 1, "integrate.dt");
+    auto both = bounds_.to_host();
+    if (ranks_)
+      job_bounds(both.data(), 2);
+    dt = std::min(dt, knit_->stable_dt(both[0]));
+    mb = both[1];
+  } else if (fluid_bounds_ready_) {
+    mb = bounds_.to_host()[1];
+  } else {
+    mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
+  }
+  if (ranks_ && !knit_on_) { // one dt for the job: the largest speed and acceleration of all ranks
+    if (!(std::isfinite(double(mb.v2)) && std::isfinite(double(mb.a2))))
+      report_instability("a fluid velocity or acceleration is not finite");
+    job_bounds(&mb, 1);
+  }
+  fluid_bounds_ = mb;
+  if (!(std::isfinite(double(mb.v2)) && std::isfinite(double(mb.a2))))
+    report_instability("a fluid velocity or acceleration is not finite");
+  return std::min(dt, fluid_stable_dt(fluid_step_rule(), double(mb.v2), double(mb.a2)));
+}
+
+template <typename T>
+void SimulationT<T>::job_bounds(MotionBounds<T>* mb, int n) const {
+  std::vector<double> b(2 * n);
+  for (int k = 0; k < n; ++k) {
+    b[2 * k] = double(mb[k].v2);
+    b[2 * k + 1] = double(mb[k].a2);
+  }
+  for (double& v : b)
+    v = std::isnan(v) ? std::numeric_limits<double>::infinity() : v;
+  MPI_Allreduce(MPI_IN_PLACE, b.data(), 2 * n, MPI_DOUBLE, MPI_MAX, ranks_->mpi().comm());
+  for (int k = 0; k < n; ++k) {
+    mb[k].v2 = static_cast<T>(b[2 * k]);
+    mb[k].a2 = static_cast<T>(b[2 * k + 1]);
+  }
+}
+
+template <typename T>
+FluidStepRule SimulationT<T>::fluid_step_rule() const {
+  const auto& s = scene_.solver;
+  FluidStepRule r;
+  r.limit = std::min(s.dt_max, coupling_fluid_limit_);
+  if (scene_.fluid.viscosity > 0)
+    r.limit = std::min(r.limit, s.viscous_factor * h_ * h_ * scene_.fluid.rest_density /
+                                    scene_.fluid.viscosity);
+  r.cfl = s.cfl;
+  r.h = h_;
+  r.sound = scene_.fluid.speed_of_sound;
+  r.force_factor = s.force_factor;
+  r.dt_min = s.dt_min;
+  return r;
+}
+
+template <typename T>
+bool SimulationT<T>::plans_step_on_device() const {
+  // The drift must be the step's first stage (no knit or coupling stages before it, which take
+  // dt on the host), its bounds on the device already, and no damping (keep depends on dt).
+  const auto& s = scene_.solver;
+  return fluid_on_ && !knit_on_ && !coupling_on_ && fluid_bounds_ready_ && !ranks_ &&
+         !(s.damping > 0 && time_ < s.damping_until);
+}
+
+template <typename T>
+void SimulationT<T>::settle_step() {
+  if (!step_pending_)
+    return;
+  const StepPlan<T> p = plan_read_->wait()[0];
+  step_pending_ = false;
+  fluid_bounds_ = p.bounds;
+  // The plan's dt is 0 in both cases below: the drift queued with it moved nothing.
+  if (!p.finite)
+    report_instability("a fluid velocity or acceleration is not finite");
+  if (p.stable_dt < scene_.solver.dt_min)
+    report_instability("the stable time step " + std::to_string(p.stable_dt) +
+                       " s fell below dt_min " + std::to_string(scene_.solver.dt_min) + " s");
+  dt_ = p.dt;
+  step_lands_ = p.lands != 0;
+}
+
+template <typename T>
+double SimulationT<T>::step(double t_limit) {
+  // Land exactly on t_limit (output times), without leaving a sliver of a step before it.
+  const double remaining = t_limit - time_;
+  if (plans_step_on_device()) {
+    if (!plan_read_)
+      plan_read_.emplace(ex_.backend, 1, "integrate.dt");
+    plan_fluid_step(ex_, fluid_step_rule(), bounds_.data() + 1, remaining, plan_.data());
+    plan_read_->start(plan_.data());
+    step_pending_ = true;
+    dt_ = std::numeric_limits<double>::quiet_NaN(); // known once the drift is queued
+  } else {
+    const double dt = stable_dt();
+    if (dt < scene_.solver.dt_min)
+      report_instability("the stable time step " + std::to_string(dt) + " s fell below dt_min " +
+                         std::to_string(scene_.solver.dt_min) + " s");
+    bool lands = false;
+    dt_ = landed_dt(dt, remaining, lands);
+    step_lands_ = lands;
+  }
+  fluid_bounds_ready_ = false; // the stages change v and a; the step's last kick writes them
+  pipeline_.run(profiling_ ? std::function<void()>([this] { exec::synchronize(ex_.backend); })
+                           : std::function<void()>());
+  settle_step(); // the drift stage settles it; a pipeline without one would still
+  time_ = step_lands_ ? t_limit : time_ + dt_;
+  ++steps_;
+  return dt_;
+}
+
+template <typename T>
+void SimulationT<T>::report_instability(const std::string& why) {
+  std::ostringstream msg;
+  msg << "instability at step " << steps_ << ", t = " << time_ << " s: " << why;
+  if (fluid_on_) {
+    const auto v = fluid_->v.to_host();
+    const auto a = fluid_->a.to_host();
+    const auto x = fluid_->x.to_host();
+    const auto id = fluid_->id.to_host();
+    std::size_t worst = 0;
+    double worst_v = -1;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      const double s = std::sqrt(double(norm2(v[i]))) + std::sqrt(double(norm2(a[i])));
+      if (!std::isfinite(s)) {
+        worst = i;
+        break;
+      }
+      if (s > worst_v) {
+        worst_v = s;
+        worst = i;
+      }
+    }
+    if (!v.empty())
+      msg << "; worst fluid particle id " << id[worst] << " at (" << x[worst].x << ", "
+          << x[worst].y << ", " << x[worst].z
+          << ") with |v| = " << std::sqrt(double(norm2(v[worst])))
+          << " m/s, |a| = " << std::sqrt(double(norm2(a[worst]))) << " m/s^2";
+  }
+  throw InstabilityError(msg.str());
+}
+
+template double SimulationT<float>::stable_dt();
+template void SimulationT<float>::job_bounds(MotionBounds<float>*, int) const;
+template FluidStepRule SimulationT<float>::fluid_step_rule() const;
+template bool SimulationT<float>::plans_step_on_device() const;
+template void SimulationT<float>::settle_step();
+template double SimulationT<float>::step(double);
+template void SimulationT<float>::report_instability(const std::string&);
+template double SimulationT<double>::stable_dt();
+template void SimulationT<double>::job_bounds(MotionBounds<double>*, int) const;
+template FluidStepRule SimulationT<double>::fluid_step_rule() const;
+template bool SimulationT<double>::plans_step_on_device() const;
+template void SimulationT<double>::settle_step();
+template double SimulationT<double>::step(double);
+template void SimulationT<double>::report_instability(const std::string&);
+
+} // namespace kf

@@ -1,0 +1,260 @@
+#pragma once
+// SimulationT<T>: the pipeline in precision T on one backend, behind Simulation. Its members are
+// defined by phase: SimulationT.cpp (set-up and the pipeline's stages), SimulationFluid.cpp (the
+// fluid and boundary passes with the halos each reads), SimulationStep.cpp (the step size and the
+// step), SimulationSnapshot.cpp (frames and restart), SimulationDiagnostics.cpp.
+#include "core/Error.hpp"
+#include "domain/AbsorptionRanks.hpp"
+#include "domain/FrameFields.hpp"
+#include "domain/KnitBuilder.hpp"
+#include "domain/KnitHalo.hpp"
+#include "domain/KnitSystem.hpp"
+#include "domain/LocalWork.hpp"
+#include "domain/MeshObstacle.hpp"
+#include "domain/RankExchange.hpp"
+#include "domain/RigidShapes.hpp"
+#include "domain/Samplers.hpp"
+#include "domain/SceneParams.hpp"
+#include "domain/Simulation.hpp"
+#include "domain/StageParts.hpp"
+#include "kernels/boundary/Boundary.hpp"
+#include "kernels/coupling/Absorption.hpp"
+#include "kernels/coupling/KnitFluidCoupling.hpp"
+#include "kernels/exec/PendingRead.hpp"
+#include "kernels/grid/NeighbourGrid.hpp"
+#include "kernels/grid/NeighbourList.hpp"
+#include "kernels/integrate/StepSize.hpp"
+#include "kernels/integrate/Verlet.hpp"
+#include "kernels/particles/FluidSet.hpp"
+#include "kernels/particles/Outflow.hpp"
+#include "kernels/sph/Sph.hpp"
+#include "kernels/sph/SphLists.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <type_traits>
+#include <vector>
+
+namespace kf {
+
+template <typename T>
+class SimulationT final : public Simulation {
+public:
+  SimulationT(const Scene& scene, exec::Backend backend, bool plan_only = false,
+              const comm::MpiContext* mpi = nullptr);
+
+  double step(double t_limit) override;
+  double time() const override { return time_; }
+  std::uint64_t steps() const override { return steps_; }
+  double stable_dt() override;
+  io::Frame frame() const override;
+  void restore(const io::Frame& frame) override;
+  Diagnostics diagnostics() const override;
+  const Pipeline& pipeline() const override { return pipeline_; }
+  const Scene& scene() const override { return scene_; }
+  exec::Backend backend() const override { return ex_.backend; }
+  std::size_t memory_bytes() const override;
+  RankReport rank_report() const override {
+    if (!ranks_)
+      return {};
+    const auto p = ranks_->parts();
+    return {ranks_->ranks(),
+            ranks_->last_imbalance(),
+            ranks_->exchange_seconds(),
+            p.migration,
+            p.refresh,
+            p.rebalance,
+            p.packing,
+            std::string(ranks_->transport_name())};
+  }
+  void set_profiling(bool on) override {
+    profiling_ = on;
+    stage_parts::enable(on, ex_.backend);
+  }
+
+private:
+  void build_pipeline();
+  void init_particles();
+  void init_coupling();
+  void init_absorption(const CouplingParams<T>& cp);
+  void update_shapes(double t);
+  /// remove_outflow: the fluid outside the domain is removed in the same sort (counted).
+  /// acceleration false: a is not carried (a forces pass follows before anything reads it).
+  void sort_fluid(bool remove_outflow = false, typename FluidSet<T>::Carry carry = {});
+  void sort_boundary();
+  /// Restart: the fluid's grid (and lists) as the run that wrote fr holds them (see restore).
+  void restore_fluid_grid(const io::Frame& fr);
+  void compute_forces();
+  /// The sph.density and sph.forces stages for a step of dt (0: at t = 0).
+  void fluid_density(T dt);
+  bool density_done_ = false; // this step's sph.density ran early (while the lists were read)
+  void fluid_forces(T dt);
+  bool continuity() const { return scene_.solver.density == DensityModel::Continuity; }
+  BoundaryNeighbours<T> boundary_neighbours();
+  void extrapolate_boundary_pressure();
+  /// Velocity factor of one half kick of a step h: exp(-zeta h / 2) while settling, else 1.
+  T damping_keep(double h) const {
+    const auto& s = scene_.solver;
+    return (s.damping > 0 && time_ < s.damping_until)
+               ? static_cast<T>(std::exp(-0.5 * s.damping * h))
+               : T(1);
+  }
+  [[noreturn]] void report_instability(const std::string& why);
+
+  Scene scene_;
+  exec::Exec ex_;
+  bool fluid_on_ = false, boundary_on_ = false, knit_on_ = false, moving_ = false;
+  bool coupling_on_ = false;
+  double coupling_fluid_limit_ = 1e30; // fluid step bound from the knit-fluid contact
+  FluidSide<T> fluid_side() { return {fluid_->view(), fluid_grid_->view()}; }
+  SphParams<T> sph_;
+  double h_ = 0, margin_ = 0;
+  double time_ = 0, dt_ = 0;
+  std::uint64_t steps_ = 0;
+  // Particles put back by the guard, whole run: a counter in device memory, read only for
+  // snapshots and diagnostics so the step never waits for it.
+  exec::DeviceBuffer<std::uint64_t> guard_count_{exec::Backend::Cpu, 0, "boundary.guard_count"};
+  std::uint64_t guard_corrections() const { return guard_count_.to_host()[0]; }
+  std::uint64_t outflow_particles_ = 0, fluid_sorts_ = 0;
+  double outflow_mass_ = 0; // removed before the restart this run started from (its snapshot's)
+  // The mass removed by sorts since (sort_removing_outside), summed on the device: read with the
+  // diagnostics, not at every sort.
+  exec::DeviceBuffer<double> sorted_outflow_mass_{exec::Backend::Cpu, 0, "fluid.outflow"};
+  double outflow_mass() const { return outflow_mass_ + sorted_outflow_mass_.to_host()[0]; }
+  bool profiling_ = false;
+
+  std::optional<KnitSystem<T>> knit_;
+  std::optional<KnitFluidCoupling<T>> coupling_;
+  std::optional<ConservingAbsorption<T>> absorption_; // capillary.model = "conserving"
+  std::uint64_t next_fluid_id_ = 0;
+  PoreMass<T> pores() const { return absorption_ ? absorption_->pores() : PoreMass<T>{}; }
+  void begin_coupling() {
+    if (knit_halo_) { // the knit's ghosts current, and their saturation their owners'
+      stage_parts::Scope part("coupling.begin: knit ghosts (refreshed, or chosen anew)");
+      knit_halo_->begin(knit_->expected_motion(dt_));
+    }
+    coupling_->begin_step(ex_, knit_->set(), fluid_side(), pores(),
+                          static_cast<T>(knit_->expected_motion(dt_)), share_saturation());
+  }
+  /// On N ranks: the knit ghosts take their owners' saturation, capillary pressure and wet mass.
+  std::function<void()> share_saturation() {
+    if (!knit_halo_)
+      return {};
+    return [this] {
+      stage_parts::Scope part("coupling.begin: knit ghosts' saturation from their owners");
+      const auto v = coupling_->knit_values();
+      const comm::Column cols[] = {
+          {v[0]->data(), sizeof(T)}, {v[1]->data(), sizeof(T)}, {v[2]->data(), sizeof(T)}};
+      knit_halo_->refresh(cols);
+    };
+  }
+  /// After a restart: the knit's saturation for the state restored, for snapshots and
+  /// diagnostics before the next step (on N ranks the knit's points were shared out anew).
+  /// The ghosts are chosen first: diagnostics keep the set's points as they are (current()).
+  void update_saturation() {
+    with_knit_ghosts([this] {
+      coupling_->update_saturation(ex_, knit_->set(), fluid_side(), pores(), share_saturation());
+    });
+  }
+  /// Before the fluid's drift on N ranks with the knit coupled: the ghosts the coupling read go
+  /// (with "verlet" lists they stay until the next sort: after_drift()).
+  void drop_coupled_ghosts() {
+    if (ranks_ && coupling_on_ && !ranks_->keeps_ghosts())
+      ranks_->drop_ghosts(ex_, *fluid_);
+  }
+  /// On N ranks with ghosts kept over steps, 1 for the owned fluid and 0 for the ghosts (on the
+  /// backend); else null.
+  const std::uint32_t* kept_ghosts_flags() const {
+    return ranks_ && ranks_->keeps_ghosts() ? ranks_->owned_flags() : nullptr;
+  }
+  /// After the fluid's drift on N ranks with the knit coupled and the ghosts kept: the coupling's
+  /// impulse on a ghost is not its owner's, so the ghosts take their owners' positions and
+  /// velocities.
+  void after_drift() {
+    if (ranks_ && coupling_on_ && ranks_->keeps_ghosts())
+      ranks_->refresh_positions(*fluid_);
+  }
+  /// The fluid rows this rank writes and counts: all, or on N ranks with ghosts kept between
+  /// steps (the knit coupled, or "verlet" lists) the owned ones.
+  std::vector<std::uint8_t> fluid_owned_rows() const {
+    std::vector<std::uint8_t> m(fluid_->size(), 1);
+    if (ranks_ && fluid_->size() != ranks_->fluid_owned_count()) {
+      const auto& f = ranks_->fluid_owned();
+      if (f.size() != m.size())
+        throw Error("internal: " + std::to_string(f.size()) + " ownership flags for " +
+                    std::to_string(m.size()) + " fluid particles");
+      for (std::size_t i = 0; i < m.size(); ++i)
+        m[i] = f[i] ? 1 : 0;
+    }
+    return m;
+  }
+  std::optional<FluidSet<T>> fluid_;
+  std::optional<BoundarySet<T>> boundary_;
+  std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
+  // solver.neighbour_list "on" or "verlet"; "verlet" lists reach skin_ past the support and are
+  // kept, with the fluid's order and grid, over steps (SphLists).
+  std::optional<SphLists<T>> fluid_list_;
+  double skin_ = 0;
+  MotionBounds<T> fluid_bounds_{}; // the fluid's speed and acceleration bounds at step start
+  double fluid_step_motion() const;
+  exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
+  exec::DeviceBuffer<std::uint8_t> fluid_near_{exec::Backend::Cpu, 0, "fluid.near"};
+  exec::DeviceBuffer<MotionBounds<T>> bounds_{exec::Backend::Cpu, 0, "integrate.dt"}; // knit, fluid
+  // bounds_[1] holds the fluid's bounds now, written by the last step's kick (kick_bounds): the
+  // next stable_dt reads them instead of a pass of its own. Cleared when a step starts.
+  bool fluid_bounds_ready_ = false;
+  // A step planned on the device (fluid without knit, bounds from the last kick): the drift is
+  // queued with the device's dt and the host collects the plan while it runs (settle_step).
+  FluidStepRule fluid_step_rule() const;
+  bool plans_step_on_device() const;
+  void settle_step();
+  exec::DeviceBuffer<StepPlan<T>> plan_{exec::Backend::Cpu, 0, "integrate.dt"};
+  std::optional<exec::PendingRead<StepPlan<T>>> plan_read_;
+  bool step_pending_ = false, step_lands_ = false;
+  const double* planned_dt() const { return step_pending_ ? &plan_.data()->dt : nullptr; }
+  /// The fluid's lists for a neighbour pass: settled first (their check read back; SphLists).
+  ListView<T> fluid_list_view() {
+    if (!fluid_list_)
+      return {};
+    fluid_list_->settle(ex_);
+    return fluid_list_->view();
+  }
+  // The job's split in space (more than one rank): migration, ghosts and their refreshes.
+  std::optional<RankExchange<T>> ranks_;
+  std::optional<KnitHalo<T>> knit_halo_;               // the knit's share and ghosts on N ranks
+  std::optional<AbsorptionRanks<T>> absorption_ranks_; // the conserving absorption on N ranks
+  /// The absorption's hooks on N ranks (collective), none on one rank.
+  std::optional<AbsorptionSplit<T>> absorption_split() {
+    if (!absorption_ranks_)
+      return std::nullopt;
+    return absorption_ranks_->split(ex_, *fluid_);
+  }
+  /// f() with the knit's ghosts present and current on N ranks (a pass that reads partners).
+  template <typename F>
+  void with_knit_ghosts(F&& f) {
+    if (knit_halo_)
+      knit_halo_->current();
+    f();
+  }
+  /// The job's largest speed and acceleration on N ranks (max over ranks, NaN kept as inf).
+  void job_bounds(MotionBounds<T>* mb, int n) const;
+
+  /// Every knit point this rank holds (the whole knit before distribute).
+  std::span<const Vec3<T>> all_knit_positions() {
+    if (!knit_)
+      return {};
+    knit_host_.emplace(knit_->set().x); // a copy from a device, valid until the next call
+    return knit_host_->span();
+  }
+  std::optional<HostValues<Vec3<T>>> knit_host_;
+  RigidShapes<T> solids_; // the shapes table (host copy) and the mesh grids it points into
+  exec::DeviceBuffer<RigidShape<T>> shapes_;
+  Pipeline pipeline_;
+};
+
+} // namespace kf

@@ -1,0 +1,52 @@
+#pragma once
+#include "core/HostDevice.hpp"
+
+#include <cstddef>
+#include <cstdint>
+
+namespace kf {
+
+/// Gathers a slot-major (ELL) table's rows for a rank's points from the mesh's: local point k
+/// (owned, k < owned) takes mesh point id[k]'s row, each entry through `local` (mesh indices
+/// inside it made local); ghosts get none (their rows are their owners'). Springs and volume
+/// cells share it: entry e of point p sits at e * n + p in both.
+template <typename Entry, typename Local>
+struct LocalRowGather {
+  const std::uint32_t* mesh_count;
+  const Entry* mesh_entry;
+  std::size_t mesh_n;
+  const std::uint64_t* id;
+  std::size_t owned, n;
+  std::uint32_t* count;
+  Entry* entry;
+  Local local;
+  KF_HD KF_INLINE void operator()(std::size_t k) const {
+    if (k >= owned) {
+      count[k] = 0;
+      return;
+    }
+    const std::size_t p = static_cast<std::size_t>(id[k]);
+    const std::uint32_t c = mesh_count[p];
+    count[k] = c;
+    for (std::uint32_t e = 0; e < c; ++e)
+      entry[e * n + k] = local(mesh_entry[e * mesh_n + p]);
+  }
+};
+
+/// A mesh point index made local (the volume cells' corners, the springs' other ends).
+struct LocalOfId {
+  const std::uint32_t* local_of_id;
+  KF_HD KF_INLINE std::uint32_t operator()(std::uint32_t mesh_point) const {
+    return local_of_id[mesh_point];
+  }
+};
+
+/// An entry that names no point (a volume cell's index: its corners are made local apart).
+struct SameEntry {
+  template <typename Entry>
+  KF_HD KF_INLINE Entry operator()(const Entry& e) const {
+    return e;
+  }
+};
+
+} // namespace kf
