@@ -63,6 +63,24 @@ CouplingParams<double> params() {
   return p;
 }
 
+/// params() in precision T.
+template <typename T>
+CouplingParams<T> params_in() {
+  const auto p = params();
+  CouplingParams<T> pt;
+  pt.contact = p.contact;
+  pt.capillary = p.capillary;
+  pt.reach = T(p.reach);
+  pt.dem = {T(p.dem.k), T(p.dem.zeta), T(p.dem.friction)};
+  pt.h = T(p.h);
+  pt.porosity = T(p.porosity);
+  pt.rho0 = T(p.rho0);
+  pt.pressure_scale = T(p.pressure_scale);
+  pt.volume_per_mass = T(p.volume_per_mass);
+  pt.gravity = vec_cast<T>(p.gravity);
+  return pt;
+}
+
 template <typename T>
 std::vector<Vec3<T>> cast(const std::vector<Vec3d>& a) {
   std::vector<Vec3<T>> o;
@@ -140,17 +158,7 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
     }
   }
   const auto p = params();
-  CouplingParams<T> pt;
-  pt.contact = p.contact;
-  pt.capillary = p.capillary;
-  pt.reach = T(p.reach);
-  pt.dem = {T(p.dem.k), T(p.dem.zeta), T(p.dem.friction)};
-  pt.h = T(p.h);
-  pt.porosity = T(p.porosity);
-  pt.rho0 = T(p.rho0);
-  pt.pressure_scale = T(p.pressure_scale);
-  pt.volume_per_mass = T(p.volume_per_mass);
-  pt.gravity = vec_cast<T>(p.gravity);
+  const CouplingParams<T> pt = params_in<T>();
   Fixture<T> fx(backend, c0);
   KnitFluidCoupling<T> cp(backend, KernelType::Spiky, pt,
                           NeighbourGrid<T>::cover({0, 0, 0}, {0.1, 0.1, 0.1}, 1.2 * kH),
@@ -263,7 +271,81 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
               contacts);
 }
 
+/// The knit side's forces with and without fluid particles that are out of every knit point's
+/// reach but inside the cells its walk visits (on N ranks a cell at the edge of the ghosts holds
+/// only some of its particles): the same bit for bit on the CPU, whose sum meets the particles
+/// in reach in the same order either way. Not on the GPU: the lanes of a knit point take its
+/// candidates by place in the walk, so an extra particle shifts the lanes' shares and the sum by
+/// rounding (dealing only the candidates in reach to the lanes makes it hold there too, but cost
+/// the pour 6-9% on an H100: docs/PERFORMANCE.md, P5 stage 11).
+template <typename T>
+void knit_side_ignores_fluid_out_of_reach(exec::Backend backend) {
+  const Cloud c = make_cloud(5);
+  Cloud more = c;
+  {
+    std::mt19937 rng(21);
+    std::uniform_real_distribution<double> u(0, 1);
+    // The sheet spans z 0.048-0.052; these lie 0.022-0.026 above it, beyond h (0.02) and the
+    // reach, in the cells a sheet point's walk visits (cells of h, one on each side).
+    for (int q = 0; q < 800; ++q) {
+      more.fx.push_back({0.1 * u(rng), 0.1 * u(rng), 0.074 + 0.004 * u(rng)});
+      more.fv.push_back({u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5});
+      more.fm.push_back(1e-3);
+      more.frho.push_back(1000);
+    }
+  }
+  const CouplingParams<T> pt = params_in<T>();
+  auto knit_a = [&](const Cloud& cloud, std::size_t* walked) {
+    Fixture<T> fx(backend, cloud);
+    KnitFluidCoupling<T> cp(backend, KernelType::Spiky, pt,
+                            NeighbourGrid<T>::cover({0, 0, 0}, {0.1, 0.1, 0.1}, 1.2 * kH));
+    fx.knit.a.assign(std::vector<Vec3<T>>(cloud.kx.size(), Vec3<T>{T(0), T(0), T(0)}));
+    cp.begin_step(fx.ex, fx.knit, fx.side(), {}, T(0));
+    cp.add_forces(fx.ex, fx.knit, fx.side(), T(0.25));
+    // How many of the extra particles lie in the cells some knit point's walk visits (the
+    // test's premise), from the grid's geometry on the host.
+    const auto fxh = fx.fluid.x.to_host();
+    const auto kxh = fx.knit.x.to_host();
+    const auto id = fx.fluid.id.to_host();
+    const GridGeometry<T>& geo = fx.fluid_grid.geometry();
+    *walked = 0;
+    for (std::size_t j = 0; j < fxh.size(); ++j) {
+      if (id[j] < c.fx.size())
+        continue;
+      int a, b, d;
+      geo.coords(fxh[j], a, b, d);
+      for (const auto& q : kxh) {
+        int qa, qb, qd;
+        geo.coords(q, qa, qb, qd);
+        if (std::abs(a - qa) <= 1 && std::abs(b - qb) <= 1 && std::abs(d - qd) <= 1) {
+          ++*walked;
+          break;
+        }
+      }
+    }
+    return fx.knit.a.to_host();
+  };
+  std::size_t walked0 = 0, walked1 = 0;
+  const auto a0 = knit_a(c, &walked0);
+  const auto a1 = knit_a(more, &walked1);
+  ASSERT_EQ(walked0, 0u);
+  ASSERT_GT(walked1, 400u) << "the extra fluid is not in the cells the knit walks";
+  ASSERT_EQ(a0.size(), a1.size());
+  std::size_t moved = 0;
+  for (std::size_t i = 0; i < a0.size(); ++i) {
+    EXPECT_TRUE(a0[i].x == a1[i].x && a0[i].y == a1[i].y && a0[i].z == a1[i].z)
+        << "knit point " << i << ": the fluid out of reach changed its force";
+    moved += a0[i].x != T(0) || a0[i].y != T(0) || a0[i].z != T(0);
+  }
+  EXPECT_GT(moved, a0.size() / 2) << "too few knit points feel the fluid to test";
+}
+
 } // namespace
+
+TEST(CouplingKernels, KnitSideIgnoresFluidOutOfReachCpu) {
+  knit_side_ignores_fluid_out_of_reach<double>(exec::Backend::Cpu);
+  knit_side_ignores_fluid_out_of_reach<float>(exec::Backend::Cpu);
+}
 
 TEST(CouplingKernels, MatchAllPairsReferenceCpuDouble) {
   check<double>(exec::Backend::Cpu);
