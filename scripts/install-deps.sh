@@ -5,7 +5,7 @@ packages=(
   g++ cmake make pkg-config
   libopenmpi-dev openmpi-bin libhdf5-openmpi-dev hdf5-tools libmetis-dev
   libgtest-dev libtomlplusplus-dev libcli11-dev libpng-dev
-  libegl-dev libopengl-dev
+  libegl-dev libopengl-dev libepoxy-dev libglm-dev libegl-mesa0 libgl1-mesa-dri
   python3 python3-h5py python3-matplotlib python3-numpy
 )
 missing=()

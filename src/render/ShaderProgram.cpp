@@ -1,0 +1,69 @@
+#include "render/ShaderProgram.hpp"
+
+#include "core/Error.hpp"
+
+#include <epoxy/gl.h>
+
+namespace kf::render {
+
+namespace {
+
+unsigned compile(const std::string& name, GLenum stage, const std::string& source) {
+  const unsigned s = glCreateShader(stage);
+  const char* text = source.c_str();
+  glShaderSource(s, 1, &text, nullptr);
+  glCompileShader(s);
+  GLint ok = 0;
+  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    GLint len = 0;
+    glGetShaderiv(s, GL_INFO_LOG_LENGTH, &len);
+    std::string log(std::size_t(len > 0 ? len : 1), '\0');
+    glGetShaderInfoLog(s, GLsizei(log.size()), nullptr, log.data());
+    glDeleteShader(s);
+    throw Error("render: " + name + ": the " +
+                (stage == GL_VERTEX_SHADER ? std::string("vertex") : std::string("fragment")) +
+                " shader does not compile:\n" + log.c_str());
+  }
+  return s;
+}
+
+} // namespace
+
+ShaderProgram::ShaderProgram(const std::string& name, const std::string& vertex,
+                             const std::string& fragment) {
+  const unsigned vs = compile(name, GL_VERTEX_SHADER, vertex);
+  unsigned fs = 0;
+  try {
+    fs = compile(name, GL_FRAGMENT_SHADER, fragment);
+  } catch (...) {
+    glDeleteShader(vs);
+    throw;
+  }
+  program_ = glCreateProgram();
+  glAttachShader(program_, vs);
+  glAttachShader(program_, fs);
+  glLinkProgram(program_);
+  glDeleteShader(vs); // the program keeps them while it lives
+  glDeleteShader(fs);
+  GLint ok = 0;
+  glGetProgramiv(program_, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    GLint len = 0;
+    glGetProgramiv(program_, GL_INFO_LOG_LENGTH, &len);
+    std::string log(std::size_t(len > 0 ? len : 1), '\0');
+    glGetProgramInfoLog(program_, GLsizei(log.size()), nullptr, log.data());
+    glDeleteProgram(program_);
+    throw Error("render: " + name + ": the program does not link:\n" + std::string(log.c_str()));
+  }
+}
+
+ShaderProgram::~ShaderProgram() {
+  glDeleteProgram(program_);
+}
+
+void ShaderProgram::use() const {
+  glUseProgram(program_);
+}
+
+} // namespace kf::render
