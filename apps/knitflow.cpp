@@ -1,5 +1,6 @@
 // knitflow: the command. Parses arguments, then calls the library; every failure ends with a
 // one-line reason and a non-zero exit code (2: bad input, 1: failure while running).
+#include "RenderCommand.hpp"
 #include "comm/MpiContext.hpp"
 #include "core/Error.hpp"
 #include "domain/PartitionPlan.hpp"
@@ -192,14 +193,31 @@ int main(int argc, char** argv) {
     add_scene_options(plan, a);
     plan->add_option("--ranks", a.ranks, "partition for this many ranks (default: the job's)")
         ->check(CLI::PositiveNumber);
+    kf::RenderArgs ra;
+    auto* render = app.add_subcommand("render", "draw a run's snapshots as PNG pictures");
+    render->add_option("run_dir", ra.run_dir, "the run's output directory (its frame_*.h5)")
+        ->required();
+    render->add_option("--frames", ra.frames, "A:B:S: frames A to B every S (default: all)");
+    render->add_option("--out", ra.out, "where the pictures go (default: RUN_DIR/render)");
+    render->add_option("--width", ra.width, "picture width in pixels")
+        ->check(CLI::Range(16, 16384));
+    render->add_option("--height", ra.height, "picture height in pixels")
+        ->check(CLI::Range(16, 16384));
+    render->add_option("--scene", ra.scene,
+                       "take the obstacles from this scene file (default: the snapshot's copy)");
+    render->add_flag("--boundary", ra.boundary, "draw the walls' particles too");
+    render->add_flag("--quiet,-q", ra.quiet, "no progress lines");
     try {
       app.parse(argc, argv);
-      rc = run->parsed() ? cmd_run(a, mpi) : cmd_plan(a, mpi);
+      if (render->parsed())
+        kf::render_run(ra, mpi, std::cerr);
+      else
+        rc = run->parsed() ? cmd_run(a, mpi) : cmd_plan(a, mpi);
     } catch (const CLI::ParseError& e) {
       rc = app.exit(e);
       if (rc != 0)
         rc = 2;
-    } catch (const kf::SceneError& e) {
+    } catch (const kf::InputError& e) { // a bad scene, option or path
       if (mpi.root())
         std::cerr << "knitflow: error: " << e.what() << "\n";
       rc = 2;

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The main job: installs what is missing, builds, and runs the default scene (a 3D dam break),
-# writing snapshots (HDF5 + XDMF for ParaView) to out/dambreak. Extra arguments go to
-# `knitflow run`, e.g. scripts/run.sh --set fluid.spacing=0.005
+# The main job: installs what is missing, builds, runs the default scene (a 3D dam break),
+# writing snapshots (HDF5 + XDMF for ParaView) to out/dambreak, then draws them as pictures in
+# out/dambreak/render. Extra arguments go to `knitflow run`, e.g. scripts/run.sh --set
+# fluid.spacing=0.005
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install-deps.sh
@@ -13,4 +14,7 @@ cmake --build --preset "$preset" -j"$(nproc)" --target knitflow
 scene=${KF_SCENE:-scenes/dambreak.toml}
 build/$preset/apps/knitflow plan "$scene" "$@"
 build/$preset/apps/knitflow run "$scene" "$@"
-echo "snapshots: out/$(basename "$scene" .toml)/snapshots.xmf (open in ParaView)"
+out=out/$(basename "$scene" .toml)
+build/$preset/apps/knitflow render "$out" --quiet
+last=$(ls "$out"/render/frame_*.png | tail -1)
+echo "snapshots: $out/snapshots.xmf (open in ParaView); pictures: $out/render/ (the last: $last)"

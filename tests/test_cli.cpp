@@ -1,5 +1,6 @@
 // The knitflow command: broken scenes fail with their message and exit code 2 and write nothing;
 // plan prints the pipeline without running; run writes snapshots and an XDMF index.
+#include "io/PngImage.hpp"
 #include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
@@ -91,4 +92,38 @@ TEST(Cli, RunWritesSnapshotsAndIndex) {
           " --set simulation.end_time=0.01 --set output.interval=0.005 --quiet --output " +
           out.string() + " --restart " + (out / "frame_000001.h5").string());
   EXPECT_EQ(r2.code, 0) << r2.output;
+}
+
+// render draws the chosen frames of a run as PNGs of the asked size, with something drawn on
+// them; bad input (a malformed --frames, a directory without snapshots) exits 2 with its reason
+// and writes no picture.
+TEST(Cli, RenderDrawsTheChosenFrames) {
+  const auto out = test::scratch_dir("cli_render") / "out";
+  const Result r =
+      run("run " + (test::source_dir() / "scenes/hydrostatic.toml").string() +
+          " --set simulation.end_time=0.01 --set output.interval=0.005 --quiet --output " +
+          out.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  const Result d = run("render " + out.string() + " --frames 1: --width 96 --height 64");
+  ASSERT_EQ(d.code, 0) << d.output;
+  EXPECT_FALSE(fs::exists(out / "render/frame_000000.png"));
+  for (const char* f : {"render/frame_000001.png", "render/frame_000002.png"}) {
+    const io::RgbaImage img = io::read_png((out / f).string());
+    EXPECT_EQ(img.width, 96);
+    EXPECT_EQ(img.height, 64);
+    // The background is white; the fluid's spheres are blue, darker where unlit.
+    std::size_t fluid = 0;
+    for (std::size_t k = 0; k < img.pixels.size(); k += 4)
+      fluid += img.pixels[k + 2] > img.pixels[k] + 40;
+    EXPECT_GT(fluid, 96u * 64 / 20) << f << ": too little fluid drawn";
+  }
+  const Result bad =
+      run("render " + out.string() + " --frames 1:x --out " + (out / "bad").string());
+  EXPECT_EQ(bad.code, 2) << bad.output;
+  EXPECT_NE(bad.output.find("--frames '1:x': expected A:B:S"), std::string::npos) << bad.output;
+  EXPECT_FALSE(fs::exists(out / "bad"));
+  const Result none = run("render " + (out / "render").string());
+  EXPECT_EQ(none.code, 2) << none.output;
+  EXPECT_NE(none.output.find("no snapshots (frame_NNNNNN.h5) to render"), std::string::npos)
+      << none.output;
 }

@@ -11,10 +11,17 @@ public:
   explicit Error(const std::string& what) : std::runtime_error(what) {}
 };
 
-/// A scene file that fails validation; the message names file, line, key and expectation.
-class SceneError : public Error {
+/// Input the user gave that cannot be used (a command-line value, a path): the command ends with
+/// exit code 2, as for a bad scene, before it has written anything.
+class InputError : public Error {
 public:
   using Error::Error;
+};
+
+/// A scene file that fails validation; the message names file, line, key and expectation.
+class SceneError : public InputError {
+public:
+  using InputError::InputError;
 };
 
 /// The simulation became unstable (NaN, blow-up, dt collapse).

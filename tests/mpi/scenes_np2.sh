@@ -3,8 +3,8 @@
 # included: a few steps of each, on 1 rank and under mpiexec -n 2, and the last frames must hold
 # the same particles of every phase (ids, and the yarn's rows), each written once, with the
 # owning rank's field naming both ranks; a restart on 2 ranks from the first frame then runs to
-# the same end. The physics of the split is checked particle by
-# particle in test_distributed_*_mpi; this catches what only the app's path meets (the writer's
+# the same end, and the 2-rank run's snapshots draw as pictures on 2 ranks (P6). The physics of
+# the split is checked particle by particle in test_distributed_*_mpi; this catches what only the app's path meets (the writer's
 # checks that the ranks agree, a rank owning none of a phase, the scenes' own settings).
 # Debian's python3 (/usr/bin: h5py and numpy come as its packages, scripts/install-deps.sh).
 # Usage: scenes_np2.sh KNITFLOW SCENES_DIR MPIEXEC
@@ -54,6 +54,12 @@ EOF
        --restart "$out/$name.2/frame_000001.h5" --output "$out/$name.r" > "$out/$name.r.log" 2>&1 \
      || [ ! -f "$out/$name.r/$(basename "$(ls "$out/$name.2"/frame_*.h5 | tail -1)")" ]; then
     echo "FAIL $name: restart on 2 ranks"; cat "$out/$name.r.log"; fail=1; continue
+  fi
+  # And its pictures, the frames shared out over 2 ranks: one PNG a snapshot.
+  if ! timeout 300 "$mpiexec" -n 2 --oversubscribe "$exe" render "$out/$name.2" --width 64 \
+       --height 48 --quiet > "$out/$name.png.log" 2>&1 \
+     || [ "$(ls "$out/$name.2"/render/frame_*.png | wc -l)" != "$(ls "$out/$name.2"/frame_*.h5 | wc -l)" ]; then
+    echo "FAIL $name: render on 2 ranks"; cat "$out/$name.png.log"; fail=1; continue
   fi
   echo "ok   $name"
 done

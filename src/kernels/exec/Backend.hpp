@@ -17,8 +17,9 @@ bool cuda_compiled();
 /// True when the CUDA backend is compiled in and at least one device is visible.
 bool cuda_available();
 /// Selects the CUDA device this process uses: its rank-local index modulo the visible devices
-/// (more ranks than devices on a node share them round-robin); no-op on CPU builds.
-void cuda_select_device(int local_rank);
+/// (more ranks than devices on a node share them round-robin), and returns its CUDA index;
+/// -1 on CPU builds.
+int cuda_select_device(int local_rank);
 /// One-line description of the device in use ("NVIDIA H100 80GB HBM3, 132 SMs" or "CPU, 2
 /// threads").
 std::string describe(Backend b);

@@ -30,7 +30,7 @@ void cuda_copy_to_host_async(void* dst, const void* src, std::size_t bytes, void
                              const char* label);
 void cuda_event_wait(void* e, const char* label);
 bool cuda_device_present();
-void cuda_set_device(int device);
+int cuda_set_device(int local_rank);
 std::string cuda_describe();
 void cuda_sort_by_key(DeviceBuffer<std::uint32_t>& keys, DeviceBuffer<std::uint32_t>& values,
                       int key_bits, const char* label);
@@ -65,9 +65,11 @@ bool cuda_available() {
 #endif
 }
 
-void cuda_select_device([[maybe_unused]] int local_rank) {
+int cuda_select_device([[maybe_unused]] int local_rank) {
 #if defined(KF_WITH_CUDA)
-  cuda_set_device(local_rank);
+  return cuda_set_device(local_rank);
+#else
+  return -1;
 #endif
 }
 

@@ -271,7 +271,7 @@ bool cuda_device_present() {
   return present;
 }
 
-void cuda_set_device(int local_rank) {
+int cuda_set_device(int local_rank) {
   int count = 0;
   KF_CUDA(cudaGetDeviceCount(&count), "selecting a CUDA device (no usable CUDA device)");
   if (count <= 0 || local_rank < 0) {
@@ -282,6 +282,7 @@ void cuda_set_device(int local_rank) {
   }
   const int device = local_rank % count;
   KF_CUDA(cudaSetDevice(device), "selecting CUDA device " + std::to_string(device));
+  return device;
 }
 
 std::string cuda_describe() {

@@ -1,0 +1,26 @@
+#pragma once
+// `knitflow render RUN_DIR`: a run's snapshots to PNG pictures (P6 stage 2), the frames shared
+// out over the job's ranks (each renders whole frames of its own).
+#include "comm/MpiContext.hpp"
+
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace kf {
+
+struct RenderArgs {
+  std::string run_dir;
+  std::string frames = "::"; // A:B:S, frame indices A to B (inclusive) every S
+  std::string out;           // default RUN_DIR/render
+  int width = 1280, height = 720;
+  std::string scene; // the obstacles from this scene file, not the snapshot's own text
+  bool boundary = false;
+  bool quiet = false;
+};
+
+/// Renders and writes the pictures; returns how many this rank wrote.
+int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& log);
+
+} // namespace kf

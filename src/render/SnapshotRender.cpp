@@ -1,0 +1,151 @@
+#include "render/SnapshotRender.hpp"
+
+#include "core/Error.hpp"
+
+#include <epoxy/gl.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace kf::render {
+
+double typical_spacing(const std::vector<glm::dvec3>& points) {
+  const std::size_t n = points.size();
+  if (n < 2)
+    return 0;
+  const std::size_t samples = std::min<std::size_t>(256, n);
+  std::vector<double> nearest;
+  nearest.reserve(samples);
+  for (std::size_t s = 0; s < samples; ++s) {
+    const std::size_t i = s * n / samples;
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t j = 0; j < n; ++j)
+      if (j != i) {
+        const glm::dvec3 d = points[j] - points[i];
+        const double d2 = glm::dot(d, d);
+        if (d2 > 0)
+          best = std::min(best, d2);
+      }
+    if (std::isfinite(best))
+      nearest.push_back(std::sqrt(best));
+  }
+  if (nearest.empty())
+    return 0;
+  std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
+  return nearest[nearest.size() / 2];
+}
+
+std::vector<glm::dvec3> phase_positions(const io::Frame& frame, const std::string& phase) {
+  const io::Phase* p = frame.find(phase);
+  if (!p)
+    return {};
+  const io::Field* f = p->find("position");
+  if (!f || f->components != 3)
+    throw Error("render: the snapshot's " + phase + " phase has no 3-component position field");
+  std::vector<glm::dvec3> out(f->count);
+  auto fill = [&](const auto& v) {
+    for (std::size_t i = 0; i < f->count; ++i)
+      out[i] = {double(v[3 * i]), double(v[3 * i + 1]), double(v[3 * i + 2])};
+  };
+  if (f->type == io::DType::F32)
+    fill(f->as<float>());
+  else if (f->type == io::DType::F64)
+    fill(f->as<double>());
+  else
+    throw Error("render: the snapshot's " + phase + " positions are not floating point");
+  return out;
+}
+
+namespace {
+
+/// A per-particle scalar field as doubles (float or double stored), or empty.
+std::vector<double> scalar_field(const io::Frame& frame, const std::string& phase,
+                                 const std::string& name) {
+  const io::Phase* p = frame.find(phase);
+  const io::Field* f = p ? p->find(name) : nullptr;
+  if (!f || f->components != 1)
+    return {};
+  if (f->type == io::DType::F32) {
+    const auto v = f->as<float>();
+    return {v.begin(), v.end()};
+  }
+  if (f->type == io::DType::F64)
+    return f->as<double>();
+  auto widen = [](const auto& v) { return std::vector<double>(v.begin(), v.end()); };
+  if (f->type == io::DType::U32)
+    return widen(f->as<std::uint32_t>());
+  if (f->type == io::DType::I32)
+    return widen(f->as<std::int32_t>());
+  if (f->type == io::DType::U64)
+    return widen(f->as<std::uint64_t>());
+  return {};
+}
+
+} // namespace
+
+SnapshotRenderer::SnapshotRenderer(const SnapshotStyle& style, int cuda_device)
+    : style_(style), context_(cuda_device), target_(style.width, style.height) {}
+
+Camera SnapshotRenderer::frame_camera(const io::Frame& frame) const {
+  glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+  auto grow = [&](const glm::dvec3& p) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  };
+  for (const char* phase : {"fluid", "knit"})
+    for (const auto& p : phase_positions(frame, phase))
+      grow(p);
+  if (style_.boundary)
+    for (const auto& p : phase_positions(frame, "boundary"))
+      grow(p);
+  for (const Sphere& s : style_.obstacles) {
+    const glm::dvec3 c(s.centre_radius), r(s.centre_radius.w);
+    grow(c - r);
+    grow(c + r);
+  }
+  if (!(lo.x <= hi.x))
+    throw Error("render: the snapshot holds nothing to draw (no fluid, knit or obstacle)");
+  return Camera::framing(lo, hi, double(style_.width) / style_.height);
+}
+
+io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camera) {
+  std::vector<Sphere> list = style_.obstacles;
+  auto add = [&](const std::string& phase, std::optional<double>& radius, double share,
+                 const glm::vec4& colour, const std::vector<double>& saturation) {
+    const auto x = phase_positions(frame, phase);
+    if (x.empty())
+      return;
+    if (!radius) {
+      // The knit's three layers lie closer than its points in a layer: the spacing of one.
+      const auto layer = scalar_field(frame, phase, "layer");
+      std::vector<glm::dvec3> one;
+      for (std::size_t i = 0; i < layer.size() && i < x.size(); ++i)
+        if (layer[i] == layer[0])
+          one.push_back(x[i]);
+      radius = share * typical_spacing(one.size() > 1 ? one : x);
+    }
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      glm::vec4 c = colour;
+      if (!saturation.empty()) {
+        const double s = std::clamp(saturation[i], 0.0, 1.0);
+        c = glm::vec4(glm::vec3(colour) * float(1 - style_.wet_darkening * std::sqrt(s)), colour.a);
+      }
+      list.push_back({glm::vec4(glm::vec3(x[i]), float(*radius)), c});
+    }
+  };
+  add("fluid", fluid_r_, 0.5, style_.fluid, {});
+  add("knit", knit_r_, 0.6, style_.knit, scalar_field(frame, "knit", "saturation"));
+  if (style_.boundary)
+    add("boundary", boundary_r_, 0.5, style_.boundary_colour, {});
+  target_.bind();
+  const glm::vec4& bg = style_.background;
+  glClearColor(bg.r, bg.g, bg.b, bg.a);
+  glClearDepth(1.0);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  spheres_.draw(list, camera, double(style_.width) / style_.height);
+  last_spheres_ = list.size();
+  return {style_.width, style_.height, target_.read_rgba()};
+}
+
+} // namespace kf::render

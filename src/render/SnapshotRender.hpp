@@ -1,0 +1,59 @@
+#pragma once
+// A snapshot to a picture (P6 stage 2, the preview look): the fluid, the knit (darkened where
+// wet, C' = C (1 - alpha sqrt(s)), paper §6) and optionally the boundary as lit spheres, the
+// scene's sphere obstacles beside them, from a fixed camera. The volumetric yarns, the fluid's
+// surface and the shadows of the later stages replace the particles' spheres.
+#include "io/Frame.hpp"
+#include "io/PngImage.hpp"
+#include "render/Camera.hpp"
+#include "render/EglContext.hpp"
+#include "render/OffscreenTarget.hpp"
+#include "render/SphereRenderer.hpp"
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace kf::render {
+
+struct SnapshotStyle {
+  int width = 1280, height = 720;
+  bool boundary = false;       // draw the walls' particles (they hide what is inside a tank)
+  double wet_darkening = 0.15; // alpha in C' = C (1 - alpha sqrt(s))
+  glm::vec4 fluid{0.20f, 0.45f, 0.85f, 1.0f}, knit{0.85f, 0.55f, 0.25f, 1.0f},
+      boundary_colour{0.6f, 0.6f, 0.6f, 1.0f}, background{1.0f, 1.0f, 1.0f, 1.0f};
+  std::vector<Sphere> obstacles; // solid spheres of the scene, drawn as they are
+};
+
+/// Typical distance between neighbouring points: the median, over up to 256 of them spread
+/// through the list, of the distance to the nearest other point (brute force: 256 x n).
+double typical_spacing(const std::vector<glm::dvec3>& points);
+
+/// A phase's positions ("position", 3 components, float or double); empty when the frame lacks
+/// the phase.
+std::vector<glm::dvec3> phase_positions(const io::Frame& frame, const std::string& phase);
+
+class SnapshotRenderer {
+public:
+  /// Opens a headless context (EglContext(cuda_device)) and a target of style's size.
+  explicit SnapshotRenderer(const SnapshotStyle& style, int cuda_device = -1);
+
+  /// The camera framing what `frame` shows (its drawn phases and the obstacles).
+  Camera frame_camera(const io::Frame& frame) const;
+  /// Draws the frame from `camera`. Sphere radii: half the typical spacing of each phase's
+  /// points (knit: 0.6 of it, so a sheet closes), taken from the first frame drawn and kept.
+  io::RgbaImage draw(const io::Frame& frame, const Camera& camera);
+  std::size_t last_spheres() const { return last_spheres_; }
+  const ContextInfo& context() const { return context_.info(); }
+
+private:
+  SnapshotStyle style_;
+  EglContext context_;
+  OffscreenTarget target_;
+  SphereRenderer spheres_;
+  std::optional<double> fluid_r_, knit_r_, boundary_r_;
+  std::size_t last_spheres_ = 0;
+};
+
+} // namespace kf::render
