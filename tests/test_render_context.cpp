@@ -187,7 +187,9 @@ TEST(RenderContext, RenderedImageRoundTripsThroughPng) {
   EXPECT_EQ(back.width, img.width);
   EXPECT_EQ(back.height, img.height);
   EXPECT_EQ(back.pixels, img.pixels);
-  EXPECT_EQ(back.pixels[1], 128); // 0.5 of 255, rounded as GL's conversion rule says
+  // 0.5 of 255 is 127.5: GL's conversion rounds to the nearest, the tie either way (llvmpipe
+  // gives 128, NVIDIA 127).
+  EXPECT_TRUE(back.pixels[1] == 127 || back.pixels[1] == 128) << int(back.pixels[1]);
   EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
   // Bad input names the file.
   { std::ofstream(dir / "not.png") << "not a png"; }

@@ -111,8 +111,11 @@ Opened open_on(EGLDisplay dpy, const std::string& what, std::string& tried) {
 EglContext::EglContext(int cuda_device) {
   std::string tried;
   Opened o;
-  if (epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_device_enumeration") &&
-      epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_EXT_platform_device")) {
+  // glvnd's libEGL with NVIDIA's driver lists EGL_EXT_device_base (enumeration and query
+  // together) rather than EGL_EXT_device_enumeration.
+  auto client = [](const char* ext) { return epoxy_has_egl_extension(EGL_NO_DISPLAY, ext); };
+  if ((client("EGL_EXT_device_enumeration") || client("EGL_EXT_device_base")) &&
+      client("EGL_EXT_platform_device")) {
     EGLint n = 0;
     eglQueryDevicesEXT(0, nullptr, &n);
     std::vector<EGLDeviceEXT> devices(static_cast<std::size_t>(n > 0 ? n : 0));
@@ -137,7 +140,10 @@ EglContext::EglContext(int cuda_device) {
     if (n == 0)
       tried += "\n  EGL_EXT_device_enumeration lists no device";
   } else {
-    tried += "\n  no EGL_EXT_device_enumeration / EGL_EXT_platform_device";
+    const char* exts = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+    tried += "\n  no EGL_EXT_device_enumeration (or _base) with EGL_EXT_platform_device among the "
+             "client extensions: " +
+             std::string(exts ? exts : "(none)");
   }
   if (o.display == EGL_NO_DISPLAY && cuda_device >= 0)
     throw Error("render: no EGL device drives CUDA device " + std::to_string(cuda_device) +
