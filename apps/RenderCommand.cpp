@@ -10,7 +10,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <ostream>
 #include <regex>
 #include <vector>
@@ -70,6 +72,41 @@ std::vector<render::Sphere> obstacle_spheres(const io::Frame& f, const std::stri
   return out;
 }
 
+/// The chosen pictures as an H.264 MP4 (out/film.mp4) through ffmpeg, in frame order, fps a
+/// second; a missing ffmpeg is a message, not an error (the pictures are the product).
+void make_film(const fs::path& out, const std::vector<std::uint64_t>& frames, int fps,
+               std::ostream& log) {
+  if (std::system("command -v ffmpeg > /dev/null 2>&1") != 0) {
+    log << "render: ffmpeg not found: no film (install ffmpeg for " << (out / "film.mp4").string()
+        << ")\n";
+    return;
+  }
+  // The concat list names exactly the chosen pictures (a glob would take earlier renders' too).
+  const fs::path list = out / "film.ffconcat";
+  {
+    std::ofstream f(list);
+    f << "ffconcat version 1.0\n";
+    for (std::uint64_t k : frames) {
+      char name[32];
+      std::snprintf(name, sizeof name, "frame_%06llu.png", static_cast<unsigned long long>(k));
+      f << "file '" << name << "'\nduration " << 1.0 / fps << "\n";
+    }
+  }
+  const fs::path film = out / "film.mp4";
+  // Even sizes for 4:2:0 chroma; the last picture held for one frame (concat's duration).
+  const std::string cmd = "ffmpeg -y -loglevel error -f concat -safe 0 -i '" + list.string() +
+                          "' -vf 'fps=" + std::to_string(fps) +
+                          ",scale=trunc(iw/2)*2:trunc(ih/2)*2,format=yuv420p' -c:v libx264 '" +
+                          film.string() + "' 2>&1";
+  const int rc = std::system(cmd.c_str());
+  fs::remove(list);
+  if (rc != 0)
+    throw Error("render: ffmpeg failed (exit status " + std::to_string(rc) + ") making " +
+                film.string() + ": " + cmd);
+  log << "render: film " << film.string() << " (" << frames.size() << " frames, " << fps
+      << " a second)\n";
+}
+
 } // namespace
 
 int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& log) {
@@ -123,6 +160,8 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
   MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_INT, MPI_SUM, mpi.comm());
   if (mpi.root() && !a.quiet)
     log << "render: " << total << " picture(s) in " << out.string() << "\n";
+  if (mpi.root() && a.film && chosen.size() > 1)
+    make_film(out, chosen, a.fps, log);
   return written;
 }
 

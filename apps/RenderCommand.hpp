@@ -17,10 +17,13 @@ struct RenderArgs {
   int width = 1280, height = 720;
   std::string scene; // the obstacles from this scene file, not the snapshot's own text
   bool boundary = false;
+  bool film = true; // an MP4 of the pictures through ffmpeg, where it is installed
+  int fps = 25;
   bool quiet = false;
 };
 
-/// Renders and writes the pictures; returns how many this rank wrote.
+/// Renders and writes the pictures, then (rank 0) the film of them when there are two or more;
+/// returns how many pictures this rank wrote.
 int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& log);
 
 } // namespace kf

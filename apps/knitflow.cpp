@@ -206,6 +206,8 @@ int main(int argc, char** argv) {
     render->add_option("--scene", ra.scene,
                        "take the obstacles from this scene file (default: the snapshot's copy)");
     render->add_flag("--boundary", ra.boundary, "draw the walls' particles too");
+    render->add_flag("!--no-film", ra.film, "no MP4 (made with ffmpeg where it is installed)");
+    render->add_option("--fps", ra.fps, "the film's frames a second")->check(CLI::Range(1, 240));
     render->add_flag("--quiet,-q", ra.quiet, "no progress lines");
     try {
       app.parse(argc, argv);

@@ -17,4 +17,6 @@ build/$preset/apps/knitflow run "$scene" "$@"
 out=out/$(basename "$scene" .toml)
 build/$preset/apps/knitflow render "$out" --quiet
 last=$(ls "$out"/render/frame_*.png | tail -1)
-echo "snapshots: $out/snapshots.xmf (open in ParaView); pictures: $out/render/ (the last: $last)"
+film=""
+[ -f "$out/render/film.mp4" ] && film="; film: $out/render/film.mp4"
+echo "snapshots: $out/snapshots.xmf (open in ParaView); pictures: $out/render/ (the last: $last)$film"

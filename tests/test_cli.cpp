@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -95,8 +96,8 @@ TEST(Cli, RunWritesSnapshotsAndIndex) {
 }
 
 // render draws the chosen frames of a run as PNGs of the asked size, with something drawn on
-// them; bad input (a malformed --frames, a directory without snapshots) exits 2 with its reason
-// and writes no picture.
+// them, and their film (or says why there is none); bad input (a malformed --frames, a directory
+// without snapshots) exits 2 with its reason and writes no picture.
 TEST(Cli, RenderDrawsTheChosenFrames) {
   const auto out = test::scratch_dir("cli_render") / "out";
   const Result r =
@@ -117,6 +118,18 @@ TEST(Cli, RenderDrawsTheChosenFrames) {
       fluid += img.pixels[k + 2] > img.pixels[k] + 40;
     EXPECT_GT(fluid, 96u * 64 / 20) << f << ": too little fluid drawn";
   }
+  // The film: an MP4 where ffmpeg is installed, else a message saying so (not an error).
+  if (std::system("command -v ffmpeg > /dev/null 2>&1") == 0) {
+    EXPECT_GT(fs::file_size(out / "render/film.mp4"), 0u) << d.output;
+    EXPECT_FALSE(fs::exists(out / "render/film.ffconcat"));
+  } else {
+    EXPECT_NE(d.output.find("ffmpeg not found: no film"), std::string::npos) << d.output;
+  }
+  const Result nofilm = run("render " + out.string() + " --no-film --width 32 --height 32 --out " +
+                            (out / "nofilm").string());
+  ASSERT_EQ(nofilm.code, 0) << nofilm.output;
+  EXPECT_TRUE(fs::exists(out / "nofilm/frame_000000.png"));
+  EXPECT_FALSE(fs::exists(out / "nofilm/film.mp4"));
   const Result bad =
       run("render " + out.string() + " --frames 1:x --out " + (out / "bad").string());
   EXPECT_EQ(bad.code, 2) << bad.output;
