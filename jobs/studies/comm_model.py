@@ -1,38 +1,52 @@
 #!/usr/bin/python3
-"""P5's communication model: weak and strong scaling of the fluid step on 2-512 GPUs, on paper.
+"""The communication model of the fluid step on P GPUs (one rank a GPU), calibrated by measured
+runs, and its predictions for weak and strong scaling at 2 to 512 GPUs.
 
-A step on P GPUs (one rank a GPU, N fluid particles a rank) costs
-    T = t_p * (N + G) + 2 * (pack + transfer + latency)      (no overlap)
-    T = t_p * (N + G) + 2 * max(0, pack + transfer + latency - t_p * N * f_interior)   (overlap)
-where G is the rank's ghosts (all of them computed over, as built), and each of the step's two
-refreshes (x, v before the density pass; rho, P before the forces) moves G * 16 B in float.
-Calibration (docs/PERFORMANCE.md, P5):
-  t_p     H100, 4M dam break with "verlet" lists: 3.33e9 particle-steps/s (P4 stage 14).
-  G       ghost layers = width / dp = support (2) * (1 + skin 0.1) = 2.2 per face, on a cube
-          of N particles a rank, faces/edges/corners shared by the rank's neighbours; scaled by
-          `ghost_factor`, the measured ghosts of `knitflow plan --ranks N` on the 4M dam break
-          over this geometric count (METIS's blocks are not planes).
-  pack    bytes read and written by a gather/scatter kernel at 70% of the H100's 3.35 TB/s
-          (NVIDIA H100 SXM5 datasheet), plus 2 launches of 4 us; no device pack kernel exists
-          yet: the host path measured by bench/bench_halo is recorded beside it.
-  links   NVLink 4: 450 GB/s a direction a GPU (H100 SXM5 datasheet: 900 GB/s total) within a
-          node of 8; InfiniBand NDR 400 Gb/s = 50 GB/s a GPU (one ConnectX-7 a GPU, DGX H100)
-          between nodes. Latency a message: 10 us within a node, 20 us between (NCCL p2p,
-          assumed; P9 measures it).
-Writes CSV and a PNG (jobs/studies/out/ by default)."""
+P5's model (kept for comparison, "p5" in the output) priced a step as compute over owned and ghost
+particles plus two halo refreshes at the HBM floor for packing, NVLink/InfiniBand bandwidth and an
+assumed 10/20 us latency, with the refreshes hidden behind the interior. P9's runs on 1, 2 and 4
+H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, and the model is now
+
+    T(P, N) = a + b * k * (N + G) + X(P)
+
+  a   the step's fixed cost (launches, host waits, the dt reduction): fitted on one GPU, where
+      T(1, N) = a + b N over the 4M, 8M and 32M dam breaks. It alone is what keeps small ranks
+      from scaling: at 1M particles a GPU it is a third of the step.
+  b   the cost of a particle-step (fluid; the walls' particles ride along), fitted with a.
+  k   the split's inflation of a rank's per-particle cost (1 on one GPU): the passes split into
+      interior and border launches, the rows' lists, the imbalance left by METIS, the ghosts'
+      share of the sort. Fitted on the multi-GPU runs: the mean of (T - a - X) / (b (N + G)).
+  G   ghosts of a rank: the geometric count (a cube a rank, LAYERS deep on each face, edge and
+      corner it shares) times `ghost_factor` (1.3: `knitflow plan --ranks N` on the 4M dam break).
+  X   the step's exchanges as they show on rank 0's wall ("split" line: migration, refreshes):
+      x0 + x1 * peers + bytes / link, with x0 and x1 fitted on the measured exchanges over NVLink.
+      Between nodes (P > 8) each of the step's E = 3 exchanges pays the network's latency over
+      NVLink's, and the bytes cross InfiniBand.
+
+Links: NVLink 4, 450 GB/s a direction a GPU (NVIDIA H100 SXM5 data sheet: 900 GB/s total), 8 GPUs
+a node (the measured host: 4 H100 SXM, NV18 between every pair); InfiniBand NDR 400 Gb/s = 50 GB/s
+a GPU (DGX H100: one ConnectX-7 a GPU). Latency between nodes: 20 us a message over 10 us within
+(assumed; no host pair was lent to measure it).
+
+    jobs/studies/comm_model.py                                  # calibrate from jobs/studies/data/p9_*.csv
+    jobs/studies/comm_model.py --measured a.csv,b.csv --out DIR
+
+Writes DIR/comm_model.csv (predictions), DIR/comm_model_fit.csv (each measured run against the
+model) and DIR/comm_model.png."""
 import argparse
 import csv
-import math
+import glob
 import os
 
-T_P = 1.0 / 3.33e9          # s a particle-step, H100, verlet lists, 4M dam break
-LAYERS = 2.0 * 1.1          # ghost width / dp
-BYTES_PER_GHOST = 16        # per refresh: (x, v) 24 B or (rho, P) 8 B in float: 32 B over 2
-HBM = 3.35e12 * 0.7         # B/s achieved by a gather
-LAUNCH = 4e-6
-NVLINK, IB = 450e9, 50e9    # B/s a direction a GPU
+HERE = os.path.dirname(os.path.abspath(__file__))
+LAYERS = 2.0 * 1.1            # ghost width / dp: support 2 h ... in dp, with the lists' skin
+BYTES_PER_GHOST = 16          # a refresh: (x, v) 24 B or (rho, P) 8 B in float; 32 B over 2
+EXCHANGES = 3                 # a step: migration (and its ghosts) and two refreshes
+NVLINK, IB = 450e9, 50e9      # B/s a direction a GPU
 LAT_NODE, LAT_NET = 10e-6, 20e-6
 GPUS_PER_NODE = 8
+# P5's inputs, for its column of the output.
+P5_T_P, P5_HBM, P5_LAUNCH = 1.0 / 3.33e9, 3.35e12 * 0.7, 4e-6
 
 
 def grid_of(p):
@@ -52,16 +66,13 @@ def grid_of(p):
     return best[1]
 
 
-def neighbours(dims):
-    """Neighbour sides along each split axis of an interior rank: 2, or 1 where the axis has 2."""
-    return [0 if d == 1 else (1 if d == 2 else 2) for d in dims]
-
-
-def ghosts(n, dims, factor):
-    """Ghosts of an interior rank of a (px, py, pz) split into cubes of n particles: faces,
-    edges and corners it shares with its neighbours, LAYERS deep."""
+def ghosts(n, p, factor):
+    """Ghosts and peers of an interior rank of a split of P cubes of n particles: the faces, edges
+    and corners it shares with its neighbours, LAYERS deep."""
+    if p == 1:
+        return 0.0, 0
+    s = [0 if d == 1 else (1 if d == 2 else 2) for d in grid_of(p)]
     side = n ** (1.0 / 3.0)
-    s = neighbours(dims)
     faces = sum(s)
     edges = s[0] * s[1] + s[0] * s[2] + s[1] * s[2]
     corners = s[0] * s[1] * s[2]
@@ -70,77 +81,180 @@ def ghosts(n, dims, factor):
     return factor * g, faces + edges + corners
 
 
-def step_time(n, p, factor, overlap):
+def lstsq2(xs, ys):
+    """y = c0 + c1 x by least squares (one point: c1 = 0)."""
+    n = len(xs)
+    if n == 1 or len(set(xs)) == 1:
+        return sum(ys) / n, 0.0
+    mx, my = sum(xs) / n, sum(ys) / n
+    c1 = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
+    return my - c1 * mx, c1
+
+
+class Model:
+    def __init__(self, rows, ghost_factor):
+        self.gf = ghost_factor
+        one = [r for r in rows if r["ranks"] == 1]
+        many = [r for r in rows if r["ranks"] > 1]
+        if not one or not many:
+            raise SystemExit("comm_model: the measured runs need 1-GPU and multi-GPU rows")
+        # T(1, N) = a + b N
+        self.a, self.b = lstsq2([r["fluid"] for r in one], [r["ms_per_step"] * 1e-3 for r in one])
+        # X = x0 + x1 peers + bytes / NVLink
+        xs, ys = [], []
+        for r in many:
+            n = r["fluid"] / r["ranks"]
+            g, peers = ghosts(n, r["ranks"], self.gf)
+            xs.append(peers)
+            ys.append(r["exchange_ms"] * 1e-3 - 2 * g * BYTES_PER_GHOST / NVLINK)
+        self.x0, self.x1 = lstsq2(xs, ys)
+        ks = []
+        for r in many:
+            n = r["fluid"] / r["ranks"]
+            g, _ = ghosts(n, r["ranks"], self.gf)
+            ks.append((r["ms_per_step"] * 1e-3 - self.a - self.exchange(n, r["ranks"])) /
+                      (self.b * (n + g)))
+        self.k = sum(ks) / len(ks)
+
+    def exchange(self, n, p):
+        if p == 1:
+            return 0.0
+        g, peers = ghosts(n, p, self.gf)
+        x = self.x0 + self.x1 * peers + 2 * g * BYTES_PER_GHOST / NVLINK
+        if p > GPUS_PER_NODE:
+            x += EXCHANGES * (LAT_NET - LAT_NODE) + 2 * g * BYTES_PER_GHOST * (1 / IB - 1 / NVLINK)
+        return x
+
+    def step(self, n, p):
+        """Seconds a step with n fluid particles a rank on p GPUs."""
+        if p == 1:
+            return self.a + self.b * n
+        g, _ = ghosts(n, p, self.gf)
+        return self.a + self.b * self.k * (n + g) + self.exchange(n, p)
+
+
+def p5_step(n, p, factor):
+    """P5's model with the overlap (its docstring's formula, kept to show what P9 changed)."""
     if p == 1:
-        return T_P * n, 0.0, 0
-    dims = grid_of(p)
-    g, msgs = ghosts(n, dims, factor)
+        return P5_T_P * n
+    g, msgs = ghosts(n, p, factor)
     b = g * BYTES_PER_GHOST
-    pack = 2 * b / HBM + 2 * LAUNCH                       # gather out, scatter in
     bw, lat = (NVLINK, LAT_NODE) if p <= GPUS_PER_NODE else (IB, LAT_NET)
-    # Messages to all neighbours are posted together: one latency, plus 2 us each to post.
-    comm = pack + b / bw + lat + 2e-6 * msgs
-    compute = T_P * (n + g)
-    if overlap:
-        interior = T_P * max(0.0, n - g)                   # particles a ghost away from the border
-        hidden = min(comm, interior)
-        return compute + 2 * (comm - hidden), g, msgs
-    return compute + 2 * comm, g, msgs
+    comm = 2 * b / P5_HBM + 2 * P5_LAUNCH + b / bw + lat + 2e-6 * msgs
+    hidden = min(comm, P5_T_P * max(0.0, n - g))
+    return P5_T_P * (n + g) + 2 * (comm - hidden)
+
+
+def read_rows(paths):
+    rows = []
+    for path in paths:
+        with open(path) as f:
+            for r in csv.DictReader(f):
+                if r.get("scene", "dambreak") != "dambreak":
+                    continue
+                rows.append({"file": os.path.basename(path), "series": r["series"],
+                             "ranks": int(r["ranks"]), "fluid": float(r["fluid"]),
+                             "ms_per_step": float(r["ms_per_step"]),
+                             "exchange_ms": float(r.get("exchange_ms") or 0)})
+    return rows
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--measured", default=",".join(sorted(glob.glob(os.path.join(HERE, "data", "p9_*.csv")))),
+                    help="scaling.py CSVs (comma-separated) to calibrate by")
     ap.add_argument("--ghost-factor", type=float, default=1.3,
-                    help="measured ghosts over the geometric count (plan --ranks)")
-    ap.add_argument("--out", default=os.path.join(os.path.dirname(__file__), "out"))
+                    help="measured ghosts over the geometric count (knitflow plan --ranks)")
+    ap.add_argument("--out", default=os.path.join(HERE, "out"))
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
-    rows = []
-    ps = [1, 2, 8, 64, 512]
-    for mode in ("weak", "strong"):
-        for overlap in (False, True):
-            for p in ps:
-                n = 4e6 if mode == "weak" else 8e6 / p
-                t, g, faces = step_time(n, p, a.ghost_factor, overlap)
-                t1 = step_time(n if mode == "weak" else 8e6, 1, a.ghost_factor, overlap)[0]
-                eff = t1 / t if mode == "weak" else t1 / t / p
-                rows.append({"mode": mode, "overlap": int(overlap), "gpus": p,
-                             "particles_per_gpu": int(n), "ghosts_per_gpu": int(g),
-                             "step_ms": 1e3 * t, "speedup": t1 / t if mode == "strong" else p * t1 / t,
-                             "efficiency": eff})
-    path = os.path.join(a.out, "comm_model.csv")
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        w.writerows(rows)
+    rows = read_rows([p for p in a.measured.split(",") if p])
+    m = Model(rows, a.ghost_factor)
+    print("calibrated: a = %.1f us a step, b = %.3f ns a particle-step (%.3e particle-steps/s), "
+          "k = %.3f, exchanges x0 = %.1f us + %.1f us a peer"
+          % (m.a * 1e6, m.b * 1e9, 1 / m.b, m.k, m.x0 * 1e6, m.x1 * 1e6))
+
+    fit = []
+    print("\nmeasured against the model (and P5's):")
     for r in rows:
-        print("{mode:6s} overlap={overlap} P={gpus:4d} N/GPU={particles_per_gpu:8d} ghosts={ghosts_per_gpu:7d} "
-              "step {step_ms:7.3f} ms  speedup {speedup:7.2f}  efficiency {efficiency:5.3f}".format(**r))
+        n = r["fluid"] / r["ranks"]
+        t = m.step(n, r["ranks"])
+        fit.append({"series": r["series"], "gpus": r["ranks"], "fluid": int(r["fluid"]),
+                    "measured_ms": r["ms_per_step"], "model_ms": 1e3 * t,
+                    "p5_model_ms": 1e3 * p5_step(n, r["ranks"], a.ghost_factor),
+                    "measured_exchange_ms": r["exchange_ms"],
+                    "model_exchange_ms": 1e3 * m.exchange(n, r["ranks"])})
+        print("  {series:11s} P={gpus} fluid {fluid:9d}: measured {measured_ms:6.3f} ms, model "
+              "{model_ms:6.3f} ms, P5 {p5_model_ms:6.3f} ms | exchanges {measured_exchange_ms:.3f} "
+              "against {model_exchange_ms:.3f} ms".format(**fit[-1]))
+    with open(os.path.join(a.out, "comm_model_fit.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(fit[0].keys()))
+        w.writeheader()
+        w.writerows(fit)
+
+    ps = [1, 2, 4, 8, 64, 512]
+    cases = [("weak 4M a GPU", lambda p: 4e6), ("strong 8M", lambda p: 8e6 / p),
+             ("strong 32M", lambda p: 32e6 / p)]
+    pred = []
+    print("\npredictions (efficiency for weak, speedup for strong; P5's model in brackets):")
+    for name, n_of in cases:
+        t1, p51 = m.step(n_of(1) if name.startswith("weak") else n_of(1), 1), p5_step(n_of(1), 1, a.ghost_factor)
+        line = []
+        for p in ps:
+            t, tp5 = m.step(n_of(p), p), p5_step(n_of(p), p, a.ghost_factor)
+            value = t1 / t if name.startswith("weak") else t1 / t
+            v5 = p51 / tp5
+            pred.append({"case": name, "gpus": p, "particles_per_gpu": int(n_of(p)),
+                         "step_ms": 1e3 * t, "exchange_ms": 1e3 * m.exchange(n_of(p), p),
+                         "efficiency" if name.startswith("weak") else "speedup": value,
+                         "p5_model": v5})
+            line.append("P=%d %.2f (%.2f)" % (p, value, v5))
+        print("  %-14s %s" % (name, "  ".join(line)))
+    keys = ["case", "gpus", "particles_per_gpu", "step_ms", "exchange_ms", "efficiency", "speedup", "p5_model"]
+    with open(os.path.join(a.out, "comm_model.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=keys)
+        w.writeheader()
+        w.writerows(pred)
+
     try:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-        for overlap, style in ((0, "--"), (1, "-")):
-            wk = [r for r in rows if r["mode"] == "weak" and r["overlap"] == overlap]
-            st = [r for r in rows if r["mode"] == "strong" and r["overlap"] == overlap]
-            lab = "overlap" if overlap else "no overlap"
-            ax[0].plot([r["gpus"] for r in wk], [r["efficiency"] for r in wk], style + "o", label=lab)
-            ax[1].plot([r["gpus"] for r in st], [r["speedup"] for r in st], style + "o", label=lab)
-        ax[1].plot(ps, ps, ":", color="grey", label="ideal")
-        ax[0].axhline(0.9, color="grey", lw=0.5)
-        ax[0].set(xscale="log", xlabel="GPUs", ylabel="weak-scaling efficiency (4M a GPU)",
-                  ylim=(0.5, 1.02))
-        ax[1].set(xscale="log", yscale="log", xlabel="GPUs", ylabel="speedup (8M dam break)")
-        for x in ax:
-            x.legend()
-            x.grid(alpha=0.3)
-        fig.suptitle("knitflow fluid step, communication model (H100, NVLink within 8, NDR between)")
-        fig.tight_layout()
-        fig.savefig(os.path.join(a.out, "comm_model.png"), dpi=120)
     except ImportError:
         print("matplotlib missing: no plot")
-    print("wrote", path)
+        return
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+    wk = [r for r in pred if r["case"].startswith("weak")]
+    ax[0].plot(ps, [r["efficiency"] for r in wk], "-", color="C0", label="model (P9-calibrated)")
+    ax[0].plot(ps, [r["p5_model"] for r in wk], ":", color="C0", label="P5's model")
+    meas = [f for f in fit if f["series"] == "weak"]
+    if meas:
+        base = [f for f in meas if f["gpus"] == 1][0]
+        ax[0].plot([f["gpus"] for f in meas],
+                   [base["measured_ms"] / f["measured_ms"] * (f["fluid"] / f["gpus"]) / base["fluid"] for f in meas],
+                   "o", color="C0", label="measured (H100 x4, NCCL)")
+    ax[0].axhline(0.9, color="grey", lw=0.5)
+    ax[0].axhline(0.85, color="grey", lw=0.5, ls="--")
+    ax[0].set(xscale="log", xlabel="GPUs", ylabel="weak-scaling efficiency (4M fluid a GPU)", ylim=(0.3, 1.05))
+    for i, name in enumerate(("strong 8M", "strong 32M")):
+        st = [r for r in pred if r["case"] == name]
+        c = "C%d" % (i + 1)
+        ax[1].plot(ps, [r["speedup"] for r in st], "-", color=c, label=name + " model")
+        ax[1].plot(ps, [r["p5_model"] for r in st], ":", color=c, label=name + " P5's model")
+        meas = [f for f in fit if f["series"] == name]
+        if meas:
+            base = [f for f in meas if f["gpus"] == 1][0]
+            ax[1].plot([f["gpus"] for f in meas], [base["measured_ms"] / f["measured_ms"] for f in meas],
+                       "o", color=c, label=name + " measured")
+    ax[1].plot(ps, ps, ":", color="grey", label="ideal")
+    ax[1].set(xscale="log", yscale="log", xlabel="GPUs", ylabel="speedup over one GPU")
+    for x in ax:
+        x.legend(fontsize=7)
+        x.grid(alpha=0.3)
+    fig.suptitle("knitflow dam break on P H100s: measured (1-4) and the calibrated model (NVLink within 8, NDR between)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(a.out, "comm_model.png"), dpi=120)
+    print("wrote", os.path.join(a.out, "comm_model.csv"))
 
 
 if __name__ == "__main__":

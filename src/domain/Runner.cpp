@@ -83,6 +83,17 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
 
   io::Progress progress(log, end, opt.progress_interval_s, opt.progress && mpi.root());
   const std::uint64_t start_steps = sim->steps();
+  // The split's seconds count from here: the set-up's distribution (and NCCL's first
+  // connections) are not a step's.
+  const Simulation::RankReport split0 = sim->rank_report();
+  const auto since_start = [&split0](Simulation::RankReport r) {
+    r.exchange_seconds -= split0.exchange_seconds;
+    r.migration_seconds -= split0.migration_seconds;
+    r.refresh_seconds -= split0.refresh_seconds;
+    r.rebalance_seconds -= split0.rebalance_seconds;
+    r.packing_seconds -= split0.packing_seconds;
+    return r;
+  };
   // Moving particles (fluid + knit): boundary particles only follow their solids.
   const Diagnostics d0 = sim->diagnostics();
   const std::uint64_t particles = d0.fluid + d0.knit;
@@ -96,7 +107,7 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
       const double t_limit = std::min(next_out, end);
       const double dt = sim->step(t_limit);
       inject(opt.fault, mpi.rank(), sim->steps());
-      if (const auto r = sim->rank_report(); r.ranks > 1) {
+      if (const auto r = since_start(sim->rank_report()); r.ranks > 1) {
         char note[128];
         std::snprintf(note, sizeof note, "%d ranks, imbalance %.3f, exchanges %.1f%% of the step",
                       r.ranks, r.imbalance,
@@ -127,7 +138,7 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
   sum.particle_steps_per_s =
       sum.wall_seconds > 0 ? double(sum.steps) * double(particles) / sum.wall_seconds : 0;
   sum.diagnostics = sim->diagnostics();
-  sum.split = sim->rank_report();
+  sum.split = since_start(sim->rank_report());
   for (const auto& s : sim->pipeline().stages()) {
     Pipeline::Stage copy{s.name, s.module, s.what, {}, s.seconds, s.calls};
     sum.stages.push_back(std::move(copy));
