@@ -1,9 +1,11 @@
 #include "RenderCommand.hpp"
 
+#include "comm/BinarySwap.hpp"
 #include "core/Error.hpp"
 #include "domain/Scene.hpp"
 #include "io/SnapshotReader.hpp"
 #include "kernels/exec/Backend.hpp"
+#include "render/DepthComposite.hpp"
 #include "render/FrameSelection.hpp"
 #include "render/SnapshotRender.hpp"
 
@@ -141,7 +143,46 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         << " rank(s), " << a.width << " x " << a.height << ", " << renderer.context().renderer
         << "\n";
   int written = 0;
-  for (std::size_t k = std::size_t(mpi.rank()); k < chosen.size(); k += std::size_t(mpi.size())) {
+  const bool by_space =
+      mpi.size() > 1 &&
+      (a.split == "space" || (a.split == "auto" && chosen.size() < std::size_t(mpi.size())));
+  if (by_space) {
+    if (mpi.root() && !a.quiet)
+      log << "render: each frame in " << mpi.size()
+          << " parts (a k-d split of its particles), composited by depth (binary swap)\n";
+    for (std::size_t k = 0; k < chosen.size(); ++k) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const io::Frame f =
+          k == 0 ? first : io::read_snapshot(MPI_COMM_SELF, path_of(chosen[k]).string());
+      const auto regions = render::kd_split(renderer.drawn_points(f), mpi.size());
+      const io::RgbaImage part = renderer.draw(f, camera, &regions[std::size_t(mpi.rank())]);
+      auto px = render::depth_pixels(part, renderer.depth());
+      const auto t1 = std::chrono::steady_clock::now();
+      const auto swap = comm::binary_swap(
+          mpi.comm(), px.data(), px.size(), sizeof(render::DepthPixel),
+          [](void* mine, const void* theirs, std::size_t n) {
+            render::keep_nearer(static_cast<render::DepthPixel*>(mine),
+                                static_cast<const render::DepthPixel*>(theirs), n);
+          });
+      const auto t2 = std::chrono::steady_clock::now();
+      const std::uint64_t spheres = mpi.sum(std::uint64_t(renderer.last_spheres()));
+      if (mpi.root()) {
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%06llu.png",
+                      static_cast<unsigned long long>(chosen[k]));
+        io::write_png((out / name).string(), render::colour_of(px, a.width, a.height));
+        ++written;
+        using sec = std::chrono::duration<double>;
+        if (!a.quiet)
+          log << "render: " << (out / name).string() << " (t = " << f.time << " s): " << spheres
+              << " spheres, " << sec(std::chrono::steady_clock::now() - t0).count() << " s (draw "
+              << sec(t1 - t0).count() << " s, composite " << sec(t2 - t1).count() << " s, "
+              << swap.bytes_sent << " bytes sent by rank 0)\n";
+      }
+    }
+  }
+  for (std::size_t k = std::size_t(mpi.rank()); !by_space && k < chosen.size();
+       k += std::size_t(mpi.size())) {
     const auto t0 = std::chrono::steady_clock::now();
     const fs::path src = path_of(chosen[k]);
     const io::Frame f = k == 0 ? first : io::read_snapshot(MPI_COMM_SELF, src.string());

@@ -1,6 +1,6 @@
 #pragma once
-// `knitflow render RUN_DIR`: a run's snapshots to PNG pictures (P6 stage 2), the frames shared
-// out over the job's ranks (each renders whole frames of its own).
+// `knitflow render RUN_DIR`: a run's snapshots to PNG pictures (P6), the work shared over the
+// job's ranks: whole frames each, or each frame in parts composited sort-last (binary swap).
 #include "comm/MpiContext.hpp"
 
 #include <cstdint>
@@ -20,6 +20,9 @@ struct RenderArgs {
   bool film = true; // an MP4 of the pictures through ffmpeg, where it is installed
   int fps = 25;
   bool quiet = false;
+  // How ranks share the work: "frames" (whole frames each), "space" (every frame drawn in parts
+  // of a k-d split, composited by depth), "auto" (space when there are fewer frames than ranks).
+  std::string split = "auto";
 };
 
 /// Renders and writes the pictures, then (rank 0) the film of them when there are two or more;

@@ -209,6 +209,11 @@ int main(int argc, char** argv) {
     render->add_flag("!--no-film", ra.film, "no MP4 (made with ffmpeg where it is installed)");
     render->add_option("--fps", ra.fps, "the film's frames a second")->check(CLI::Range(1, 240));
     render->add_flag("--quiet,-q", ra.quiet, "no progress lines");
+    render
+        ->add_option("--split", ra.split,
+                     "frames (whole frames a rank), space (each frame in parts of space, "
+                     "composited) or auto (space when fewer frames than ranks)")
+        ->check(CLI::IsMember({"auto", "frames", "space"}));
     try {
       app.parse(argc, argv);
       if (render->parsed())

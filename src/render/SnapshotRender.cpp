@@ -109,8 +109,23 @@ Camera SnapshotRenderer::frame_camera(const io::Frame& frame) const {
   return Camera::framing(lo, hi, double(style_.width) / style_.height);
 }
 
-io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camera) {
-  std::vector<Sphere> list = style_.obstacles;
+std::vector<glm::dvec3> SnapshotRenderer::drawn_points(const io::Frame& frame) const {
+  std::vector<glm::dvec3> all;
+  for (const char* phase : {"fluid", "knit", "boundary"}) {
+    if (std::string(phase) == "boundary" && !style_.boundary)
+      continue;
+    const auto x = phase_positions(frame, phase);
+    all.insert(all.end(), x.begin(), x.end());
+  }
+  return all;
+}
+
+io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camera,
+                                     const Region* only) {
+  std::vector<Sphere> list;
+  for (const Sphere& s : style_.obstacles)
+    if (!only || only->contains(glm::dvec3(glm::vec3(s.centre_radius))))
+      list.push_back(s);
   auto add = [&](const std::string& phase, std::optional<double>& radius, double share,
                  const glm::vec4& colour, const std::vector<double>& saturation) {
     const auto x = phase_positions(frame, phase);
@@ -126,6 +141,8 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
       radius = share * typical_spacing(one.size() > 1 ? one : x);
     }
     for (std::size_t i = 0; i < x.size(); ++i) {
+      if (only && !only->contains(x[i]))
+        continue;
       glm::vec4 c = colour;
       if (!saturation.empty()) {
         const double s = std::clamp(saturation[i], 0.0, 1.0);
@@ -143,7 +160,7 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   glClearColor(bg.r, bg.g, bg.b, bg.a);
   glClearDepth(1.0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  spheres_.draw(list, camera, double(style_.width) / style_.height);
+  spheres_.draw(list, camera, double(style_.width) / style_.height, style_.lighting);
   last_spheres_ = list.size();
   return {style_.width, style_.height, target_.read_rgba()};
 }

@@ -8,6 +8,7 @@
 #include "render/Camera.hpp"
 #include "render/EglContext.hpp"
 #include "render/OffscreenTarget.hpp"
+#include "render/SpaceSplit.hpp"
 #include "render/SphereRenderer.hpp"
 
 #include <memory>
@@ -24,6 +25,7 @@ struct SnapshotStyle {
   glm::vec4 fluid{0.20f, 0.45f, 0.85f, 1.0f}, knit{0.85f, 0.55f, 0.25f, 1.0f},
       boundary_colour{0.6f, 0.6f, 0.6f, 1.0f}, background{1.0f, 1.0f, 1.0f, 1.0f};
   std::vector<Sphere> obstacles; // solid spheres of the scene, drawn as they are
+  Lighting lighting;
 };
 
 /// Typical distance between neighbouring points: the median, over up to 256 of them spread
@@ -43,7 +45,13 @@ public:
   Camera frame_camera(const io::Frame& frame) const;
   /// Draws the frame from `camera`. Sphere radii: half the typical spacing of each phase's
   /// points (knit: 0.6 of it, so a sheet closes), taken from the first frame drawn and kept.
-  io::RgbaImage draw(const io::Frame& frame, const Camera& camera);
+  /// With `only`, just the particles and obstacles whose centres lie in it (sort-last rendering:
+  /// this rank's part of the frame, composited by depth with the others').
+  io::RgbaImage draw(const io::Frame& frame, const Camera& camera, const Region* only = nullptr);
+  /// The last draw's depth in [0, 1] (1: nothing drawn), a float a pixel, the top row first.
+  std::vector<float> depth() const { return target_.read_depth(); }
+  /// The points a k-d split of this frame shares out: the drawn phases' positions.
+  std::vector<glm::dvec3> drawn_points(const io::Frame& frame) const;
   std::size_t last_spheres() const { return last_spheres_; }
   const ContextInfo& context() const { return context_.info(); }
 

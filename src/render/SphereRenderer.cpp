@@ -21,7 +21,7 @@ SphereRenderer::~SphereRenderer() {
 }
 
 void SphereRenderer::draw(const std::vector<Sphere>& spheres, const Camera& camera, double aspect,
-                          const glm::vec3& light) {
+                          const Lighting& light) {
   if (spheres.empty())
     return;
   const std::size_t bytes = spheres.size() * sizeof(Sphere);
@@ -33,12 +33,15 @@ void SphereRenderer::draw(const std::vector<Sphere>& spheres, const Camera& came
   }
   glNamedBufferSubData(buffer_, 0, GLsizeiptr(bytes), spheres.data());
   const glm::mat4 view = camera.view(), proj = camera.projection(aspect);
-  const glm::vec3 light_view = glm::normalize(glm::vec3(view * glm::vec4(light, 0.0f)));
+  const glm::vec3 light_view =
+      glm::normalize(glm::vec3(view * glm::vec4(light.toward_light, 0.0f)));
   program_->use();
   const unsigned p = program_->id();
   glUniformMatrix4fv(glGetUniformLocation(p, "view"), 1, GL_FALSE, glm::value_ptr(view));
   glUniformMatrix4fv(glGetUniformLocation(p, "projection"), 1, GL_FALSE, glm::value_ptr(proj));
   glUniform3fv(glGetUniformLocation(p, "light_view"), 1, glm::value_ptr(light_view));
+  glUniform1f(glGetUniformLocation(p, "ambient"), light.ambient);
+  glUniform1f(glGetUniformLocation(p, "specular_strength"), light.specular);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, buffer_);
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);

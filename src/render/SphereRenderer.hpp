@@ -17,6 +17,14 @@ struct Sphere {
   glm::vec4 colour;        // linear RGB, alpha (1: opaque)
 };
 
+/// One directional light: ambient + diffuse scale the sphere's colour (its albedo, which the
+/// wet knit's darkening scales), a white Blinn-Phong highlight adds the light's own colour.
+struct Lighting {
+  glm::vec3 toward_light{0.4f, -0.5f, 0.75f}; // world space, need not be unit
+  float ambient = 0.25f;
+  float specular = 0.25f; // 0: no highlights
+};
+
 class SphereRenderer {
 public:
   /// Needs a current context.
@@ -25,10 +33,9 @@ public:
   SphereRenderer(const SphereRenderer&) = delete;
   SphereRenderer& operator=(const SphereRenderer&) = delete;
 
-  /// Draws the spheres into the bound target with depth testing, lit by a directional light
-  /// (`light`: toward the light, world space).
+  /// Draws the spheres into the bound target with depth testing, lit by `light`.
   void draw(const std::vector<Sphere>& spheres, const Camera& camera, double aspect,
-            const glm::vec3& light = glm::vec3(0.4f, -0.5f, 0.75f));
+            const Lighting& light = {});
 
 private:
   std::unique_ptr<ShaderProgram> program_;

@@ -6,6 +6,8 @@ flat in vec4 centre_radius_view;
 flat in vec4 sphere_colour;
 uniform mat4 projection;
 uniform vec3 light_view; // unit vector toward the light, in view space
+uniform float ambient;
+uniform float specular_strength;
 out vec4 frag;
 void main() {
   const vec3 dir = normalize(ray_point);
@@ -24,6 +26,7 @@ void main() {
   gl_FragDepth = 0.5 * (clip.z / clip.w) + 0.5;
   const float diffuse = max(dot(n, light_view), 0.0);
   const vec3 h = normalize(light_view - dir);
-  const float specular = pow(max(dot(n, h), 0.0), 48.0) * 0.25;
-  frag = vec4(sphere_colour.rgb * (0.25 + 0.75 * diffuse) + vec3(specular), sphere_colour.a);
+  const float specular = pow(max(dot(n, h), 0.0), 48.0) * specular_strength;
+  frag = vec4(sphere_colour.rgb * (ambient + (1.0 - ambient) * diffuse) + vec3(specular),
+              sphere_colour.a);
 }
