@@ -132,6 +132,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
   style.width = a.width;
   style.height = a.height;
   style.boundary = a.boundary;
+  style.fluid_surface = a.fluid == "surface";
   style.obstacles = obstacle_spheres(first, path_of(chosen.front()).string(), a.scene,
                                      mpi.root() && !a.quiet, log);
   // On a GPU the EGL device of this rank's CUDA device (as `run` chooses it); else llvmpipe.
@@ -166,6 +167,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
           });
       const auto t2 = std::chrono::steady_clock::now();
       const std::uint64_t spheres = mpi.sum(std::uint64_t(renderer.last_spheres()));
+      const std::uint64_t triangles = mpi.sum(std::uint64_t(renderer.last_triangles()));
       if (mpi.root()) {
         char name[32];
         std::snprintf(name, sizeof name, "frame_%06llu.png",
@@ -175,7 +177,8 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         using sec = std::chrono::duration<double>;
         if (!a.quiet)
           log << "render: " << (out / name).string() << " (t = " << f.time << " s): " << spheres
-              << " spheres, " << sec(std::chrono::steady_clock::now() - t0).count() << " s (draw "
+              << " spheres, " << triangles << " triangles, "
+              << sec(std::chrono::steady_clock::now() - t0).count() << " s (draw "
               << sec(t1 - t0).count() << " s, composite " << sec(t2 - t1).count() << " s, "
               << swap.bytes_sent << " bytes sent by rank 0)\n";
       }
@@ -186,16 +189,23 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
     const auto t0 = std::chrono::steady_clock::now();
     const fs::path src = path_of(chosen[k]);
     const io::Frame f = k == 0 ? first : io::read_snapshot(MPI_COMM_SELF, src.string());
+    const auto t1 = std::chrono::steady_clock::now();
     const io::RgbaImage img = renderer.draw(f, camera);
+    const auto t2 = std::chrono::steady_clock::now();
     char name[32];
     std::snprintf(name, sizeof name, "frame_%06llu.png",
                   static_cast<unsigned long long>(chosen[k]));
     io::write_png((out / name).string(), img);
     ++written;
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    using sec = std::chrono::duration<double>;
+    const auto t3 = std::chrono::steady_clock::now();
     if (mpi.root() && !a.quiet)
       log << "render: " << (out / name).string() << " (t = " << f.time
-          << " s): " << renderer.last_spheres() << " spheres, " << s << " s\n";
+          << " s): " << renderer.last_spheres() << " spheres, " << renderer.last_triangles()
+          << " triangles, " << sec(t3 - t0).count() << " s (read " << sec(t1 - t0).count()
+          << ", surface " << renderer.last_surface_seconds() << ", draw and read back "
+          << sec(t2 - t1).count() - renderer.last_surface_seconds() << ", PNG "
+          << sec(t3 - t2).count() << ")\n";
   }
   int total = written;
   MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_INT, MPI_SUM, mpi.comm());

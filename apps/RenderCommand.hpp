@@ -23,6 +23,7 @@ struct RenderArgs {
   // How ranks share the work: "frames" (whole frames each), "space" (every frame drawn in parts
   // of a k-d split, composited by depth), "auto" (space when there are fewer frames than ranks).
   std::string split = "auto";
+  std::string fluid = "surface"; // or "spheres": the particles as they are
 };
 
 /// Renders and writes the pictures, then (rank 0) the film of them when there are two or more;

@@ -214,6 +214,10 @@ int main(int argc, char** argv) {
                      "frames (whole frames a rank), space (each frame in parts of space, "
                      "composited) or auto (space when fewer frames than ranks)")
         ->check(CLI::IsMember({"auto", "frames", "space"}));
+    render
+        ->add_option("--fluid", ra.fluid,
+                     "surface (marching cubes over the particles) or spheres (the particles)")
+        ->check(CLI::IsMember({"surface", "spheres"}));
     try {
       app.parse(argc, argv);
       if (render->parsed())

@@ -33,8 +33,8 @@ Camera Camera::framing(const glm::dvec3& lo, const glm::dvec3& hi, double aspect
     t.far = distance + 2 * radius;
     const glm::dmat4 m = glm::dmat4(t.projection(aspect)) * glm::dmat4(t.view());
     for (int k = 0; k < 8; ++k) {
-      const glm::dvec4 p = m * glm::dvec4(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y,
-                                          k & 4 ? hi.z : lo.z, 1.0);
+      const glm::dvec4 p =
+          m * glm::dvec4(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z, 1.0);
       if (p.w <= t.near || std::abs(p.x / p.w) > 0.95 || std::abs(p.y / p.w) > 0.95)
         return false;
     }

@@ -5,6 +5,7 @@
 #include <epoxy/gl.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 
@@ -151,7 +152,24 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
       list.push_back({glm::vec4(glm::vec3(x[i]), float(*radius)), c});
     }
   };
-  add("fluid", fluid_r_, 0.5, style_.fluid, {});
+  SurfaceMesh surface;
+  last_surface_seconds_ = 0;
+  if (style_.fluid_surface) {
+    const auto x = phase_positions(frame, "fluid");
+    if (!fluid_r_ && x.size() > 1)
+      fluid_r_ = 0.5 * typical_spacing(x);
+    if (!x.empty() && fluid_r_ && *fluid_r_ > 0) {
+      SurfaceOptions opt;
+      opt.field = style_.surface_field;
+      opt.spacing = 2 * *fluid_r_;
+      const auto t0 = std::chrono::steady_clock::now();
+      surface = marching_cubes(surface_field(x, opt, only), only);
+      last_surface_seconds_ =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+  } else {
+    add("fluid", fluid_r_, 0.5, style_.fluid, {});
+  }
   add("knit", knit_r_, 0.6, style_.knit, scalar_field(frame, "knit", "saturation"));
   if (style_.boundary)
     add("boundary", boundary_r_, 0.5, style_.boundary_colour, {});
@@ -161,7 +179,10 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   glClearDepth(1.0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   spheres_.draw(list, camera, double(style_.width) / style_.height, style_.lighting);
+  meshes_.draw(surface, style_.fluid, camera, double(style_.width) / style_.height,
+               style_.lighting);
   last_spheres_ = list.size();
+  last_triangles_ = surface.triangles();
   return {style_.width, style_.height, target_.read_rgba()};
 }
 

@@ -7,6 +7,8 @@
 #include "io/PngImage.hpp"
 #include "render/Camera.hpp"
 #include "render/EglContext.hpp"
+#include "render/FluidSurface.hpp"
+#include "render/MeshRenderer.hpp"
 #include "render/OffscreenTarget.hpp"
 #include "render/SpaceSplit.hpp"
 #include "render/SphereRenderer.hpp"
@@ -26,6 +28,10 @@ struct SnapshotStyle {
       boundary_colour{0.6f, 0.6f, 0.6f, 1.0f}, background{1.0f, 1.0f, 1.0f, 1.0f};
   std::vector<Sphere> obstacles; // solid spheres of the scene, drawn as they are
   Lighting lighting;
+  // The fluid as its surface (marching cubes over the weighted field, FluidSurface) or, off, as
+  // the particles' spheres.
+  bool fluid_surface = true;
+  SurfaceField surface_field = SurfaceField::Weighted;
 };
 
 /// Typical distance between neighbouring points: the median, over up to 256 of them spread
@@ -53,6 +59,9 @@ public:
   /// The points a k-d split of this frame shares out: the drawn phases' positions.
   std::vector<glm::dvec3> drawn_points(const io::Frame& frame) const;
   std::size_t last_spheres() const { return last_spheres_; }
+  std::size_t last_triangles() const { return last_triangles_; }
+  /// Seconds the last draw spent on the fluid's surface (field and marching cubes, host).
+  double last_surface_seconds() const { return last_surface_seconds_; }
   const ContextInfo& context() const { return context_.info(); }
 
 private:
@@ -60,8 +69,10 @@ private:
   EglContext context_;
   OffscreenTarget target_;
   SphereRenderer spheres_;
+  MeshRenderer meshes_;
   std::optional<double> fluid_r_, knit_r_, boundary_r_;
-  std::size_t last_spheres_ = 0;
+  std::size_t last_spheres_ = 0, last_triangles_ = 0;
+  double last_surface_seconds_ = 0;
 };
 
 } // namespace kf::render

@@ -127,9 +127,10 @@ TEST(SpaceSplit, PartsTileSpaceWithEqualCounts) {
   }
 }
 
-TEST(SortLast, TheCompositedFrameIsTheFrameDrawnWhole) {
+void expect_composite_is_whole(bool fluid_surface) {
   const int n = size_of(), me = rank_of();
   render::SnapshotStyle style;
+  style.fluid_surface = fluid_surface;
   style.width = 320;
   style.height = 200;
   style.obstacles.push_back({glm::vec4(0.0f, 0.0f, -0.35f, 0.2f), glm::vec4(0.5f, 0.5f, 0.5f, 1)});
@@ -161,4 +162,11 @@ TEST(SortLast, TheCompositedFrameIsTheFrameDrawnWhole) {
   for (std::size_t k = 0; k < whole.pixels.size(); k += 4)
     wrong += !std::equal(&whole.pixels[k], &whole.pixels[k] + 4, &composite.pixels[k]);
   EXPECT_LE(wrong, whole.pixels.size() / 4 / 10000) << "pixels unlike the whole frame's";
+}
+
+TEST(SortLast, TheCompositedFrameIsTheFrameDrawnWhole) {
+  for (bool surface : {false, true}) {
+    SCOPED_TRACE(surface ? "the fluid as its surface" : "the fluid as spheres");
+    expect_composite_is_whole(surface);
+  }
 }

@@ -1,0 +1,91 @@
+#include "render/MeshRenderer.hpp"
+
+#include "core/Error.hpp"
+#include "render/Shaders.hpp"
+
+#include <epoxy/gl.h>
+#include <glm/gtc/type_ptr.hpp>
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace kf::render {
+
+MeshRenderer::MeshRenderer()
+    : program_(std::make_unique<ShaderProgram>("mesh.vert + mesh.frag", shaders::kMeshVert,
+                                               shaders::kMeshFrag)) {
+  glCreateVertexArrays(1, &vao_);
+  glCreateBuffers(1, &vertices_);
+  glCreateBuffers(1, &indices_);
+}
+
+MeshRenderer::~MeshRenderer() {
+  glDeleteBuffers(1, &vertices_);
+  glDeleteBuffers(1, &indices_);
+  glDeleteVertexArrays(1, &vao_);
+}
+
+namespace {
+
+/// Storage that grows, never shrinks (a film reuses it); returns the buffer, new if it grew.
+unsigned fit(unsigned buffer, std::size_t& capacity, std::size_t bytes) {
+  if (bytes <= capacity)
+    return buffer;
+  glDeleteBuffers(1, &buffer);
+  glCreateBuffers(1, &buffer);
+  glNamedBufferStorage(buffer, GLsizeiptr(bytes), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  capacity = bytes;
+  return buffer;
+}
+
+} // namespace
+
+void MeshRenderer::draw(const SurfaceMesh& mesh, const glm::vec4& colour, const Camera& camera,
+                        double aspect, const Lighting& light) {
+  if (mesh.index.empty())
+    return;
+  // Interleaved position, normal.
+  std::vector<glm::vec3> interleaved(2 * mesh.position.size());
+  for (std::size_t v = 0; v < mesh.position.size(); ++v) {
+    interleaved[2 * v] = mesh.position[v];
+    interleaved[2 * v + 1] = mesh.normal[v];
+  }
+  const std::size_t vbytes = interleaved.size() * sizeof(glm::vec3);
+  const std::size_t ibytes = mesh.index.size() * sizeof(std::uint32_t);
+  vertices_ = fit(vertices_, vertex_capacity_, vbytes);
+  indices_ = fit(indices_, index_capacity_, ibytes);
+  glNamedBufferSubData(vertices_, 0, GLsizeiptr(vbytes), interleaved.data());
+  glNamedBufferSubData(indices_, 0, GLsizeiptr(ibytes), mesh.index.data());
+  glVertexArrayVertexBuffer(vao_, 0, vertices_, 0, GLsizei(2 * sizeof(glm::vec3)));
+  glVertexArrayElementBuffer(vao_, indices_);
+  for (GLuint a = 0; a < 2; ++a) {
+    glEnableVertexArrayAttrib(vao_, a);
+    glVertexArrayAttribFormat(vao_, a, 3, GL_FLOAT, GL_FALSE, GLuint(a * sizeof(glm::vec3)));
+    glVertexArrayAttribBinding(vao_, a, 0);
+  }
+  const glm::mat4 view = camera.view(), proj = camera.projection(aspect);
+  const glm::vec3 light_view =
+      glm::normalize(glm::vec3(view * glm::vec4(light.toward_light, 0.0f)));
+  program_->use();
+  const unsigned p = program_->id();
+  glUniformMatrix4fv(glGetUniformLocation(p, "view"), 1, GL_FALSE, glm::value_ptr(view));
+  glUniformMatrix4fv(glGetUniformLocation(p, "projection"), 1, GL_FALSE, glm::value_ptr(proj));
+  glUniform3fv(glGetUniformLocation(p, "light_view"), 1, glm::value_ptr(light_view));
+  glUniform1f(glGetUniformLocation(p, "ambient"), light.ambient);
+  glUniform1f(glGetUniformLocation(p, "specular_strength"), light.specular);
+  glUniform4fv(glGetUniformLocation(p, "colour"), 1, glm::value_ptr(colour));
+  glBindVertexArray(vao_);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDrawElements(GL_TRIANGLES, GLsizei(mesh.index.size()), GL_UNSIGNED_INT, nullptr);
+  const GLenum err = glGetError();
+  if (err != GL_NO_ERROR) {
+    char b[16];
+    std::snprintf(b, sizeof b, "%04x", err);
+    throw Error("render: drawing a mesh of " + std::to_string(mesh.triangles()) +
+                " triangles failed (GL error 0x" + b + ")");
+  }
+}
+
+} // namespace kf::render
