@@ -11,12 +11,16 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <optional>
 #include <ostream>
 #include <regex>
+#include <unistd.h>
 #include <vector>
 
 namespace kf {
@@ -43,36 +47,96 @@ std::vector<std::pair<std::uint64_t, fs::path>> snapshots(const std::string& dir
   return out;
 }
 
-/// The scene's sphere obstacles, grey (planes, boxes and meshes come with the later stages'
-/// floor and meshes): from `scene_file` when given, else from the snapshot's copy of its scene.
-/// That copy names mesh files relative to where the scene file was, which the snapshot does not
-/// record: where they cannot be found, the obstacles are left out with a warning.
-std::vector<render::Sphere> obstacle_spheres(const io::Frame& f, const std::string& snapshot,
-                                             const std::string& scene_file, bool warn,
-                                             std::ostream& log) {
-  std::vector<render::Sphere> out;
-  Scene scene;
-  if (!scene_file.empty()) {
-    scene = load_scene(scene_file);
-  } else {
-    if (f.scene_text.empty())
-      return out;
-    try {
-      scene = parse_scene(f.scene_text, snapshot + " (its scene)");
-    } catch (const SceneError& e) {
-      if (warn)
-        log << "render: warning: obstacles not drawn: " << e.what()
-            << " (pass the run's scene file with --scene)\n";
-      return out;
-    }
+/// The run's scene: `scene_file` when given, else the snapshot's copy of its scene. That copy
+/// names mesh files relative to where the scene file was, which the snapshot does not record:
+/// where they cannot be found, the scene is not used (a warning; obstacles and [render] left out).
+std::optional<Scene> run_scene(const io::Frame& f, const std::string& snapshot,
+                               const std::string& scene_file, bool warn, std::ostream& log) {
+  if (!scene_file.empty())
+    return load_scene(scene_file);
+  if (f.scene_text.empty())
+    return std::nullopt;
+  try {
+    return parse_scene(f.scene_text, snapshot + " (its scene)");
+  } catch (const SceneError& e) {
+    if (warn)
+      log << "render: warning: the snapshot's scene not used (no obstacles, no [render]): "
+          << e.what() << " (pass the run's scene file with --scene)\n";
+    return std::nullopt;
   }
-  for (const Obstacle& o : scene.obstacles)
+}
+
+/// The scene's sphere obstacles, grey (planes, boxes and meshes come with the floor and meshes).
+std::vector<render::Sphere> obstacle_spheres(const std::optional<Scene>& scene) {
+  std::vector<render::Sphere> out;
+  if (!scene)
+    return out;
+  for (const Obstacle& o : scene->obstacles)
     if (o.shape == ObstacleShape::Sphere)
       out.push_back(
           {glm::vec4(float(o.center.x), float(o.center.y), float(o.center.z), float(o.radius)),
            glm::vec4(0.55f, 0.57f, 0.6f, 1.0f)});
   return out;
 }
+
+glm::vec3 vec(const Vec3d& v) {
+  return {float(v.x), float(v.y), float(v.z)};
+}
+
+/// The style from the scene's [render] table (defaults without one), the command line over it.
+render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
+  render::SnapshotStyle st;
+  st.width = a.width > 0 ? a.width : r.width;
+  st.height = a.height > 0 ? a.height : r.height;
+  st.boundary = a.boundary || r.boundary;
+  st.fluid_surface =
+      a.fluid.empty() ? r.fluid == Scene::Render::Fluid::Surface : a.fluid == "surface";
+  st.surface_field = r.surface == Scene::Render::SurfaceField::Naive
+                         ? render::SurfaceField::Naive
+                         : render::SurfaceField::Weighted;
+  st.wet_darkening = r.wet_darkening;
+  st.fluid = glm::vec4(vec(r.fluid_colour), 1.0f);
+  st.knit = glm::vec4(vec(r.knit_colour), 1.0f);
+  st.background = glm::vec4(vec(r.background), 1.0f);
+  st.lighting.toward_light = vec(r.light);
+  st.lighting.ambient = float(r.ambient);
+  st.lighting.specular = float(r.highlights);
+  return st;
+}
+
+/// Where the log is a terminal, one line redrawn over the frames: a bar, frames done, the time a
+/// frame and what is left; elsewhere (a job's log) a line a frame says the same.
+class FrameProgress {
+public:
+  FrameProgress(std::ostream& log, std::size_t total, bool on)
+      : log_(log), total_(total), on_(on),
+        tty_(&log == &std::cerr ? isatty(2) : (&log == &std::cout ? isatty(1) : false)) {}
+  bool tty() const { return tty_; }
+  /// After a frame: `done` of the total, `seconds` for this one.
+  void frame(std::size_t done, double seconds) {
+    sum_ += seconds;
+    ++seen_;
+    if (!on_ || !tty_)
+      return;
+    const std::size_t width = 30, filled = total_ ? width * done / total_ : width;
+    const double each = sum_ / double(seen_);
+    char line[160];
+    std::snprintf(line, sizeof line,
+                  "\rrender: [%s%s] %zu/%zu frames, %.3g s a frame, ~%.0f s left ",
+                  std::string(filled, '#').c_str(), std::string(width - filled, '-').c_str(), done,
+                  total_, each, each * double(total_ - std::min(done, total_)));
+    log_ << line << std::flush;
+    if (done >= total_)
+      log_ << "\n";
+  }
+
+private:
+  std::ostream& log_;
+  std::size_t total_;
+  bool on_, tty_;
+  double sum_ = 0;
+  std::size_t seen_ = 0;
+};
 
 /// The chosen pictures as an H.264 MP4 (out/film.mp4) through ffmpeg, in frame order, fps a
 /// second; a missing ffmpeg is a message, not an error (the pictures are the product).
@@ -128,22 +192,40 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
   fs::create_directories(out);
   // One camera for the film: every rank frames the first chosen snapshot the same way.
   const io::Frame first = io::read_snapshot(MPI_COMM_SELF, path_of(chosen.front()).string());
-  render::SnapshotStyle style;
-  style.width = a.width;
-  style.height = a.height;
-  style.boundary = a.boundary;
-  style.fluid_surface = a.fluid == "surface";
-  style.obstacles = obstacle_spheres(first, path_of(chosen.front()).string(), a.scene,
-                                     mpi.root() && !a.quiet, log);
+  const std::optional<Scene> scene =
+      run_scene(first, path_of(chosen.front()).string(), a.scene, mpi.root() && !a.quiet, log);
+  const Scene::Render look = scene ? scene->render : Scene::Render{};
+  render::SnapshotStyle style = style_of(look, a);
+  style.obstacles = obstacle_spheres(scene);
   // On a GPU the EGL device of this rank's CUDA device (as `run` chooses it); else llvmpipe.
   const int cuda_device = exec::cuda_available() ? exec::cuda_select_device(mpi.local_rank()) : -1;
   render::SnapshotRenderer renderer(style, cuda_device);
-  const render::Camera camera = renderer.frame_camera(first);
+  // The scene's camera, or one framing the first chosen frame; turned by `orbit` degrees a
+  // simulated second about the target's vertical.
+  render::Camera base = renderer.frame_camera(first);
+  if (look.camera) {
+    base.eye = {look.eye.x, look.eye.y, look.eye.z};
+    base.target = {look.target.x, look.target.y, look.target.z};
+    const double d = glm::length(base.eye - base.target);
+    base.near = 1e-3 * d;
+    base.far = 1e3 * d;
+  }
+  if (look.camera)
+    base.fov_deg = look.fov;
+  const auto camera_at = [&](double t) {
+    render::Camera c = base;
+    const double turn = look.orbit * t * std::acos(-1.0) / 180;
+    const glm::dvec3 r = c.eye - c.target;
+    c.eye = c.target + glm::dvec3(r.x * std::cos(turn) - r.y * std::sin(turn),
+                                  r.x * std::sin(turn) + r.y * std::cos(turn), r.z);
+    return c;
+  };
   if (mpi.root() && !a.quiet)
     log << "render: " << chosen.size() << " frame(s) of " << a.run_dir << " on " << mpi.size()
-        << " rank(s), " << a.width << " x " << a.height << ", " << renderer.context().renderer
-        << "\n";
+        << " rank(s), " << style.width << " x " << style.height << ", "
+        << renderer.context().renderer << "\n";
   int written = 0;
+  FrameProgress bar(log, chosen.size(), mpi.root() && !a.quiet);
   const bool by_space =
       mpi.size() > 1 &&
       (a.split == "space" || (a.split == "auto" && chosen.size() < std::size_t(mpi.size())));
@@ -156,7 +238,8 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
       const io::Frame f =
           k == 0 ? first : io::read_snapshot(MPI_COMM_SELF, path_of(chosen[k]).string());
       const auto regions = render::kd_split(renderer.drawn_points(f), mpi.size());
-      const io::RgbaImage part = renderer.draw(f, camera, &regions[std::size_t(mpi.rank())]);
+      const io::RgbaImage part =
+          renderer.draw(f, camera_at(f.time), &regions[std::size_t(mpi.rank())]);
       auto px = render::depth_pixels(part, renderer.depth());
       const auto t1 = std::chrono::steady_clock::now();
       const auto swap = comm::binary_swap(
@@ -172,10 +255,11 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         char name[32];
         std::snprintf(name, sizeof name, "frame_%06llu.png",
                       static_cast<unsigned long long>(chosen[k]));
-        io::write_png((out / name).string(), render::colour_of(px, a.width, a.height));
+        io::write_png((out / name).string(), render::colour_of(px, style.width, style.height));
         ++written;
         using sec = std::chrono::duration<double>;
-        if (!a.quiet)
+        bar.frame(k + 1, sec(std::chrono::steady_clock::now() - t0).count());
+        if (!a.quiet && !bar.tty())
           log << "render: " << (out / name).string() << " (t = " << f.time << " s): " << spheres
               << " spheres, " << triangles << " triangles, "
               << sec(std::chrono::steady_clock::now() - t0).count() << " s (draw "
@@ -190,7 +274,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
     const fs::path src = path_of(chosen[k]);
     const io::Frame f = k == 0 ? first : io::read_snapshot(MPI_COMM_SELF, src.string());
     const auto t1 = std::chrono::steady_clock::now();
-    const io::RgbaImage img = renderer.draw(f, camera);
+    const io::RgbaImage img = renderer.draw(f, camera_at(f.time));
     const auto t2 = std::chrono::steady_clock::now();
     char name[32];
     std::snprintf(name, sizeof name, "frame_%06llu.png",
@@ -199,7 +283,10 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
     ++written;
     using sec = std::chrono::duration<double>;
     const auto t3 = std::chrono::steady_clock::now();
-    if (mpi.root() && !a.quiet)
+    // The root's share of the frames stands for everyone's (the ranks go at one pace).
+    bar.frame(std::min(chosen.size(), (k / std::size_t(mpi.size()) + 1) * std::size_t(mpi.size())),
+              sec(t3 - t0).count());
+    if (mpi.root() && !a.quiet && !bar.tty())
       log << "render: " << (out / name).string() << " (t = " << f.time
           << " s): " << renderer.last_spheres() << " spheres, " << renderer.last_triangles()
           << " triangles, " << sec(t3 - t0).count() << " s (read " << sec(t1 - t0).count()

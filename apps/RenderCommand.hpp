@@ -14,8 +14,8 @@ struct RenderArgs {
   std::string run_dir;
   std::string frames = "::"; // A:B:S, frame indices A to B (inclusive) every S
   std::string out;           // default RUN_DIR/render
-  int width = 1280, height = 720;
-  std::string scene; // the obstacles from this scene file, not the snapshot's own text
+  int width = 0, height = 0; // 0: the scene's [render] size (1280 x 720 without one)
+  std::string scene; // obstacles and [render] from this scene file, not the snapshot's own text
   bool boundary = false;
   bool film = true; // an MP4 of the pictures through ffmpeg, where it is installed
   int fps = 25;
@@ -23,7 +23,7 @@ struct RenderArgs {
   // How ranks share the work: "frames" (whole frames each), "space" (every frame drawn in parts
   // of a k-d split, composited by depth), "auto" (space when there are fewer frames than ranks).
   std::string split = "auto";
-  std::string fluid = "surface"; // or "spheres": the particles as they are
+  std::string fluid; // "surface" or "spheres" (the particles); empty: the scene's [render] choice
 };
 
 /// Renders and writes the pictures, then (rank 0) the film of them when there are two or more;

@@ -203,8 +203,9 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(16, 16384));
     render->add_option("--height", ra.height, "picture height in pixels")
         ->check(CLI::Range(16, 16384));
-    render->add_option("--scene", ra.scene,
-                       "take the obstacles from this scene file (default: the snapshot's copy)");
+    render->add_option(
+        "--scene", ra.scene,
+        "obstacles and [render] from this scene file (default: the snapshot's copy)");
     render->add_flag("--boundary", ra.boundary, "draw the walls' particles too");
     render->add_flag("!--no-film", ra.film, "no MP4 (made with ffmpeg where it is installed)");
     render->add_option("--fps", ra.fps, "the film's frames a second")->check(CLI::Range(1, 240));

@@ -371,6 +371,11 @@ const BadOverride kBadOverrides[] = {
   {"fluid.block.3.velocity=[1,0,0]", "--set fluid.block.3.velocity=[1,0,0]: key 'fluid.block': expected an element index 0..0, got '3'"},
   {"fluid.block.x.velocity=[1,0,0]", "key 'fluid.block': expected an element index"},
   {"solver.kernel=gaussian", "--set solver.kernel=gaussian: key 'solver.kernel': expected one of"},
+  {"render.eye=[1,1,1]", "table 'render': missing required key 'target'"},
+  {"render.fluid_colour=[2,0,0]", "key 'render.fluid_colour': expected a colour: three numbers in [0, 1] (linear RGB), got [2, 0, 0]"},
+  {"render.fluid=\"blobs\"", "key 'render.fluid': expected one of \"surface\", \"spheres\", got \"blobs\""},
+  {"render.widht=100", "unknown key 'render.widht' (did you mean 'width'?)"},
+  {"render.width=8", "key 'render.width': expected an integer >= 16, got 8"},
 };
 // clang-format on
 
@@ -439,4 +444,20 @@ TEST(Scene, DensityModelOptions) {
 }
 
 } // namespace
+TEST(Scene, RenderTableReadsItsKeys) {
+  const Scene s = load_scene((test::source_dir() / "scenes" / "pour.toml").string(),
+                             {"render.width=640", "render.orbit=30", "render.fluid=\"spheres\"",
+                              "render.surface=\"naive\"", "render.knit_colour=[0.1, 0.2, 0.3]"});
+  EXPECT_EQ(s.render.width, 640);
+  EXPECT_EQ(s.render.height, 1080); // scenes/pour.toml's own
+  EXPECT_TRUE(s.render.camera);
+  EXPECT_DOUBLE_EQ(s.render.orbit, 30);
+  EXPECT_EQ(s.render.fluid, Scene::Render::Fluid::Spheres);
+  EXPECT_EQ(s.render.surface, Scene::Render::SurfaceField::Naive);
+  EXPECT_DOUBLE_EQ(s.render.knit_colour.y, 0.2);
+  const Scene plain = load_scene((test::source_dir() / "scenes" / "dambreak.toml").string());
+  EXPECT_FALSE(plain.render.camera);
+  EXPECT_EQ(plain.render.width, 1280);
+}
+
 } // namespace kf

@@ -219,6 +219,24 @@ struct Scene {
     bool overlap = true;
   } parallel;
 
+  // [render]: how `knitflow render` draws the run (P6); its command line overrides the size and
+  // the fluid's look. Colours are linear RGB in [0, 1].
+  struct Render {
+    int width = 1280, height = 720;
+    // The camera: eye and target both given, or neither (a view framing the first frame).
+    bool camera = false;
+    Vec3d eye{0, 0, 0}, target{0, 0, 0};
+    double fov = 35;  // vertical, degrees
+    double orbit = 0; // degrees a simulated second the eye turns about the target's vertical
+    Vec3d light{0.4, -0.5, 0.75}; // toward the light
+    double ambient = 0.25, highlights = 0.25;
+    Vec3d background{1, 1, 1}, fluid_colour{0.20, 0.45, 0.85}, knit_colour{0.85, 0.55, 0.25};
+    double wet_darkening = 0.15; // alpha in C' = C (1 - alpha sqrt(s))
+    enum class Fluid { Surface, Spheres } fluid = Fluid::Surface;
+    enum class SurfaceField { Weighted, Naive } surface = SurfaceField::Weighted;
+    bool boundary = false; // the walls' particles
+  } render;
+
   bool has(Module m) const {
     for (Module x : modules)
       if (x == m)

@@ -540,9 +540,53 @@ void read_parallel(const TableReader& t, Scene::Parallel& p) {
   t.read("overlap", p.overlap);
 }
 
+constexpr std::array kRenderFluids{
+    Choice<Scene::Render::Fluid>{"surface", Scene::Render::Fluid::Surface},
+    Choice<Scene::Render::Fluid>{"spheres", Scene::Render::Fluid::Spheres}};
+constexpr std::array kSurfaceFields{
+    Choice<Scene::Render::SurfaceField>{"weighted", Scene::Render::SurfaceField::Weighted},
+    Choice<Scene::Render::SurfaceField>{"naive", Scene::Render::SurfaceField::Naive}};
+
+void read_colour(const TableReader& t, std::string_view key, Vec3d& c) {
+  if (!t.read(key, c))
+    return;
+  for (double v : {c.x, c.y, c.z})
+    if (!(v >= 0 && v <= 1))
+      t.fail_key(*t.node(key), key, "a colour: three numbers in [0, 1] (linear RGB)",
+                 repr(*t.node(key)));
+}
+
+void read_render(const TableReader& t, Scene::Render& r) {
+  t.allow_only({"width", "height", "eye", "target", "fov", "orbit", "light", "ambient",
+                "highlights", "background", "fluid_colour", "knit_colour", "wet_darkening", "fluid",
+                "surface", "boundary"});
+  r.width = read_count(t, "width", r.width, 16, 16384);
+  r.height = read_count(t, "height", r.height, 16, 16384);
+  const bool eye = t.read("eye", r.eye), target = t.read("target", r.target);
+  if (eye != target)
+    t.fail_missing(eye ? "target" : "eye"); // a camera needs both
+  r.camera = eye;
+  if (r.camera && !(norm(r.eye - r.target) > 0))
+    t.fail_key(*t.node("target"), "target", "a point apart from the eye", repr(*t.node("target")));
+  t.read("fov", r.fov, Range::above_up_to(0, 170));
+  t.read("orbit", r.orbit);
+  if (t.read("light", r.light) && !(norm(r.light) > 0))
+    t.fail_key(*t.node("light"), "light", "a direction toward the light (not zero)",
+               repr(*t.node("light")));
+  t.read("ambient", r.ambient, Range::closed(0, 1));
+  t.read("highlights", r.highlights, Range::at_least(0));
+  read_colour(t, "background", r.background);
+  read_colour(t, "fluid_colour", r.fluid_colour);
+  read_colour(t, "knit_colour", r.knit_colour);
+  t.read("wet_darkening", r.wet_darkening, Range::closed(0, 1));
+  t.read("fluid", r.fluid, kRenderFluids);
+  t.read("surface", r.surface, kSurfaceFields);
+  t.read("boundary", r.boundary);
+}
+
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {
   root.allow_only({"simulation", "domain", "output", "solver", "fluid", "obstacle", "knit",
-                   "coupling", "capillary", "parallel"});
+                   "coupling", "capillary", "parallel", "render"});
   Scene s;
   const TableReader sim = root.table("simulation");
   read_simulation(sim, s);
@@ -559,6 +603,7 @@ Scene build_scene(const TableReader& root, const std::filesystem::path& scene_di
   read_coupling(root.table("coupling"), s);
   read_capillary(root.table("capillary"), s);
   read_parallel(root.table("parallel"), s.parallel);
+  read_render(root.table("render"), s.render);
   return s;
 }
 
