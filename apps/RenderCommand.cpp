@@ -204,11 +204,16 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
   // simulated second about the target's vertical.
   render::Camera base = renderer.frame_camera(first);
   if (look.camera) {
+    // Near and far bracket the framed box's sphere (centre: the framing's target, radius: half
+    // its far - distance) as seen from the scene's eye: a near plane too close spends the depth
+    // buffer's 24 bits there, and surfaces a hair apart tie (and may composite differently).
+    const double radius = 0.5 * (base.far - glm::length(base.eye - base.target));
+    const glm::dvec3 centre = base.target;
     base.eye = {look.eye.x, look.eye.y, look.eye.z};
     base.target = {look.target.x, look.target.y, look.target.z};
-    const double d = glm::length(base.eye - base.target);
-    base.near = 1e-3 * d;
-    base.far = 1e3 * d;
+    const double d = glm::length(base.eye - centre);
+    base.near = std::max(d - 2 * radius, 1e-2 * (d + 2 * radius));
+    base.far = d + 2 * radius;
   }
   if (look.camera)
     base.fov_deg = look.fov;

@@ -37,6 +37,7 @@ echo "== film frames, 960 x 540"
 "$exe" render "$work/pour" --width 960 --height 540 --no-film --quiet --out "$work/film"
 tar cf "$out/film.tar" -C "$work/film" .
 cp "$work/full/frame_000005.png" "$out/pick/pour_dry.png"
+cp "$work/full/frame_000015.png" "$out/pick/pour_splash.png" 2>/dev/null
 cp "$work/full/frame_$(printf %06d "$last").png" "$out/pick/pour_wet.png"
 echo "== drape on the GPU ($drape_end s), its last frame"
 "$exe" run scenes/drape.toml --device "$dev" --quiet --set simulation.end_time="$drape_end" --set output.interval="$(awk "BEGIN { print $drape_end / 3 }")" --output "$work/drape" | tail -1
