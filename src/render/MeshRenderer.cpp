@@ -64,28 +64,14 @@ void MeshRenderer::draw(const SurfaceMesh& mesh, const glm::vec4& colour, const 
     glVertexArrayAttribFormat(vao_, a, 3, GL_FLOAT, GL_FALSE, GLuint(a * sizeof(glm::vec3)));
     glVertexArrayAttribBinding(vao_, a, 0);
   }
-  const glm::mat4 view = camera.view(), proj = camera.projection(aspect);
-  const glm::vec3 light_view =
-      glm::normalize(glm::vec3(view * glm::vec4(light.toward_light, 0.0f)));
-  program_->use();
+  use_lit_program(program_->id(), camera, aspect, light);
   const unsigned p = program_->id();
-  glUniformMatrix4fv(glGetUniformLocation(p, "view"), 1, GL_FALSE, glm::value_ptr(view));
-  glUniformMatrix4fv(glGetUniformLocation(p, "projection"), 1, GL_FALSE, glm::value_ptr(proj));
-  glUniform3fv(glGetUniformLocation(p, "light_view"), 1, glm::value_ptr(light_view));
-  glUniform1f(glGetUniformLocation(p, "ambient"), light.ambient);
-  glUniform1f(glGetUniformLocation(p, "specular_strength"), light.specular);
   glUniform4fv(glGetUniformLocation(p, "colour"), 1, glm::value_ptr(colour));
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glDrawElements(GL_TRIANGLES, GLsizei(mesh.index.size()), GL_UNSIGNED_INT, nullptr);
-  const GLenum err = glGetError();
-  if (err != GL_NO_ERROR) {
-    char b[16];
-    std::snprintf(b, sizeof b, "%04x", err);
-    throw Error("render: drawing a mesh of " + std::to_string(mesh.triangles()) +
-                " triangles failed (GL error 0x" + b + ")");
-  }
+  check_gl("drawing a mesh of " + std::to_string(mesh.triangles()) + " triangles");
 }
 
 } // namespace kf::render

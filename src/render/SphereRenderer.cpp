@@ -32,31 +32,13 @@ void SphereRenderer::draw(const std::vector<Sphere>& spheres, const Camera& came
     capacity_ = bytes;
   }
   glNamedBufferSubData(buffer_, 0, GLsizeiptr(bytes), spheres.data());
-  const glm::mat4 view = camera.view(), proj = camera.projection(aspect);
-  const glm::vec3 light_view =
-      glm::normalize(glm::vec3(view * glm::vec4(light.toward_light, 0.0f)));
-  program_->use();
-  const unsigned p = program_->id();
-  glUniformMatrix4fv(glGetUniformLocation(p, "view"), 1, GL_FALSE, glm::value_ptr(view));
-  glUniformMatrix4fv(glGetUniformLocation(p, "projection"), 1, GL_FALSE, glm::value_ptr(proj));
-  glUniform3fv(glGetUniformLocation(p, "light_view"), 1, glm::value_ptr(light_view));
-  glUniform1f(glGetUniformLocation(p, "ambient"), light.ambient);
-  glUniform1f(glGetUniformLocation(p, "specular_strength"), light.specular);
+  use_lit_program(program_->id(), camera, aspect, light);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, buffer_);
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glDrawArraysInstanced(GL_TRIANGLE_STRIP, 0, 4, GLsizei(spheres.size()));
-  const GLenum err = glGetError();
-  if (err != GL_NO_ERROR)
-    throw Error("render: drawing " + std::to_string(spheres.size()) +
-                " spheres failed (GL error 0x" +
-                [&] {
-                  char b[16];
-                  std::snprintf(b, sizeof b, "%04x", err);
-                  return std::string(b);
-                }() +
-                ")");
+  check_gl("drawing " + std::to_string(spheres.size()) + " spheres");
 }
 
 } // namespace kf::render

@@ -3,6 +3,7 @@
 // depth and normal per pixel from a ray against it (no tessellation, millions a frame). The
 // preview look of particles (P6 stage 2), and the obstacles' spheres.
 #include "render/Camera.hpp"
+#include "render/Lighting.hpp"
 #include "render/ShaderProgram.hpp"
 
 #include <glm/glm.hpp>
@@ -15,14 +16,6 @@ namespace kf::render {
 struct Sphere {
   glm::vec4 centre_radius; // x, y, z, radius
   glm::vec4 colour;        // linear RGB, alpha (1: opaque)
-};
-
-/// One directional light: ambient + diffuse scale the sphere's colour (its albedo, which the
-/// wet knit's darkening scales), a white Blinn-Phong highlight adds the light's own colour.
-struct Lighting {
-  glm::vec3 toward_light{0.4f, -0.5f, 0.75f}; // world space, need not be unit
-  float ambient = 0.25f;
-  float specular = 0.25f; // 0: no highlights
 };
 
 class SphereRenderer {
