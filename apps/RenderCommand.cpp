@@ -104,6 +104,18 @@ render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
   return st;
 }
 
+/// A pass's error names the snapshot it was drawing ("FILE: render: ...").
+template <typename F>
+auto named(const fs::path& snapshot, F&& draw) {
+  try {
+    return draw();
+  } catch (const InputError&) {
+    throw;
+  } catch (const Error& e) {
+    throw Error(snapshot.string() + ": " + e.what());
+  }
+}
+
 /// Where the log is a terminal, one line redrawn over the frames: a bar, frames done, the time a
 /// frame and what is left; elsewhere (a job's log) a line a frame says the same.
 class FrameProgress {
@@ -202,7 +214,8 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
   render::SnapshotRenderer renderer(style, cuda_device);
   // The scene's camera, or one framing the first chosen frame; turned by `orbit` degrees a
   // simulated second about the target's vertical.
-  render::Camera base = renderer.frame_camera(first);
+  render::Camera base =
+      named(path_of(chosen.front()), [&] { return renderer.frame_camera(first); });
   if (look.camera) {
     // Near and far bracket the framed box's sphere (centre: the framing's target, radius: half
     // its far - distance) as seen from the scene's eye: a near plane too close spends the depth
@@ -242,9 +255,11 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
       const auto t0 = std::chrono::steady_clock::now();
       const io::Frame f =
           k == 0 ? first : io::read_snapshot(MPI_COMM_SELF, path_of(chosen[k]).string());
-      const auto regions = render::kd_split(renderer.drawn_points(f), mpi.size());
-      const io::RgbaImage part =
-          renderer.draw(f, camera_at(f.time), &regions[std::size_t(mpi.rank())]);
+      const auto regions = render::kd_split(
+          named(path_of(chosen[k]), [&] { return renderer.drawn_points(f); }), mpi.size());
+      const io::RgbaImage part = named(path_of(chosen[k]), [&] {
+        return renderer.draw(f, camera_at(f.time), &regions[std::size_t(mpi.rank())]);
+      });
       auto px = render::depth_pixels(part, renderer.depth());
       const auto t1 = std::chrono::steady_clock::now();
       const auto swap = comm::binary_swap(
@@ -279,7 +294,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
     const fs::path src = path_of(chosen[k]);
     const io::Frame f = k == 0 ? first : io::read_snapshot(MPI_COMM_SELF, src.string());
     const auto t1 = std::chrono::steady_clock::now();
-    const io::RgbaImage img = renderer.draw(f, camera_at(f.time));
+    const io::RgbaImage img = named(src, [&] { return renderer.draw(f, camera_at(f.time)); });
     const auto t2 = std::chrono::steady_clock::now();
     char name[32];
     std::snprintf(name, sizeof name, "frame_%06llu.png",

@@ -1,6 +1,7 @@
 // The knitflow command: broken scenes fail with their message and exit code 2 and write nothing;
 // plan prints the pipeline without running; run writes snapshots and an XDMF index.
 #include "io/PngImage.hpp"
+#include "io/SnapshotWriter.hpp"
 #include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
@@ -98,6 +99,23 @@ TEST(Cli, RunWritesSnapshotsAndIndex) {
 // render draws the chosen frames of a run as PNGs of the asked size, with something drawn on
 // them, and their film (or says why there is none); bad input (a malformed --frames, a directory
 // without snapshots) exits 2 with its reason and writes no picture.
+// A snapshot without a field a pass needs (here the fluid's positions) is refused in one line
+// that names the file and the field; no picture is written.
+TEST(Cli, RenderRefusesASnapshotWithoutPositions) {
+  const auto dir = test::scratch_dir("cli_render_fields");
+  io::Frame f;
+  f.precision = "float";
+  f.phases.push_back({"fluid", {io::Field::from("density", std::vector<float>{1000, 1000}, 1)}});
+  const std::string snapshot = io::SnapshotWriter(MPI_COMM_SELF, dir).write(f);
+  const Result r = run("render " + dir.string() + " --no-film");
+  EXPECT_NE(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("knitflow: error: " + snapshot +
+                          ": render: the snapshot's fluid phase has no 3-component position field"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(dir / "render" / "frame_000000.png"));
+}
+
 TEST(Cli, RenderDrawsTheChosenFrames) {
   const auto out = test::scratch_dir("cli_render") / "out";
   const Result r =

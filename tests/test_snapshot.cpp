@@ -360,3 +360,37 @@ TEST(Snapshot, InvalidFrameIsRejected) {
   reserved.scalars.emplace_back("time", 1.0);
   EXPECT_THROW(writer.write(reserved), kf::Error);
 }
+
+// A snapshot of another format (or none named) is refused in one line naming the file and both
+// versions, before any of its datasets is read as if it were this format.
+TEST(Snapshot, AnotherFormatIsRefusedByName) {
+  const auto dir = kf::test::scratch_dir("snapshot_version");
+  const std::string path = SnapshotWriter(MPI_COMM_WORLD, dir).write(sample_frame(1, 0));
+  EXPECT_NO_THROW(read_snapshot(MPI_COMM_WORLD, path));
+  const auto rewrite = [&](const char* version) {
+    const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    ASSERT_GE(H5Adelete(f, "knitflow_version"), 0);
+    if (version)
+      kf::io::h5::write_attribute(f, "knitflow_version", std::string(version), path);
+    H5Fclose(f);
+  };
+  const auto message = [&] {
+    try {
+      read_snapshot(MPI_COMM_WORLD, path);
+    } catch (const kf::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  rewrite("0.1.7"); // a patch level reads
+  EXPECT_NO_THROW(read_snapshot(MPI_COMM_WORLD, path));
+  rewrite("0.2.0");
+  std::string m = message();
+  EXPECT_EQ(m, path + ": a snapshot of format 0.2.0 (knitflow_version); this knitflow reads "
+                      "format 0.1.x");
+  rewrite(nullptr);
+  m = message();
+  EXPECT_EQ(m.rfind(path + ": not a knitflow snapshot of a known format", 0), 0u) << m;
+  EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+}

@@ -95,6 +95,20 @@ Plist collective_transfer(const std::string& path) {
   return dxpl;
 }
 
+void check_format_version(hid_t file, const std::string& path) {
+  const auto major_minor = [](const std::string& v) { return v.substr(0, v.rfind('.')); };
+  const std::string mine = major_minor(kFormatVersion);
+  if (H5Aexists(file, "knitflow_version") <= 0)
+    throw Error(path +
+                ": not a knitflow snapshot of a known format (no knitflow_version "
+                "attribute); this knitflow reads format " +
+                mine + ".x");
+  const std::string v = read_string(file, "knitflow_version", path);
+  if (major_minor(v) != mine)
+    throw Error(path + ": a snapshot of format " + v + " (knitflow_version); this knitflow reads " +
+                "format " + mine + ".x");
+}
+
 const std::vector<std::string>& reserved_attributes() {
   static const std::vector<std::string> names{"time",  "step",  "frame",           "precision",
                                               "scene", "units", "knitflow_version"};

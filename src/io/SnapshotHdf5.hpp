@@ -105,4 +105,11 @@ std::string read_string(hid_t obj, const std::string& name, const std::string& p
 /// Root attribute names the snapshot itself uses (Frame::scalars must not reuse them).
 const std::vector<std::string>& reserved_attributes();
 
+/// The snapshot format this build writes ("major.minor.patch"); a reader takes files of the same
+/// major.minor and refuses others by name (their layout may differ).
+inline constexpr const char* kFormatVersion = "0.1.0";
+/// Throws "PATH: a snapshot of format V (knitflow_version), this knitflow reads 0.1.x" unless
+/// the file's version has this build's major.minor (a missing version likewise).
+void check_format_version(hid_t file, const std::string& path);
+
 } // namespace kf::io::h5

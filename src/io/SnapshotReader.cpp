@@ -111,6 +111,7 @@ bool is_scalar_float(hid_t obj, const std::string& name, const std::string& path
 }
 
 void read_header(hid_t file, const std::string& path, Frame& f) {
+  h5::check_format_version(file, path);
   f.time = h5::read_double(file, "time", path);
   f.step = h5::read_uint64(file, "step", path);
   f.index = h5::read_uint64(file, "frame", path);

@@ -22,8 +22,6 @@ std::string snapshot_file_name(std::uint64_t index) {
 
 namespace {
 
-constexpr const char* kVersion = "0.1.0";
-
 /// Runs fn on rank 0 only and makes its failure every rank's failure, so that no rank goes on to
 /// wait forever in a later collective call.
 void on_rank0(MPI_Comm comm, const std::string& what, const std::function<void()>& fn) {
@@ -182,7 +180,7 @@ void write_header(hid_t file, const Frame& f, const std::string& path) {
   h5::write_attribute(file, "precision", f.precision, path);
   h5::write_attribute(file, "scene", f.scene_text, path);
   h5::write_attribute(file, "units", std::string("SI"), path);
-  h5::write_attribute(file, "knitflow_version", std::string(kVersion), path);
+  h5::write_attribute(file, "knitflow_version", std::string(h5::kFormatVersion), path);
   for (const auto& [name, value] : f.scalars)
     h5::write_attribute(file, name, value, path);
 }
