@@ -9,6 +9,7 @@
 # Usage: jobs/gpu/p9_gpus.sh KNITFLOW OUTDIR PART...   (tests are found on PATH: .devrt/bin)
 # STEPS (default 300) steps a scaling run; THREADS (default 4) OpenMP threads a rank for set-up;
 # PROFILE=1 times every stage (the logs' stage tables; it synchronises the device after each).
+# STRONG_TOTAL (default 8e6,32e6) the strong series' totals.
 # Every run's log is packed into OUTDIR/logs.tar.gz at the end.
 set -uo pipefail
 exe=$1 out=$2
@@ -71,7 +72,7 @@ for part in "$@"; do
     ;;
   strong)
     /usr/bin/python3 jobs/studies/scaling.py --exe "$exe" --device cuda --threads "$threads" \
-      --ranks "$ranks" --series strong --total 8e6,32e6 --steps "$steps" --out "$out/strong" "${prof[@]}" "${verlet[@]}"
+      --ranks "$ranks" --series strong --total "${STRONG_TOTAL:-8e6,32e6}" --steps "$steps" --out "$out/strong" "${prof[@]}" "${verlet[@]}"
     ;;
   *) echo "unknown part $part" ;;
   esac

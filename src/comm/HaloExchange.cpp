@@ -49,16 +49,17 @@ void HaloExchange::start(std::span<const Column> columns, std::size_t first_ghos
   const std::size_t row = row_bytes(columns);
   std::vector<SendBuffer> sends(peers_.size());
   std::vector<RecvBuffer> recvs(peers_.size());
+  std::vector<unsigned char*> outs(peers_.size());
   last_bytes_ = 0;
   for (std::size_t k = 0; k < peers_.size(); ++k) {
     const std::size_t out_bytes = send_[k].size() * row, in_bytes = recv_count_[k] * row;
-    unsigned char* out = rows_.message(2 * k, out_bytes);
-    rows_.gather(columns, send_[k], out);
+    outs[k] = rows_.message(2 * k, out_bytes);
     in_[k] = rows_.message(2 * k + 1, in_bytes);
-    sends[k] = {peers_[k], out, out_bytes};
+    sends[k] = {peers_[k], outs[k], out_bytes};
     recvs[k] = {peers_[k], in_[k], in_bytes};
     last_bytes_ += out_bytes;
   }
+  rows_.gather(columns, send_, outs); // every peer's message at once
   pending_.assign(columns.begin(), columns.end());
   pending_first_ = first_ghost;
   transport_.start(sends, recvs);
@@ -66,13 +67,11 @@ void HaloExchange::start(std::span<const Column> columns, std::size_t first_ghos
 
 void HaloExchange::finish() {
   transport_.finish();
-  for (std::size_t k = 0; k < peers_.size(); ++k) {
-    const std::size_t n = recv_count_[k];
-    if (recv_slot_.size() == 0)
-      rows_.put(pending_, pending_first_ + recv_offset_[k], n, in_[k]);
-    else
-      rows_.scatter(pending_, recv_slot_, recv_offset_[k], n, in_[k]);
-  }
+  const std::vector<const unsigned char*> ins(in_.begin(), in_.end());
+  if (recv_slot_.size() == 0)
+    rows_.put(pending_, pending_first_, recv_count_, ins);
+  else
+    rows_.scatter(pending_, recv_slot_, recv_count_, ins);
   pending_.clear();
 }
 
@@ -142,21 +141,23 @@ std::size_t migrate(Transport& transport, std::span<const int> peers, const Depa
   for (std::size_t c = 0; c < columns.size(); ++c) // the current data (the size does not change)
     cols[c] = {columns[c].resize(n), columns[c].elem_bytes};
   const std::size_t row = row_bytes(cols);
-  // The leavers, packed per peer.
+  // The leavers, packed per peer (all peers' messages at once).
   std::vector<std::uint64_t> counts(peers.size());
+  std::vector<RowList> lists(peers.size());
   std::vector<unsigned char*> out(peers.size()), in(peers.size());
   for (std::size_t k = 0; k < peers.size(); ++k) {
     counts[k] = out_rows[k].size();
     out[k] = rows.message(2 * k, out_rows[k].size() * row);
-    rows.gather(cols, out_rows[k], out[k]);
+    lists[k].set(std::move(out_rows[k]));
   }
+  rows.gather(cols, lists, out);
   const auto arriving = transport.exchange_sizes(peers, counts);
   std::vector<SendBuffer> sends(peers.size());
   std::vector<RecvBuffer> recvs(peers.size());
   std::size_t arrivals = 0;
   for (std::size_t k = 0; k < peers.size(); ++k) {
     in[k] = rows.message(2 * k + 1, arriving[k] * row);
-    sends[k] = {peers[k], out[k], out_rows[k].size() * row};
+    sends[k] = {peers[k], out[k], lists[k].size() * row};
     recvs[k] = {peers[k], in[k], arriving[k] * row};
     arrivals += arriving[k];
   }
@@ -168,11 +169,9 @@ std::size_t migrate(Transport& transport, std::span<const int> peers, const Depa
   const std::size_t kept = n - leaving.index.size(), total = kept + arrivals;
   for (std::size_t c = 0; c < columns.size(); ++c)
     cols[c].data = columns[c].resize(total);
-  std::size_t at = kept;
-  for (std::size_t k = 0; k < peers.size(); ++k) {
-    rows.put(cols, at, arriving[k], in[k]);
-    at += arriving[k];
-  }
+  const std::vector<std::size_t> arrived(arriving.begin(), arriving.end());
+  const std::vector<const unsigned char*> ins(in.begin(), in.end());
+  rows.put(cols, kept, arrived, ins);
   return total;
 }
 

@@ -5,8 +5,9 @@
 
 namespace kf::comm {
 
-void RowCopier::do_gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                          unsigned char* out) {
+namespace {
+void gather_one(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                unsigned char* out) {
   for (const Column& c : cols) {
     const auto* src = static_cast<const unsigned char*>(c.data);
     for (std::uint32_t i : rows) {
@@ -15,26 +16,50 @@ void RowCopier::do_gather(std::span<const Column> cols, std::span<const std::uin
     }
   }
 }
+} // namespace
 
-void RowCopier::do_scatter_list(std::span<const Column> cols, const RowList& list,
-                                std::size_t first, std::size_t n, const unsigned char* in) {
-  const std::span<const std::uint32_t> rows(list.rows.data() + first, n);
-  for (const Column& c : cols) {
-    auto* dst = static_cast<unsigned char*>(c.data);
-    for (std::uint32_t i : rows) {
-      std::memcpy(dst + std::size_t(i) * c.elem_bytes, in, c.elem_bytes);
-      in += c.elem_bytes;
+void RowCopier::do_gather(std::span<const Column> cols, std::span<const RowList> lists,
+                          std::span<unsigned char* const> outs) {
+  for (std::size_t k = 0; k < lists.size(); ++k)
+    gather_one(cols, lists[k].rows, outs[k]);
+}
+
+void RowCopier::do_gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
+                                  unsigned char* out) {
+  gather_one(cols, rows, out);
+}
+
+void RowCopier::do_scatter(std::span<const Column> cols, const RowList& slots,
+                           std::span<const std::size_t> counts,
+                           std::span<const unsigned char* const> ins) {
+  std::size_t first = 0;
+  for (std::size_t k = 0; k < counts.size(); ++k) {
+    const std::span<const std::uint32_t> rows(slots.rows.data() + first, counts[k]);
+    const unsigned char* in = ins[k];
+    for (const Column& c : cols) {
+      auto* dst = static_cast<unsigned char*>(c.data);
+      for (std::uint32_t i : rows) {
+        std::memcpy(dst + std::size_t(i) * c.elem_bytes, in, c.elem_bytes);
+        in += c.elem_bytes;
+      }
     }
+    first += counts[k];
   }
 }
 
-void RowCopier::do_put(std::span<const Column> cols, std::size_t first, std::size_t n,
-                       const unsigned char* in) {
-  if (n == 0)
-    return;
-  for (const Column& c : cols) {
-    std::memcpy(static_cast<unsigned char*>(c.data) + first * c.elem_bytes, in, n * c.elem_bytes);
-    in += n * c.elem_bytes;
+void RowCopier::do_put(std::span<const Column> cols, std::size_t first,
+                       std::span<const std::size_t> counts,
+                       std::span<const unsigned char* const> ins) {
+  for (std::size_t k = 0; k < counts.size(); ++k) {
+    const std::size_t n = counts[k];
+    const unsigned char* in = ins[k];
+    for (const Column& c : cols) {
+      if (n)
+        std::memcpy(static_cast<unsigned char*>(c.data) + first * c.elem_bytes, in,
+                    n * c.elem_bytes);
+      in += n * c.elem_bytes;
+    }
+    first += n;
   }
 }
 
@@ -75,29 +100,27 @@ struct AddTime {
 };
 } // namespace
 
-void RowCopier::gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                       unsigned char* out) {
+void RowCopier::gather(std::span<const Column> cols, std::span<const RowList> lists,
+                       std::span<unsigned char* const> outs) {
   const AddTime t{seconds_};
-  do_gather(cols, rows, out);
+  do_gather(cols, lists, outs);
 }
-void RowCopier::gather(std::span<const Column> cols, const RowList& list, unsigned char* out) {
+void RowCopier::put(std::span<const Column> cols, std::size_t first,
+                    std::span<const std::size_t> counts,
+                    std::span<const unsigned char* const> ins) {
   const AddTime t{seconds_};
-  do_gather_list(cols, list, out);
+  do_put(cols, first, counts, ins);
 }
-void RowCopier::scatter(std::span<const Column> cols, const RowList& list, std::size_t first,
-                        std::size_t n, const unsigned char* in) {
+void RowCopier::scatter(std::span<const Column> cols, const RowList& slots,
+                        std::span<const std::size_t> counts,
+                        std::span<const unsigned char* const> ins) {
   const AddTime t{seconds_};
-  do_scatter_list(cols, list, first, n, in);
+  do_scatter(cols, slots, counts, ins);
 }
 void RowCopier::gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                                unsigned char* out) {
   const AddTime t{seconds_};
   do_gather_to_host(cols, rows, out);
-}
-void RowCopier::put(std::span<const Column> cols, std::size_t first, std::size_t n,
-                    const unsigned char* in) {
-  const AddTime t{seconds_};
-  do_put(cols, first, n, in);
 }
 void RowCopier::remove(std::span<const Column> cols, std::size_t n,
                        std::span<const std::uint32_t> gone) {

@@ -39,20 +39,21 @@ struct RowList {
 class RowCopier {
 public:
   virtual ~RowCopier() = default;
-  /// out <- the rows `rows` of each column in turn.
-  void gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-              unsigned char* out);
-  /// gather over a kept list; scatter: its rows first .. first + n - 1 of each column <- in,
-  /// packed as gather packs.
-  void gather(std::span<const Column> cols, const RowList& list, unsigned char* out);
-  void scatter(std::span<const Column> cols, const RowList& list, std::size_t first, std::size_t n,
-               const unsigned char* in);
-  /// The same into host memory, whatever memory the messages live in (lists of indices that the
-  /// host keeps).
+  /// The messages of an exchange (one a peer) at once: outs[k] <- the rows lists[k] of each
+  /// column in turn. The host packs one after another; a device backend in one launch.
+  void gather(std::span<const Column> cols, std::span<const RowList> lists,
+              std::span<unsigned char* const> outs);
+  /// ins[k], packed as gather packs, -> counts[k] consecutive rows of each column, message after
+  /// message from row `first` (ghosts in their slots, arrivals after the staying particles).
+  void put(std::span<const Column> cols, std::size_t first, std::span<const std::size_t> counts,
+           std::span<const unsigned char* const> ins);
+  /// The same into the rows slots[o_k ..] where o_k is the sum of the counts before k.
+  void scatter(std::span<const Column> cols, const RowList& slots,
+               std::span<const std::size_t> counts, std::span<const unsigned char* const> ins);
+  /// One message of the rows `rows`, packed as gather packs, into host memory whatever memory
+  /// the messages live in (lists of indices that the host keeps).
   void gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                       unsigned char* out);
-  /// Rows first .. first + n - 1 of each column <- in, packed as gather packs.
-  void put(std::span<const Column> cols, std::size_t first, std::size_t n, const unsigned char* in);
   /// Of rows 0 .. n - 1 of each column, the rows `gone` (ascending) are removed and the others
   /// close up to rows 0, 1, ... in order: only the leavers' indices are passed, so a device
   /// backend finds the rows that stay where they are.
@@ -66,23 +67,19 @@ public:
 
 protected:
   // The host's memcpy.
-  virtual void do_gather(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                         unsigned char* out);
-  virtual void do_put(std::span<const Column> cols, std::size_t first, std::size_t n,
-                      const unsigned char* in);
+  virtual void do_gather(std::span<const Column> cols, std::span<const RowList> lists,
+                         std::span<unsigned char* const> outs);
+  virtual void do_put(std::span<const Column> cols, std::size_t first,
+                      std::span<const std::size_t> counts,
+                      std::span<const unsigned char* const> ins);
+  virtual void do_scatter(std::span<const Column> cols, const RowList& slots,
+                          std::span<const std::size_t> counts,
+                          std::span<const unsigned char* const> ins);
   virtual void do_remove(std::span<const Column> cols, std::size_t n,
                          std::span<const std::uint32_t> gone);
   virtual unsigned char* do_message(std::size_t slot, std::size_t bytes);
-  virtual void do_gather_list(std::span<const Column> cols, const RowList& list,
-                              unsigned char* out) {
-    do_gather(cols, list.rows, out);
-  }
-  virtual void do_scatter_list(std::span<const Column> cols, const RowList& list, std::size_t first,
-                               std::size_t n, const unsigned char* in);
   virtual void do_gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                                 unsigned char* out) {
-    do_gather(cols, rows, out);
-  }
+                                 unsigned char* out);
 
 private:
   double seconds_ = 0;

@@ -19,23 +19,33 @@ const std::vector<exec::RowColumn>& DeviceRows::columns(std::span<const comm::Co
   return columns_;
 }
 
-void DeviceRows::pack(std::span<const comm::Column> cols, const std::uint32_t* rows, std::size_t n,
-                      unsigned char* dst) {
-  // One launch for every column of a message: a refresh's launches were its latency (P5 stage 8).
-  const auto& c = columns(cols);
-  exec::gather_columns({backend_}, dst, c.data(), c.size(), rows, n, "ranks.pack");
-}
-
-void DeviceRows::unpack(std::span<const comm::Column> cols, const std::uint32_t* rows,
-                        std::size_t n, const unsigned char* in) {
-  const std::size_t bytes = n * comm::row_bytes(cols);
-  const unsigned char* src = in;
-  if (!device_messages_) {
-    packed_.assign(in, bytes);
-    src = packed_.data();
+void DeviceRows::unpack(std::span<const comm::Column> cols, std::span<const std::size_t> counts,
+                        std::span<const unsigned char* const> ins, const std::uint32_t* rows,
+                        std::size_t first) {
+  const std::size_t row = comm::row_bytes(cols);
+  std::size_t total = 0;
+  for (std::size_t n : counts)
+    total += n;
+  if (total == 0 || row == 0)
+    return;
+  if (!device_messages_)
+    packed_.resize(total * row); // the host's messages go up into one run
+  batch_.clear();
+  std::size_t at = 0;
+  for (std::size_t k = 0; k < counts.size(); ++k) {
+    const std::size_t bytes = counts[k] * row;
+    const unsigned char* src = ins[k];
+    if (!device_messages_ && bytes) {
+      exec::copy_bytes(packed_.data() + at * row, backend_, ins[k], exec::Backend::Cpu, bytes);
+      src = packed_.data() + at * row;
+    }
+    batch_.push_back({const_cast<unsigned char*>(src), rows ? rows + at : nullptr,
+                      rows ? 0 : first + at, counts[k]});
+    at += counts[k];
   }
   const auto& c = columns(cols);
-  exec::scatter_columns({backend_}, c.data(), c.size(), rows, src, n, "ranks.unpack");
+  exec::scatter_messages({backend_}, c.data(), c.size(), batch_.data(), batch_.size(),
+                         "ranks.unpack");
 }
 
 const std::uint32_t* DeviceRows::device_list(const comm::RowList& list) {
@@ -47,31 +57,33 @@ const std::uint32_t* DeviceRows::device_list(const comm::RowList& list) {
   return static_cast<const exec::DeviceBuffer<std::uint32_t>*>(list.cache.get())->data();
 }
 
-void DeviceRows::do_gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                           unsigned char* out) {
-  if (!device_messages_) {
-    do_gather_to_host(cols, rows, out);
+void DeviceRows::do_gather(std::span<const comm::Column> cols, std::span<const comm::RowList> lists,
+                           std::span<unsigned char* const> outs) {
+  const std::size_t row = comm::row_bytes(cols);
+  std::size_t total = 0;
+  for (const comm::RowList& l : lists)
+    total += l.size();
+  if (total == 0 || row == 0)
     return;
+  // One launch for every peer's message (P9: a refresh's launches were its latency); host
+  // messages are packed into one device run, then copied down a message at a time.
+  if (!device_messages_)
+    packed_.resize(total * row);
+  batch_.clear();
+  std::size_t at = 0;
+  for (std::size_t k = 0; k < lists.size(); ++k) {
+    const std::size_t n = lists[k].size();
+    unsigned char* dst = device_messages_ ? outs[k] : packed_.data() + at * row;
+    batch_.push_back({dst, n ? device_list(lists[k]) : nullptr, 0, n});
+    at += n;
   }
-  if (rows.empty())
-    return;
-  rows_.assign(rows.data(), rows.size());
-  pack(cols, rows_.data(), rows.size(), out);
-}
-
-void DeviceRows::do_gather_list(std::span<const comm::Column> cols, const comm::RowList& list,
-                                unsigned char* out) {
-  const std::size_t n = list.size(), bytes = n * comm::row_bytes(cols);
-  if (bytes == 0)
-    return;
-  const std::uint32_t* rows = device_list(list);
-  if (device_messages_) {
-    pack(cols, rows, n, out);
-    return;
-  }
-  packed_.resize(bytes);
-  pack(cols, rows, n, packed_.data());
-  exec::copy_bytes(out, exec::Backend::Cpu, packed_.data(), backend_, bytes);
+  const auto& c = columns(cols);
+  exec::gather_messages({backend_}, c.data(), c.size(), batch_.data(), batch_.size(), "ranks.pack");
+  if (!device_messages_)
+    for (std::size_t k = 0; k < lists.size(); ++k)
+      if (batch_[k].n)
+        exec::copy_bytes(outs[k], exec::Backend::Cpu, batch_[k].packed, backend_,
+                         batch_[k].n * row);
 }
 
 void DeviceRows::do_gather_to_host(std::span<const comm::Column> cols,
@@ -81,25 +93,24 @@ void DeviceRows::do_gather_to_host(std::span<const comm::Column> cols,
     return;
   rows_.assign(rows.data(), rows.size());
   packed_.resize(bytes);
-  pack(cols, rows_.data(), rows.size(), packed_.data());
+  const auto& c = columns(cols);
+  exec::gather_columns({backend_}, packed_.data(), c.data(), c.size(), rows_.data(), rows.size(),
+                       "ranks.pack");
   exec::copy_bytes(out, exec::Backend::Cpu, packed_.data(), backend_, bytes);
 }
 
-void DeviceRows::do_scatter_list(std::span<const comm::Column> cols, const comm::RowList& list,
-                                 std::size_t first, std::size_t n, const unsigned char* in) {
-  if (n == 0 || comm::row_bytes(cols) == 0)
+void DeviceRows::do_scatter(std::span<const comm::Column> cols, const comm::RowList& slots,
+                            std::span<const std::size_t> counts,
+                            std::span<const unsigned char* const> ins) {
+  if (slots.size() == 0)
     return;
-  unpack(cols, device_list(list) + first, n, in);
+  unpack(cols, counts, ins, device_list(slots), 0);
 }
 
-void DeviceRows::do_put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
-                        const unsigned char* in) {
-  for (const comm::Column& c : cols) {
-    if (n)
-      exec::copy_bytes(static_cast<unsigned char*>(c.data) + first * c.elem_bytes, backend_, in,
-                       device_messages_ ? backend_ : exec::Backend::Cpu, n * c.elem_bytes);
-    in += n * c.elem_bytes;
-  }
+void DeviceRows::do_put(std::span<const comm::Column> cols, std::size_t first,
+                        std::span<const std::size_t> counts,
+                        std::span<const unsigned char* const> ins) {
+  unpack(cols, counts, ins, nullptr, first);
 }
 
 void DeviceRows::do_remove(std::span<const comm::Column> cols, std::size_t n,

@@ -19,32 +19,32 @@ public:
   explicit DeviceRows(exec::Backend backend, bool device_messages = false);
 
 protected:
-  void do_gather(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                 unsigned char* out) override;
-  void do_put(std::span<const comm::Column> cols, std::size_t first, std::size_t n,
-              const unsigned char* in) override;
+  void do_gather(std::span<const comm::Column> cols, std::span<const comm::RowList> lists,
+                 std::span<unsigned char* const> outs) override;
+  void do_put(std::span<const comm::Column> cols, std::size_t first,
+              std::span<const std::size_t> counts,
+              std::span<const unsigned char* const> ins) override;
+  void do_scatter(std::span<const comm::Column> cols, const comm::RowList& slots,
+                  std::span<const std::size_t> counts,
+                  std::span<const unsigned char* const> ins) override;
   void do_remove(std::span<const comm::Column> cols, std::size_t n,
                  std::span<const std::uint32_t> gone) override;
   unsigned char* do_message(std::size_t slot, std::size_t bytes) override;
   void do_gather_to_host(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
                          unsigned char* out) override;
-  void do_gather_list(std::span<const comm::Column> cols, const comm::RowList& list,
-                      unsigned char* out) override;
-  void do_scatter_list(std::span<const comm::Column> cols, const comm::RowList& list,
-                       std::size_t first, std::size_t n, const unsigned char* in) override;
 
 private:
   exec::Backend backend_;
   bool device_messages_ = false;
-  /// Packs the n rows listed at `rows` (device memory) into dst (device memory).
   /// The columns as the kernels take them (a scratch list).
   const std::vector<exec::RowColumn>& columns(std::span<const comm::Column> cols);
   std::vector<exec::RowColumn> columns_;
-  void pack(std::span<const comm::Column> cols, const std::uint32_t* rows, std::size_t n,
-            unsigned char* dst);
-  /// The n rows listed at `rows` (device memory) <- in (host or device memory, as messages are).
-  void unpack(std::span<const comm::Column> cols, const std::uint32_t* rows, std::size_t n,
-              const unsigned char* in);
+  std::vector<exec::RowMessage> batch_;
+  /// Writes the batch's messages (rows null: consecutive from first) into the rows, one launch:
+  /// ins are host or device memory, as the messages are.
+  void unpack(std::span<const comm::Column> cols, std::span<const std::size_t> counts,
+              std::span<const unsigned char* const> ins, const std::uint32_t* rows,
+              std::size_t first);
   /// A kept list's rows in device memory, uploaded at its first use.
   const std::uint32_t* device_list(const comm::RowList& list);
   std::vector<exec::DeviceBuffer<unsigned char>> device_messages_slots_;

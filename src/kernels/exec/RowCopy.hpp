@@ -32,6 +32,24 @@ void gather_columns(const Exec& ex, void* dst, const RowColumn* cols, std::size_
 void scatter_columns(const Exec& ex, const RowColumn* cols, std::size_t n_cols,
                      const std::uint32_t* rows, const void* src, std::size_t n, const char* label);
 
+/// One message of a batch: n rows packed at `packed` as gather_columns packs them; the rows are
+/// rows[k], or first + k where rows is null (ghosts received into consecutive slots).
+struct RowMessage {
+  void* packed = nullptr;
+  const std::uint32_t* rows = nullptr;
+  std::size_t first = 0;
+  std::size_t n = 0;
+};
+/// The messages of a halo refresh (one a peer) in one launch: a refresh's latency was its
+/// launches, a pack and a copy a column for every peer (P9). Up to kBatchedMessages messages of
+/// word columns in one launch; more, or other columns, a launch a message (and a column).
+inline constexpr int kBatchedMessages = 32;
+void gather_messages(const Exec& ex, const RowColumn* cols, std::size_t n_cols,
+                     const RowMessage* messages, std::size_t n_messages, const char* label);
+/// The inverse: each message's values written to its rows (distinct over all messages).
+void scatter_messages(const Exec& ex, const RowColumn* cols, std::size_t n_cols,
+                      const RowMessage* messages, std::size_t n_messages, const char* label);
+
 /// flags[rows[k]] = value for k < count (rows may repeat).
 void set_listed(const Exec& ex, std::uint32_t* flags, const std::uint32_t* rows, std::size_t count,
                 std::uint32_t value, const char* label);
