@@ -51,14 +51,31 @@ std::vector<std::pair<std::uint64_t, fs::path>> snapshots(const std::string& dir
 /// names mesh files relative to where the scene file was, which the snapshot does not record:
 /// where they cannot be found, the scene is not used (a warning; obstacles and [render] left out).
 std::optional<Scene> run_scene(const io::Frame& f, const std::string& snapshot,
-                               const std::string& scene_file, bool warn, std::ostream& log) {
+                               const std::string& scene_file,
+                               const std::vector<std::string>& overrides, bool warn,
+                               std::ostream& log) {
   if (!scene_file.empty())
-    return load_scene(scene_file);
-  if (f.scene_text.empty())
+    return load_scene(scene_file, overrides);
+  if (f.scene_text.empty()) {
+    if (!overrides.empty())
+      throw InputError(snapshot + ": --set " + overrides.front() +
+                       ": the snapshot holds no scene to set it in (pass the run's scene with "
+                       "--scene)");
     return std::nullopt;
+  }
   try {
-    return parse_scene(f.scene_text, snapshot + " (its scene)");
+    return parse_scene(f.scene_text, snapshot + " (its scene)", overrides);
   } catch (const SceneError& e) {
+    if (!overrides.empty()) { // the scene reads without them: a --set is at fault, not the scene
+      bool plain = true;
+      try {
+        (void)parse_scene(f.scene_text, snapshot + " (its scene)");
+      } catch (const SceneError&) {
+        plain = false;
+      }
+      if (plain)
+        throw;
+    }
     if (warn)
       log << "render: warning: the snapshot's scene not used (no obstacles, no [render]): "
           << e.what() << " (pass the run's scene file with --scene)\n";
@@ -94,6 +111,8 @@ render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
   st.surface_field = r.surface == Scene::Render::SurfaceField::Naive
                          ? render::SurfaceField::Naive
                          : render::SurfaceField::Weighted;
+  st.knit_yarns = a.knit.empty() ? r.knit == Scene::Render::Knit::Yarns : a.knit == "yarns";
+  st.yarn_radius = r.yarn_radius;
   st.wet_darkening = r.wet_darkening;
   st.fluid = glm::vec4(vec(r.fluid_colour), 1.0f);
   st.knit = glm::vec4(vec(r.knit_colour), 1.0f);
@@ -201,14 +220,14 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         ->second;
   };
   const fs::path out = a.out.empty() ? fs::path(a.run_dir) / "render" : fs::path(a.out);
-  fs::create_directories(out);
   // One camera for the film: every rank frames the first chosen snapshot the same way.
   const io::Frame first = io::read_snapshot(MPI_COMM_SELF, path_of(chosen.front()).string());
-  const std::optional<Scene> scene =
-      run_scene(first, path_of(chosen.front()).string(), a.scene, mpi.root() && !a.quiet, log);
+  const std::optional<Scene> scene = run_scene(first, path_of(chosen.front()).string(), a.scene,
+                                               a.overrides, mpi.root() && !a.quiet, log);
   const Scene::Render look = scene ? scene->render : Scene::Render{};
   render::SnapshotStyle style = style_of(look, a);
   style.obstacles = obstacle_spheres(scene);
+  fs::create_directories(out); // after every check of the input: a refused call writes nothing
   // On a GPU the EGL device of this rank's CUDA device (as `run` chooses it); else llvmpipe.
   const int cuda_device = exec::cuda_available() ? exec::cuda_select_device(mpi.local_rank()) : -1;
   render::SnapshotRenderer renderer(style, cuda_device);
@@ -310,9 +329,10 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
       log << "render: " << (out / name).string() << " (t = " << f.time
           << " s): " << renderer.last_spheres() << " spheres, " << renderer.last_triangles()
           << " triangles, " << sec(t3 - t0).count() << " s (read " << sec(t1 - t0).count()
-          << ", surface " << renderer.last_surface_seconds() << ", draw and read back "
-          << sec(t2 - t1).count() - renderer.last_surface_seconds() << ", PNG "
-          << sec(t3 - t2).count() << ")\n";
+          << ", surface " << renderer.last_surface_seconds() << ", yarns "
+          << renderer.last_yarn_seconds() << ", draw and read back "
+          << sec(t2 - t1).count() - renderer.last_surface_seconds() - renderer.last_yarn_seconds()
+          << ", PNG " << sec(t3 - t2).count() << ")\n";
   }
   int total = written;
   MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPI_INT, MPI_SUM, mpi.comm());

@@ -24,6 +24,9 @@ struct RenderArgs {
   // of a k-d split, composited by depth), "auto" (space when there are fewer frames than ranks).
   std::string split = "auto";
   std::string fluid; // "surface" or "spheres" (the particles); empty: the scene's [render] choice
+  std::string knit;  // "yarns" or "points"; empty: the scene's [render] choice
+  // Keys of the scene over its file's or the snapshot's copy ("render.eye=[0.1, -0.2, 0.6]").
+  std::vector<std::string> overrides;
 };
 
 /// Renders and writes the pictures, then (rank 0) the film of them when there are two or more;

@@ -206,6 +206,9 @@ int main(int argc, char** argv) {
     render->add_option(
         "--scene", ra.scene,
         "obstacles and [render] from this scene file (default: the snapshot's copy)");
+    render->add_option("--set", ra.overrides,
+                       "override a scene key: --set render.eye=[0.1,-0.2,0.6] (with "
+                       "render.target: a close-up)");
     render->add_flag("--boundary", ra.boundary, "draw the walls' particles too");
     render->add_flag("!--no-film", ra.film, "no MP4 (made with ffmpeg where it is installed)");
     render->add_option("--fps", ra.fps, "the film's frames a second")->check(CLI::Range(1, 240));
@@ -219,6 +222,10 @@ int main(int argc, char** argv) {
         ->add_option("--fluid", ra.fluid,
                      "surface (marching cubes over the particles) or spheres (the particles)")
         ->check(CLI::IsMember({"surface", "spheres"}));
+    render
+        ->add_option("--knit", ra.knit,
+                     "yarns (tubes along the snapshot's yarns) or points (the knit's spheres)")
+        ->check(CLI::IsMember({"yarns", "points"}));
     try {
       app.parse(argc, argv);
       if (render->parsed())

@@ -153,6 +153,21 @@ TEST(Cli, RenderDrawsTheChosenFrames) {
   EXPECT_EQ(bad.code, 2) << bad.output;
   EXPECT_NE(bad.output.find("--frames '1:x': expected A:B:S"), std::string::npos) << bad.output;
   EXPECT_FALSE(fs::exists(out / "bad"));
+  // --set over the snapshot's scene: the [render] table's size; a key it lacks is refused with
+  // the scene's message, nothing written.
+  const Result set = run("render " + out.string() +
+                         " --no-film --frames 2:2:1 --set render.width=48 --set render.height=40 "
+                         "--out " +
+                         (out / "set").string());
+  ASSERT_EQ(set.code, 0) << set.output;
+  EXPECT_EQ(io::read_png((out / "set/frame_000002.png").string()).width, 48);
+  const Result badset =
+      run("render " + out.string() + " --set render.widht=48 --out " + (out / "badset").string());
+  EXPECT_EQ(badset.code, 2) << badset.output;
+  EXPECT_NE(badset.output.find("unknown key 'render.widht' (did you mean 'width'?)"),
+            std::string::npos)
+      << badset.output;
+  EXPECT_FALSE(fs::exists(out / "badset"));
   const Result none = run("render " + (out / "render").string());
   EXPECT_EQ(none.code, 2) << none.output;
   EXPECT_NE(none.output.find("no snapshots (frame_NNNNNN.h5) to render"), std::string::npos)

@@ -376,6 +376,7 @@ const BadOverride kBadOverrides[] = {
   {"render.fluid=\"blobs\"", "key 'render.fluid': expected one of \"surface\", \"spheres\", got \"blobs\""},
   {"render.widht=100", "unknown key 'render.widht' (did you mean 'width'?)"},
   {"render.width=8", "key 'render.width': expected an integer >= 16, got 8"},
+  {"render.knit=\"tubes\"", "key 'render.knit': expected one of \"yarns\", \"points\", got \"tubes\""},
 };
 // clang-format on
 
@@ -447,7 +448,8 @@ TEST(Scene, DensityModelOptions) {
 TEST(Scene, RenderTableReadsItsKeys) {
   const Scene s = load_scene((test::source_dir() / "scenes" / "pour.toml").string(),
                              {"render.width=640", "render.orbit=30", "render.fluid=\"spheres\"",
-                              "render.surface=\"naive\"", "render.knit_colour=[0.1, 0.2, 0.3]"});
+                              "render.surface=\"naive\"", "render.knit_colour=[0.1, 0.2, 0.3]",
+                              "render.knit=\"points\"", "render.yarn_radius=0.001"});
   EXPECT_EQ(s.render.width, 640);
   EXPECT_EQ(s.render.height, 1080); // scenes/pour.toml's own
   EXPECT_TRUE(s.render.camera);
@@ -455,6 +457,8 @@ TEST(Scene, RenderTableReadsItsKeys) {
   EXPECT_EQ(s.render.fluid, Scene::Render::Fluid::Spheres);
   EXPECT_EQ(s.render.surface, Scene::Render::SurfaceField::Naive);
   EXPECT_DOUBLE_EQ(s.render.knit_colour.y, 0.2);
+  EXPECT_EQ(s.render.knit, Scene::Render::Knit::Points);
+  EXPECT_DOUBLE_EQ(s.render.yarn_radius, 0.001);
   const Scene plain = load_scene((test::source_dir() / "scenes" / "dambreak.toml").string());
   EXPECT_FALSE(plain.render.camera);
   EXPECT_EQ(plain.render.width, 1280);

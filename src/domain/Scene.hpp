@@ -234,7 +234,9 @@ struct Scene {
     double wet_darkening = 0.15; // alpha in C' = C (1 - alpha sqrt(s))
     enum class Fluid { Surface, Spheres } fluid = Fluid::Surface;
     enum class SurfaceField { Weighted, Naive } surface = SurfaceField::Weighted;
-    bool boundary = false; // the walls' particles
+    bool boundary = false;                                // the walls' particles
+    enum class Knit { Yarns, Points } knit = Knit::Yarns; // tubes along the yarns, or spheres
+    double yarn_radius = 0; // [m]; 0: a fifth of the spacing of the knit's points in a layer
   } render;
 
   bool has(Module m) const {

@@ -543,6 +543,9 @@ void read_parallel(const TableReader& t, Scene::Parallel& p) {
 constexpr std::array kRenderFluids{
     Choice<Scene::Render::Fluid>{"surface", Scene::Render::Fluid::Surface},
     Choice<Scene::Render::Fluid>{"spheres", Scene::Render::Fluid::Spheres}};
+constexpr std::array kRenderKnits{
+    Choice<Scene::Render::Knit>{"yarns", Scene::Render::Knit::Yarns},
+    Choice<Scene::Render::Knit>{"points", Scene::Render::Knit::Points}};
 constexpr std::array kSurfaceFields{
     Choice<Scene::Render::SurfaceField>{"weighted", Scene::Render::SurfaceField::Weighted},
     Choice<Scene::Render::SurfaceField>{"naive", Scene::Render::SurfaceField::Naive}};
@@ -559,7 +562,7 @@ void read_colour(const TableReader& t, std::string_view key, Vec3d& c) {
 void read_render(const TableReader& t, Scene::Render& r) {
   t.allow_only({"width", "height", "eye", "target", "fov", "orbit", "light", "ambient",
                 "highlights", "background", "fluid_colour", "knit_colour", "wet_darkening", "fluid",
-                "surface", "boundary"});
+                "surface", "boundary", "knit", "yarn_radius"});
   r.width = read_count(t, "width", r.width, 16, 16384);
   r.height = read_count(t, "height", r.height, 16, 16384);
   const bool eye = t.read("eye", r.eye), target = t.read("target", r.target);
@@ -582,6 +585,8 @@ void read_render(const TableReader& t, Scene::Render& r) {
   t.read("fluid", r.fluid, kRenderFluids);
   t.read("surface", r.surface, kSurfaceFields);
   t.read("boundary", r.boundary);
+  t.read("knit", r.knit, kRenderKnits);
+  t.read("yarn_radius", r.yarn_radius, Range::at_least(0));
 }
 
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {

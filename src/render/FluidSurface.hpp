@@ -23,6 +23,7 @@ namespace kf::render {
 struct SurfaceMesh {
   std::vector<glm::vec3> position, normal; // a vertex each (normals unit, out of the fluid)
   std::vector<std::uint32_t> index;        // three a triangle, counter-clockwise seen from outside
+  std::vector<float> shade; // a vertex, scaling the colour (a wet yarn's darkening); empty: 1
   std::size_t triangles() const { return index.size() / 3; }
   double area() const;
 };

@@ -6,6 +6,7 @@
 #include <epoxy/gl.h>
 #include <glm/gtc/type_ptr.hpp>
 
+#include <cstddef>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -45,23 +46,32 @@ void MeshRenderer::draw(const SurfaceMesh& mesh, const glm::vec4& colour, const 
                         double aspect, const Lighting& light) {
   if (mesh.index.empty())
     return;
-  // Interleaved position, normal.
-  std::vector<glm::vec3> interleaved(2 * mesh.position.size());
-  for (std::size_t v = 0; v < mesh.position.size(); ++v) {
-    interleaved[2 * v] = mesh.position[v];
-    interleaved[2 * v + 1] = mesh.normal[v];
-  }
-  const std::size_t vbytes = interleaved.size() * sizeof(glm::vec3);
+  // Interleaved position, normal, shade.
+  struct Vertex {
+    glm::vec3 position, normal;
+    float shade;
+  };
+  const bool shaded = !mesh.shade.empty();
+  if (shaded && mesh.shade.size() != mesh.position.size())
+    throw Error("render: a mesh of " + std::to_string(mesh.position.size()) + " vertices with " +
+                std::to_string(mesh.shade.size()) + " shades");
+  std::vector<Vertex> interleaved(mesh.position.size());
+  for (std::size_t v = 0; v < mesh.position.size(); ++v)
+    interleaved[v] = {mesh.position[v], mesh.normal[v], shaded ? mesh.shade[v] : 1.0f};
+  const std::size_t vbytes = interleaved.size() * sizeof(Vertex);
   const std::size_t ibytes = mesh.index.size() * sizeof(std::uint32_t);
   vertices_ = fit(vertices_, vertex_capacity_, vbytes);
   indices_ = fit(indices_, index_capacity_, ibytes);
   glNamedBufferSubData(vertices_, 0, GLsizeiptr(vbytes), interleaved.data());
   glNamedBufferSubData(indices_, 0, GLsizeiptr(ibytes), mesh.index.data());
-  glVertexArrayVertexBuffer(vao_, 0, vertices_, 0, GLsizei(2 * sizeof(glm::vec3)));
+  glVertexArrayVertexBuffer(vao_, 0, vertices_, 0, GLsizei(sizeof(Vertex)));
   glVertexArrayElementBuffer(vao_, indices_);
-  for (GLuint a = 0; a < 2; ++a) {
+  const GLint components[] = {3, 3, 1};
+  const GLuint offsets[] = {GLuint(offsetof(Vertex, position)), GLuint(offsetof(Vertex, normal)),
+                            GLuint(offsetof(Vertex, shade))};
+  for (GLuint a = 0; a < 3; ++a) {
     glEnableVertexArrayAttrib(vao_, a);
-    glVertexArrayAttribFormat(vao_, a, 3, GL_FLOAT, GL_FALSE, GLuint(a * sizeof(glm::vec3)));
+    glVertexArrayAttribFormat(vao_, a, components[a], GL_FLOAT, GL_FALSE, offsets[a]);
     glVertexArrayAttribBinding(vao_, a, 0);
   }
   use_lit_program(program_->id(), camera, aspect, light);

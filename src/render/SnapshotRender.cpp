@@ -5,6 +5,7 @@
 #include <epoxy/gl.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -83,6 +84,36 @@ std::vector<double> scalar_field(const io::Frame& frame, const std::string& phas
   return {};
 }
 
+/// The typical spacing of a phase's points in one layer (the knit's three layers lie closer than
+/// its points in a layer: the first point's layer), of all of them without a layer field;
+/// nothing without the phase.
+std::optional<double> layer_spacing(const io::Frame& frame, const std::string& phase) {
+  const auto x = phase_positions(frame, phase);
+  if (x.empty())
+    return std::nullopt;
+  const auto layer = scalar_field(frame, phase, "layer");
+  std::vector<glm::dvec3> one;
+  for (std::size_t i = 0; i < layer.size() && i < x.size(); ++i)
+    if (layer[i] == layer[0])
+      one.push_back(x[i]);
+  return typical_spacing(one.size() > 1 ? one : x);
+}
+
+/// A phase's "segment" field (pairs of point indices), or a kf::Error naming what is missing.
+std::vector<std::array<std::uint32_t, 2>> segments(const io::Frame& frame,
+                                                   const std::string& phase) {
+  const io::Phase* p = frame.find(phase);
+  const io::Field* f = p ? p->find("segment") : nullptr;
+  if (!f || f->components != 2 || f->type != io::DType::U32)
+    throw Error("render: the snapshot's " + phase +
+                " phase has no segment field (2 unsigned 32-bit indices a point)");
+  const auto v = f->as<std::uint32_t>();
+  std::vector<std::array<std::uint32_t, 2>> out(f->count);
+  for (std::size_t i = 0; i < f->count; ++i)
+    out[i] = {v[2 * i], v[2 * i + 1]};
+  return out;
+}
+
 } // namespace
 
 SnapshotRenderer::SnapshotRenderer(const SnapshotStyle& style, int cuda_device)
@@ -132,15 +163,8 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
     const auto x = phase_positions(frame, phase);
     if (x.empty())
       return;
-    if (!radius) {
-      // The knit's three layers lie closer than its points in a layer: the spacing of one.
-      const auto layer = scalar_field(frame, phase, "layer");
-      std::vector<glm::dvec3> one;
-      for (std::size_t i = 0; i < layer.size() && i < x.size(); ++i)
-        if (layer[i] == layer[0])
-          one.push_back(x[i]);
-      radius = share * typical_spacing(one.size() > 1 ? one : x);
-    }
+    if (!radius)
+      radius = share * layer_spacing(frame, phase).value_or(0);
     for (std::size_t i = 0; i < x.size(); ++i) {
       if (only && !only->contains(x[i]))
         continue;
@@ -170,7 +194,27 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   } else {
     add("fluid", fluid_r_, 0.5, style_.fluid, {});
   }
-  add("knit", knit_r_, 0.6, style_.knit, scalar_field(frame, "knit", "saturation"));
+  SurfaceMesh tubes;
+  last_yarn_seconds_ = 0;
+  const auto yarn_x =
+      style_.knit_yarns ? phase_positions(frame, "yarn") : std::vector<glm::dvec3>{};
+  if (!yarn_x.empty()) {
+    if (!yarn_r_) {
+      yarn_r_ = style_.yarn_radius;
+      if (!(*yarn_r_ > 0)) // a fifth of a layer's point spacing; without knit points, the yarn's
+        *yarn_r_ = 0.2 * layer_spacing(frame, "knit").value_or(4 * typical_spacing(yarn_x));
+    }
+    YarnPolylines lines{yarn_x, segments(frame, "yarn"), scalar_field(frame, "yarn", "saturation")};
+    YarnStyle ys;
+    ys.radius = *yarn_r_;
+    ys.wet_darkening = style_.wet_darkening;
+    const auto t0 = std::chrono::steady_clock::now();
+    tubes = yarn_tubes(lines, ys, only);
+    last_yarn_seconds_ =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  } else {
+    add("knit", knit_r_, 0.6, style_.knit, scalar_field(frame, "knit", "saturation"));
+  }
   if (style_.boundary)
     add("boundary", boundary_r_, 0.5, style_.boundary_colour, {});
   target_.bind();
@@ -181,8 +225,10 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   spheres_.draw(list, camera, double(style_.width) / style_.height, style_.lighting);
   meshes_.draw(surface, style_.fluid, camera, double(style_.width) / style_.height,
                style_.lighting);
+  yarn_meshes_.draw(tubes, style_.knit, camera, double(style_.width) / style_.height,
+                    style_.lighting);
   last_spheres_ = list.size();
-  last_triangles_ = surface.triangles();
+  last_triangles_ = surface.triangles() + tubes.triangles();
   return {style_.width, style_.height, target_.read_rgba()};
 }
 

@@ -1,8 +1,8 @@
 #pragma once
-// A snapshot to a picture (P6 stage 2, the preview look): the fluid, the knit (darkened where
-// wet, C' = C (1 - alpha sqrt(s)), paper §6) and optionally the boundary as lit spheres, the
-// scene's sphere obstacles beside them, from a fixed camera. The volumetric yarns, the fluid's
-// surface and the shadows of the later stages replace the particles' spheres.
+// A snapshot to a picture: the fluid as its surface (or spheres), the knit as tubes along its
+// yarns (or its points' spheres), darkened where wet, C' = C (1 - alpha sqrt(s)) (paper §6),
+// optionally the boundary's spheres, the scene's sphere obstacles beside them, from a camera.
+// The volumetric (lumislice) yarns and the shadows of the later stages are still to come.
 #include "io/Frame.hpp"
 #include "io/PngImage.hpp"
 #include "render/Camera.hpp"
@@ -12,6 +12,7 @@
 #include "render/OffscreenTarget.hpp"
 #include "render/SpaceSplit.hpp"
 #include "render/SphereRenderer.hpp"
+#include "render/YarnTubes.hpp"
 
 #include <memory>
 #include <optional>
@@ -32,6 +33,11 @@ struct SnapshotStyle {
   // the particles' spheres.
   bool fluid_surface = true;
   SurfaceField surface_field = SurfaceField::Weighted;
+  // The knit as tubes along the snapshot's yarns (where it holds a yarn phase) or, off, as its
+  // mass points' spheres; a yarn's radius [m], 0: a fifth of the spacing of the knit's points in
+  // a layer (the paper's pour: 1.1 mm for 5.5 mm stitches).
+  bool knit_yarns = true;
+  double yarn_radius = 0;
 };
 
 /// Typical distance between neighbouring points: the median, over up to 256 of them spread
@@ -62,6 +68,8 @@ public:
   std::size_t last_triangles() const { return last_triangles_; }
   /// Seconds the last draw spent on the fluid's surface (field and marching cubes, host).
   double last_surface_seconds() const { return last_surface_seconds_; }
+  /// Seconds the last draw spent building the yarns' tubes (host).
+  double last_yarn_seconds() const { return last_yarn_seconds_; }
   const ContextInfo& context() const { return context_.info(); }
 
 private:
@@ -69,10 +77,10 @@ private:
   EglContext context_;
   OffscreenTarget target_;
   SphereRenderer spheres_;
-  MeshRenderer meshes_;
-  std::optional<double> fluid_r_, knit_r_, boundary_r_;
+  MeshRenderer meshes_, yarn_meshes_;
+  std::optional<double> fluid_r_, knit_r_, boundary_r_, yarn_r_;
   std::size_t last_spheres_ = 0, last_triangles_ = 0;
-  double last_surface_seconds_ = 0;
+  double last_surface_seconds_ = 0, last_yarn_seconds_ = 0;
 };
 
 } // namespace kf::render

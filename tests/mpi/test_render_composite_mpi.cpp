@@ -51,7 +51,8 @@ void keep(void* mine, const void* theirs, std::size_t n) {
                       static_cast<const render::DepthPixel*>(theirs), n);
 }
 
-/// A frame of a falling block of fluid over a sagging knit sheet, wet in the middle.
+/// A frame of a falling block of fluid over a sagging knit sheet, wet in the middle, with its
+/// yarns.
 io::Frame test_frame() {
   std::vector<float> fluid, knit, sat;
   std::mt19937 rng(7);
@@ -65,10 +66,25 @@ io::Frame test_frame() {
       knit.insert(knit.end(), {x, y, -0.2f * (0.09f - x * x - y * y)});
       sat.push_back(std::max(0.0f, 1.0f - 10.0f * (x * x + y * y)));
     }
+  // Yarns along the sheet, a wavy course every 2 cm, 200 points each.
+  std::vector<float> yarn, yarn_s;
+  std::vector<std::uint32_t> seg;
+  for (int j = 0; j < 30; ++j)
+    for (int i = 0; i < 200; ++i) {
+      const float x = -0.3f + 0.6f * float(i) / 199,
+                  y = -0.29f + 0.02f * float(j) + 0.005f * std::sin(float(i));
+      yarn.insert(yarn.end(), {x, y, -0.2f * (0.09f - x * x - y * y) + 0.002f});
+      const auto k = std::uint32_t(j * 200 + i);
+      seg.insert(seg.end(), {k, i < 199 ? k + 1 : k});
+      yarn_s.push_back(std::max(0.0f, 1.0f - 10.0f * (x * x + y * y)));
+    }
   io::Frame f;
   f.phases.push_back({"fluid", {io::Field::from("position", fluid, 3)}});
   f.phases.push_back(
       {"knit", {io::Field::from("position", knit, 3), io::Field::from("saturation", sat, 1)}});
+  f.phases.push_back({"yarn",
+                      {io::Field::from("position", yarn, 3), io::Field::from("segment", seg, 2),
+                       io::Field::from("saturation", yarn_s, 1)}});
   return f;
 }
 
@@ -127,10 +143,11 @@ TEST(SpaceSplit, PartsTileSpaceWithEqualCounts) {
   }
 }
 
-void expect_composite_is_whole(bool fluid_surface) {
+void expect_composite_is_whole(bool fluid_surface, bool yarns) {
   const int n = size_of(), me = rank_of();
   render::SnapshotStyle style;
   style.fluid_surface = fluid_surface;
+  style.knit_yarns = yarns;
   style.width = 320;
   style.height = 200;
   style.obstacles.push_back({glm::vec4(0.0f, 0.0f, -0.35f, 0.2f), glm::vec4(0.5f, 0.5f, 0.5f, 1)});
@@ -154,10 +171,10 @@ void expect_composite_is_whole(bool fluid_surface) {
   if (me != 0)
     return;
   const io::RgbaImage composite = render::colour_of(px, style.width, style.height);
-  // Each sphere is drawn by one rank with the depth it has in the whole frame (the same shader,
-  // camera and radii), so the nearest per pixel is the whole frame's: equal but for two
-  // spheres of different parts at one 24-bit depth value in one pixel (none seen on llvmpipe or
-  // the H100); allow 1 pixel in 10,000 for it.
+  // Each sphere (and each yarn segment's tube) is drawn by one rank with the depth it has in the
+  // whole frame (the same shader, camera and radii), so the nearest per pixel is the whole
+  // frame's: equal but for two of different parts at one 24-bit depth value in one pixel (none
+  // seen on llvmpipe or the H100); allow 1 pixel in 10,000 for it.
   std::size_t wrong = 0;
   for (std::size_t k = 0; k < whole.pixels.size(); k += 4)
     wrong += !std::equal(&whole.pixels[k], &whole.pixels[k] + 4, &composite.pixels[k]);
@@ -166,7 +183,8 @@ void expect_composite_is_whole(bool fluid_surface) {
 
 TEST(SortLast, TheCompositedFrameIsTheFrameDrawnWhole) {
   for (bool surface : {false, true}) {
-    SCOPED_TRACE(surface ? "the fluid as its surface" : "the fluid as spheres");
-    expect_composite_is_whole(surface);
+    SCOPED_TRACE(surface ? "the fluid as its surface, the knit's yarns"
+                         : "the fluid and the knit as spheres");
+    expect_composite_is_whole(surface, surface);
   }
 }

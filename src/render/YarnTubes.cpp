@@ -1,0 +1,120 @@
+#include "render/YarnTubes.hpp"
+
+#include "core/Error.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+namespace kf::render {
+
+namespace {
+
+/// Any unit vector normal to t (unit).
+glm::dvec3 some_normal(const glm::dvec3& t) {
+  const glm::dvec3 axis = std::abs(t.x) < 0.9 ? glm::dvec3(1, 0, 0) : glm::dvec3(0, 1, 0);
+  return glm::normalize(glm::cross(t, axis));
+}
+
+/// Unit tangents of the chain x[a .. b]: central differences, one-sided at the ends; a point
+/// that coincides with both neighbours keeps the previous tangent.
+std::vector<glm::dvec3> tangents(const std::vector<glm::dvec3>& x, std::size_t a, std::size_t b) {
+  std::vector<glm::dvec3> t(b - a + 1);
+  glm::dvec3 last(1, 0, 0);
+  for (std::size_t i = a; i <= b; ++i) {
+    const glm::dvec3 d = x[std::min(i + 1, b)] - x[i > a ? i - 1 : a];
+    const double len = glm::length(d);
+    if (len > 0)
+      last = d / len;
+    t[i - a] = last;
+  }
+  return t;
+}
+
+} // namespace
+
+SurfaceMesh yarn_tubes(const YarnPolylines& y, const YarnStyle& style, const Region* only) {
+  const std::size_t n = y.x.size();
+  if (y.segment.size() != n || (!y.s.empty() && y.s.size() != n))
+    throw Error("render: the yarn phase has " + std::to_string(n) + " positions but " +
+                std::to_string(y.segment.size()) + " segments and " + std::to_string(y.s.size()) +
+                " saturations");
+  if (!(style.radius > 0) || style.sides < 3)
+    throw Error("render: a yarn needs a radius > 0 and at least 3 sides");
+  const std::size_t sides = std::size_t(style.sides);
+  // The chains (yarns): each point joined to the next until one ends it. Each segment drawn
+  // (a point not ending its chain, in the box) takes 6 indices a side, placed by a prefix sum.
+  std::vector<std::size_t> chain_start, first_index(n + 1, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& sg = y.segment[i];
+    if (sg[0] != i || (sg[1] != i && sg[1] != i + 1) || sg[1] >= n)
+      throw Error("render: yarn point " + std::to_string(i) + "'s segment (" +
+                  std::to_string(sg[0]) + ", " + std::to_string(sg[1]) +
+                  ") is not (i, i + 1) or (i, i)");
+    if (i == 0 || y.segment[i - 1][1] == i - 1)
+      chain_start.push_back(i);
+    const bool drawn = sg[1] == i + 1 && (!only || only->contains(y.x[i]));
+    first_index[i + 1] = first_index[i] + (drawn ? 6 * sides : 0);
+  }
+  chain_start.push_back(n);
+  std::vector<double> cos_k(sides), sin_k(sides);
+  for (std::size_t k = 0; k < sides; ++k) {
+    const double a = 2 * M_PI * double(k) / double(sides);
+    cos_k[k] = std::cos(a);
+    sin_k[k] = std::sin(a);
+  }
+  SurfaceMesh m;
+  m.position.resize(n * sides);
+  m.normal.resize(n * sides);
+  m.shade.resize(n * sides);
+  m.index.resize(first_index[n]);
+  const auto chains = std::ptrdiff_t(chain_start.size() - 1);
+  // A yarn a thread: its frames run along it (a few hundred yarns in a garment).
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t c = 0; c < chains; ++c) {
+    const std::size_t a = chain_start[std::size_t(c)], b = chain_start[std::size_t(c) + 1] - 1;
+    const auto t = tangents(y.x, a, b);
+    glm::dvec3 r = some_normal(t[0]);
+    for (std::size_t i = a; i <= b; ++i) {
+      if (i > a) { // double reflection: from the frame at i - 1 to the one at i
+        const glm::dvec3 v1 = y.x[i] - y.x[i - 1];
+        const double c1 = glm::dot(v1, v1);
+        glm::dvec3 rl = r, tl = t[i - 1 - a];
+        if (c1 > 0) {
+          rl -= (2 / c1) * glm::dot(v1, r) * v1;
+          tl -= (2 / c1) * glm::dot(v1, tl) * v1;
+        }
+        const glm::dvec3 v2 = t[i - a] - tl;
+        const double c2 = glm::dot(v2, v2);
+        r = c2 > 0 ? rl - (2 / c2) * glm::dot(v2, rl) * v2 : rl;
+        // Rounding drift over thousands of points: back to unit and normal to the tangent.
+        r = glm::normalize(r - glm::dot(r, t[i - a]) * t[i - a]);
+      }
+      const glm::dvec3 bn = glm::cross(t[i - a], r);
+      const double s = y.s.empty() ? 0.0 : std::clamp(y.s[i], 0.0, 1.0);
+      const double radius = style.radius * (1 + style.swell * s);
+      const float shade = float(1 - style.wet_darkening * std::sqrt(s));
+      for (std::size_t k = 0; k < sides; ++k) {
+        const glm::dvec3 out = cos_k[k] * r + sin_k[k] * bn;
+        m.position[i * sides + k] = glm::vec3(y.x[i] + radius * out);
+        m.normal[i * sides + k] = glm::vec3(out);
+        m.shade[i * sides + k] = shade;
+      }
+      if (first_index[i + 1] == first_index[i])
+        continue;
+      // Counter-clockwise seen from outside: (ring k, ring k+1, next k+1), (ring k, next k+1,
+      // next k).
+      const auto ring = std::uint32_t(i * sides), next = std::uint32_t((i + 1) * sides);
+      std::uint32_t* out = m.index.data() + first_index[i];
+      for (std::size_t k = 0; k < sides; ++k) {
+        const auto k0 = std::uint32_t(k), k1 = std::uint32_t((k + 1) % sides);
+        const std::uint32_t tri[6] = {ring + k0, ring + k1, next + k1,
+                                      ring + k0, next + k1, next + k0};
+        std::copy(tri, tri + 6, out + 6 * k);
+      }
+    }
+  }
+  return m;
+}
+
+} // namespace kf::render

@@ -1,0 +1,41 @@
+#pragma once
+// The knit's yarns drawn as tubes (P6): a ring of vertices around every point of the snapshot's
+// yarn polylines (the Catmull-Rom curves through the stitches' bonding points, domain/Yarns),
+// joined along each yarn. The rings follow rotation-minimising frames (the double reflection
+// of Wang et al. 2008), so a tube does not twist where its yarn bends. A wet yarn is darker,
+// C' = C (1 - alpha sqrt(s)) carried by the vertices, and a little thicker.
+#include "render/FluidSurface.hpp"
+#include "render/SpaceSplit.hpp"
+
+#include <glm/glm.hpp>
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace kf::render {
+
+struct YarnStyle {
+  double radius = 0;           // a dry yarn's [m] (> 0)
+  int sides = 8;               // vertices a ring
+  double swell = 0.1;          // a saturated yarn's radius is radius (1 + swell)
+  double wet_darkening = 0.15; // alpha
+};
+
+/// The polylines of a snapshot's yarn phase: point i joins point segment[i][1] (i + 1 along a
+/// yarn; i itself at a yarn's last point), s the saturation at each (empty: dry).
+struct YarnPolylines {
+  std::vector<glm::dvec3> x;
+  std::vector<std::array<std::uint32_t, 2>> segment;
+  std::vector<double> s;
+};
+
+/// The tubes' mesh: `sides` vertices a point, normals out of the tube, the shade a vertex
+/// 1 - alpha sqrt(s); two triangles a side a segment (an end has no cap: the mesh is drawn lit on
+/// both faces). With `only`, just the segments whose first point lies in it (sort-last: a
+/// segment is drawn whole by the rank whose box holds its start). A segment's end must be its
+/// start + 1 or the start itself; anything else is a kf::Error naming the point.
+SurfaceMesh yarn_tubes(const YarnPolylines& yarns, const YarnStyle& style,
+                       const Region* only = nullptr);
+
+} // namespace kf::render
