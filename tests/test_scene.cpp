@@ -446,10 +446,11 @@ TEST(Scene, DensityModelOptions) {
 
 } // namespace
 TEST(Scene, RenderTableReadsItsKeys) {
-  const Scene s = load_scene((test::source_dir() / "scenes" / "pour.toml").string(),
-                             {"render.width=640", "render.orbit=30", "render.fluid=\"spheres\"",
-                              "render.surface=\"naive\"", "render.knit_colour=[0.1, 0.2, 0.3]",
-                              "render.knit=\"points\"", "render.yarn_radius=0.001"});
+  const Scene s =
+      load_scene((test::source_dir() / "scenes" / "pour.toml").string(),
+                 {"render.width=640", "render.orbit=30", "render.fluid=\"spheres\"",
+                  "render.surface=\"naive\"", "render.knit_colour=[0.1, 0.2, 0.3]",
+                  "render.knit=\"points\"", "render.yarn_radius=0.001", "render.shadows=false"});
   EXPECT_EQ(s.render.width, 640);
   EXPECT_EQ(s.render.height, 1080); // scenes/pour.toml's own
   EXPECT_TRUE(s.render.camera);
@@ -459,6 +460,8 @@ TEST(Scene, RenderTableReadsItsKeys) {
   EXPECT_DOUBLE_EQ(s.render.knit_colour.y, 0.2);
   EXPECT_EQ(s.render.knit, Scene::Render::Knit::Points);
   EXPECT_DOUBLE_EQ(s.render.yarn_radius, 0.001);
+  EXPECT_FALSE(s.render.shadows);
+  EXPECT_TRUE(s.render.floor);
   const Scene plain = load_scene((test::source_dir() / "scenes" / "dambreak.toml").string());
   EXPECT_FALSE(plain.render.camera);
   EXPECT_EQ(plain.render.width, 1280);

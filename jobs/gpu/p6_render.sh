@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # P6 on a GPU machine (after `. .devrt/prelude.sh`, from the project root): the paper's pour and
 # drape run on the GPU and rendered on the GPU's EGL device. Prints each frame's time split (read,
-# the fluid's surface, draw and read-back, PNG) at 1920 x 1080, the compositing of one frame over
+# the fluid's surface, the yarns' tubes, draw with shadows and read-back, PNG) at 1920 x 1080, the
+# same without shadows, close-ups of the stitches, the compositing of one frame over
 # 2 and 4 ranks sharing GPU 0 (and over a GPU a rank where the host has several), and leaves in
 # OUTDIR: the chosen pictures (pour dry and wet, the drape) and film.tar (960 x 540 frames).
 # Usage: jobs/gpu/p6_render.sh KNITFLOW OUTDIR [POUR_END]   (POUR_END: default 0.6 s)
@@ -20,6 +21,18 @@ echo "== render 1920 x 1080, every frame (the first pays the context and shaders
 echo "== the same, fluid as spheres (the preview's look), frames 5 and $last"
 "$exe" render "$work/pour" --width 1920 --height 1080 --no-film --fluid spheres \
   --frames "5:$last:$((last > 5 ? last - 5 : 1))" --out "$work/spheres" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'
+echo "== frames 5 and $last without shadows and floor, and with the knit as points"
+"$exe" render "$work/pour" --width 1920 --height 1080 --no-film --frames "5:$last:$((last > 5 ? last - 5 : 1))" \
+  --set render.shadows=false --set render.floor=false --out "$work/noshadow" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'
+"$exe" render "$work/pour" --width 1920 --height 1080 --no-film --frames "5:$last:$((last > 5 ? last - 5 : 1))" \
+  --knit points --out "$work/points" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'
+echo "== close-ups: the jet on the knit (frame 5), the wet edge (frame $last)"
+"$exe" render "$work/pour" --width 1920 --height 1080 --no-film --frames 5:5:1 --out "$work/close_jet" \
+  --set 'render.eye=[0.12,-0.16,0.62]' --set 'render.target=[0.03,-0.03,0.52]' | grep frame_
+"$exe" render "$work/pour" --width 1920 --height 1080 --no-film --frames "$last:$last:1" --out "$work/close_edge" \
+  --set 'render.eye=[0.33,-0.45,0.62]' --set 'render.target=[0.2,-0.26,0.45]' | grep frame_
+cp "$work/close_jet/frame_000005.png" "$out/pick/pour_close_dry.png"
+cp "$work/close_edge/frame_$(printf %06d "$last").png" "$out/pick/pour_close_wet.png"
 "$exe" render "$work/pour" --width 1920 --height 1080 --no-film --frames "$last:$last:1" --out "$work/c1" | grep frame_
 for n in 2 4; do
   echo "== frame $last in $n parts, ranks sharing GPU 0"

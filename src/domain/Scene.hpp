@@ -237,6 +237,8 @@ struct Scene {
     bool boundary = false;                                // the walls' particles
     enum class Knit { Yarns, Points } knit = Knit::Yarns; // tubes along the yarns, or spheres
     double yarn_radius = 0; // [m]; 0: a fifth of the spacing of the knit's points in a layer
+    bool shadows = true;    // cascaded shadow maps of the light
+    bool floor = true;      // a floor at the domain's bottom, receiving the shadows
   } render;
 
   bool has(Module m) const {

@@ -560,9 +560,10 @@ void read_colour(const TableReader& t, std::string_view key, Vec3d& c) {
 }
 
 void read_render(const TableReader& t, Scene::Render& r) {
-  t.allow_only({"width", "height", "eye", "target", "fov", "orbit", "light", "ambient",
-                "highlights", "background", "fluid_colour", "knit_colour", "wet_darkening", "fluid",
-                "surface", "boundary", "knit", "yarn_radius"});
+  t.allow_only({"width",        "height",      "eye",           "target",     "fov",
+                "orbit",        "light",       "ambient",       "highlights", "background",
+                "fluid_colour", "knit_colour", "wet_darkening", "fluid",      "surface",
+                "boundary",     "knit",        "yarn_radius",   "shadows",    "floor"});
   r.width = read_count(t, "width", r.width, 16, 16384);
   r.height = read_count(t, "height", r.height, 16, 16384);
   const bool eye = t.read("eye", r.eye), target = t.read("target", r.target);
@@ -587,6 +588,8 @@ void read_render(const TableReader& t, Scene::Render& r) {
   t.read("boundary", r.boundary);
   t.read("knit", r.knit, kRenderKnits);
   t.read("yarn_radius", r.yarn_radius, Range::at_least(0));
+  t.read("shadows", r.shadows);
+  t.read("floor", r.floor);
 }
 
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {

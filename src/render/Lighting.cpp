@@ -1,24 +1,44 @@
 #include "render/Lighting.hpp"
 
 #include "core/Error.hpp"
+#include "render/Shaders.hpp"
+#include "render/ShadowMaps.hpp"
 
 #include <epoxy/gl.h>
 #include <glm/gtc/type_ptr.hpp>
 
 #include <cstdio>
+#include <string_view>
 
 namespace kf::render {
 
-void use_lit_program(unsigned p, const Camera& camera, double aspect, const Lighting& light) {
-  const glm::mat4 view = camera.view(), proj = camera.projection(aspect);
+void use_lit_program(unsigned p, const ViewMatrices& vm, const Lighting& light) {
   const glm::vec3 light_view =
-      glm::normalize(glm::vec3(view * glm::vec4(light.toward_light, 0.0f)));
+      glm::normalize(glm::vec3(vm.view * glm::vec4(light.toward_light, 0.0f)));
+  const glm::mat4 inverse_view = glm::inverse(vm.view);
   glUseProgram(p);
-  glUniformMatrix4fv(glGetUniformLocation(p, "view"), 1, GL_FALSE, glm::value_ptr(view));
-  glUniformMatrix4fv(glGetUniformLocation(p, "projection"), 1, GL_FALSE, glm::value_ptr(proj));
+  glUniformMatrix4fv(glGetUniformLocation(p, "view"), 1, GL_FALSE, glm::value_ptr(vm.view));
+  glUniformMatrix4fv(glGetUniformLocation(p, "projection"), 1, GL_FALSE,
+                     glm::value_ptr(vm.projection));
+  glUniformMatrix4fv(glGetUniformLocation(p, "inverse_view"), 1, GL_FALSE,
+                     glm::value_ptr(inverse_view));
+  glUniform1i(glGetUniformLocation(p, "orthographic"), vm.orthographic ? 1 : 0);
   glUniform3fv(glGetUniformLocation(p, "light_view"), 1, glm::value_ptr(light_view));
   glUniform1f(glGetUniformLocation(p, "ambient"), light.ambient);
   glUniform1f(glGetUniformLocation(p, "specular_strength"), light.specular);
+  if (light.shadows)
+    light.shadows->bind_for_lookup(p);
+  else
+    glUniform1i(glGetUniformLocation(p, "shadow_cascades"), 0);
+}
+
+std::string with_shadow_lookup(const char* source) {
+  const std::string_view s(source);
+  const std::size_t line = s.find('\n') + 1; // after "#version ..."
+  std::string out(s.substr(0, line));
+  out.append(shaders::kShadowGlsl);
+  out.append(s.substr(line));
+  return out;
 }
 
 void check_gl(const std::string& what) {

@@ -15,7 +15,7 @@ namespace kf::render {
 
 MeshRenderer::MeshRenderer()
     : program_(std::make_unique<ShaderProgram>("mesh.vert + mesh.frag", shaders::kMeshVert,
-                                               shaders::kMeshFrag)) {
+                                               with_shadow_lookup(shaders::kMeshFrag))) {
   glCreateVertexArrays(1, &vao_);
   glCreateBuffers(1, &vertices_);
   glCreateBuffers(1, &indices_);
@@ -42,8 +42,8 @@ unsigned fit(unsigned buffer, std::size_t& capacity, std::size_t bytes) {
 
 } // namespace
 
-void MeshRenderer::draw(const SurfaceMesh& mesh, const glm::vec4& colour, const Camera& camera,
-                        double aspect, const Lighting& light) {
+void MeshRenderer::upload(const SurfaceMesh& mesh) {
+  indices_drawn_ = mesh.index.size();
   if (mesh.index.empty())
     return;
   // Interleaved position, normal, shade.
@@ -74,14 +74,20 @@ void MeshRenderer::draw(const SurfaceMesh& mesh, const glm::vec4& colour, const 
     glVertexArrayAttribFormat(vao_, a, components[a], GL_FLOAT, GL_FALSE, offsets[a]);
     glVertexArrayAttribBinding(vao_, a, 0);
   }
-  use_lit_program(program_->id(), camera, aspect, light);
+  check_gl("uploading a mesh of " + std::to_string(mesh.triangles()) + " triangles");
+}
+
+void MeshRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light) {
+  if (indices_drawn_ == 0)
+    return;
+  use_lit_program(program_->id(), view, light);
   const unsigned p = program_->id();
   glUniform4fv(glGetUniformLocation(p, "colour"), 1, glm::value_ptr(colour));
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
-  glDrawElements(GL_TRIANGLES, GLsizei(mesh.index.size()), GL_UNSIGNED_INT, nullptr);
-  check_gl("drawing a mesh of " + std::to_string(mesh.triangles()) + " triangles");
+  glDrawElements(GL_TRIANGLES, GLsizei(indices_drawn_), GL_UNSIGNED_INT, nullptr);
+  check_gl("drawing a mesh of " + std::to_string(indices_drawn_ / 3) + " triangles");
 }
 
 } // namespace kf::render

@@ -19,13 +19,21 @@ public:
   MeshRenderer& operator=(const MeshRenderer&) = delete;
 
   /// Draws the mesh into the bound target with depth testing, opaque, in `colour`.
+  /// Moves the mesh to the GPU: the draws after it show it (a frame's passes, the shadow maps'
+  /// and the picture's, share one upload: a garment's yarns are hundreds of MB).
+  void upload(const SurfaceMesh& mesh);
+  /// Draws the last uploaded mesh.
+  void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {});
   void draw(const SurfaceMesh& mesh, const glm::vec4& colour, const Camera& camera, double aspect,
-            const Lighting& light = {});
+            const Lighting& light = {}) {
+    upload(mesh);
+    draw(colour, ViewMatrices::of(camera, aspect), light);
+  }
 
 private:
   std::unique_ptr<ShaderProgram> program_;
   unsigned vao_ = 0, vertices_ = 0, indices_ = 0;
-  std::size_t vertex_capacity_ = 0, index_capacity_ = 0;
+  std::size_t vertex_capacity_ = 0, index_capacity_ = 0, indices_drawn_ = 0;
 };
 
 } // namespace kf::render

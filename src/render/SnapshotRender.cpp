@@ -119,13 +119,13 @@ std::vector<std::array<std::uint32_t, 2>> segments(const io::Frame& frame,
 SnapshotRenderer::SnapshotRenderer(const SnapshotStyle& style, int cuda_device)
     : style_(style), context_(cuda_device), target_(style.width, style.height) {}
 
-Camera SnapshotRenderer::frame_camera(const io::Frame& frame) const {
+std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::frame_box(const io::Frame& frame) const {
   glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
   auto grow = [&](const glm::dvec3& p) {
     lo = glm::min(lo, p);
     hi = glm::max(hi, p);
   };
-  for (const char* phase : {"fluid", "knit"})
+  for (const char* phase : {"fluid", "knit", "yarn"})
     for (const auto& p : phase_positions(frame, phase))
       grow(p);
   if (style_.boundary)
@@ -138,8 +138,30 @@ Camera SnapshotRenderer::frame_camera(const io::Frame& frame) const {
   }
   if (!(lo.x <= hi.x))
     throw Error("render: the snapshot holds nothing to draw (no fluid, knit or obstacle)");
+  return {lo, hi};
+}
+
+Camera SnapshotRenderer::frame_camera(const io::Frame& frame) const {
+  const auto [lo, hi] = frame_box(frame);
   return Camera::framing(lo, hi, double(style_.width) / style_.height);
 }
+
+namespace {
+
+/// A square at height z under the box, three times its largest extent a side, facing up.
+SurfaceMesh floor_square(const glm::dvec3& lo, const glm::dvec3& hi, double z) {
+  const glm::dvec3 c = 0.5 * (lo + hi);
+  const double h = 1.5 * std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 1e-6});
+  SurfaceMesh m;
+  for (int k = 0; k < 4; ++k) {
+    m.position.emplace_back(float(c.x + (k & 1 ? h : -h)), float(c.y + (k & 2 ? h : -h)), float(z));
+    m.normal.emplace_back(0.0f, 0.0f, 1.0f);
+  }
+  m.index = {0, 1, 3, 0, 3, 2};
+  return m;
+}
+
+} // namespace
 
 std::vector<glm::dvec3> SnapshotRenderer::drawn_points(const io::Frame& frame) const {
   std::vector<glm::dvec3> all;
@@ -217,16 +239,60 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   }
   if (style_.boundary)
     add("boundary", boundary_r_, 0.5, style_.boundary_colour, {});
+  // The floor, and the shadow maps of everything drawn (the box and its shadow on the floor).
+  const double aspect = double(style_.width) / style_.height;
+  auto [lo, hi] = frame_box(frame);
+  SurfaceMesh floor;
+  if (style_.floor) {
+    const double z = std::isnan(style_.floor_z) ? lo.z : style_.floor_z;
+    floor = floor_square(lo, hi, z);
+    const glm::dvec3 l = glm::normalize(glm::dvec3(style_.lighting.toward_light));
+    if (l.z > 1e-3) // the box's shadow on the floor is in the maps' box too
+      for (int k = 0; k < 8; ++k) {
+        const glm::dvec3 p(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z);
+        const glm::dvec3 q = p - l * ((p.z - z) / l.z);
+        lo = glm::min(lo, q);
+        hi = glm::max(hi, q);
+      }
+    lo.z = std::min(lo.z, z);
+  }
+  meshes_.upload(surface);
+  yarn_meshes_.upload(tubes);
+  floor_mesh_.upload(floor);
+  Lighting lighting = style_.lighting;
+  if (style_.shadows) {
+    if (!shadows_) {
+      const int texels = style_.shadow_resolution > 0
+                             ? style_.shadow_resolution
+                             : std::clamp(2 * std::max(style_.width, style_.height), 256, 2048);
+      shadows_ = std::make_unique<ShadowMaps>(texels, style_.shadow_cascades);
+    }
+    shadows_->fit(camera, aspect, lo, hi, style_.lighting.toward_light);
+    glEnable(GL_DEPTH_TEST);
+    for (int k = 0; k < shadows_->cascades(); ++k) {
+      shadows_->begin(k);
+      const ViewMatrices v = shadows_->light_view(k);
+      spheres_.draw(list, v);
+      meshes_.draw(style_.fluid, v);
+      yarn_meshes_.draw(style_.knit, v);
+    }
+    if (only && combine_shadows_) {
+      std::vector<float> depths = shadows_->read();
+      combine_shadows_(depths);
+      shadows_->write(depths);
+    }
+    lighting.shadows = shadows_.get();
+  }
   target_.bind();
   const glm::vec4& bg = style_.background;
   glClearColor(bg.r, bg.g, bg.b, bg.a);
   glClearDepth(1.0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  spheres_.draw(list, camera, double(style_.width) / style_.height, style_.lighting);
-  meshes_.draw(surface, style_.fluid, camera, double(style_.width) / style_.height,
-               style_.lighting);
-  yarn_meshes_.draw(tubes, style_.knit, camera, double(style_.width) / style_.height,
-                    style_.lighting);
+  const ViewMatrices eye = ViewMatrices::of(camera, aspect);
+  spheres_.draw(list, eye, lighting);
+  meshes_.draw(style_.fluid, eye, lighting);
+  yarn_meshes_.draw(style_.knit, eye, lighting);
+  floor_mesh_.draw(style_.floor_colour, eye, lighting);
   last_spheres_ = list.size();
   last_triangles_ = surface.triangles() + tubes.triangles();
   return {style_.width, style_.height, target_.read_rgba()};

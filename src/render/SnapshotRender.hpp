@@ -10,10 +10,13 @@
 #include "render/FluidSurface.hpp"
 #include "render/MeshRenderer.hpp"
 #include "render/OffscreenTarget.hpp"
+#include "render/ShadowMaps.hpp"
 #include "render/SpaceSplit.hpp"
 #include "render/SphereRenderer.hpp"
 #include "render/YarnTubes.hpp"
 
+#include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -38,6 +41,14 @@ struct SnapshotStyle {
   // a layer (the paper's pour: 1.1 mm for 5.5 mm stitches).
   bool knit_yarns = true;
   double yarn_radius = 0;
+  // Cascaded shadow maps of the light on everything drawn, and a floor (a square under the frame
+  // at floor_z; NaN: the frame's lowest point) that receives them.
+  bool shadows = false;
+  // Texels a side a cascade; 0: twice the picture's larger side, within 256..2048.
+  int shadow_resolution = 0, shadow_cascades = 3;
+  bool floor = false;
+  double floor_z = std::numeric_limits<double>::quiet_NaN();
+  glm::vec4 floor_colour{0.80f, 0.80f, 0.78f, 1.0f};
 };
 
 /// Typical distance between neighbouring points: the median, over up to 256 of them spread
@@ -53,8 +64,16 @@ public:
   /// Opens a headless context (EglContext(cuda_device)) and a target of style's size.
   explicit SnapshotRenderer(const SnapshotStyle& style, int cuda_device = -1);
 
-  /// The camera framing what `frame` shows (its drawn phases and the obstacles).
+  /// The box of what `frame` shows (its drawn phases and the obstacles); a kf::Error when empty.
+  std::pair<glm::dvec3, glm::dvec3> frame_box(const io::Frame& frame) const;
+  /// The camera framing it.
   Camera frame_camera(const io::Frame& frame) const;
+  /// In a sort-last frame each rank draws only its part's casters into the shadow maps; this
+  /// makes them every rank's nearest (an allreduce of the minimum over the ranks drawing the
+  /// frame) before they are looked up. Unset, a part's shadows come from its own casters only.
+  void set_shadow_combiner(std::function<void(std::vector<float>&)> combine) {
+    combine_shadows_ = std::move(combine);
+  }
   /// Draws the frame from `camera`. Sphere radii: half the typical spacing of each phase's
   /// points (knit: 0.6 of it, so a sheet closes), taken from the first frame drawn and kept.
   /// With `only`, just the particles and obstacles whose centres lie in it (sort-last rendering:
@@ -77,7 +96,9 @@ private:
   EglContext context_;
   OffscreenTarget target_;
   SphereRenderer spheres_;
-  MeshRenderer meshes_, yarn_meshes_;
+  MeshRenderer meshes_, yarn_meshes_, floor_mesh_;
+  std::unique_ptr<ShadowMaps> shadows_;
+  std::function<void(std::vector<float>&)> combine_shadows_;
   std::optional<double> fluid_r_, knit_r_, boundary_r_, yarn_r_;
   std::size_t last_spheres_ = 0, last_triangles_ = 0;
   double last_surface_seconds_ = 0, last_yarn_seconds_ = 0;

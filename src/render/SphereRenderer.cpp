@@ -10,7 +10,7 @@ namespace kf::render {
 
 SphereRenderer::SphereRenderer()
     : program_(std::make_unique<ShaderProgram>("sphere.vert + sphere.frag", shaders::kSphereVert,
-                                               shaders::kSphereFrag)) {
+                                               with_shadow_lookup(shaders::kSphereFrag))) {
   glCreateVertexArrays(1, &vao_);
   glCreateBuffers(1, &buffer_);
 }
@@ -20,7 +20,7 @@ SphereRenderer::~SphereRenderer() {
   glDeleteVertexArrays(1, &vao_);
 }
 
-void SphereRenderer::draw(const std::vector<Sphere>& spheres, const Camera& camera, double aspect,
+void SphereRenderer::draw(const std::vector<Sphere>& spheres, const ViewMatrices& view,
                           const Lighting& light) {
   if (spheres.empty())
     return;
@@ -32,7 +32,7 @@ void SphereRenderer::draw(const std::vector<Sphere>& spheres, const Camera& came
     capacity_ = bytes;
   }
   glNamedBufferSubData(buffer_, 0, GLsizeiptr(bytes), spheres.data());
-  use_lit_program(program_->id(), camera, aspect, light);
+  use_lit_program(program_->id(), view, light);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, buffer_);
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);

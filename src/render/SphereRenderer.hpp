@@ -27,8 +27,12 @@ public:
   SphereRenderer& operator=(const SphereRenderer&) = delete;
 
   /// Draws the spheres into the bound target with depth testing, lit by `light`.
-  void draw(const std::vector<Sphere>& spheres, const Camera& camera, double aspect,
+  void draw(const std::vector<Sphere>& spheres, const ViewMatrices& view,
             const Lighting& light = {});
+  void draw(const std::vector<Sphere>& spheres, const Camera& camera, double aspect,
+            const Lighting& light = {}) {
+    draw(spheres, ViewMatrices::of(camera, aspect), light);
+  }
 
 private:
   std::unique_ptr<ShaderProgram> program_;

@@ -1,6 +1,7 @@
 #version 450 core
 // The same light as the spheres' (sphere.frag): ambient and diffuse scale the colour, a white
-// Blinn-Phong highlight adds the light's. Both faces lit (a surface seen from inside the fluid).
+// Blinn-Phong highlight adds the light's; both in the light's share that reaches the point (the
+// shadows). Both faces lit (a surface seen from inside the fluid).
 in vec3 view_point;
 in vec3 view_normal;
 in float vertex_shade;
@@ -14,8 +15,12 @@ void main() {
   vec3 n = normalize(view_normal);
   if (dot(n, dir) > 0.0)
     n = -n;
-  const float diffuse = max(dot(n, light_view), 0.0);
+  const float cos_light = dot(n, light_view);
+  const float lit = light_reaching((inverse_view * vec4(view_point, 1.0)).xyz,
+                                   mat3(inverse_view) * n, -view_point.z, cos_light);
+  const float diffuse = max(cos_light, 0.0) * lit;
   const vec3 h = normalize(light_view - dir);
-  const float specular = pow(max(dot(n, h), 0.0), 64.0) * specular_strength;
-  frag = vec4(colour.rgb * vertex_shade * (ambient + (1.0 - ambient) * diffuse) + vec3(specular), colour.a);
+  const float specular = pow(max(dot(n, h), 0.0), 64.0) * specular_strength * lit;
+  frag = vec4(colour.rgb * vertex_shade * (ambient + (1.0 - ambient) * diffuse) + vec3(specular),
+              colour.a);
 }
