@@ -2,12 +2,14 @@
 
 #include "comm/BinarySwap.hpp"
 #include "core/Error.hpp"
+#include "domain/MeshObstacle.hpp"
 #include "domain/Scene.hpp"
 #include "io/SnapshotReader.hpp"
 #include "kernels/exec/Backend.hpp"
 #include "render/DepthComposite.hpp"
 #include "render/FrameSelection.hpp"
 #include "render/SnapshotRender.hpp"
+#include "render/SolidMeshes.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -95,6 +97,44 @@ std::vector<render::Sphere> obstacle_spheres(const std::optional<Scene>& scene) 
           {glm::vec4(float(o.center.x), float(o.center.y), float(o.center.z), float(o.radius)),
            glm::vec4(0.55f, 0.57f, 0.6f, 1.0f)});
   return out;
+}
+
+glm::dvec3 dvec(const Vec3d& v) {
+  return {v.x, v.y, v.z};
+}
+
+/// The scene's boxes and OBJ meshes (solids) and its planes as meshes, where they stand at the
+/// start (a moving obstacle is drawn there too, as the spheres are). A plane lying on the
+/// floor's height, facing up, is the floor's to draw.
+void obstacle_meshes(const std::optional<Scene>& scene, render::SurfaceMesh& solids,
+                     render::SurfaceMesh& planes) {
+  if (!scene)
+    return;
+  const glm::dvec3 lo = dvec(scene->domain.min), hi = dvec(scene->domain.max);
+  const double reach = glm::length(hi - lo);
+  for (const Obstacle& o : scene->obstacles)
+    switch (o.shape) {
+    case ObstacleShape::Box:
+      render::append(solids, render::box_mesh(dvec(o.min), dvec(o.max)));
+      break;
+    case ObstacleShape::Mesh:
+      if (o.mesh) {
+        std::vector<glm::dvec3> v;
+        for (const Vec3d& x : o.mesh->solid.vertices)
+          v.push_back(dvec(x));
+        render::append(solids, render::triangle_mesh(v, o.mesh->solid.triangles));
+      }
+      break;
+    case ObstacleShape::Plane:
+      if (scene->render.floor && o.normal.z > 0.999 &&
+          std::abs(o.point.z - scene->domain.min.z) <= 1e-9 * (1 + reach))
+        break;
+      render::append(planes,
+                     render::plane_mesh(dvec(o.point), dvec(o.normal), 0.5 * (lo + hi), reach));
+      break;
+    case ObstacleShape::Sphere:
+      break; // obstacle_spheres
+    }
 }
 
 glm::vec3 vec(const Vec3d& v) {
@@ -259,6 +299,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
   style.obstacles = obstacle_spheres(scene);
   if (scene)
     style.floor_z = scene->domain.min.z;
+  obstacle_meshes(scene, style.solids, style.planes);
   fs::create_directories(out); // after every check of the input: a refused call writes nothing
   // On a GPU the EGL device of this rank's CUDA device (as `run` chooses it); else llvmpipe.
   const int cuda_device = exec::cuda_available() ? exec::cuda_select_device(mpi.local_rank()) : -1;

@@ -77,7 +77,8 @@ void MeshRenderer::upload(const SurfaceMesh& mesh) {
   check_gl("uploading a mesh of " + std::to_string(mesh.triangles()) + " triangles");
 }
 
-void MeshRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light) {
+void MeshRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light,
+                        bool one_sided) {
   if (indices_drawn_ == 0)
     return;
   use_lit_program(program_->id(), view, light);
@@ -86,7 +87,12 @@ void MeshRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
+  if (one_sided) {
+    glEnable(GL_CULL_FACE);
+    glCullFace(GL_BACK);
+  }
   glDrawElements(GL_TRIANGLES, GLsizei(indices_drawn_), GL_UNSIGNED_INT, nullptr);
+  glDisable(GL_CULL_FACE);
   check_gl("drawing a mesh of " + std::to_string(indices_drawn_ / 3) + " triangles");
 }
 

@@ -22,8 +22,10 @@ public:
   /// Moves the mesh to the GPU: the draws after it show it (a frame's passes, the shadow maps'
   /// and the picture's, share one upload: a garment's yarns are hundreds of MB).
   void upload(const SurfaceMesh& mesh);
-  /// Draws the last uploaded mesh.
-  void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {});
+  /// Draws the last uploaded mesh; one_sided: only the faces seen from their front (counter-
+  /// clockwise), as a plane obstacle is seen from its fluid's side and not from behind.
+  void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {},
+            bool one_sided = false);
   void draw(const SurfaceMesh& mesh, const glm::vec4& colour, const Camera& camera, double aspect,
             const Lighting& light = {}) {
     upload(mesh);

@@ -136,6 +136,8 @@ std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::frame_box(const io::Frame& f
     grow(c - r);
     grow(c + r);
   }
+  for (const glm::vec3& v : style_.solids.position) // (planes reach past the frame: not framed)
+    grow(glm::dvec3(v));
   if (!(lo.x <= hi.x))
     throw Error("render: the snapshot holds nothing to draw (no fluid, knit or obstacle)");
   return {lo, hi};
@@ -259,6 +261,10 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   meshes_.upload(surface);
   yarn_meshes_.upload(tubes);
   floor_mesh_.upload(floor);
+  // The solids and planes are the scene's: the same every frame and every part of it, drawn
+  // whole by each rank (like the floor) so the composite keeps them.
+  solid_mesh_.upload(style_.solids);
+  plane_mesh_.upload(style_.planes);
   Lighting lighting = style_.lighting;
   if (style_.shadows) {
     if (!shadows_) {
@@ -275,6 +281,8 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
       spheres_.draw(list, v);
       meshes_.draw(style_.fluid, v);
       yarn_meshes_.draw(style_.knit, v);
+      solid_mesh_.draw(style_.obstacle_colour, v);
+      plane_mesh_.draw(style_.obstacle_colour, v);
     }
     if (only && combine_shadows_) {
       std::vector<float> depths = shadows_->read();
@@ -293,6 +301,8 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   meshes_.draw(style_.fluid, eye, lighting);
   yarn_meshes_.draw(style_.knit, eye, lighting);
   floor_mesh_.draw(style_.floor_colour, eye, lighting);
+  solid_mesh_.draw(style_.obstacle_colour, eye, lighting);
+  plane_mesh_.draw(style_.obstacle_colour, eye, lighting, true);
   last_spheres_ = list.size();
   last_triangles_ = surface.triangles() + tubes.triangles();
   return {style_.width, style_.height, target_.read_rgba()};

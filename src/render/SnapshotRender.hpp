@@ -31,6 +31,10 @@ struct SnapshotStyle {
   glm::vec4 fluid{0.20f, 0.45f, 0.85f, 1.0f}, knit{0.85f, 0.55f, 0.25f, 1.0f},
       boundary_colour{0.6f, 0.6f, 0.6f, 1.0f}, background{1.0f, 1.0f, 1.0f, 1.0f};
   std::vector<Sphere> obstacles; // solid spheres of the scene, drawn as they are
+  // The scene's other solids (boxes, OBJ meshes: closed, seen from any side) and planes (seen
+  // only from their fluid's side: a tank's walls do not hide what is in it), in obstacle_colour.
+  SurfaceMesh solids, planes;
+  glm::vec4 obstacle_colour{0.55f, 0.57f, 0.60f, 1.0f};
   Lighting lighting;
   // The fluid as its surface (marching cubes over the weighted field, FluidSurface) or, off, as
   // the particles' spheres.
@@ -96,7 +100,7 @@ private:
   EglContext context_;
   OffscreenTarget target_;
   SphereRenderer spheres_;
-  MeshRenderer meshes_, yarn_meshes_, floor_mesh_;
+  MeshRenderer meshes_, yarn_meshes_, floor_mesh_, solid_mesh_, plane_mesh_;
   std::unique_ptr<ShadowMaps> shadows_;
   std::function<void(std::vector<float>&)> combine_shadows_;
   std::optional<double> fluid_r_, knit_r_, boundary_r_, yarn_r_;

@@ -1,0 +1,87 @@
+#include "render/SolidMeshes.hpp"
+
+#include "core/Error.hpp"
+
+#include <cmath>
+#include <string>
+
+namespace kf::render {
+
+namespace {
+
+/// One flat triangle, counter-clockwise as given.
+void add_triangle(SurfaceMesh& m, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  const glm::dvec3 n = glm::cross(b - a, c - a);
+  const double len = glm::length(n);
+  if (!(len > 0))
+    return; // a degenerate triangle covers nothing
+  const auto first = std::uint32_t(m.position.size());
+  for (const glm::dvec3& p : {a, b, c}) {
+    m.position.emplace_back(p);
+    m.normal.emplace_back(n / len);
+  }
+  m.index.insert(m.index.end(), {first, first + 1, first + 2});
+}
+
+} // namespace
+
+SurfaceMesh box_mesh(const glm::dvec3& lo, const glm::dvec3& hi) {
+  SurfaceMesh m;
+  auto corner = [&](int k) {
+    return glm::dvec3(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z);
+  };
+  // Each face's corners counter-clockwise seen from outside.
+  const int faces[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                           {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+  for (const auto& f : faces) {
+    add_triangle(m, corner(f[0]), corner(f[1]), corner(f[2]));
+    add_triangle(m, corner(f[0]), corner(f[2]), corner(f[3]));
+  }
+  return m;
+}
+
+SurfaceMesh plane_mesh(const glm::dvec3& point, const glm::dvec3& normal, const glm::dvec3& centre,
+                       double half) {
+  const glm::dvec3 n = glm::normalize(normal);
+  const glm::dvec3 c = centre - glm::dot(centre - point, n) * n;
+  const glm::dvec3 u = glm::normalize(
+      glm::cross(n, std::abs(n.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0)));
+  const glm::dvec3 v = glm::cross(n, u); // u, v, n right-handed: u then v is counter-clockwise
+  SurfaceMesh m;
+  const glm::dvec3 a = c - half * u - half * v, b = c + half * u - half * v,
+                   d = c + half * u + half * v, e = c - half * u + half * v;
+  add_triangle(m, a, b, d);
+  add_triangle(m, a, d, e);
+  return m;
+}
+
+SurfaceMesh triangle_mesh(const std::vector<glm::dvec3>& vertices,
+                          const std::vector<std::array<std::uint32_t, 3>>& triangles) {
+  SurfaceMesh m;
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    for (std::uint32_t i : triangles[t])
+      if (i >= vertices.size())
+        throw Error("render: triangle " + std::to_string(t) + " names vertex " + std::to_string(i) +
+                    " of " + std::to_string(vertices.size()));
+    add_triangle(m, vertices[triangles[t][0]], vertices[triangles[t][1]],
+                 vertices[triangles[t][2]]);
+  }
+  return m;
+}
+
+void append(SurfaceMesh& whole, const SurfaceMesh& part) {
+  const auto offset = std::uint32_t(whole.position.size());
+  whole.position.insert(whole.position.end(), part.position.begin(), part.position.end());
+  whole.normal.insert(whole.normal.end(), part.normal.begin(), part.normal.end());
+  if (!whole.shade.empty() || !part.shade.empty()) {
+    whole.shade.resize(offset, 1.0f);
+    if (part.shade.empty())
+      whole.shade.resize(whole.position.size(), 1.0f);
+    else
+      whole.shade.insert(whole.shade.end(), part.shade.begin(), part.shade.end());
+  }
+  for (std::uint32_t i : part.index)
+    whole.index.push_back(offset + i);
+}
+
+} // namespace kf::render

@@ -1,0 +1,27 @@
+#pragma once
+// The scene's solids as meshes for the picture (P6): boxes, planes and closed triangle meshes,
+// flat-shaded (a normal a face), counter-clockwise seen from outside (a plane: from its fluid's
+// side), so that a one-sided draw shows a plane only from that side.
+#include "render/FluidSurface.hpp"
+
+#include <glm/glm.hpp>
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace kf::render {
+
+/// The box [lo, hi]: 6 faces of 2 triangles, normals out.
+SurfaceMesh box_mesh(const glm::dvec3& lo, const glm::dvec3& hi);
+/// A square of half-side `half` in the plane through `point` with unit `normal` (its front),
+/// centred at the point of the plane nearest `centre`.
+SurfaceMesh plane_mesh(const glm::dvec3& point, const glm::dvec3& normal, const glm::dvec3& centre,
+                       double half);
+/// A closed triangle mesh, a face normal a triangle (its vertices repeated per triangle).
+SurfaceMesh triangle_mesh(const std::vector<glm::dvec3>& vertices,
+                          const std::vector<std::array<std::uint32_t, 3>>& triangles);
+/// `part` added to `whole`.
+void append(SurfaceMesh& whole, const SurfaceMesh& part);
+
+} // namespace kf::render

@@ -1,0 +1,89 @@
+// The scene's solids drawn (render/SolidMeshes, P6): a box's mesh is its six faces (area
+// 2 (ab + bc + ca), every face wound counter-clockwise seen from outside, normals out); a plane's
+// square faces its fluid side; on the picture a box's top face takes the light a face up takes,
+// C (ambient + (1 - ambient) l_z), and a plane is seen from its front and not from behind (a
+// tank's wall does not hide what is in it).
+#include "core/Error.hpp"
+#include "render/SnapshotRender.hpp"
+#include "render/SolidMeshes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace kf;
+
+namespace {
+
+/// Every triangle's winding normal points away from `inside` and agrees with its vertices'.
+void expect_outward(const render::SurfaceMesh& m, const glm::dvec3& inside) {
+  for (std::size_t t = 0; t < m.index.size(); t += 3) {
+    const glm::dvec3 a(m.position[m.index[t]]), b(m.position[m.index[t + 1]]),
+        c(m.position[m.index[t + 2]]);
+    const glm::dvec3 w = glm::cross(b - a, c - a);
+    EXPECT_GT(glm::dot(w, (a + b + c) / 3.0 - inside), 0) << "triangle " << t / 3;
+    EXPECT_GT(glm::dot(w, glm::dvec3(m.normal[m.index[t]])), 0) << "triangle " << t / 3;
+  }
+}
+
+} // namespace
+
+TEST(SolidMeshes, ABoxIsItsSixFacesWoundOutward) {
+  const auto m = render::box_mesh({-1, 0, 2}, {2, 0.5, 4});
+  EXPECT_EQ(m.triangles(), 12u);
+  EXPECT_NEAR(m.area(), 2 * (3 * 0.5 + 0.5 * 2 + 2 * 3), 1e-6);
+  expect_outward(m, {0.5, 0.25, 3});
+}
+
+TEST(SolidMeshes, APlaneFacesItsFluidAndTrianglesKeepTheirWinding) {
+  const glm::dvec3 n = glm::normalize(glm::dvec3(1, -2, 0.5));
+  const auto m = render::plane_mesh({0.3, 0.1, 0}, n, {5, 5, 5}, 2.0);
+  EXPECT_NEAR(m.area(), 16.0, 1e-5);
+  for (std::size_t v = 0; v < m.position.size(); ++v) {
+    EXPECT_NEAR(glm::dot(glm::dvec3(m.position[v]) - glm::dvec3(0.3, 0.1, 0), n), 0, 1e-5);
+    EXPECT_NEAR(glm::length(glm::dvec3(m.normal[v]) - n), 0, 1e-6);
+  }
+  expect_outward(m, glm::dvec3(0.3, 0.1, 0) - n);
+  // A tetrahedron as an OBJ mesh's triangles (counter-clockwise outside), one of them bad.
+  const std::vector<glm::dvec3> v = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  const auto t = render::triangle_mesh(v, {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}});
+  EXPECT_EQ(t.triangles(), 4u);
+  expect_outward(t, {0.2, 0.2, 0.2});
+  EXPECT_THROW(render::triangle_mesh(v, {{0, 1, 4}}), Error);
+}
+
+TEST(RenderSolids, ABoxsTopTakesTheLightAndAPlaneShowsOnlyItsFront) {
+  render::SnapshotStyle s;
+  s.width = 200;
+  s.height = 200;
+  s.lighting.toward_light = {0.3f, 0.2f, 1.0f};
+  s.lighting.specular = 0;
+  s.solids = render::box_mesh({-0.1, -0.1, 0}, {0.1, 0.1, 0.2});
+  render::Camera cam;
+  cam.eye = {0, 0, 1};
+  cam.target = {0, 0, 0};
+  cam.up = {0, 1, 0};
+  cam.near = 0.1;
+  cam.far = 3;
+  const std::size_t centre = 4 * (100 * 200 + 100);
+  {
+    render::SnapshotRenderer r(s);
+    const io::RgbaImage img = r.draw(io::Frame{}, cam);
+    const double lz = 1.0 / std::sqrt(0.09 + 0.04 + 1.0);
+    const double want = 0.55 * (0.25 + 0.75 * lz) * 255;
+    EXPECT_NEAR(img.pixels[centre], want, 1.0) << "the box's top face";
+  }
+  // A horizontal plane below, facing up: seen from above; facing down: not seen (background).
+  s.solids = {};
+  for (double nz : {1.0, -1.0}) {
+    s.planes = render::plane_mesh({0, 0, 0}, {0, 0, nz}, {0, 0, 0}, 1.0);
+    s.obstacles = {{glm::vec4(0.5f, 0.5f, 0.1f, 0.05f), glm::vec4(1.0f)}}; // (something to frame)
+    render::SnapshotRenderer r(s);
+    const io::RgbaImage img = r.draw(io::Frame{}, cam);
+    if (nz > 0) {
+      EXPECT_LT(img.pixels[centre], 200) << "the plane's front is not drawn";
+    } else {
+      EXPECT_EQ(img.pixels[centre], 255) << "the plane's back is drawn";
+    }
+  }
+}
