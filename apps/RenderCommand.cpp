@@ -156,6 +156,7 @@ render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
   st.yarn_radius = r.yarn_radius;
   st.shadows = r.shadows;
   st.floor = r.floor;
+  st.fluid_reflection = r.reflections;
   st.wet_darkening = r.wet_darkening;
   st.fluid = glm::vec4(vec(r.fluid_colour), 1.0f);
   st.knit = glm::vec4(vec(r.knit_colour), 1.0f);

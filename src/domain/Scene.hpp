@@ -236,9 +236,10 @@ struct Scene {
     enum class SurfaceField { Weighted, Naive } surface = SurfaceField::Weighted;
     bool boundary = false;                                // the walls' particles
     enum class Knit { Yarns, Points } knit = Knit::Yarns; // tubes along the yarns, or spheres
-    double yarn_radius = 0; // [m]; 0: a fifth of the spacing of the knit's points in a layer
-    bool shadows = true;    // cascaded shadow maps of the light
-    bool floor = true;      // a floor at the domain's bottom, receiving the shadows
+    double yarn_radius = 0;  // [m]; 0: a fifth of the spacing of the knit's points in a layer
+    bool shadows = true;     // cascaded shadow maps of the light
+    bool floor = true;       // a floor at the domain's bottom, receiving the shadows
+    bool reflections = true; // the fluid's surface mirrors a sky (Fresnel)
   } render;
 
   bool has(Module m) const {

@@ -563,7 +563,8 @@ void read_render(const TableReader& t, Scene::Render& r) {
   t.allow_only({"width",        "height",      "eye",           "target",     "fov",
                 "orbit",        "light",       "ambient",       "highlights", "background",
                 "fluid_colour", "knit_colour", "wet_darkening", "fluid",      "surface",
-                "boundary",     "knit",        "yarn_radius",   "shadows",    "floor"});
+                "boundary",     "knit",        "yarn_radius",   "shadows",    "floor",
+                "reflections"});
   r.width = read_count(t, "width", r.width, 16, 16384);
   r.height = read_count(t, "height", r.height, 16, 16384);
   const bool eye = t.read("eye", r.eye), target = t.read("target", r.target);
@@ -590,6 +591,7 @@ void read_render(const TableReader& t, Scene::Render& r) {
   t.read("yarn_radius", r.yarn_radius, Range::at_least(0));
   t.read("shadows", r.shadows);
   t.read("floor", r.floor);
+  t.read("reflections", r.reflections);
 }
 
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {

@@ -78,16 +78,17 @@ void MeshRenderer::upload(const SurfaceMesh& mesh) {
 }
 
 void MeshRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light,
-                        bool one_sided) {
+                        MeshLook look) {
   if (indices_drawn_ == 0)
     return;
   use_lit_program(program_->id(), view, light);
   const unsigned p = program_->id();
   glUniform4fv(glGetUniformLocation(p, "colour"), 1, glm::value_ptr(colour));
+  glUniform1i(glGetUniformLocation(p, "reflective"), look.reflective ? 1 : 0);
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
-  if (one_sided) {
+  if (look.one_sided) {
     glEnable(GL_CULL_FACE);
     glCullFace(GL_BACK);
   }

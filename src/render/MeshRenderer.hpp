@@ -10,6 +10,14 @@
 
 namespace kf::render {
 
+/// How a mesh is drawn: one_sided, only the faces seen from their front (counter-clockwise),
+/// as a plane obstacle is seen from its fluid's side and not from behind; reflective, water's
+/// Fresnel reflection of the sky and the ground over its colour.
+struct MeshLook {
+  bool one_sided = false;
+  bool reflective = false;
+};
+
 class MeshRenderer {
 public:
   /// Needs a current context.
@@ -18,14 +26,13 @@ public:
   MeshRenderer(const MeshRenderer&) = delete;
   MeshRenderer& operator=(const MeshRenderer&) = delete;
 
-  /// Draws the mesh into the bound target with depth testing, opaque, in `colour`.
   /// Moves the mesh to the GPU: the draws after it show it (a frame's passes, the shadow maps'
   /// and the picture's, share one upload: a garment's yarns are hundreds of MB).
   void upload(const SurfaceMesh& mesh);
-  /// Draws the last uploaded mesh; one_sided: only the faces seen from their front (counter-
-  /// clockwise), as a plane obstacle is seen from its fluid's side and not from behind.
+  /// Draws the last uploaded mesh into the bound target with depth testing, opaque, in
+  /// `colour`.
   void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {},
-            bool one_sided = false);
+            MeshLook look = {});
   void draw(const SurfaceMesh& mesh, const glm::vec4& colour, const Camera& camera, double aspect,
             const Lighting& light = {}) {
     upload(mesh);

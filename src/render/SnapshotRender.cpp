@@ -298,11 +298,11 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   const ViewMatrices eye = ViewMatrices::of(camera, aspect);
   spheres_.draw(list, eye, lighting);
-  meshes_.draw(style_.fluid, eye, lighting);
+  meshes_.draw(style_.fluid, eye, lighting, {.reflective = style_.fluid_reflection});
   yarn_meshes_.draw(style_.knit, eye, lighting);
   floor_mesh_.draw(style_.floor_colour, eye, lighting);
   solid_mesh_.draw(style_.obstacle_colour, eye, lighting);
-  plane_mesh_.draw(style_.obstacle_colour, eye, lighting, true);
+  plane_mesh_.draw(style_.obstacle_colour, eye, lighting, {.one_sided = true});
   last_spheres_ = list.size();
   last_triangles_ = surface.triangles() + tubes.triangles();
   return {style_.width, style_.height, target_.read_rgba()};

@@ -40,6 +40,8 @@ struct SnapshotStyle {
   // the particles' spheres.
   bool fluid_surface = true;
   SurfaceField surface_field = SurfaceField::Weighted;
+  // The surface mirrors a sky over a grey ground by Fresnel's share (Schlick, F0 = 0.02).
+  bool fluid_reflection = false;
   // The knit as tubes along the snapshot's yarns (where it holds a yarn phase) or, off, as its
   // mass points' spheres; a yarn's radius [m], 0: a fifth of the spacing of the knit's points in
   // a layer (the paper's pour: 1.1 mm for 5.5 mm stitches).

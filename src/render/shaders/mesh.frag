@@ -9,7 +9,15 @@ uniform vec3 light_view;
 uniform float ambient;
 uniform float specular_strength;
 uniform vec4 colour;
+uniform bool reflective; // water: the sky and the ground mirrored, by Fresnel's share
 out vec4 frag;
+// The environment a reflected ray sees (world directions, z up): a sky brighter at the horizon
+// over a grey ground.
+vec3 environment(vec3 d) {
+  if (d.z < 0.0)
+    return vec3(0.55, 0.55, 0.53);
+  return mix(vec3(0.86, 0.89, 0.93), vec3(0.42, 0.58, 0.85), smoothstep(0.0, 0.6, d.z));
+}
 void main() {
   const vec3 dir = normalize(view_point);
   vec3 n = normalize(view_normal);
@@ -21,6 +29,10 @@ void main() {
   const float diffuse = max(cos_light, 0.0) * lit;
   const vec3 h = normalize(light_view - dir);
   const float specular = pow(max(dot(n, h), 0.0), 64.0) * specular_strength * lit;
-  frag = vec4(colour.rgb * vertex_shade * (ambient + (1.0 - ambient) * diffuse) + vec3(specular),
-              colour.a);
+  vec3 body = colour.rgb * vertex_shade * (ambient + (1.0 - ambient) * diffuse);
+  if (reflective) { // Schlick's Fresnel, water's F0 = 0.02
+    const float f = 0.02 + 0.98 * pow(1.0 - max(dot(n, -dir), 0.0), 5.0);
+    body = mix(body, environment(mat3(inverse_view) * reflect(dir, n)), f);
+  }
+  frag = vec4(body + vec3(specular), colour.a);
 }
