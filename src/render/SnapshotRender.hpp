@@ -1,8 +1,8 @@
 #pragma once
 // A snapshot to a picture: the fluid as its surface (or spheres), the knit as tubes along its
 // yarns (or its points' spheres), darkened where wet, C' = C (1 - alpha sqrt(s)) (paper §6),
-// optionally the boundary's spheres, the scene's sphere obstacles beside them, from a camera.
-// The volumetric (lumislice) yarns and the shadows of the later stages are still to come.
+// optionally the boundary's spheres, the scene's obstacles beside them, shadows of the light on a
+// floor, from a camera. The volumetric (lumislice) yarns and a translucent fluid are to come.
 #include "io/Frame.hpp"
 #include "io/PngImage.hpp"
 #include "render/Camera.hpp"
