@@ -176,6 +176,86 @@ std::vector<glm::dvec3> SnapshotRenderer::drawn_points(const io::Frame& frame) c
   return all;
 }
 
+bool SnapshotRenderer::has_yarns(const io::Frame& frame) const {
+  const io::Phase* p = frame.find("yarn");
+  return style_.knit_yarns && p && p->find("position") && p->find("position")->count > 0;
+}
+
+SurfaceMesh SnapshotRenderer::fluid_surface(const io::Frame& frame, const Region* only) {
+  last_surface_seconds_ = 0;
+  if (!style_.fluid_surface)
+    return {};
+  const auto x = phase_positions(frame, "fluid");
+  if (!fluid_r_ && x.size() > 1)
+    fluid_r_ = 0.5 * typical_spacing(x);
+  if (x.empty() || !fluid_r_ || !(*fluid_r_ > 0))
+    return {};
+  SurfaceOptions opt;
+  opt.field = style_.surface_field;
+  opt.spacing = 2 * *fluid_r_;
+  const auto t0 = std::chrono::steady_clock::now();
+  SurfaceMesh m = marching_cubes(surface_field(x, opt, only), only);
+  last_surface_seconds_ =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return m;
+}
+
+SurfaceMesh SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* only) {
+  last_yarn_seconds_ = 0;
+  if (!has_yarns(frame))
+    return {};
+  const auto yarn_x = phase_positions(frame, "yarn");
+  if (!yarn_r_) {
+    yarn_r_ = style_.yarn_radius;
+    if (!(*yarn_r_ > 0)) // a fifth of a layer's point spacing; without knit points, the yarn's
+      *yarn_r_ = 0.2 * layer_spacing(frame, "knit").value_or(4 * typical_spacing(yarn_x));
+  }
+  const YarnPolylines lines{yarn_x, segments(frame, "yarn"),
+                            scalar_field(frame, "yarn", "saturation")};
+  YarnStyle ys;
+  ys.radius = *yarn_r_;
+  ys.wet_darkening = style_.wet_darkening;
+  const auto t0 = std::chrono::steady_clock::now();
+  SurfaceMesh m = yarn_tubes(lines, ys, only);
+  last_yarn_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return m;
+}
+
+void SnapshotRenderer::draw_scene(const std::vector<Sphere>& spheres, const ViewMatrices& view,
+                                  const Lighting& light, bool picture) {
+  spheres_.draw(spheres, view, light);
+  meshes_.draw(style_.fluid, view, light, {.reflective = picture && style_.fluid_reflection});
+  yarn_meshes_.draw(style_.knit, view, light);
+  solid_mesh_.draw(style_.obstacle_colour, view, light);
+  // The floor receives shadows but casts none; a plane is seen from its front only (a shadow
+  // caster from either side).
+  if (picture)
+    floor_mesh_.draw(style_.floor_colour, view, light);
+  plane_mesh_.draw(style_.obstacle_colour, view, light, {.one_sided = picture});
+}
+
+void SnapshotRenderer::draw_shadow_maps(const Camera& camera, double aspect, const glm::dvec3& lo,
+                                        const glm::dvec3& hi, const std::vector<Sphere>& spheres,
+                                        bool part) {
+  if (!shadows_) {
+    const int texels = style_.shadow_resolution > 0
+                           ? style_.shadow_resolution
+                           : std::clamp(2 * std::max(style_.width, style_.height), 256, 2048);
+    shadows_ = std::make_unique<ShadowMaps>(texels, style_.shadow_cascades);
+  }
+  shadows_->fit(camera, aspect, lo, hi, style_.lighting.toward_light);
+  glEnable(GL_DEPTH_TEST);
+  for (int k = 0; k < shadows_->cascades(); ++k) {
+    shadows_->begin(k);
+    draw_scene(spheres, shadows_->light_view(k), Lighting{}, false);
+  }
+  if (part && combine_shadows_) {
+    std::vector<float> depths = shadows_->read();
+    combine_shadows_(depths);
+    shadows_->write(depths);
+  }
+}
+
 io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camera,
                                      const Region* only) {
   std::vector<Sphere> list;
@@ -200,45 +280,12 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
       list.push_back({glm::vec4(glm::vec3(x[i]), float(*radius)), c});
     }
   };
-  SurfaceMesh surface;
-  last_surface_seconds_ = 0;
-  if (style_.fluid_surface) {
-    const auto x = phase_positions(frame, "fluid");
-    if (!fluid_r_ && x.size() > 1)
-      fluid_r_ = 0.5 * typical_spacing(x);
-    if (!x.empty() && fluid_r_ && *fluid_r_ > 0) {
-      SurfaceOptions opt;
-      opt.field = style_.surface_field;
-      opt.spacing = 2 * *fluid_r_;
-      const auto t0 = std::chrono::steady_clock::now();
-      surface = marching_cubes(surface_field(x, opt, only), only);
-      last_surface_seconds_ =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    }
-  } else {
+  SurfaceMesh surface = fluid_surface(frame, only);
+  if (!style_.fluid_surface)
     add("fluid", fluid_r_, 0.5, style_.fluid, {});
-  }
-  SurfaceMesh tubes;
-  last_yarn_seconds_ = 0;
-  const auto yarn_x =
-      style_.knit_yarns ? phase_positions(frame, "yarn") : std::vector<glm::dvec3>{};
-  if (!yarn_x.empty()) {
-    if (!yarn_r_) {
-      yarn_r_ = style_.yarn_radius;
-      if (!(*yarn_r_ > 0)) // a fifth of a layer's point spacing; without knit points, the yarn's
-        *yarn_r_ = 0.2 * layer_spacing(frame, "knit").value_or(4 * typical_spacing(yarn_x));
-    }
-    YarnPolylines lines{yarn_x, segments(frame, "yarn"), scalar_field(frame, "yarn", "saturation")};
-    YarnStyle ys;
-    ys.radius = *yarn_r_;
-    ys.wet_darkening = style_.wet_darkening;
-    const auto t0 = std::chrono::steady_clock::now();
-    tubes = yarn_tubes(lines, ys, only);
-    last_yarn_seconds_ =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  } else {
+  SurfaceMesh tubes = knit_tubes(frame, only);
+  if (!has_yarns(frame))
     add("knit", knit_r_, 0.6, style_.knit, scalar_field(frame, "knit", "saturation"));
-  }
   if (style_.boundary)
     add("boundary", boundary_r_, 0.5, style_.boundary_colour, {});
   // The floor, and the shadow maps of everything drawn (the box and its shadow on the floor).
@@ -267,28 +314,7 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   plane_mesh_.upload(style_.planes);
   Lighting lighting = style_.lighting;
   if (style_.shadows) {
-    if (!shadows_) {
-      const int texels = style_.shadow_resolution > 0
-                             ? style_.shadow_resolution
-                             : std::clamp(2 * std::max(style_.width, style_.height), 256, 2048);
-      shadows_ = std::make_unique<ShadowMaps>(texels, style_.shadow_cascades);
-    }
-    shadows_->fit(camera, aspect, lo, hi, style_.lighting.toward_light);
-    glEnable(GL_DEPTH_TEST);
-    for (int k = 0; k < shadows_->cascades(); ++k) {
-      shadows_->begin(k);
-      const ViewMatrices v = shadows_->light_view(k);
-      spheres_.draw(list, v);
-      meshes_.draw(style_.fluid, v);
-      yarn_meshes_.draw(style_.knit, v);
-      solid_mesh_.draw(style_.obstacle_colour, v);
-      plane_mesh_.draw(style_.obstacle_colour, v);
-    }
-    if (only && combine_shadows_) {
-      std::vector<float> depths = shadows_->read();
-      combine_shadows_(depths);
-      shadows_->write(depths);
-    }
+    draw_shadow_maps(camera, aspect, lo, hi, list, only != nullptr);
     lighting.shadows = shadows_.get();
   }
   target_.bind();
@@ -296,13 +322,7 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   glClearColor(bg.r, bg.g, bg.b, bg.a);
   glClearDepth(1.0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  const ViewMatrices eye = ViewMatrices::of(camera, aspect);
-  spheres_.draw(list, eye, lighting);
-  meshes_.draw(style_.fluid, eye, lighting, {.reflective = style_.fluid_reflection});
-  yarn_meshes_.draw(style_.knit, eye, lighting);
-  floor_mesh_.draw(style_.floor_colour, eye, lighting);
-  solid_mesh_.draw(style_.obstacle_colour, eye, lighting);
-  plane_mesh_.draw(style_.obstacle_colour, eye, lighting, {.one_sided = true});
+  draw_scene(list, ViewMatrices::of(camera, aspect), lighting, true);
   last_spheres_ = list.size();
   last_triangles_ = surface.triangles() + tubes.triangles();
   return {style_.width, style_.height, target_.read_rgba()};

@@ -98,6 +98,20 @@ public:
   const ContextInfo& context() const { return context_.info(); }
 
 private:
+  /// The frame's fluid surface (empty when the fluid is drawn as spheres) and the knit's tubes
+  /// (empty without a yarn phase or with the knit as points), timed; with `only`, its part.
+  SurfaceMesh fluid_surface(const io::Frame& frame, const Region* only);
+  SurfaceMesh knit_tubes(const io::Frame& frame, const Region* only);
+  bool has_yarns(const io::Frame& frame) const;
+  /// Everything uploaded, through `view`: the picture's pass (the floor, the water's reflection,
+  /// planes one-sided) or a shadow map's (the casters).
+  void draw_scene(const std::vector<Sphere>& spheres, const ViewMatrices& view,
+                  const Lighting& light, bool picture);
+  /// The cascades fitted to the camera and the box, the casters drawn into them; a part's maps
+  /// reduced over the ranks (set_shadow_combiner).
+  void draw_shadow_maps(const Camera& camera, double aspect, const glm::dvec3& lo,
+                        const glm::dvec3& hi, const std::vector<Sphere>& spheres, bool part);
+
   SnapshotStyle style_;
   EglContext context_;
   OffscreenTarget target_;
