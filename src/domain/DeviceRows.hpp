@@ -1,9 +1,9 @@
 #pragma once
 // The ranks' halo and migration rows on a device backend (comm::RowCopier): the columns are
-// device memory; a message is packed on the device (one gather kernel for its columns). For the MPI
-// transport it is copied to a page-locked host buffer, and a received one copied up and
-// scattered, so only the rows that move cross the bus; for NCCL (device messages) the messages
-// stay in device memory.
+// device memory; an exchange's messages are packed on the device in one launch (every peer and
+// column) and unpacked in another. For the MPI transport each is copied to a page-locked host
+// buffer, and the received ones copied up before the unpacking, so only the rows that move cross
+// the bus; for NCCL (device messages) the messages stay in device memory.
 #include "comm/RowCopier.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
 #include "kernels/exec/RowCopy.hpp"
