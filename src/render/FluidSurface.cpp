@@ -20,54 +20,6 @@ double SurfaceMesh::area() const {
 
 namespace {
 
-/// Particles binned in cubes of the kernel's support, for the field's gather.
-struct Bins {
-  glm::dvec3 lo;
-  double size;
-  std::array<int, 3> n;
-  std::vector<std::uint32_t> start, item;
-
-  Bins(const std::vector<glm::dvec3>& p, glm::dvec3 lo_, glm::dvec3 hi, double size_)
-      : lo(lo_), size(size_) {
-    for (int a = 0; a < 3; ++a)
-      n[std::size_t(a)] = std::max(1, int(std::ceil((hi[a] - lo[a]) / size)));
-    start.assign(std::size_t(n[0]) * n[1] * n[2] + 1, 0);
-    std::vector<std::uint32_t> bin(p.size());
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      bin[i] = std::uint32_t(index(cell_of(p[i])));
-      ++start[bin[i] + 1];
-    }
-    for (std::size_t b = 1; b < start.size(); ++b)
-      start[b] += start[b - 1];
-    item.resize(p.size());
-    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-    for (std::size_t i = 0; i < p.size(); ++i)
-      item[fill[bin[i]]++] = std::uint32_t(i);
-  }
-  std::array<int, 3> cell_of(const glm::dvec3& x) const {
-    std::array<int, 3> c;
-    for (int a = 0; a < 3; ++a)
-      c[std::size_t(a)] =
-          std::clamp(int(std::floor((x[a] - lo[a]) / size)), 0, n[std::size_t(a)] - 1);
-    return c;
-  }
-  std::size_t index(const std::array<int, 3>& c) const {
-    return std::size_t(c[0]) +
-           std::size_t(n[0]) * (std::size_t(c[1]) + std::size_t(n[1]) * std::size_t(c[2]));
-  }
-  template <typename F>
-  void around(const glm::dvec3& x, F&& f) const {
-    const auto c = cell_of(x);
-    for (int k = std::max(0, c[2] - 1); k <= std::min(n[2] - 1, c[2] + 1); ++k)
-      for (int j = std::max(0, c[1] - 1); j <= std::min(n[1] - 1, c[1] + 1); ++j)
-        for (int i = std::max(0, c[0] - 1); i <= std::min(n[0] - 1, c[0] + 1); ++i) {
-          const std::size_t b = index({i, j, k});
-          for (std::uint32_t s = start[b]; s < start[b + 1]; ++s)
-            f(item[s]);
-        }
-  }
-};
-
 /// The 3-D cubic spline of support 2 h (Monaghan), integral 1.
 double cubic_spline(double r, double h) {
   const double q = r / h, sigma = 1.0 / (std::numbers::pi * h * h * h);
@@ -80,8 +32,34 @@ double cubic_spline(double r, double h) {
 
 } // namespace
 
-ScalarGrid surface_field(const std::vector<glm::dvec3>& points, const SurfaceOptions& opt,
-                         const Region* only) {
+ParticleBins::ParticleBins(const std::vector<glm::dvec3>& p, glm::dvec3 lo_, glm::dvec3 hi,
+                           double size_)
+    : lo(lo_), size(size_) {
+  for (int a = 0; a < 3; ++a)
+    n[std::size_t(a)] = std::max(1, int(std::ceil((hi[a] - lo[a]) / size)));
+  start.assign(std::size_t(n[0]) * n[1] * n[2] + 1, 0);
+  std::vector<std::uint32_t> bin(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    bin[i] = std::uint32_t(index(cell_of(p[i])));
+    ++start[bin[i] + 1];
+  }
+  for (std::size_t b = 1; b < start.size(); ++b)
+    start[b] += start[b - 1];
+  item.resize(p.size());
+  std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+  for (std::size_t i = 0; i < p.size(); ++i)
+    item[fill[bin[i]]++] = std::uint32_t(i);
+}
+
+std::array<int, 3> ParticleBins::cell_of(const glm::dvec3& x) const {
+  std::array<int, 3> c;
+  for (int a = 0; a < 3; ++a)
+    c[std::size_t(a)] =
+        std::clamp(int(std::floor((x[a] - lo[a]) / size)), 0, n[std::size_t(a)] - 1);
+  return c;
+}
+
+ScalarGrid surface_grid(const std::vector<glm::dvec3>& points, const SurfaceOptions& opt) {
   if (!(opt.spacing > 0) || !(opt.cell > 0) || !(opt.support > 0))
     throw Error("fluid surface: spacing, cell and support must be positive");
   ScalarGrid g;
@@ -110,8 +88,18 @@ ScalarGrid surface_field(const std::vector<glm::dvec3>& points, const SurfaceOpt
   g.cell = cell;
   for (int a = 0; a < 3; ++a)
     g.n[std::size_t(a)] = int(std::ceil((hi[a] - lo[a]) / cell)) + 1;
+  return g;
+}
+
+ScalarGrid surface_field(const std::vector<glm::dvec3>& points, const SurfaceOptions& opt,
+                         const Region* only) {
+  ScalarGrid g = surface_grid(points, opt);
+  if (points.empty())
+    return g;
+  const double dp = opt.spacing, reach = opt.support * dp, cell = g.cell;
+  const glm::dvec3 lo = g.origin, hi = lo + cell * glm::dvec3(g.n[0] - 1, g.n[1] - 1, g.n[2] - 1);
   g.value.assign(std::size_t(g.n[0]) * g.n[1] * g.n[2], 0.0f);
-  const Bins bins(points, lo, hi, reach);
+  const ParticleBins bins(points, lo, hi, reach);
   const double volume = dp * dp * dp, r2max = reach * reach, radius = opt.radius * dp;
   Region near;
   if (only)
@@ -230,6 +218,31 @@ const CaseTable& cases() {
 }
 
 } // namespace
+
+const MarchingCubesTable& marching_cubes_table() {
+  static const MarchingCubesTable flat = [] {
+    const CaseTable& t = cases();
+    MarchingCubesTable f;
+    std::size_t most = 0;
+    for (const auto& list : t.triangles)
+      most = std::max(most, list.size());
+    f.stride = int(1 + 3 * most);
+    f.cases.assign(256 * std::size_t(f.stride), 0);
+    for (std::size_t m = 0; m < 256; ++m) {
+      int* row = f.cases.data() + m * std::size_t(f.stride);
+      row[0] = int(t.triangles[m].size());
+      for (std::size_t k = 0; k < t.triangles[m].size(); ++k)
+        for (std::size_t c = 0; c < 3; ++c)
+          row[1 + 3 * k + c] = t.triangles[m][k][c];
+    }
+    for (std::size_t e = 0; e < 12; ++e) {
+      f.edge_corners[2 * e] = t.edge[e].first;
+      f.edge_corners[2 * e + 1] = t.edge[e].second;
+    }
+    return f;
+  }();
+  return flat;
+}
 
 SurfaceMesh marching_cubes(const ScalarGrid& g, const Region* only) {
   SurfaceMesh mesh;

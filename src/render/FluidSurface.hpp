@@ -14,6 +14,7 @@
 
 #include <glm/glm.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -54,6 +55,39 @@ struct ScalarGrid {
   }
 };
 
+/// The grid surface_field fills for `points` (origin, cell and vertex counts; no values): their
+/// box grown by the kernel's reach and a spacing, the cell opt.cell dp, coarser (x 1.25 at a time)
+/// past opt.max_cells vertices. Throws a kf::Error on a non-positive spacing, cell or support.
+ScalarGrid surface_grid(const std::vector<glm::dvec3>& points, const SurfaceOptions& opt);
+
+/// Points binned in cubes of `size` from `lo` (points past the bins fall into the outer ones):
+/// point item[s] for s in [start[b], start[b+1]) lies in bin b = i + n0 (j + n1 k).
+struct ParticleBins {
+  glm::dvec3 lo{0};
+  double size = 0;
+  std::array<int, 3> n{1, 1, 1};
+  std::vector<std::uint32_t> start, item;
+
+  ParticleBins(const std::vector<glm::dvec3>& p, glm::dvec3 lo, glm::dvec3 hi, double size);
+  std::array<int, 3> cell_of(const glm::dvec3& x) const;
+  std::size_t index(const std::array<int, 3>& c) const {
+    return std::size_t(c[0]) +
+           std::size_t(n[0]) * (std::size_t(c[1]) + std::size_t(n[1]) * std::size_t(c[2]));
+  }
+  /// f(point) for every point in the 27 bins around x's.
+  template <typename F>
+  void around(const glm::dvec3& x, F&& f) const {
+    const auto c = cell_of(x);
+    for (int k = std::max(0, c[2] - 1); k <= std::min(n[2] - 1, c[2] + 1); ++k)
+      for (int j = std::max(0, c[1] - 1); j <= std::min(n[1] - 1, c[1] + 1); ++j)
+        for (int i = std::max(0, c[0] - 1); i <= std::min(n[0] - 1, c[0] + 1); ++i) {
+          const std::size_t b = index({i, j, k});
+          for (std::uint32_t s = start[b]; s < start[b + 1]; ++s)
+            f(item[s]);
+        }
+  }
+};
+
 /// The field of `points` on a grid covering them with a margin of the kernel's support, shifted
 /// so the surface is its zero level.
 /// With `only`, the values are computed within two cells of it alone (what marching_cubes(grid,
@@ -69,5 +103,15 @@ ScalarGrid surface_field(const std::vector<glm::dvec3>& points, const SurfaceOpt
 /// With `only`, just the cells whose centres lie in it (sort-last rendering: the parts of every
 /// rank together are the whole mesh, each triangle once).
 SurfaceMesh marching_cubes(const ScalarGrid& grid, const Region* only = nullptr);
+
+/// marching_cubes' case table, flat for a GPU: case m's triangles at m * stride, a count first,
+/// then three cube edges (0-11) a triangle; edge e joins corners edge_corners[2e], [2e+1]
+/// (corner bit b = x | y << 1 | z << 2).
+struct MarchingCubesTable {
+  int stride = 0;
+  std::vector<int> cases; // 256 * stride
+  std::array<int, 24> edge_corners{};
+};
+const MarchingCubesTable& marching_cubes_table();
 
 } // namespace kf::render

@@ -1,6 +1,7 @@
 #include "render/MeshRenderer.hpp"
 
 #include "core/Error.hpp"
+#include "render/GlBuffers.hpp"
 #include "render/Shaders.hpp"
 
 #include <epoxy/gl.h>
@@ -29,28 +30,41 @@ MeshRenderer::~MeshRenderer() {
 
 namespace {
 
-/// Storage that grows, never shrinks (a film reuses it); returns the buffer, new if it grew.
-unsigned fit(unsigned buffer, std::size_t& capacity, std::size_t bytes) {
-  if (bytes <= capacity)
-    return buffer;
-  glDeleteBuffers(1, &buffer);
-  glCreateBuffers(1, &buffer);
-  glNamedBufferStorage(buffer, GLsizeiptr(bytes), nullptr, GL_DYNAMIC_STORAGE_BIT);
-  capacity = bytes;
-  return buffer;
+// Interleaved position, normal, shade.
+struct Vertex {
+  glm::vec3 position, normal;
+  float shade;
+};
+static_assert(sizeof(Vertex) == 7 * sizeof(float));
+
+void vertex_format(unsigned vao, unsigned buffer) {
+  glVertexArrayVertexBuffer(vao, 0, buffer, 0, GLsizei(sizeof(Vertex)));
+  const GLint components[] = {3, 3, 1};
+  const GLuint offsets[] = {GLuint(offsetof(Vertex, position)), GLuint(offsetof(Vertex, normal)),
+                            GLuint(offsetof(Vertex, shade))};
+  for (GLuint a = 0; a < 3; ++a) {
+    glEnableVertexArrayAttrib(vao, a);
+    glVertexArrayAttribFormat(vao, a, components[a], GL_FLOAT, GL_FALSE, offsets[a]);
+    glVertexArrayAttribBinding(vao, a, 0);
+  }
 }
 
 } // namespace
 
+void MeshRenderer::show(unsigned buffer, std::size_t vertices) {
+  indexed_ = false;
+  indices_drawn_ = vertices;
+  if (vertices == 0)
+    return;
+  vertex_format(vao_, buffer);
+  check_gl("showing a buffer of " + std::to_string(vertices / 3) + " triangles");
+}
+
 void MeshRenderer::upload(const SurfaceMesh& mesh) {
+  indexed_ = true;
   indices_drawn_ = mesh.index.size();
   if (mesh.index.empty())
     return;
-  // Interleaved position, normal, shade.
-  struct Vertex {
-    glm::vec3 position, normal;
-    float shade;
-  };
   const bool shaded = !mesh.shade.empty();
   if (shaded && mesh.shade.size() != mesh.position.size())
     throw Error("render: a mesh of " + std::to_string(mesh.position.size()) + " vertices with " +
@@ -60,20 +74,12 @@ void MeshRenderer::upload(const SurfaceMesh& mesh) {
     interleaved[v] = {mesh.position[v], mesh.normal[v], shaded ? mesh.shade[v] : 1.0f};
   const std::size_t vbytes = interleaved.size() * sizeof(Vertex);
   const std::size_t ibytes = mesh.index.size() * sizeof(std::uint32_t);
-  vertices_ = fit(vertices_, vertex_capacity_, vbytes);
-  indices_ = fit(indices_, index_capacity_, ibytes);
+  vertices_ = grown_buffer(vertices_, vertex_capacity_, vbytes);
+  indices_ = grown_buffer(indices_, index_capacity_, ibytes);
   glNamedBufferSubData(vertices_, 0, GLsizeiptr(vbytes), interleaved.data());
   glNamedBufferSubData(indices_, 0, GLsizeiptr(ibytes), mesh.index.data());
-  glVertexArrayVertexBuffer(vao_, 0, vertices_, 0, GLsizei(sizeof(Vertex)));
+  vertex_format(vao_, vertices_);
   glVertexArrayElementBuffer(vao_, indices_);
-  const GLint components[] = {3, 3, 1};
-  const GLuint offsets[] = {GLuint(offsetof(Vertex, position)), GLuint(offsetof(Vertex, normal)),
-                            GLuint(offsetof(Vertex, shade))};
-  for (GLuint a = 0; a < 3; ++a) {
-    glEnableVertexArrayAttrib(vao_, a);
-    glVertexArrayAttribFormat(vao_, a, components[a], GL_FLOAT, GL_FALSE, offsets[a]);
-    glVertexArrayAttribBinding(vao_, a, 0);
-  }
   check_gl("uploading a mesh of " + std::to_string(mesh.triangles()) + " triangles");
 }
 
@@ -92,7 +98,10 @@ void MeshRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
     glEnable(GL_CULL_FACE);
     glCullFace(GL_BACK);
   }
-  glDrawElements(GL_TRIANGLES, GLsizei(indices_drawn_), GL_UNSIGNED_INT, nullptr);
+  if (indexed_)
+    glDrawElements(GL_TRIANGLES, GLsizei(indices_drawn_), GL_UNSIGNED_INT, nullptr);
+  else
+    glDrawArrays(GL_TRIANGLES, 0, GLsizei(indices_drawn_));
   glDisable(GL_CULL_FACE);
   check_gl("drawing a mesh of " + std::to_string(indices_drawn_ / 3) + " triangles");
 }

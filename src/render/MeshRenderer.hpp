@@ -29,6 +29,9 @@ public:
   /// Moves the mesh to the GPU: the draws after it show it (a frame's passes, the shadow maps'
   /// and the picture's, share one upload: a garment's yarns are hundreds of MB).
   void upload(const SurfaceMesh& mesh);
+  /// Draws, instead, `vertices` vertices of another's GL buffer in upload's layout (position,
+  /// normal, shade: 7 floats), three a triangle, no index list (SurfaceCompute's triangles).
+  void show(unsigned buffer, std::size_t vertices);
   /// Draws the last uploaded mesh into the bound target with depth testing, opaque, in
   /// `colour`.
   void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {},
@@ -43,6 +46,7 @@ private:
   std::unique_ptr<ShaderProgram> program_;
   unsigned vao_ = 0, vertices_ = 0, indices_ = 0;
   std::size_t vertex_capacity_ = 0, index_capacity_ = 0, indices_drawn_ = 0;
+  bool indexed_ = true; // upload's mesh, or show's buffer
 };
 
 } // namespace kf::render

@@ -21,9 +21,10 @@ unsigned compile(const std::string& name, GLenum stage, const std::string& sourc
     std::string log(std::size_t(len > 0 ? len : 1), '\0');
     glGetShaderInfoLog(s, GLsizei(log.size()), nullptr, log.data());
     glDeleteShader(s);
-    throw Error("render: " + name + ": the " +
-                (stage == GL_VERTEX_SHADER ? std::string("vertex") : std::string("fragment")) +
-                " shader does not compile:\n" + log.c_str());
+    const std::string what = stage == GL_VERTEX_SHADER     ? "vertex"
+                             : stage == GL_FRAGMENT_SHADER ? "fragment"
+                                                           : "compute";
+    throw Error("render: " + name + ": the " + what + " shader does not compile:\n" + log.c_str());
   }
   return s;
 }
@@ -40,12 +41,22 @@ ShaderProgram::ShaderProgram(const std::string& name, const std::string& vertex,
     glDeleteShader(vs);
     throw;
   }
+  const unsigned both[] = {vs, fs};
+  link(name, both, 2);
+}
+
+ShaderProgram::ShaderProgram(const std::string& name, const std::string& compute_source) {
+  const unsigned cs = compile(name, GL_COMPUTE_SHADER, compute_source);
+  link(name, &cs, 1);
+}
+
+void ShaderProgram::link(const std::string& name, const unsigned* shaders, int count) {
   program_ = glCreateProgram();
-  glAttachShader(program_, vs);
-  glAttachShader(program_, fs);
+  for (int i = 0; i < count; ++i)
+    glAttachShader(program_, shaders[i]);
   glLinkProgram(program_);
-  glDeleteShader(vs); // the program keeps them while it lives
-  glDeleteShader(fs);
+  for (int i = 0; i < count; ++i)
+    glDeleteShader(shaders[i]); // the program keeps them while it lives
   GLint ok = 0;
   glGetProgramiv(program_, GL_LINK_STATUS, &ok);
   if (!ok) {
@@ -54,6 +65,7 @@ ShaderProgram::ShaderProgram(const std::string& name, const std::string& vertex,
     std::string log(std::size_t(len > 0 ? len : 1), '\0');
     glGetProgramInfoLog(program_, GLsizei(log.size()), nullptr, log.data());
     glDeleteProgram(program_);
+    program_ = 0;
     throw Error("render: " + name + ": the program does not link:\n" + std::string(log.c_str()));
   }
 }

@@ -181,23 +181,35 @@ bool SnapshotRenderer::has_yarns(const io::Frame& frame) const {
   return style_.knit_yarns && p && p->find("position") && p->find("position")->count > 0;
 }
 
-SurfaceMesh SnapshotRenderer::fluid_surface(const io::Frame& frame, const Region* only) {
+std::size_t SnapshotRenderer::fluid_surface(const io::Frame& frame, const Region* only) {
   last_surface_seconds_ = 0;
+  meshes_.upload({});
   if (!style_.fluid_surface)
-    return {};
+    return 0;
   const auto x = phase_positions(frame, "fluid");
   if (!fluid_r_ && x.size() > 1)
     fluid_r_ = 0.5 * typical_spacing(x);
   if (x.empty() || !fluid_r_ || !(*fluid_r_ > 0))
-    return {};
+    return 0;
   SurfaceOptions opt;
   opt.field = style_.surface_field;
   opt.spacing = 2 * *fluid_r_;
   const auto t0 = std::chrono::steady_clock::now();
-  SurfaceMesh m = marching_cubes(surface_field(x, opt, only), only);
+  std::size_t triangles = 0;
+  if (style_.surface_on_gpu) {
+    if (!surface_compute_)
+      surface_compute_ = std::make_unique<SurfaceCompute>();
+    const std::size_t vertices = surface_compute_->extract(x, opt, only);
+    meshes_.show(surface_compute_->vertex_buffer(), vertices);
+    triangles = vertices / 3;
+  } else {
+    const SurfaceMesh m = marching_cubes(surface_field(x, opt, only), only);
+    meshes_.upload(m);
+    triangles = m.triangles();
+  }
   last_surface_seconds_ =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return m;
+  return triangles;
 }
 
 SurfaceMesh SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* only) {
@@ -280,7 +292,7 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
       list.push_back({glm::vec4(glm::vec3(x[i]), float(*radius)), c});
     }
   };
-  SurfaceMesh surface = fluid_surface(frame, only);
+  const std::size_t surface_triangles = fluid_surface(frame, only);
   if (!style_.fluid_surface)
     add("fluid", fluid_r_, 0.5, style_.fluid, {});
   SurfaceMesh tubes = knit_tubes(frame, only);
@@ -305,7 +317,6 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
       }
     lo.z = std::min(lo.z, z);
   }
-  meshes_.upload(surface);
   yarn_meshes_.upload(tubes);
   floor_mesh_.upload(floor);
   // The solids and planes are the scene's: the same every frame and every part of it, drawn
@@ -324,7 +335,7 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   draw_scene(list, ViewMatrices::of(camera, aspect), lighting, true);
   last_spheres_ = list.size();
-  last_triangles_ = surface.triangles() + tubes.triangles();
+  last_triangles_ = surface_triangles + tubes.triangles();
   return {style_.width, style_.height, target_.read_rgba()};
 }
 

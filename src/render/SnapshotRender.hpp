@@ -13,6 +13,7 @@
 #include "render/ShadowMaps.hpp"
 #include "render/SpaceSplit.hpp"
 #include "render/SphereRenderer.hpp"
+#include "render/SurfaceCompute.hpp"
 #include "render/YarnTubes.hpp"
 
 #include <functional>
@@ -40,6 +41,9 @@ struct SnapshotStyle {
   // the particles' spheres.
   bool fluid_surface = true;
   SurfaceField surface_field = SurfaceField::Weighted;
+  // The surface's field and marching cubes as GL compute passes (SurfaceCompute; llvmpipe runs
+  // them without a GPU) or, off, on the host (FluidSurface, the reference).
+  bool surface_on_gpu = true;
   // The surface mirrors a sky over a grey ground by Fresnel's share (Schlick, F0 = 0.02).
   bool fluid_reflection = false;
   // The knit as tubes along the snapshot's yarns (where it holds a yarn phase) or, off, as its
@@ -91,16 +95,18 @@ public:
   std::vector<glm::dvec3> drawn_points(const io::Frame& frame) const;
   std::size_t last_spheres() const { return last_spheres_; }
   std::size_t last_triangles() const { return last_triangles_; }
-  /// Seconds the last draw spent on the fluid's surface (field and marching cubes, host).
+  /// Seconds the last draw spent on the fluid's surface (field and marching cubes, their
+  /// triangles ready to draw).
   double last_surface_seconds() const { return last_surface_seconds_; }
   /// Seconds the last draw spent building the yarns' tubes (host).
   double last_yarn_seconds() const { return last_yarn_seconds_; }
   const ContextInfo& context() const { return context_.info(); }
 
 private:
-  /// The frame's fluid surface (empty when the fluid is drawn as spheres) and the knit's tubes
-  /// (empty without a yarn phase or with the knit as points), timed; with `only`, its part.
-  SurfaceMesh fluid_surface(const io::Frame& frame, const Region* only);
+  /// The frame's fluid surface (none when the fluid is drawn as spheres) into meshes_, and its
+  /// triangles; the knit's tubes (empty without a yarn phase or with the knit as points); both
+  /// timed; with `only`, its part.
+  std::size_t fluid_surface(const io::Frame& frame, const Region* only);
   SurfaceMesh knit_tubes(const io::Frame& frame, const Region* only);
   bool has_yarns(const io::Frame& frame) const;
   /// Everything uploaded, through `view`: the picture's pass (the floor, the water's reflection,
@@ -118,6 +124,7 @@ private:
   SphereRenderer spheres_;
   MeshRenderer meshes_, yarn_meshes_, floor_mesh_, solid_mesh_, plane_mesh_;
   std::unique_ptr<ShadowMaps> shadows_;
+  std::unique_ptr<SurfaceCompute> surface_compute_;
   std::function<void(std::vector<float>&)> combine_shadows_;
   std::optional<double> fluid_r_, knit_r_, boundary_r_, yarn_r_;
   std::size_t last_spheres_ = 0, last_triangles_ = 0;

@@ -1,0 +1,12 @@
+#pragma once
+// GL buffer storage reused from frame to frame.
+#include <cstddef>
+
+namespace kf::render {
+
+/// `buffer` when it holds `bytes` (its `capacity`), else a new immutable buffer of that size
+/// (GL_DYNAMIC_STORAGE_BIT: filled by glNamedBufferSubData) replacing it: storage grows, never
+/// shrinks, so a film allocates once. 0 is no buffer yet.
+unsigned grown_buffer(unsigned buffer, std::size_t& capacity, std::size_t bytes);
+
+} // namespace kf::render

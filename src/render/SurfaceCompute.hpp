@@ -1,0 +1,50 @@
+#pragma once
+// The fluid's surface on the GPU (P6 §3: "marching cubes over a density grid splatted from the
+// particles on the GPU"): FluidSurface's field and marching cubes as OpenGL compute passes, the
+// triangles left in a GL buffer that MeshRenderer draws without a trip through the host. Mesa
+// llvmpipe runs the same passes on a machine without a GPU. FluidSurface's host functions are
+// the reference: the same grid (surface_grid), bins and case table, and tests compare both.
+#include "render/FluidSurface.hpp"
+#include "render/ShaderProgram.hpp"
+#include "render/SpaceSplit.hpp"
+
+#include <cstddef>
+#include <vector>
+
+namespace kf::render {
+
+class SurfaceCompute {
+public:
+  /// Needs a current context (OpenGL 4.3+ compute).
+  SurfaceCompute();
+  ~SurfaceCompute();
+  SurfaceCompute(const SurfaceCompute&) = delete;
+  SurfaceCompute& operator=(const SurfaceCompute&) = delete;
+
+  /// The surface of `points` (surface_field then marching_cubes, with `only` as theirs) into
+  /// vertex_buffer(); returns its vertex count (three a triangle, no index list). The grid is
+  /// capped by opt.max_cells and by what one GL storage buffer may hold.
+  std::size_t extract(const std::vector<glm::dvec3>& points, const SurfaceOptions& opt,
+                      const Region* only = nullptr);
+  /// Marching cubes alone over a given field (tests: the same field as the host's).
+  std::size_t polygonise(const ScalarGrid& grid, const Region* only = nullptr);
+
+  /// The last surface's vertices: position, normal and shade (1), 7 floats each.
+  unsigned vertex_buffer() const { return vertices_; }
+  std::size_t vertex_count() const { return count_; }
+  /// The last field (tests) and the last surface as a mesh (tests; index i for vertex i).
+  ScalarGrid read_field() const;
+  SurfaceMesh read_mesh() const;
+
+private:
+  std::size_t march(const Region* only);
+
+  ShaderProgram field_program_, cube_program_;
+  unsigned points_ = 0, bin_start_ = 0, field_ = 0, cases_ = 0, vertices_ = 0, counter_ = 0;
+  std::size_t points_capacity_ = 0, bins_capacity_ = 0, field_capacity_ = 0, vertex_capacity_ = 0;
+  std::size_t max_buffer_ = 0; // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
+  ScalarGrid grid_;            // the last grid's layout (no values)
+  std::size_t count_ = 0;
+};
+
+} // namespace kf::render
