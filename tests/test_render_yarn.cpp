@@ -5,9 +5,13 @@
 // 1 - alpha sqrt(s); a k-d split's boxes share the segments out exactly; and the picture: the
 // tube's width on the image is its projected diameter.
 #include "core/Error.hpp"
+#include "render/MeshRenderer.hpp"
+#include "render/OffscreenTarget.hpp"
 #include "render/SnapshotRender.hpp"
+#include "render/TubeRenderer.hpp"
 #include "render/YarnTubes.hpp"
 
+#include <epoxy/gl.h>
 #include <gtest/gtest.h>
 
 #include <glm/gtc/matrix_transform.hpp>
@@ -47,7 +51,9 @@ TEST(YarnTubes, AStraightYarnIsAPrismOfItsRing) {
   for (std::size_t v = 0; v < m.position.size(); ++v) {
     const glm::dvec3 p(m.position[v]), n(m.normal[v]);
     const double d = std::hypot(p.y - 0.2, p.z + 0.3);
-    EXPECT_NEAR(d, 0.01, 1e-8) << "vertex " << v; // float positions near 0.3: 3e-8 apart
+    // Float positions near 0.3 lie 3e-8 apart, and the ring is built in float (as on the GPU):
+    // an ulp and a little (measured 2.1e-8).
+    EXPECT_NEAR(d, 0.01, 4e-8) << "vertex " << v;
     EXPECT_NEAR(glm::length(n), 1.0, 1e-6);
     EXPECT_NEAR(n.x, 0.0, 1e-6) << "a normal along the axis";
     // Outward: the normal is the vertex's offset from the axis over the radius.
@@ -202,4 +208,58 @@ TEST(RenderYarn, ATubesWidthOnThePictureIsItsProjectedDiameter) {
   std::printf("tube band %d pixels, projected diameter %.2f-%.2f\n", covered, lo, hi);
   EXPECT_GT(r.last_triangles(), 0u);
   EXPECT_EQ(r.last_spheres(), 0u); // no knit points drawn as spheres
+}
+
+TEST(RenderYarn, TheGpusTubesAreTheHostMeshsTubes) {
+  // A wet helix drawn twice: the rings built in tube.vert from the frames (TubeRenderer, what
+  // SnapshotRenderer draws) and the host's mesh of the same frames (yarn_tubes through
+  // MeshRenderer). The same float arithmetic in another order: the same picture but for pixels
+  // on a silhouette.
+  render::EglContext context;
+  std::vector<glm::dvec3> x;
+  for (int i = 0; i < 400; ++i) {
+    const double a = 0.05 * i;
+    x.push_back({0.1 * std::cos(a), 0.1 * std::sin(a), 0.004 * a});
+  }
+  auto y = chain(x, 0);
+  for (std::size_t i = 0; i < y.s.size(); ++i)
+    y.s[i] = double(i) / double(y.s.size()); // drier to wetter along it
+  YarnStyle st;
+  st.radius = 0.01;
+  render::Camera cam;
+  cam.eye = {0.35, -0.35, 0.3};
+  cam.target = {0, 0, 0.04};
+  cam.up = {0, 0, 1};
+  const int w = 320, h = 240;
+  const auto view = render::ViewMatrices::of(cam, double(w) / h);
+  const glm::vec4 colour(0.85f, 0.55f, 0.25f, 1.0f);
+  render::OffscreenTarget target(w, h);
+  auto picture = [&](auto&& draw) {
+    target.bind();
+    glClearColor(1, 1, 1, 1);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    draw();
+    return target.read_rgba();
+  };
+  render::TubeRenderer tubes;
+  tubes.upload(render::yarn_frames(y, st), st.sides);
+  const auto gpu = picture([&] { tubes.draw(colour, view); });
+  render::MeshRenderer mesh;
+  mesh.upload(render::yarn_tubes(y, st));
+  const auto host = picture([&] { mesh.draw(colour, view); });
+  EXPECT_EQ(tubes.triangles(), 399u * 2 * 8);
+  std::size_t covered = 0, differ = 0;
+  int worst = 0;
+  for (std::size_t i = 0; i < host.size(); i += 4) {
+    int d = 0;
+    for (std::size_t c = 0; c < 3; ++c)
+      d = std::max(d, std::abs(int(gpu[i + c]) - int(host[i + c])));
+    worst = std::max(worst, d);
+    differ += d > 2;
+    covered += host[i + 2] != 255;
+  }
+  std::printf("tubes: %zu pixels covered, %zu differ by more than 2 levels (largest %d)\n", covered,
+              differ, worst);
+  EXPECT_GT(covered, 5000u);
+  EXPECT_LE(differ, covered / 200); // silhouette pixels only: 0.5% allowed
 }

@@ -212,10 +212,11 @@ std::size_t SnapshotRenderer::fluid_surface(const io::Frame& frame, const Region
   return triangles;
 }
 
-SurfaceMesh SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* only) {
+std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* only) {
   last_yarn_seconds_ = 0;
+  tubes_.upload({}, 8);
   if (!has_yarns(frame))
-    return {};
+    return 0;
   const auto yarn_x = phase_positions(frame, "yarn");
   if (!yarn_r_) {
     yarn_r_ = style_.yarn_radius;
@@ -228,16 +229,15 @@ SurfaceMesh SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* o
   ys.radius = *yarn_r_;
   ys.wet_darkening = style_.wet_darkening;
   const auto t0 = std::chrono::steady_clock::now();
-  SurfaceMesh m = yarn_tubes(lines, ys, only);
+  tubes_.upload(yarn_frames(lines, ys, only), ys.sides);
   last_yarn_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return m;
+  return tubes_.triangles();
 }
 
-void SnapshotRenderer::draw_scene(const std::vector<Sphere>& spheres, const ViewMatrices& view,
-                                  const Lighting& light, bool picture) {
-  spheres_.draw(spheres, view, light);
+void SnapshotRenderer::draw_scene(const ViewMatrices& view, const Lighting& light, bool picture) {
+  spheres_.draw(view, light);
   meshes_.draw(style_.fluid, view, light, {.reflective = picture && style_.fluid_reflection});
-  yarn_meshes_.draw(style_.knit, view, light);
+  tubes_.draw(style_.knit, view, light);
   solid_mesh_.draw(style_.obstacle_colour, view, light);
   // The floor receives shadows but casts none; a plane is seen from its front only (a shadow
   // caster from either side).
@@ -247,8 +247,7 @@ void SnapshotRenderer::draw_scene(const std::vector<Sphere>& spheres, const View
 }
 
 void SnapshotRenderer::draw_shadow_maps(const Camera& camera, double aspect, const glm::dvec3& lo,
-                                        const glm::dvec3& hi, const std::vector<Sphere>& spheres,
-                                        bool part) {
+                                        const glm::dvec3& hi, bool part) {
   if (!shadows_) {
     const int texels = style_.shadow_resolution > 0
                            ? style_.shadow_resolution
@@ -259,7 +258,7 @@ void SnapshotRenderer::draw_shadow_maps(const Camera& camera, double aspect, con
   glEnable(GL_DEPTH_TEST);
   for (int k = 0; k < shadows_->cascades(); ++k) {
     shadows_->begin(k);
-    draw_scene(spheres, shadows_->light_view(k), Lighting{}, false);
+    draw_scene(shadows_->light_view(k), Lighting{}, false);
   }
   if (part && combine_shadows_) {
     std::vector<float> depths = shadows_->read();
@@ -295,7 +294,7 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   const std::size_t surface_triangles = fluid_surface(frame, only);
   if (!style_.fluid_surface)
     add("fluid", fluid_r_, 0.5, style_.fluid, {});
-  SurfaceMesh tubes = knit_tubes(frame, only);
+  const std::size_t tube_triangles = knit_tubes(frame, only);
   if (!has_yarns(frame))
     add("knit", knit_r_, 0.6, style_.knit, scalar_field(frame, "knit", "saturation"));
   if (style_.boundary)
@@ -317,15 +316,15 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
       }
     lo.z = std::min(lo.z, z);
   }
-  yarn_meshes_.upload(tubes);
   floor_mesh_.upload(floor);
+  spheres_.upload(list);
   // The solids and planes are the scene's: the same every frame and every part of it, drawn
   // whole by each rank (like the floor) so the composite keeps them.
   solid_mesh_.upload(style_.solids);
   plane_mesh_.upload(style_.planes);
   Lighting lighting = style_.lighting;
   if (style_.shadows) {
-    draw_shadow_maps(camera, aspect, lo, hi, list, only != nullptr);
+    draw_shadow_maps(camera, aspect, lo, hi, only != nullptr);
     lighting.shadows = shadows_.get();
   }
   target_.bind();
@@ -333,9 +332,9 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   glClearColor(bg.r, bg.g, bg.b, bg.a);
   glClearDepth(1.0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  draw_scene(list, ViewMatrices::of(camera, aspect), lighting, true);
+  draw_scene(ViewMatrices::of(camera, aspect), lighting, true);
   last_spheres_ = list.size();
-  last_triangles_ = surface_triangles + tubes.triangles();
+  last_triangles_ = surface_triangles + tube_triangles;
   return {style_.width, style_.height, target_.read_rgba()};
 }
 

@@ -14,6 +14,7 @@
 #include "render/SpaceSplit.hpp"
 #include "render/SphereRenderer.hpp"
 #include "render/SurfaceCompute.hpp"
+#include "render/TubeRenderer.hpp"
 #include "render/YarnTubes.hpp"
 
 #include <functional>
@@ -98,31 +99,31 @@ public:
   /// Seconds the last draw spent on the fluid's surface (field and marching cubes, their
   /// triangles ready to draw).
   double last_surface_seconds() const { return last_surface_seconds_; }
-  /// Seconds the last draw spent building the yarns' tubes (host).
+  /// Seconds the last draw spent on the yarns' frames (host; the GPU builds the rings).
   double last_yarn_seconds() const { return last_yarn_seconds_; }
   const ContextInfo& context() const { return context_.info(); }
 
 private:
-  /// The frame's fluid surface (none when the fluid is drawn as spheres) into meshes_, and its
-  /// triangles; the knit's tubes (empty without a yarn phase or with the knit as points); both
-  /// timed; with `only`, its part.
+  /// The frame's fluid surface (none when the fluid is drawn as spheres) into meshes_, and the
+  /// knit's tubes (none without a yarn phase or with the knit as points) into tubes_; their
+  /// triangles; both timed; with `only`, its part.
   std::size_t fluid_surface(const io::Frame& frame, const Region* only);
-  SurfaceMesh knit_tubes(const io::Frame& frame, const Region* only);
+  std::size_t knit_tubes(const io::Frame& frame, const Region* only);
   bool has_yarns(const io::Frame& frame) const;
   /// Everything uploaded, through `view`: the picture's pass (the floor, the water's reflection,
   /// planes one-sided) or a shadow map's (the casters).
-  void draw_scene(const std::vector<Sphere>& spheres, const ViewMatrices& view,
-                  const Lighting& light, bool picture);
+  void draw_scene(const ViewMatrices& view, const Lighting& light, bool picture);
   /// The cascades fitted to the camera and the box, the casters drawn into them; a part's maps
   /// reduced over the ranks (set_shadow_combiner).
   void draw_shadow_maps(const Camera& camera, double aspect, const glm::dvec3& lo,
-                        const glm::dvec3& hi, const std::vector<Sphere>& spheres, bool part);
+                        const glm::dvec3& hi, bool part);
 
   SnapshotStyle style_;
   EglContext context_;
   OffscreenTarget target_;
   SphereRenderer spheres_;
-  MeshRenderer meshes_, yarn_meshes_, floor_mesh_, solid_mesh_, plane_mesh_;
+  MeshRenderer meshes_, floor_mesh_, solid_mesh_, plane_mesh_;
+  TubeRenderer tubes_;
   std::unique_ptr<ShadowMaps> shadows_;
   std::unique_ptr<SurfaceCompute> surface_compute_;
   std::function<void(std::vector<float>&)> combine_shadows_;

@@ -26,9 +26,15 @@ public:
   SphereRenderer(const SphereRenderer&) = delete;
   SphereRenderer& operator=(const SphereRenderer&) = delete;
 
-  /// Draws the spheres into the bound target with depth testing, lit by `light`.
+  /// Moves the spheres to the GPU: the draws after it show them (a frame's passes share it).
+  void upload(const std::vector<Sphere>& spheres);
+  /// Draws the last uploaded spheres into the bound target with depth testing, lit by `light`.
+  void draw(const ViewMatrices& view, const Lighting& light = {});
   void draw(const std::vector<Sphere>& spheres, const ViewMatrices& view,
-            const Lighting& light = {});
+            const Lighting& light = {}) {
+    upload(spheres);
+    draw(view, light);
+  }
   void draw(const std::vector<Sphere>& spheres, const Camera& camera, double aspect,
             const Lighting& light = {}) {
     draw(spheres, ViewMatrices::of(camera, aspect), light);
@@ -37,7 +43,7 @@ public:
 private:
   std::unique_ptr<ShaderProgram> program_;
   unsigned vao_ = 0, buffer_ = 0;
-  std::size_t capacity_ = 0;
+  std::size_t capacity_ = 0, count_ = 0;
 };
 
 } // namespace kf::render

@@ -33,7 +33,7 @@ std::vector<glm::dvec3> tangents(const std::vector<glm::dvec3>& x, std::size_t a
 
 } // namespace
 
-SurfaceMesh yarn_tubes(const YarnPolylines& y, const YarnStyle& style, const Region* only) {
+YarnFrames yarn_frames(const YarnPolylines& y, const YarnStyle& style, const Region* only) {
   const std::size_t n = y.x.size();
   if (y.segment.size() != n || (!y.s.empty() && y.s.size() != n))
     throw Error("render: the yarn phase has " + std::to_string(n) + " positions but " +
@@ -41,10 +41,9 @@ SurfaceMesh yarn_tubes(const YarnPolylines& y, const YarnStyle& style, const Reg
                 " saturations");
   if (!(style.radius > 0) || style.sides < 3)
     throw Error("render: a yarn needs a radius > 0 and at least 3 sides");
-  const std::size_t sides = std::size_t(style.sides);
-  // The chains (yarns): each point joined to the next until one ends it. Each segment drawn
-  // (a point not ending its chain, in the box) takes 6 indices a side, placed by a prefix sum.
-  std::vector<std::size_t> chain_start, first_index(n + 1, 0);
+  // The chains (yarns): each point joined to the next until one ends it.
+  std::vector<std::size_t> chain_start;
+  YarnFrames f;
   for (std::size_t i = 0; i < n; ++i) {
     const auto& sg = y.segment[i];
     if (sg[0] != i || (sg[1] != i && sg[1] != i + 1) || sg[1] >= n)
@@ -53,21 +52,13 @@ SurfaceMesh yarn_tubes(const YarnPolylines& y, const YarnStyle& style, const Reg
                   ") is not (i, i + 1) or (i, i)");
     if (i == 0 || y.segment[i - 1][1] == i - 1)
       chain_start.push_back(i);
-    const bool drawn = sg[1] == i + 1 && (!only || only->contains(y.x[i]));
-    first_index[i + 1] = first_index[i] + (drawn ? 6 * sides : 0);
+    if (sg[1] == i + 1 && (!only || only->contains(y.x[i])))
+      f.drawn.push_back(std::uint32_t(i));
   }
   chain_start.push_back(n);
-  std::vector<double> cos_k(sides), sin_k(sides);
-  for (std::size_t k = 0; k < sides; ++k) {
-    const double a = 2 * M_PI * double(k) / double(sides);
-    cos_k[k] = std::cos(a);
-    sin_k[k] = std::sin(a);
-  }
-  SurfaceMesh m;
-  m.position.resize(n * sides);
-  m.normal.resize(n * sides);
-  m.shade.resize(n * sides);
-  m.index.resize(first_index[n]);
+  f.centre_radius.resize(n);
+  f.r_shade.resize(n);
+  f.b.resize(n);
   const auto chains = std::ptrdiff_t(chain_start.size() - 1);
   // A yarn a thread: its frames run along it (a few hundred yarns in a garment).
 #pragma omp parallel for schedule(dynamic, 1)
@@ -90,28 +81,45 @@ SurfaceMesh yarn_tubes(const YarnPolylines& y, const YarnStyle& style, const Reg
         // Rounding drift over thousands of points: back to unit and normal to the tangent.
         r = glm::normalize(r - glm::dot(r, t[i - a]) * t[i - a]);
       }
-      const glm::dvec3 bn = glm::cross(t[i - a], r);
       const double s = y.s.empty() ? 0.0 : std::clamp(y.s[i], 0.0, 1.0);
-      const double radius = style.radius * (1 + style.swell * s);
-      const float shade = float(1 - style.wet_darkening * std::sqrt(s));
-      for (std::size_t k = 0; k < sides; ++k) {
-        const glm::dvec3 out = cos_k[k] * r + sin_k[k] * bn;
-        m.position[i * sides + k] = glm::vec3(y.x[i] + radius * out);
-        m.normal[i * sides + k] = glm::vec3(out);
-        m.shade[i * sides + k] = shade;
-      }
-      if (first_index[i + 1] == first_index[i])
-        continue;
-      // Counter-clockwise seen from outside: (ring k, ring k+1, next k+1), (ring k, next k+1,
-      // next k).
-      const auto ring = std::uint32_t(i * sides), next = std::uint32_t((i + 1) * sides);
-      std::uint32_t* out = m.index.data() + first_index[i];
-      for (std::size_t k = 0; k < sides; ++k) {
-        const auto k0 = std::uint32_t(k), k1 = std::uint32_t((k + 1) % sides);
-        const std::uint32_t tri[6] = {ring + k0, ring + k1, next + k1,
-                                      ring + k0, next + k1, next + k0};
-        std::copy(tri, tri + 6, out + 6 * k);
-      }
+      f.centre_radius[i] =
+          glm::vec4(glm::vec3(y.x[i]), float(style.radius * (1 + style.swell * s)));
+      f.r_shade[i] = glm::vec4(glm::vec3(r), float(1 - style.wet_darkening * std::sqrt(s)));
+      f.b[i] = glm::vec4(glm::vec3(glm::cross(t[i - a], r)), 0.0f);
+    }
+  }
+  return f;
+}
+
+SurfaceMesh yarn_tubes(const YarnPolylines& y, const YarnStyle& style, const Region* only) {
+  const YarnFrames f = yarn_frames(y, style, only);
+  const std::size_t n = y.x.size(), sides = std::size_t(style.sides);
+  SurfaceMesh m;
+  m.position.resize(n * sides);
+  m.normal.resize(n * sides);
+  m.shade.resize(n * sides);
+  const auto points = std::ptrdiff_t(n);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t p = 0; p < points; ++p) {
+    const auto i = std::size_t(p);
+    for (std::size_t k = 0; k < sides; ++k) {
+      const double a = 2 * M_PI * double(k) / double(sides);
+      const glm::vec3 out =
+          float(std::cos(a)) * glm::vec3(f.r_shade[i]) + float(std::sin(a)) * glm::vec3(f.b[i]);
+      m.position[i * sides + k] = glm::vec3(f.centre_radius[i]) + f.centre_radius[i].w * out;
+      m.normal[i * sides + k] = out;
+      m.shade[i * sides + k] = f.r_shade[i].w;
+    }
+  }
+  // Two triangles a side a segment, counter-clockwise seen from outside: (ring k, ring k+1,
+  // next k+1), (ring k, next k+1, next k).
+  m.index.reserve(f.drawn.size() * 6 * sides);
+  for (std::uint32_t i : f.drawn) {
+    const auto ring = std::uint32_t(i * sides), next = std::uint32_t((i + 1) * sides);
+    for (std::size_t k = 0; k < sides; ++k) {
+      const auto k0 = std::uint32_t(k), k1 = std::uint32_t((k + 1) % sides);
+      m.index.insert(m.index.end(),
+                     {ring + k0, ring + k1, next + k1, ring + k0, next + k1, next + k0});
     }
   }
   return m;

@@ -30,11 +30,28 @@ struct YarnPolylines {
   std::vector<double> s;
 };
 
-/// The tubes' mesh: `sides` vertices a point, normals out of the tube, the shade a vertex
-/// 1 - alpha sqrt(s); two triangles a side a segment (an end has no cap: the mesh is drawn lit on
-/// both faces). With `only`, just the segments whose first point lies in it (sort-last: a
-/// segment is drawn whole by the rank whose box holds its start). A segment's end must be its
-/// start + 1 or the start itself; anything else is a kf::Error naming the point.
+/// What a tube needs at each yarn point, in float for the GPU (TubeRenderer builds the rings
+/// from it in its vertex shader): the centre and the radius, the ring's first direction r and the
+/// shade 1 - alpha sqrt(s), and b = t x r (the ring's vertex k lies at centre + radius (cos a_k r
+/// + sin a_k b), a_k = 2 pi k / sides); and the segments drawn, by their first point (the next
+/// point closes it).
+struct YarnFrames {
+  std::vector<glm::vec4> centre_radius, r_shade, b;
+  std::vector<std::uint32_t> drawn;
+};
+
+/// The yarns' frames (rotation-minimising along each yarn) and the segments drawn: with `only`,
+/// just those whose first point lies in it. A segment's end must be its start + 1 or the start
+/// itself; anything else is a kf::Error naming the point.
+YarnFrames yarn_frames(const YarnPolylines& yarns, const YarnStyle& style,
+                       const Region* only = nullptr);
+
+/// The tubes' mesh (the host's, a reference for TubeRenderer's): `sides` vertices a point, normals
+/// out of the tube, the shade a vertex 1 - alpha sqrt(s); two triangles a side a segment (an end
+/// has no cap: the mesh is drawn lit on both faces). With `only`, just the segments whose first
+/// point lies in it (sort-last: a segment is drawn whole by the rank whose box holds its start). A
+/// segment's end must be its start + 1 or the start itself; anything else is a kf::Error naming the
+/// point.
 SurfaceMesh yarn_tubes(const YarnPolylines& yarns, const YarnStyle& style,
                        const Region* only = nullptr);
 

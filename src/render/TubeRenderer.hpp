@@ -1,0 +1,41 @@
+#pragma once
+// The yarns' tubes drawn from their points' frames (YarnFrames): the rings are built in the
+// vertex shader (shaders/tube.vert), so a frame moves 52 bytes a yarn point to the GPU instead
+// of a mesh's 8 vertices and 48 indices (about 400 bytes), and no host builds them. Lit as
+// MeshRenderer's meshes (mesh.frag).
+#include "render/Camera.hpp"
+#include "render/Lighting.hpp"
+#include "render/ShaderProgram.hpp"
+#include "render/YarnTubes.hpp"
+
+#include <glm/glm.hpp>
+
+#include <memory>
+
+namespace kf::render {
+
+class TubeRenderer {
+public:
+  /// Needs a current context.
+  TubeRenderer();
+  ~TubeRenderer();
+  TubeRenderer(const TubeRenderer&) = delete;
+  TubeRenderer& operator=(const TubeRenderer&) = delete;
+
+  /// Moves the frames to the GPU: the draws after it show their tubes of `sides` sides.
+  void upload(const YarnFrames& frames, int sides);
+  /// Draws the last uploaded tubes into the bound target with depth testing, in `colour`
+  /// scaled by each point's shade.
+  void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {});
+  std::size_t triangles() const { return segments_ * 2 * std::size_t(sides_); }
+
+private:
+  std::unique_ptr<ShaderProgram> program_;
+  unsigned vao_ = 0;
+  unsigned buffers_[4] = {0, 0, 0, 0};
+  std::size_t capacity_[4] = {0, 0, 0, 0};
+  std::size_t segments_ = 0;
+  int sides_ = 0;
+};
+
+} // namespace kf::render
