@@ -157,6 +157,7 @@ render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
   st.shadows = r.shadows;
   st.floor = r.floor;
   st.fluid_reflection = r.reflections;
+  st.geometry_on_gpu = r.gpu_geometry;
   st.wet_darkening = r.wet_darkening;
   st.fluid = glm::vec4(vec(r.fluid_colour), 1.0f);
   st.knit = glm::vec4(vec(r.knit_colour), 1.0f);
@@ -411,7 +412,8 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
           << ", surface " << renderer.last_surface_seconds() << ", yarns "
           << renderer.last_yarn_seconds() << ", draw and read back "
           << sec(t2 - t1).count() - renderer.last_surface_seconds() - renderer.last_yarn_seconds()
-          << ", waiting for the last PNG " << waited << ")\n";
+          << ", waiting for the last PNG " << waited << "; GPU passes "
+          << render::format_passes(renderer.last_passes()) << ")\n";
   }
   png.finish();
   int total = written;

@@ -253,7 +253,7 @@ TEST(SurfaceOnGpuPicture, ThePictureIsTheHostSurfacesPicture) {
     render::SnapshotStyle s;
     s.width = 320;
     s.height = 240;
-    s.surface_on_gpu = gpu;
+    s.geometry_on_gpu = gpu;
     render::SnapshotRenderer r(s);
     pictures.push_back(r.draw(frame, r.frame_camera(frame)));
     EXPECT_GT(r.last_triangles(), 10000u);

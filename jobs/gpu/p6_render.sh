@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # P6 on a GPU machine (after `. .devrt/prelude.sh`, from the project root): the paper's pour and
 # drape run on the GPU and rendered on the GPU's EGL device. Prints each frame's time split (read,
-# the fluid's surface, the yarns' tubes, draw with shadows and read-back, PNG) at 1920 x 1080, the
-# same without shadows, close-ups of the stitches, the compositing of one frame over
+# the fluid's surface, the yarns' tubes, draw with shadows and read-back, PNG; the GPU's passes by
+# GL timestamps) at 1920 x 1080, the same with the geometry built on the host, without shadows, close-ups of the stitches, the compositing of one frame over
 # 2 and 4 ranks sharing GPU 0 (and over a GPU a rank where the host has several), and leaves in
 # OUTDIR: the chosen pictures (pour dry and wet, the drape) and film.tar (960 x 540 frames).
 # Usage: jobs/gpu/p6_render.sh KNITFLOW OUTDIR [POUR_END]   (POUR_END: default 0.6 s)
@@ -18,6 +18,9 @@ last=$(ls "$work/pour"/frame_*.h5 | tail -1 | sed -E 's/.*frame_0*([0-9]+)\.h5/\
 echo "== render 1920 x 1080, every frame (the first pays the context and shaders)"
 "$exe" render "$work/pour" --width 1920 --height 1080 --no-film --out "$work/full" | grep frame_ |
   sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'
+echo "== frames 5 and $last with the surface and the tubes built on the host (the reference path)"
+"$exe" render "$work/pour" --width 1920 --height 1080 --no-film --frames "5:$last:$((last > 5 ? last - 5 : 1))" \
+  --set render.gpu_geometry=false --out "$work/host" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'
 echo "== the same, fluid as spheres (the preview's look), frames 5 and $last"
 "$exe" render "$work/pour" --width 1920 --height 1080 --no-film --fluid spheres \
   --frames "5:$last:$((last > 5 ? last - 5 : 1))" --out "$work/spheres" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'

@@ -240,6 +240,9 @@ struct Scene {
     bool shadows = true;     // cascaded shadow maps of the light
     bool floor = true;       // a floor at the domain's bottom, receiving the shadows
     bool reflections = true; // the fluid's surface mirrors a sky (Fresnel)
+    // The fluid's surface and the yarns' tubes built on the GPU (GL compute and vertex
+    // shaders); false: on the host (the reference, for a GL without them).
+    bool gpu_geometry = true;
   } render;
 
   bool has(Module m) const {

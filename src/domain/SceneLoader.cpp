@@ -564,7 +564,7 @@ void read_render(const TableReader& t, Scene::Render& r) {
                 "orbit",        "light",       "ambient",       "highlights", "background",
                 "fluid_colour", "knit_colour", "wet_darkening", "fluid",      "surface",
                 "boundary",     "knit",        "yarn_radius",   "shadows",    "floor",
-                "reflections"});
+                "reflections",  "gpu_geometry"});
   r.width = read_count(t, "width", r.width, 16, 16384);
   r.height = read_count(t, "height", r.height, 16, 16384);
   const bool eye = t.read("eye", r.eye), target = t.read("target", r.target);
@@ -592,6 +592,7 @@ void read_render(const TableReader& t, Scene::Render& r) {
   t.read("shadows", r.shadows);
   t.read("floor", r.floor);
   t.read("reflections", r.reflections);
+  t.read("gpu_geometry", r.gpu_geometry);
 }
 
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {

@@ -196,9 +196,11 @@ std::size_t SnapshotRenderer::fluid_surface(const io::Frame& frame, const Region
   opt.spacing = 2 * *fluid_r_;
   const auto t0 = std::chrono::steady_clock::now();
   std::size_t triangles = 0;
-  if (style_.surface_on_gpu) {
-    if (!surface_compute_)
+  if (style_.geometry_on_gpu) {
+    if (!surface_compute_) {
       surface_compute_ = std::make_unique<SurfaceCompute>();
+      surface_compute_->time_with(&timer_);
+    }
     const std::size_t vertices = surface_compute_->extract(x, opt, only);
     meshes_.show(surface_compute_->vertex_buffer(), vertices);
     triangles = vertices / 3;
@@ -215,6 +217,7 @@ std::size_t SnapshotRenderer::fluid_surface(const io::Frame& frame, const Region
 std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* only) {
   last_yarn_seconds_ = 0;
   tubes_.upload({}, 8);
+  yarn_meshes_.upload({});
   if (!has_yarns(frame))
     return 0;
   const auto yarn_x = phase_positions(frame, "yarn");
@@ -229,15 +232,24 @@ std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* o
   ys.radius = *yarn_r_;
   ys.wet_darkening = style_.wet_darkening;
   const auto t0 = std::chrono::steady_clock::now();
-  tubes_.upload(yarn_frames(lines, ys, only), ys.sides);
+  std::size_t triangles = 0;
+  if (style_.geometry_on_gpu) {
+    tubes_.upload(yarn_frames(lines, ys, only), ys.sides);
+    triangles = tubes_.triangles();
+  } else {
+    const SurfaceMesh m = yarn_tubes(lines, ys, only);
+    yarn_meshes_.upload(m);
+    triangles = m.triangles();
+  }
   last_yarn_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return tubes_.triangles();
+  return triangles;
 }
 
 void SnapshotRenderer::draw_scene(const ViewMatrices& view, const Lighting& light, bool picture) {
   spheres_.draw(view, light);
   meshes_.draw(style_.fluid, view, light, {.reflective = picture && style_.fluid_reflection});
   tubes_.draw(style_.knit, view, light);
+  yarn_meshes_.draw(style_.knit, view, light);
   solid_mesh_.draw(style_.obstacle_colour, view, light);
   // The floor receives shadows but casts none; a plane is seen from its front only (a shadow
   // caster from either side).
@@ -291,6 +303,7 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
       list.push_back({glm::vec4(glm::vec3(x[i]), float(*radius)), c});
     }
   };
+  timer_.begin();
   const std::size_t surface_triangles = fluid_surface(frame, only);
   if (!style_.fluid_surface)
     add("fluid", fluid_r_, 0.5, style_.fluid, {});
@@ -322,9 +335,11 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   // whole by each rank (like the floor) so the composite keeps them.
   solid_mesh_.upload(style_.solids);
   plane_mesh_.upload(style_.planes);
+  timer_.mark("uploads");
   Lighting lighting = style_.lighting;
   if (style_.shadows) {
     draw_shadow_maps(camera, aspect, lo, hi, only != nullptr);
+    timer_.mark("shadows");
     lighting.shadows = shadows_.get();
   }
   target_.bind();
@@ -335,7 +350,11 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   draw_scene(ViewMatrices::of(camera, aspect), lighting, true);
   last_spheres_ = list.size();
   last_triangles_ = surface_triangles + tube_triangles;
-  return {style_.width, style_.height, target_.read_rgba()};
+  timer_.mark("picture");
+  io::RgbaImage image{style_.width, style_.height, target_.read_rgba()};
+  timer_.mark("read-back");
+  last_passes_ = timer_.read();
+  return image;
 }
 
 } // namespace kf::render

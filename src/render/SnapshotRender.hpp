@@ -8,6 +8,7 @@
 #include "render/Camera.hpp"
 #include "render/EglContext.hpp"
 #include "render/FluidSurface.hpp"
+#include "render/GpuTimer.hpp"
 #include "render/MeshRenderer.hpp"
 #include "render/OffscreenTarget.hpp"
 #include "render/ShadowMaps.hpp"
@@ -42,9 +43,6 @@ struct SnapshotStyle {
   // the particles' spheres.
   bool fluid_surface = true;
   SurfaceField surface_field = SurfaceField::Weighted;
-  // The surface's field and marching cubes as GL compute passes (SurfaceCompute; llvmpipe runs
-  // them without a GPU) or, off, on the host (FluidSurface, the reference).
-  bool surface_on_gpu = true;
   // The surface mirrors a sky over a grey ground by Fresnel's share (Schlick, F0 = 0.02).
   bool fluid_reflection = false;
   // The knit as tubes along the snapshot's yarns (where it holds a yarn phase) or, off, as its
@@ -52,6 +50,10 @@ struct SnapshotStyle {
   // a layer (the paper's pour: 1.1 mm for 5.5 mm stitches).
   bool knit_yarns = true;
   double yarn_radius = 0;
+  // The surface's field and marching cubes as GL compute passes (SurfaceCompute) and the tubes'
+  // rings in a vertex shader (TubeRenderer), llvmpipe running them where there is no GPU; off,
+  // both built on the host (FluidSurface, yarn_tubes: the references) and uploaded.
+  bool geometry_on_gpu = true;
   // Cascaded shadow maps of the light on everything drawn, and a floor (a square under the frame
   // at floor_z; NaN: the frame's lowest point) that receives them.
   bool shadows = false;
@@ -101,6 +103,9 @@ public:
   double last_surface_seconds() const { return last_surface_seconds_; }
   /// Seconds the last draw spent on the yarns' frames (host; the GPU builds the rings).
   double last_yarn_seconds() const { return last_yarn_seconds_; }
+  /// The last draw's passes and their GPU seconds (GL timestamps): the surface's field and
+  /// cubes, the other uploads, the shadow maps, the picture, its read-back.
+  const std::vector<std::pair<std::string, double>>& last_passes() const { return last_passes_; }
   const ContextInfo& context() const { return context_.info(); }
 
 private:
@@ -122,10 +127,12 @@ private:
   EglContext context_;
   OffscreenTarget target_;
   SphereRenderer spheres_;
-  MeshRenderer meshes_, floor_mesh_, solid_mesh_, plane_mesh_;
+  MeshRenderer meshes_, yarn_meshes_, floor_mesh_, solid_mesh_, plane_mesh_;
   TubeRenderer tubes_;
   std::unique_ptr<ShadowMaps> shadows_;
   std::unique_ptr<SurfaceCompute> surface_compute_;
+  GpuTimer timer_;
+  std::vector<std::pair<std::string, double>> last_passes_;
   std::function<void(std::vector<float>&)> combine_shadows_;
   std::optional<double> fluid_r_, knit_r_, boundary_r_, yarn_r_;
   std::size_t last_spheres_ = 0, last_triangles_ = 0;

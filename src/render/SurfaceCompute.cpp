@@ -94,6 +94,8 @@ std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
   glUseProgram(p);
   glDispatchCompute(groups(grid_.n[0]), groups(grid_.n[1]), groups(grid_.n[2]));
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  if (timer_)
+    timer_->mark("field");
   check_gl("the fluid surface's field on a grid of " + std::to_string(total) + " vertices");
   return march(only);
 }
@@ -160,6 +162,8 @@ std::size_t SurfaceCompute::march(const Region* only) {
                              std::min(most, written + written / 4) * kVertexBytes);
     written = run();
   }
+  if (timer_)
+    timer_->mark("cubes");
   return count_ = written;
 }
 

@@ -5,6 +5,7 @@
 // llvmpipe runs the same passes on a machine without a GPU. FluidSurface's host functions are
 // the reference: the same grid (surface_grid), bins and case table, and tests compare both.
 #include "render/FluidSurface.hpp"
+#include "render/GpuTimer.hpp"
 #include "render/ShaderProgram.hpp"
 #include "render/SpaceSplit.hpp"
 
@@ -29,6 +30,9 @@ public:
   /// Marching cubes alone over a given field (tests: the same field as the host's).
   std::size_t polygonise(const ScalarGrid& grid, const Region* only = nullptr);
 
+  /// Marks "field" and "cubes" on `timer` after those passes (null: none).
+  void time_with(GpuTimer* timer) { timer_ = timer; }
+
   /// The last surface's vertices: position, normal and shade (1), 7 floats each.
   unsigned vertex_buffer() const { return vertices_; }
   std::size_t vertex_count() const { return count_; }
@@ -45,6 +49,7 @@ private:
   std::size_t max_buffer_ = 0; // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
   ScalarGrid grid_;            // the last grid's layout (no values)
   std::size_t count_ = 0;
+  GpuTimer* timer_ = nullptr;
 };
 
 } // namespace kf::render
