@@ -1,8 +1,8 @@
 // The fluid's surface on the GPU (render/SurfaceCompute, P6): the compute passes against the
 // host's reference (render/FluidSurface) on the same points: the same field within float
-// rounding, the same triangles from the same field, and the GPU's own surface of a ball closed,
-// outward and of the sphere's area; split into regions, the parts add up to the whole. Runs
-// through Mesa llvmpipe where there is no GPU.
+// rounding, the same triangles from the same field, and the GPU's own indexed surface of a ball
+// closed and consistently oriented through its index list, outward and of the sphere's area; split
+// into regions, the parts add up to the whole. Runs through Mesa llvmpipe where there is no GPU.
 #include "render/EglContext.hpp"
 #include "render/SnapshotRender.hpp"
 #include "render/SurfaceCompute.hpp"
@@ -59,8 +59,8 @@ std::vector<std::array<float, 9>> triangle_rows(const render::SurfaceMesh& m) {
   return rows;
 }
 
-/// Vertices welded by their bits: the GPU's list repeats a vertex for every triangle using it,
-/// each copy computed from the same grid edge, so equal bits are one vertex.
+/// The mesh with vertices of equal bits made one (a vertex a grid edge: a list without repeats
+/// keeps its size).
 render::SurfaceMesh welded(const render::SurfaceMesh& m) {
   render::SurfaceMesh w;
   std::map<std::array<std::uint32_t, 3>, std::uint32_t> id;
@@ -194,9 +194,14 @@ TEST_F(SurfaceOnGpu, ABallIsClosedOutwardAndHasTheSpheresArea) {
     render::SurfaceOptions opt;
     opt.field = f;
     opt.spacing = kDp;
-    const std::size_t vertices = gpu.extract(p, opt);
-    ASSERT_EQ(vertices % 3, 0u);
-    const auto mesh = welded(gpu.read_mesh());
+    const std::size_t indices = gpu.extract(p, opt);
+    ASSERT_EQ(indices % 3, 0u);
+    // Closed and oriented through the GPU's own index list: every edge's two triangles name
+    // the same two vertices.
+    const auto mesh = gpu.read_mesh();
+    ASSERT_EQ(mesh.position.size(), gpu.vertex_count());
+    ASSERT_LT(*std::max_element(mesh.index.begin(), mesh.index.end()), mesh.position.size());
+    EXPECT_EQ(mesh.position.size(), welded(mesh).position.size()) << "a vertex listed twice";
     ASSERT_GT(mesh.triangles(), 1000u) << name(f);
     EXPECT_EQ(unmatched_edges(mesh), 0u) << name(f) << ": open or inconsistently oriented";
     double worst = 1, volume = 0;

@@ -51,17 +51,16 @@ void vertex_format(unsigned vao, unsigned buffer) {
 
 } // namespace
 
-void MeshRenderer::show(unsigned buffer, std::size_t vertices) {
-  indexed_ = false;
-  indices_drawn_ = vertices;
-  if (vertices == 0)
+void MeshRenderer::show(unsigned vertex_buffer, unsigned index_buffer, std::size_t indices) {
+  indices_drawn_ = indices;
+  if (indices == 0)
     return;
-  vertex_format(vao_, buffer);
-  check_gl("showing a buffer of " + std::to_string(vertices / 3) + " triangles");
+  vertex_format(vao_, vertex_buffer);
+  glVertexArrayElementBuffer(vao_, index_buffer);
+  check_gl("showing buffers of " + std::to_string(indices / 3) + " triangles");
 }
 
 void MeshRenderer::upload(const SurfaceMesh& mesh) {
-  indexed_ = true;
   indices_drawn_ = mesh.index.size();
   if (mesh.index.empty())
     return;
@@ -98,10 +97,7 @@ void MeshRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
     glEnable(GL_CULL_FACE);
     glCullFace(GL_BACK);
   }
-  if (indexed_)
-    glDrawElements(GL_TRIANGLES, GLsizei(indices_drawn_), GL_UNSIGNED_INT, nullptr);
-  else
-    glDrawArrays(GL_TRIANGLES, 0, GLsizei(indices_drawn_));
+  glDrawElements(GL_TRIANGLES, GLsizei(indices_drawn_), GL_UNSIGNED_INT, nullptr);
   glDisable(GL_CULL_FACE);
   check_gl("drawing a mesh of " + std::to_string(indices_drawn_ / 3) + " triangles");
 }

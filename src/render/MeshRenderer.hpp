@@ -29,9 +29,9 @@ public:
   /// Moves the mesh to the GPU: the draws after it show it (a frame's passes, the shadow maps'
   /// and the picture's, share one upload: a garment's yarns are hundreds of MB).
   void upload(const SurfaceMesh& mesh);
-  /// Draws, instead, `vertices` vertices of another's GL buffer in upload's layout (position,
-  /// normal, shade: 7 floats), three a triangle, no index list (SurfaceCompute's triangles).
-  void show(unsigned buffer, std::size_t vertices);
+  /// Draws, instead, another's GL buffers: vertices in upload's layout (position, normal, shade:
+  /// 7 floats) and `indices` indices, three a triangle (SurfaceCompute's surface).
+  void show(unsigned vertex_buffer, unsigned index_buffer, std::size_t indices);
   /// Draws the last uploaded mesh into the bound target with depth testing, opaque, in
   /// `colour`.
   void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {},
@@ -46,7 +46,6 @@ private:
   std::unique_ptr<ShaderProgram> program_;
   unsigned vao_ = 0, vertices_ = 0, indices_ = 0;
   std::size_t vertex_capacity_ = 0, index_capacity_ = 0, indices_drawn_ = 0;
-  bool indexed_ = true; // upload's mesh, or show's buffer
 };
 
 } // namespace kf::render

@@ -201,9 +201,9 @@ std::size_t SnapshotRenderer::fluid_surface(const io::Frame& frame, const Region
       surface_compute_ = std::make_unique<SurfaceCompute>();
       surface_compute_->time_with(&timer_);
     }
-    const std::size_t vertices = surface_compute_->extract(x, opt, only);
-    meshes_.show(surface_compute_->vertex_buffer(), vertices);
-    triangles = vertices / 3;
+    const std::size_t indices = surface_compute_->extract(x, opt, only);
+    meshes_.show(surface_compute_->vertex_buffer(), surface_compute_->index_buffer(), indices);
+    triangles = indices / 3;
   } else {
     const SurfaceMesh m = marching_cubes(surface_field(x, opt, only), only);
     meshes_.upload(m);

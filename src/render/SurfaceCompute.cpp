@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <string>
+#include <tuple>
+#include <utility>
 
 namespace kf::render {
 
@@ -26,6 +28,8 @@ GLuint groups(int n) {
 
 SurfaceCompute::SurfaceCompute()
     : field_program_(ShaderProgram::compute("surface_field.comp", shaders::kSurfaceFieldComp)),
+      vertex_program_(
+          ShaderProgram::compute("surface_vertices.comp", shaders::kSurfaceVerticesComp)),
       cube_program_(ShaderProgram::compute("marching_cubes.comp", shaders::kMarchingCubesComp)) {
   GLint64 most = 0;
   glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &most);
@@ -34,7 +38,7 @@ SurfaceCompute::SurfaceCompute()
   glCreateBuffers(1, &cases_);
   glNamedBufferStorage(cases_, GLsizeiptr(table.cases.size() * sizeof(int)), table.cases.data(), 0);
   glCreateBuffers(1, &counter_);
-  glNamedBufferStorage(counter_, sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  glNamedBufferStorage(counter_, 2 * sizeof(GLuint), nullptr, GL_DYNAMIC_STORAGE_BIT);
   const unsigned p = cube_program_.id();
   glProgramUniform1i(p, location(p, "stride"), table.stride);
   glProgramUniform1iv(p, location(p, "edge_corners"), 24, table.edge_corners.data());
@@ -42,8 +46,9 @@ SurfaceCompute::SurfaceCompute()
 }
 
 SurfaceCompute::~SurfaceCompute() {
-  const unsigned buffers[] = {points_, bin_start_, field_, cases_, vertices_, counter_};
-  glDeleteBuffers(6, buffers);
+  const unsigned buffers[] = {points_, bin_start_, field_,   first_,
+                              cases_,  vertices_,  indices_, counter_};
+  glDeleteBuffers(8, buffers);
 }
 
 std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
@@ -51,7 +56,7 @@ std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
   SurfaceOptions capped = opt;
   capped.max_cells = std::min(opt.max_cells, max_buffer_ / sizeof(float));
   grid_ = surface_grid(points, capped);
-  count_ = 0;
+  vertex_count_ = index_count_ = 0;
   if (points.empty())
     return 0;
   const double dp = opt.spacing, reach = opt.support * dp;
@@ -103,7 +108,7 @@ std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
 std::size_t SurfaceCompute::polygonise(const ScalarGrid& grid, const Region* only) {
   grid_ = grid;
   grid_.value.clear();
-  count_ = 0;
+  vertex_count_ = index_count_ = 0;
   const std::size_t total = std::size_t(grid.n[0]) * grid.n[1] * grid.n[2];
   if (grid.value.size() != total)
     throw Error("render: a field of " + std::to_string(grid.value.size()) +
@@ -118,53 +123,74 @@ std::size_t SurfaceCompute::polygonise(const ScalarGrid& grid, const Region* onl
 std::size_t SurfaceCompute::march(const Region* only) {
   const int nx = grid_.n[0], ny = grid_.n[1], nz = grid_.n[2];
   if (nx < 2 || ny < 2 || nz < 2)
-    return count_ = 0;
-  const unsigned p = cube_program_.id();
-  glProgramUniform3i(p, location(p, "vertices"), nx, ny, nz);
-  glProgramUniform1f(p, location(p, "cell"), float(grid_.cell));
+    return index_count_ = vertex_count_ = 0;
+  const std::size_t total = std::size_t(nx) * ny * nz;
+  first_ = grown_buffer(first_, first_capacity_, total * sizeof(GLuint));
   const glm::vec3 origin(grid_.origin);
-  glProgramUniform3f(p, location(p, "origin"), origin.x, origin.y, origin.z);
-  glProgramUniform1i(p, location(p, "limited"), only ? 1 : 0);
+  for (const unsigned p : {vertex_program_.id(), cube_program_.id()}) {
+    glProgramUniform3i(p, location(p, "vertices"), nx, ny, nz);
+    glProgramUniform1f(p, location(p, "cell"), float(grid_.cell));
+    glProgramUniform3f(p, location(p, "origin"), origin.x, origin.y, origin.z);
+  }
+  const unsigned cubes = cube_program_.id();
+  glProgramUniform1i(cubes, location(cubes, "limited"), only ? 1 : 0);
   if (only) {
     const glm::vec3 lo(only->lo), hi(only->hi);
-    glProgramUniform3f(p, location(p, "only_lo"), lo.x, lo.y, lo.z);
-    glProgramUniform3f(p, location(p, "only_hi"), hi.x, hi.y, hi.z);
+    glProgramUniform3f(cubes, location(cubes, "only_lo"), lo.x, lo.y, lo.z);
+    glProgramUniform3f(cubes, location(cubes, "only_hi"), hi.x, hi.y, hi.z);
   }
-  constexpr std::size_t kVertexBytes = 7 * sizeof(float);
-  const std::size_t most = max_buffer_ / kVertexBytes;
+  constexpr std::size_t kVertexBytes = 7 * sizeof(float), kIndexBytes = sizeof(GLuint);
   auto run = [&] {
-    const GLuint zero = 0;
-    glNamedBufferSubData(counter_, 0, sizeof(GLuint), &zero);
-    glProgramUniform1ui(p, location(p, "capacity"), GLuint(vertex_capacity_ / kVertexBytes));
+    const GLuint zero[2] = {0, 0};
+    glNamedBufferSubData(counter_, 0, sizeof zero, zero);
+    glProgramUniform1ui(vertex_program_.id(), location(vertex_program_.id(), "capacity"),
+                        GLuint(vertex_capacity_ / kVertexBytes));
+    glProgramUniform1ui(cubes, location(cubes, "capacity"), GLuint(index_capacity_ / kIndexBytes));
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, field_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, cases_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, vertices_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, counter_);
-    glUseProgram(p);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, first_);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, indices_);
+    glUseProgram(vertex_program_.id());
+    glDispatchCompute(groups(nx), groups(ny), groups(nz));
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    glUseProgram(cubes);
     glDispatchCompute(groups(nx - 1), groups(ny - 1), groups(nz - 1));
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |
-                    GL_SHADER_STORAGE_BARRIER_BIT);
-    GLuint written = 0;
-    glGetNamedBufferSubData(counter_, 0, sizeof(GLuint), &written);
+                    GL_ELEMENT_ARRAY_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+    GLuint written[2] = {0, 0};
+    glGetNamedBufferSubData(counter_, 0, sizeof written, written);
     check_gl("marching cubes over a grid of " + std::to_string(nx) + " x " + std::to_string(ny) +
              " x " + std::to_string(nz));
-    return std::size_t(written);
+    return std::pair<std::size_t, std::size_t>(written[0], written[1]);
   };
-  if (vertices_ == 0)
+  if (vertices_ == 0) {
     vertices_ = grown_buffer(vertices_, vertex_capacity_, std::size_t(1) << 20);
-  std::size_t written = run();
-  if (written * kVertexBytes > vertex_capacity_) { // too many: a larger list, once more
-    if (written > most)
-      throw Error("render: the fluid's surface has " + std::to_string(written / 3) +
-                  " triangles, more than one GL buffer holds (" + std::to_string(most / 3) +
-                  "); draw the fluid as spheres (--fluid spheres)");
-    vertices_ = grown_buffer(vertices_, vertex_capacity_,
-                             std::min(most, written + written / 4) * kVertexBytes);
-    written = run();
+    indices_ = grown_buffer(indices_, index_capacity_, std::size_t(1) << 20);
+  }
+  auto [vertices, indices] = run();
+  if (vertices * kVertexBytes > vertex_capacity_ || indices * kIndexBytes > index_capacity_) {
+    // Too many for the lists: larger ones (a quarter to spare), once more.
+    const std::size_t most = max_buffer_;
+    if (vertices * kVertexBytes > most || indices * kIndexBytes > most)
+      throw Error("render: the fluid's surface has " + std::to_string(indices / 3) +
+                  " triangles and " + std::to_string(vertices) +
+                  " vertices, more than a GL buffer holds (" + std::to_string(most) +
+                  " bytes); draw the fluid as spheres (--fluid spheres)");
+    auto room = [&](std::size_t n, std::size_t bytes) {
+      return std::min(most, (n + n / 4) * bytes);
+    };
+    if (vertices * kVertexBytes > vertex_capacity_)
+      vertices_ = grown_buffer(vertices_, vertex_capacity_, room(vertices, kVertexBytes));
+    if (indices * kIndexBytes > index_capacity_)
+      indices_ = grown_buffer(indices_, index_capacity_, room(indices, kIndexBytes));
+    std::tie(vertices, indices) = run();
   }
   if (timer_)
     timer_->mark("cubes");
-  return count_ = written;
+  vertex_count_ = vertices;
+  return index_count_ = indices;
 }
 
 ScalarGrid SurfaceCompute::read_field() const {
@@ -178,14 +204,17 @@ ScalarGrid SurfaceCompute::read_field() const {
 
 SurfaceMesh SurfaceCompute::read_mesh() const {
   SurfaceMesh m;
-  std::vector<float> v(7 * count_);
+  std::vector<float> v(7 * vertex_count_);
+  m.index.resize(index_count_);
   if (!v.empty())
     glGetNamedBufferSubData(vertices_, 0, GLsizeiptr(v.size() * sizeof(float)), v.data());
+  if (!m.index.empty())
+    glGetNamedBufferSubData(indices_, 0, GLsizeiptr(m.index.size() * sizeof(GLuint)),
+                            m.index.data());
   check_gl("reading the surface's triangles back");
-  for (std::size_t i = 0; i < count_; ++i) {
+  for (std::size_t i = 0; i < vertex_count_; ++i) {
     m.position.emplace_back(v[7 * i], v[7 * i + 1], v[7 * i + 2]);
     m.normal.emplace_back(v[7 * i + 3], v[7 * i + 4], v[7 * i + 5]);
-    m.index.push_back(std::uint32_t(i));
   }
   return m;
 }

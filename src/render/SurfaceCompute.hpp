@@ -1,7 +1,8 @@
 #pragma once
 // The fluid's surface on the GPU (P6 §3: "marching cubes over a density grid splatted from the
-// particles on the GPU"): FluidSurface's field and marching cubes as OpenGL compute passes, the
-// triangles left in a GL buffer that MeshRenderer draws without a trip through the host. Mesa
+// particles on the GPU"): FluidSurface's field and marching cubes as OpenGL compute passes, an
+// indexed mesh (a vertex a crossed grid edge, shared by the triangles around it) left in GL
+// buffers that MeshRenderer draws without a trip through the host. Mesa
 // llvmpipe runs the same passes on a machine without a GPU. FluidSurface's host functions are
 // the reference: the same grid (surface_grid), bins and case table, and tests compare both.
 #include "render/FluidSurface.hpp"
@@ -23,7 +24,7 @@ public:
   SurfaceCompute& operator=(const SurfaceCompute&) = delete;
 
   /// The surface of `points` (surface_field then marching_cubes, with `only` as theirs) into
-  /// vertex_buffer(); returns its vertex count (three a triangle, no index list). The grid is
+  /// vertex_buffer() and index_buffer(); returns its index count (three a triangle). The grid is
   /// capped by opt.max_cells and by what one GL storage buffer may hold.
   std::size_t extract(const std::vector<glm::dvec3>& points, const SurfaceOptions& opt,
                       const Region* only = nullptr);
@@ -33,22 +34,27 @@ public:
   /// Marks "field" and "cubes" on `timer` after those passes (null: none).
   void time_with(GpuTimer* timer) { timer_ = timer; }
 
-  /// The last surface's vertices: position, normal and shade (1), 7 floats each.
+  /// The last surface's vertices (position, normal and shade 1: 7 floats each; with `only`, some
+  /// no triangle uses) and its triangles' indices.
   unsigned vertex_buffer() const { return vertices_; }
-  std::size_t vertex_count() const { return count_; }
-  /// The last field (tests) and the last surface as a mesh (tests; index i for vertex i).
+  unsigned index_buffer() const { return indices_; }
+  std::size_t vertex_count() const { return vertex_count_; }
+  std::size_t index_count() const { return index_count_; }
+  /// The last field and the last surface as a host mesh (tests).
   ScalarGrid read_field() const;
   SurfaceMesh read_mesh() const;
 
 private:
   std::size_t march(const Region* only);
 
-  ShaderProgram field_program_, cube_program_;
-  unsigned points_ = 0, bin_start_ = 0, field_ = 0, cases_ = 0, vertices_ = 0, counter_ = 0;
-  std::size_t points_capacity_ = 0, bins_capacity_ = 0, field_capacity_ = 0, vertex_capacity_ = 0;
+  ShaderProgram field_program_, vertex_program_, cube_program_;
+  unsigned points_ = 0, bin_start_ = 0, field_ = 0, first_ = 0, cases_ = 0, vertices_ = 0,
+           indices_ = 0, counter_ = 0;
+  std::size_t points_capacity_ = 0, bins_capacity_ = 0, field_capacity_ = 0, first_capacity_ = 0,
+              vertex_capacity_ = 0, index_capacity_ = 0;
   std::size_t max_buffer_ = 0; // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
   ScalarGrid grid_;            // the last grid's layout (no values)
-  std::size_t count_ = 0;
+  std::size_t vertex_count_ = 0, index_count_ = 0;
   GpuTimer* timer_ = nullptr;
 };
 

@@ -13,12 +13,13 @@ namespace kf::render {
 
 TubeRenderer::TubeRenderer()
     : program_(std::make_unique<ShaderProgram>("tube.vert + mesh.frag", shaders::kTubeVert,
-                                               with_shadow_lookup(shaders::kMeshFrag))) {
+                                               with_shadow_lookup(shaders::kMeshFrag))),
+      index_program_(ShaderProgram::compute("tube_indices.comp", shaders::kTubeIndicesComp)) {
   glCreateVertexArrays(1, &vao_); // no attributes: the vertex shader pulls its data
 }
 
 TubeRenderer::~TubeRenderer() {
-  glDeleteBuffers(4, buffers_);
+  glDeleteBuffers(5, buffers_);
   glDeleteVertexArrays(1, &vao_);
 }
 
@@ -41,6 +42,18 @@ void TubeRenderer::upload(const YarnFrames& f, int sides) {
     buffers_[i] = grown_buffer(buffers_[i], capacity_[i], bytes[i]);
     glNamedBufferSubData(buffers_[i], 0, GLsizeiptr(bytes[i]), data[i]);
   }
+  // The index list, built where it is used.
+  const std::size_t indices = segments_ * 6 * std::size_t(sides);
+  buffers_[4] = grown_buffer(buffers_[4], capacity_[4], indices * sizeof(std::uint32_t));
+  const unsigned p = index_program_.id();
+  glProgramUniform1ui(p, glGetUniformLocation(p, "segments"), GLuint(segments_));
+  glProgramUniform1ui(p, glGetUniformLocation(p, "sides"), GLuint(sides));
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, buffers_[3]);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, buffers_[4]);
+  glUseProgram(p);
+  glDispatchCompute(GLuint((segments_ + 63) / 64), 1, 1);
+  glMemoryBarrier(GL_ELEMENT_ARRAY_BARRIER_BIT);
+  glVertexArrayElementBuffer(vao_, buffers_[4]);
   check_gl("uploading the frames of " + std::to_string(n) + " yarn points");
 }
 
@@ -52,12 +65,13 @@ void TubeRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
   glUniform4fv(glGetUniformLocation(p, "colour"), 1, glm::value_ptr(colour));
   glUniform1i(glGetUniformLocation(p, "reflective"), 0);
   glUniform1i(glGetUniformLocation(p, "sides"), sides_);
-  for (GLuint i = 0; i < 4; ++i)
+  for (GLuint i = 0; i < 3; ++i)
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, buffers_[i]);
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
-  glDrawArrays(GL_TRIANGLES, 0, GLsizei(segments_ * 6 * std::size_t(sides_)));
+  glDrawElements(GL_TRIANGLES, GLsizei(segments_ * 6 * std::size_t(sides_)), GL_UNSIGNED_INT,
+                 nullptr);
   check_gl("drawing " + std::to_string(segments_) + " yarn segments as tubes");
 }
 

@@ -1,8 +1,8 @@
 #pragma once
 // The yarns' tubes drawn from their points' frames (YarnFrames): the rings are built in the
-// vertex shader (shaders/tube.vert), so a frame moves 52 bytes a yarn point to the GPU instead
-// of a mesh's 8 vertices and 48 indices (about 400 bytes), and no host builds them. Lit as
-// MeshRenderer's meshes (mesh.frag).
+// vertex shader (shaders/tube.vert) and the index list by a compute pass (tube_indices.comp),
+// so a frame moves 52 bytes a yarn point to the GPU instead of a mesh's 8 vertices and 48
+// indices (about 400 bytes), and no host builds them. Lit as MeshRenderer's meshes (mesh.frag).
 #include "render/Camera.hpp"
 #include "render/Lighting.hpp"
 #include "render/ShaderProgram.hpp"
@@ -31,9 +31,10 @@ public:
 
 private:
   std::unique_ptr<ShaderProgram> program_;
+  ShaderProgram index_program_;
   unsigned vao_ = 0;
-  unsigned buffers_[4] = {0, 0, 0, 0};
-  std::size_t capacity_[4] = {0, 0, 0, 0};
+  unsigned buffers_[5] = {0, 0, 0, 0, 0}; // centre_radius, r_shade, b, drawn; the indices
+  std::size_t capacity_[5] = {0, 0, 0, 0, 0};
   std::size_t segments_ = 0;
   int sides_ = 0;
 };
