@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <future>
@@ -174,25 +175,41 @@ render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
 class PngWriter {
 public:
   ~PngWriter() {
-    if (last_.valid())
-      last_.wait(); // an error here is lost only when another is already on its way out
+    for (auto& f : pending_)
+      if (f.valid())
+        f.wait(); // an error here is lost only when another is already on its way out
   }
-  /// Seconds spent waiting for the one before.
+  /// Starts writing `image` on a thread of its own, at most kInFlight at once (a frame is drawn
+  /// faster than one thread compresses it); returns the seconds spent waiting for the oldest.
   double put(std::string path, io::RgbaImage image) {
-    const double waited = finish();
-    last_ = std::async(std::launch::async,
-                       [p = std::move(path), img = std::move(image)] { io::write_png(p, img); });
+    const auto t0 = std::chrono::steady_clock::now();
+    if (pending_.size() == kInFlight) {
+      pending_.front().get();
+      pending_.pop_front();
+    }
+    const double waited =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    pending_.push_back(
+        std::async(std::launch::async, [p = std::move(path), img = std::move(image)] {
+          io::write_png(p, img, kCompression);
+        }));
     return waited;
   }
+  /// Waits for every write (an error of one is thrown here).
   double finish() {
     const auto t0 = std::chrono::steady_clock::now();
-    if (last_.valid())
-      last_.get();
+    while (!pending_.empty()) {
+      auto f = std::move(pending_.front());
+      pending_.pop_front();
+      f.get();
+    }
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
 
 private:
-  std::future<void> last_;
+  static constexpr std::size_t kInFlight = 4;
+  static constexpr int kCompression = 1; // zlib's fastest: frames are many and pass to a film
+  std::deque<std::future<void>> pending_;
 };
 
 /// A pass's error names the snapshot it was drawing ("FILE: render: ...").
@@ -412,7 +429,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
           << ", surface " << renderer.last_surface_seconds() << ", yarns "
           << renderer.last_yarn_seconds() << ", draw and read back "
           << sec(t2 - t1).count() - renderer.last_surface_seconds() - renderer.last_yarn_seconds()
-          << ", waiting for the last PNG " << waited << "; GPU passes "
+          << ", waiting for a PNG writer " << waited << "; GPU passes "
           << render::format_passes(renderer.last_passes()) << ")\n";
   }
   png.finish();

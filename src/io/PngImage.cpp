@@ -4,6 +4,7 @@
 
 #include <png.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -30,7 +31,7 @@ void on_warning(png_structp, png_const_charp) {}
 
 } // namespace
 
-void write_png(const std::string& path, const RgbaImage& image) {
+void write_png(const std::string& path, const RgbaImage& image, int compression) {
   if (image.width <= 0 || image.height <= 0 ||
       image.pixels.size() != std::size_t(image.width) * image.height * 4)
     throw Error(path + ": an image of " + std::to_string(image.width) + " x " +
@@ -65,6 +66,7 @@ void write_png(const std::string& path, const RgbaImage& image) {
     png_set_IHDR(png, info, png_uint_32(image.width), png_uint_32(image.height), 8,
                  PNG_COLOR_TYPE_RGBA, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
                  PNG_FILTER_TYPE_DEFAULT);
+    png_set_compression_level(png, std::clamp(compression, 0, 9));
     png_write_info(png, info);
     png_write_image(png, rows.data());
     png_write_end(png, nullptr);

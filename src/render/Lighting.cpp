@@ -1,6 +1,7 @@
 #include "render/Lighting.hpp"
 
 #include "core/Error.hpp"
+#include "render/ShaderProgram.hpp"
 #include "render/Shaders.hpp"
 #include "render/ShadowMaps.hpp"
 
@@ -33,12 +34,7 @@ void use_lit_program(unsigned p, const ViewMatrices& vm, const Lighting& light) 
 }
 
 std::string with_shadow_lookup(const char* source) {
-  const std::string_view s(source);
-  const std::size_t line = s.find('\n') + 1; // after "#version ..."
-  std::string out(s.substr(0, line));
-  out.append(shaders::kShadowGlsl);
-  out.append(s.substr(line));
-  return out;
+  return with_after_version(source, shaders::kShadowGlsl);
 }
 
 void check_gl(const std::string& what) {

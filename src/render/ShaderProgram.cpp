@@ -4,7 +4,18 @@
 
 #include <epoxy/gl.h>
 
+#include <string_view>
+
 namespace kf::render {
+
+std::string with_after_version(const char* source, const char* snippet) {
+  const std::string_view s(source);
+  const std::size_t line = s.find('\n') + 1; // after "#version ..."
+  std::string out(s.substr(0, line));
+  out.append(snippet);
+  out.append(s.substr(line));
+  return out;
+}
 
 namespace {
 

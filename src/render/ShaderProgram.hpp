@@ -6,6 +6,9 @@
 
 namespace kf::render {
 
+/// `source` with `snippet` inserted after its first line (the #version): GLSL has no #include.
+std::string with_after_version(const char* source, const char* snippet);
+
 class ShaderProgram {
 public:
   /// name: where the sources came from (a shader file's name), for errors.

@@ -8,6 +8,7 @@
 #include <epoxy/gl.h>
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -20,17 +21,26 @@ int location(unsigned program, const char* name) {
   return glGetUniformLocation(program, name);
 }
 
-GLuint groups(int n) {
-  return GLuint((n + 3) / 4);
+GLuint groups_of_64(std::size_t n) {
+  return GLuint((n + 63) / 64);
+}
+
+constexpr int kBlock = 8; // grid vertices a side of a block (active_blocks.glsl)
+
+/// A pass over the active blocks' list (shaders/active_blocks.glsl inserted).
+ShaderProgram block_pass(const char* name, const char* source) {
+  return ShaderProgram::compute(name, with_after_version(source, shaders::kActiveBlocksGlsl));
 }
 
 } // namespace
 
 SurfaceCompute::SurfaceCompute()
-    : field_program_(ShaderProgram::compute("surface_field.comp", shaders::kSurfaceFieldComp)),
-      vertex_program_(
-          ShaderProgram::compute("surface_vertices.comp", shaders::kSurfaceVerticesComp)),
-      cube_program_(ShaderProgram::compute("marching_cubes.comp", shaders::kMarchingCubesComp)) {
+    : blocks_program_(ShaderProgram::compute("surface_blocks.comp", shaders::kSurfaceBlocksComp)),
+      compact_program_(
+          ShaderProgram::compute("surface_compact.comp", shaders::kSurfaceCompactComp)),
+      field_program_(block_pass("surface_field.comp", shaders::kSurfaceFieldComp)),
+      vertex_program_(block_pass("surface_vertices.comp", shaders::kSurfaceVerticesComp)),
+      cube_program_(block_pass("marching_cubes.comp", shaders::kMarchingCubesComp)) {
   GLint64 most = 0;
   glGetInteger64v(GL_MAX_SHADER_STORAGE_BLOCK_SIZE, &most);
   max_buffer_ = std::size_t(std::max<GLint64>(most, 1 << 27)); // the spec's least: 128 MiB
@@ -46,9 +56,9 @@ SurfaceCompute::SurfaceCompute()
 }
 
 SurfaceCompute::~SurfaceCompute() {
-  const unsigned buffers[] = {points_, bin_start_, field_,   first_,
-                              cases_,  vertices_,  indices_, counter_};
-  glDeleteBuffers(8, buffers);
+  const unsigned buffers[] = {points_, bin_start_, flags_,    active_,  field_,
+                              first_,  cases_,     vertices_, indices_, counter_};
+  glDeleteBuffers(10, buffers);
 }
 
 std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
@@ -75,11 +85,34 @@ std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
   glNamedBufferSubData(bin_start_, 0, GLsizeiptr(bins.start.size() * sizeof(std::uint32_t)),
                        bins.start.data());
   const std::size_t total = std::size_t(grid_.n[0]) * grid_.n[1] * grid_.n[2];
+  // The blocks within reach of a particle (and within a region's near box): the rest of the grid
+  // keeps the empty value, which the field has there too (no particle within reach: weighted
+  // -reach, naive a sum of 0 less 1/2).
+  const double cell = grid_.cell;
+  glm::ivec3 first_vertex(0), last_vertex(grid_.n[0] - 1, grid_.n[1] - 1, grid_.n[2] - 1);
+  if (only) { // the vertices marching_cubes(only) reads: within two cells of the region
+    const glm::dvec3 near_lo = only->lo - 2 * cell - lo, near_hi = only->hi + 2 * cell - lo;
+    for (int a = 0; a < 3; ++a) {
+      first_vertex[a] = int(std::clamp(std::ceil(near_lo[a] / cell), 0.0, double(grid_.n[a])));
+      last_vertex[a] = int(std::clamp(std::floor(near_hi[a] / cell), -1.0, double(grid_.n[a] - 1)));
+    }
+  }
+  const unsigned b = blocks_program_.id();
+  glProgramUniform1ui(b, location(b, "points"), GLuint(points.size()));
+  glProgramUniform1f(b, location(b, "cell"), float(cell));
+  glProgramUniform1f(b, location(b, "margin"), float(reach + 2 * cell));
+  glProgramUniform3i(b, location(b, "first_vertex"), first_vertex.x, first_vertex.y,
+                     first_vertex.z);
+  glProgramUniform3i(b, location(b, "last_vertex"), last_vertex.x, last_vertex.y, last_vertex.z);
+  list_blocks(false, points.size());
+  const float empty = opt.field == SurfaceField::Weighted ? float(-reach) : -0.5f;
   field_ = grown_buffer(field_, field_capacity_, total * sizeof(float));
+  glClearNamedBufferSubData(field_, GL_R32F, 0, GLsizeiptr(total * sizeof(float)), GL_RED, GL_FLOAT,
+                            &empty);
 
   const unsigned p = field_program_.id();
   glProgramUniform3i(p, location(p, "vertices"), grid_.n[0], grid_.n[1], grid_.n[2]);
-  glProgramUniform1f(p, location(p, "cell"), float(grid_.cell));
+  glProgramUniform1f(p, location(p, "cell"), float(cell));
   glProgramUniform3i(p, location(p, "bins"), bins.n[0], bins.n[1], bins.n[2]);
   glProgramUniform1f(p, location(p, "bin_size"), float(reach));
   glProgramUniform1f(p, location(p, "reach"), float(reach));
@@ -87,17 +120,17 @@ std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
   glProgramUniform1f(p, location(p, "radius"), float(opt.radius * dp));
   glProgramUniform1i(p, location(p, "weighted"), opt.field == SurfaceField::Weighted ? 1 : 0);
   glProgramUniform1i(p, location(p, "limited"), only ? 1 : 0);
-  if (only) { // the vertices marching_cubes(only) reads: within two cells of the region
-    const glm::vec3 near_lo(only->lo - 2 * grid_.cell - lo),
-        near_hi(only->hi + 2 * grid_.cell - lo);
+  if (only) {
+    const glm::vec3 near_lo(only->lo - 2 * cell - lo), near_hi(only->hi + 2 * cell - lo);
     glProgramUniform3f(p, location(p, "near_lo"), near_lo.x, near_lo.y, near_lo.z);
     glProgramUniform3f(p, location(p, "near_hi"), near_hi.x, near_hi.y, near_hi.z);
   }
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, points_);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, bin_start_);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, field_);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, active_);
   glUseProgram(p);
-  glDispatchCompute(groups(grid_.n[0]), groups(grid_.n[1]), groups(grid_.n[2]));
+  glDispatchCompute(block_groups_, 1, 1);
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
   if (timer_)
     timer_->mark("field");
@@ -117,7 +150,41 @@ std::size_t SurfaceCompute::polygonise(const ScalarGrid& grid, const Region* onl
     return 0;
   field_ = grown_buffer(field_, field_capacity_, total * sizeof(float));
   glNamedBufferSubData(field_, 0, GLsizeiptr(total * sizeof(float)), grid.value.data());
+  list_blocks(true, 0);
   return march(only);
+}
+
+void SurfaceCompute::list_blocks(bool all, std::size_t points) {
+  for (int a = 0; a < 3; ++a)
+    blocks_[a] = (grid_.n[a] + kBlock - 1) / kBlock;
+  const std::size_t total = std::size_t(blocks_[0]) * blocks_[1] * blocks_[2];
+  flags_ = grown_buffer(flags_, flags_capacity_, total * sizeof(GLuint));
+  active_ = grown_buffer(active_, active_capacity_, (total + 1) * sizeof(GLuint));
+  const GLuint flag = all ? 1 : 0, zero = 0;
+  glClearNamedBufferSubData(flags_, GL_R32UI, 0, GLsizeiptr(total * sizeof(GLuint)), GL_RED_INTEGER,
+                            GL_UNSIGNED_INT, &flag);
+  glClearNamedBufferSubData(active_, GL_R32UI, 0, sizeof(GLuint), GL_RED_INTEGER, GL_UNSIGNED_INT,
+                            &zero);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8, flags_);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, active_);
+  if (!all) {
+    const unsigned b = blocks_program_.id();
+    glProgramUniform3i(b, location(b, "blocks"), blocks_[0], blocks_[1], blocks_[2]);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, points_);
+    glUseProgram(b);
+    glDispatchCompute(groups_of_64(points), 1, 1);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  }
+  const unsigned c = compact_program_.id();
+  glProgramUniform1ui(c, location(c, "total"), GLuint(total));
+  glUseProgram(c);
+  glDispatchCompute(groups_of_64(total), 1, 1);
+  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  // The passes over the list: a work group a block, striding (a dispatch's groups are capped).
+  block_groups_ = GLuint(std::min<std::size_t>(total, 65535));
+  for (const unsigned p : {field_program_.id(), vertex_program_.id(), cube_program_.id()})
+    glProgramUniform3i(p, location(p, "blocks"), blocks_[0], blocks_[1], blocks_[2]);
+  check_gl("listing the surface grid's " + std::to_string(total) + " blocks");
 }
 
 std::size_t SurfaceCompute::march(const Region* only) {
@@ -152,11 +219,12 @@ std::size_t SurfaceCompute::march(const Region* only) {
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, counter_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, first_);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, indices_);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, active_);
     glUseProgram(vertex_program_.id());
-    glDispatchCompute(groups(nx), groups(ny), groups(nz));
+    glDispatchCompute(block_groups_, 1, 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     glUseProgram(cubes);
-    glDispatchCompute(groups(nx - 1), groups(ny - 1), groups(nz - 1));
+    glDispatchCompute(block_groups_, 1, 1);
     glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |
                     GL_ELEMENT_ARRAY_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
     GLuint written[2] = {0, 0};

@@ -45,13 +45,18 @@ public:
   SurfaceMesh read_mesh() const;
 
 private:
+  /// The grid's blocks of 8^3 vertices the passes visit: all, or those the points flag
+  /// (blocks_program_, its uniforms set); listed in active_.
+  void list_blocks(bool all, std::size_t points);
   std::size_t march(const Region* only);
 
-  ShaderProgram field_program_, vertex_program_, cube_program_;
-  unsigned points_ = 0, bin_start_ = 0, field_ = 0, first_ = 0, cases_ = 0, vertices_ = 0,
-           indices_ = 0, counter_ = 0;
-  std::size_t points_capacity_ = 0, bins_capacity_ = 0, field_capacity_ = 0, first_capacity_ = 0,
-              vertex_capacity_ = 0, index_capacity_ = 0;
+  ShaderProgram blocks_program_, compact_program_, field_program_, vertex_program_, cube_program_;
+  unsigned points_ = 0, bin_start_ = 0, flags_ = 0, active_ = 0, field_ = 0, first_ = 0, cases_ = 0,
+           vertices_ = 0, indices_ = 0, counter_ = 0;
+  std::size_t points_capacity_ = 0, bins_capacity_ = 0, flags_capacity_ = 0, active_capacity_ = 0,
+              field_capacity_ = 0, first_capacity_ = 0, vertex_capacity_ = 0, index_capacity_ = 0;
+  glm::ivec3 blocks_{0};
+  unsigned block_groups_ = 0;
   std::size_t max_buffer_ = 0; // GL_MAX_SHADER_STORAGE_BLOCK_SIZE
   ScalarGrid grid_;            // the last grid's layout (no values)
   std::size_t vertex_count_ = 0, index_count_ = 0;

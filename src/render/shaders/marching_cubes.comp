@@ -6,7 +6,6 @@
 // the cube edge from corner a to corner b (a the lower) is the vertex that
 // surface_vertices.comp gave that grid edge: first[a] plus the crossings of a's edges along the
 // axes before this one.
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(std430, binding = 2) readonly buffer Field { float field[]; };
 layout(std430, binding = 3) readonly buffer Cases { int cases[]; };
 layout(std430, binding = 5) buffer Count { uint vertices_written; uint indices_written; };
@@ -38,8 +37,7 @@ uint edge_vertex(ivec3 p, int axis) {
   return o;
 }
 
-void main() {
-  const ivec3 c = ivec3(gl_GlobalInvocationID);
+void at_cell(ivec3 c) {
   if (any(greaterThanEqual(c, vertices - 1)))
     return;
   if (limited) {
@@ -62,4 +60,9 @@ void main() {
     const int a = edge_corners[2 * e], b = edge_corners[2 * e + 1];
     index[o + uint(t)] = edge_vertex(corner(c, a), findLSB(a ^ b));
   }
+}
+
+void main() {
+  for (uint e = gl_WorkGroupID.x; e < listed; e += gl_NumWorkGroups.x)
+    at_cell(point_in_block(e));
 }

@@ -6,7 +6,6 @@
 //   naive     sum_j V W(x - x_j) - 1/2, W the cubic spline of support `reach`;
 //   weighted  radius - |x - xbar|, xbar the mean of the points within reach weighted by
 //             (1 - r^2/reach^2)^3 (Zhu & Bridson 2005); -reach where no point is within reach.
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(std430, binding = 0) readonly buffer Points { vec4 point[]; }; // sorted by bin
 layout(std430, binding = 1) readonly buffer BinStart { uint bin_start[]; };
 layout(std430, binding = 2) writeonly buffer Field { float field[]; };
@@ -32,8 +31,7 @@ float cubic_spline(float r, float h) {
   return 0.0;
 }
 
-void main() {
-  const ivec3 v = ivec3(gl_GlobalInvocationID);
+void at_vertex(ivec3 v) {
   if (any(greaterThanEqual(v, vertices)))
     return;
   const uint at = uint(v.x) + uint(vertices.x) * (uint(v.y) + uint(vertices.y) * uint(v.z));
@@ -71,4 +69,9 @@ void main() {
     field[at] = wsum > 0.0 ? radius - length(offset / wsum) : -reach;
   else
     field[at] = sum - 0.5;
+}
+
+void main() {
+  for (uint e = gl_WorkGroupID.x; e < listed; e += gl_NumWorkGroups.x)
+    at_vertex(point_in_block(e));
 }

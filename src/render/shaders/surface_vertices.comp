@@ -7,7 +7,6 @@
 // the GPU's; the mesh is the same). Past the list's capacity they are only counted. Position:
 // linear along the edge; normal: down the field's gradient (central differences, one-sided at
 // the border), as the host's marching_cubes.
-layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(std430, binding = 2) readonly buffer Field { float field[]; };
 layout(std430, binding = 4) writeonly buffer Vertices { float vertex[]; }; // 7 floats each
 layout(std430, binding = 5) buffer Count { uint vertices_written; uint indices_written; };
@@ -31,8 +30,7 @@ vec3 gradient(ivec3 p) {
   return g;
 }
 
-void main() {
-  const ivec3 v = ivec3(gl_GlobalInvocationID);
+void at_vertex(ivec3 v) {
   if (any(greaterThanEqual(v, vertices)))
     return;
   const float fa = value(v);
@@ -70,4 +68,9 @@ void main() {
     vertex[7u * o + 6u] = 1.0;
     ++o;
   }
+}
+
+void main() {
+  for (uint e = gl_WorkGroupID.x; e < listed; e += gl_NumWorkGroups.x)
+    at_vertex(point_in_block(e));
 }
