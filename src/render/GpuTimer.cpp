@@ -24,6 +24,9 @@ void GpuTimer::mark(const char* label) {
     queries_.push_back(q);
   }
   glQueryCounter(queries_[used_++], GL_TIMESTAMP);
+  // Sent now: a query left in the driver's command buffer would be stamped when the next flush
+  // sends it, charging the host's work after it to this pass.
+  glFlush();
   labels_.emplace_back(label);
 }
 

@@ -1,7 +1,8 @@
 #pragma once
 // Where a frame's GPU time goes: GL timestamps written into the command stream between passes
-// (glQueryCounter), read after the frame's read-back has waited for them anyway. A pass's time
-// is the GPU's between its mark and the one before, wherever the host was.
+// (glQueryCounter, each sent at once), read after the frame's read-back has waited for them
+// anyway. A pass's time is the GPU's between its mark and the one before: its work, and any
+// time the GPU waited for the host's next command.
 #include <string>
 #include <utility>
 #include <vector>

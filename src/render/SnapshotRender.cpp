@@ -8,6 +8,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace kf::render {
@@ -45,17 +46,23 @@ std::vector<glm::dvec3> phase_positions(const io::Frame& frame, const std::strin
   const io::Field* f = p->find("position");
   if (!f || f->components != 3)
     throw Error("render: the snapshot's " + phase + " phase has no 3-component position field");
+  if (f->type != io::DType::F32 && f->type != io::DType::F64)
+    throw Error("render: the snapshot's " + phase + " positions are not floating point");
   std::vector<glm::dvec3> out(f->count);
-  auto fill = [&](const auto& v) {
-    for (std::size_t i = 0; i < f->count; ++i)
-      out[i] = {double(v[3 * i]), double(v[3 * i + 1]), double(v[3 * i + 2])};
+  auto fill = [&](auto zero) { // straight from the stored bytes: one pass, no copy between
+    using T = decltype(zero);
+    const auto n = std::ptrdiff_t(f->count);
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < n; ++i) {
+      T v[3];
+      std::memcpy(v, f->bytes.data() + 3 * std::size_t(i) * sizeof(T), sizeof v);
+      out[std::size_t(i)] = {double(v[0]), double(v[1]), double(v[2])};
+    }
   };
   if (f->type == io::DType::F32)
-    fill(f->as<float>());
-  else if (f->type == io::DType::F64)
-    fill(f->as<double>());
+    fill(0.0f);
   else
-    throw Error("render: the snapshot's " + phase + " positions are not floating point");
+    fill(0.0);
   return out;
 }
 
@@ -119,6 +126,39 @@ std::vector<std::array<std::uint32_t, 2>> segments(const io::Frame& frame,
 SnapshotRenderer::SnapshotRenderer(const SnapshotStyle& style, int cuda_device)
     : style_(style), context_(cuda_device), target_(style.width, style.height) {}
 
+namespace {
+
+/// Grows [lo, hi] by a phase's positions, read where they lie (no copy: a garment's yarns are
+/// half a million points a frame).
+void grow_by_phase(const io::Frame& frame, const std::string& phase, glm::dvec3& lo,
+                   glm::dvec3& hi) {
+  const io::Phase* p = frame.find(phase);
+  if (!p)
+    return;
+  const io::Field* f = p->find("position");
+  if (!f || f->components != 3 || (f->type != io::DType::F32 && f->type != io::DType::F64))
+    throw Error("render: the snapshot's " + phase + " phase has no 3-component position field");
+  auto scan = [&](auto zero) {
+    using T = decltype(zero);
+    glm::dvec3 l = lo, h = hi;
+    for (std::size_t i = 0; i < f->count; ++i) {
+      T v[3];
+      std::memcpy(v, f->bytes.data() + 3 * i * sizeof(T), sizeof v);
+      const glm::dvec3 x{double(v[0]), double(v[1]), double(v[2])};
+      l = glm::min(l, x);
+      h = glm::max(h, x);
+    }
+    lo = l;
+    hi = h;
+  };
+  if (f->type == io::DType::F32)
+    scan(0.0f);
+  else
+    scan(0.0);
+}
+
+} // namespace
+
 std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::frame_box(const io::Frame& frame) const {
   glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
   auto grow = [&](const glm::dvec3& p) {
@@ -126,11 +166,9 @@ std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::frame_box(const io::Frame& f
     hi = glm::max(hi, p);
   };
   for (const char* phase : {"fluid", "knit", "yarn"})
-    for (const auto& p : phase_positions(frame, phase))
-      grow(p);
+    grow_by_phase(frame, phase, lo, hi);
   if (style_.boundary)
-    for (const auto& p : phase_positions(frame, "boundary"))
-      grow(p);
+    grow_by_phase(frame, "boundary", lo, hi);
   for (const Sphere& s : style_.obstacles) {
     const glm::dvec3 c(s.centre_radius), r(s.centre_radius.w);
     grow(c - r);
@@ -248,7 +286,9 @@ std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* o
 void SnapshotRenderer::draw_scene(const ViewMatrices& view, const Lighting& light, bool picture) {
   spheres_.draw(view, light);
   meshes_.draw(style_.fluid, view, light, {.reflective = picture && style_.fluid_reflection});
-  tubes_.draw(style_.knit, view, light);
+  // A shadow map takes the tubes with half their sides: an inscribed prism, so a tube does not
+  // shadow its own lit side, at half the vertices (the GPU's geometry is what a pass costs).
+  tubes_.draw(style_.knit, view, light, !picture);
   yarn_meshes_.draw(style_.knit, view, light);
   solid_mesh_.draw(style_.obstacle_colour, view, light);
   // The floor receives shadows but casts none; a plane is seen from its front only (a shadow

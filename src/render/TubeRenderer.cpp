@@ -19,7 +19,7 @@ TubeRenderer::TubeRenderer()
 }
 
 TubeRenderer::~TubeRenderer() {
-  glDeleteBuffers(5, buffers_);
+  glDeleteBuffers(6, buffers_);
   glDeleteVertexArrays(1, &vao_);
 }
 
@@ -42,22 +42,28 @@ void TubeRenderer::upload(const YarnFrames& f, int sides) {
     buffers_[i] = grown_buffer(buffers_[i], capacity_[i], bytes[i]);
     glNamedBufferSubData(buffers_[i], 0, GLsizeiptr(bytes[i]), data[i]);
   }
-  // The index list, built where it is used.
-  const std::size_t indices = segments_ * 6 * std::size_t(sides);
-  buffers_[4] = grown_buffer(buffers_[4], capacity_[4], indices * sizeof(std::uint32_t));
+  // The index lists, built where they are used: every ring vertex, and every other (coarse).
   const unsigned p = index_program_.id();
   glProgramUniform1ui(p, glGetUniformLocation(p, "segments"), GLuint(segments_));
   glProgramUniform1ui(p, glGetUniformLocation(p, "sides"), GLuint(sides));
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, buffers_[3]);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, buffers_[4]);
   glUseProgram(p);
-  glDispatchCompute(GLuint((segments_ + 63) / 64), 1, 1);
+  for (int step = 1; step <= 2; ++step) {
+    if (step == 2 && sides % 2 != 0)
+      break;
+    const std::size_t indices = segments_ * 6 * std::size_t(sides / step);
+    const int i = 3 + step;
+    buffers_[i] = grown_buffer(buffers_[i], capacity_[i], indices * sizeof(std::uint32_t));
+    glProgramUniform1ui(p, glGetUniformLocation(p, "step"), GLuint(step));
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, buffers_[i]);
+    glDispatchCompute(GLuint((segments_ + 63) / 64), 1, 1);
+  }
   glMemoryBarrier(GL_ELEMENT_ARRAY_BARRIER_BIT);
-  glVertexArrayElementBuffer(vao_, buffers_[4]);
   check_gl("uploading the frames of " + std::to_string(n) + " yarn points");
 }
 
-void TubeRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light) {
+void TubeRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light,
+                        bool coarse) {
   if (segments_ == 0)
     return;
   use_lit_program(program_->id(), view, light);
@@ -67,10 +73,12 @@ void TubeRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
   glUniform1i(glGetUniformLocation(p, "sides"), sides_);
   for (GLuint i = 0; i < 3; ++i)
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, buffers_[i]);
+  const int step = coarse && sides_ % 2 == 0 ? 2 : 1;
+  glVertexArrayElementBuffer(vao_, buffers_[3 + step]);
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
-  glDrawElements(GL_TRIANGLES, GLsizei(segments_ * 6 * std::size_t(sides_)), GL_UNSIGNED_INT,
+  glDrawElements(GL_TRIANGLES, GLsizei(segments_ * 6 * std::size_t(sides_ / step)), GL_UNSIGNED_INT,
                  nullptr);
   check_gl("drawing " + std::to_string(segments_) + " yarn segments as tubes");
 }

@@ -25,16 +25,19 @@ public:
   /// Moves the frames to the GPU: the draws after it show their tubes of `sides` sides.
   void upload(const YarnFrames& frames, int sides);
   /// Draws the last uploaded tubes into the bound target with depth testing, in `colour`
-  /// scaled by each point's shade.
-  void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {});
+  /// scaled by each point's shade; coarse, with every other ring vertex (half the sides, an even
+  /// number of them: for shadow maps).
+  void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {},
+            bool coarse = false);
   std::size_t triangles() const { return segments_ * 2 * std::size_t(sides_); }
 
 private:
   std::unique_ptr<ShaderProgram> program_;
   ShaderProgram index_program_;
   unsigned vao_ = 0;
-  unsigned buffers_[5] = {0, 0, 0, 0, 0}; // centre_radius, r_shade, b, drawn; the indices
-  std::size_t capacity_[5] = {0, 0, 0, 0, 0};
+  // centre_radius, r_shade, b, drawn; the indices, all sides and every other
+  unsigned buffers_[6] = {0, 0, 0, 0, 0, 0};
+  std::size_t capacity_[6] = {0, 0, 0, 0, 0, 0};
   std::size_t segments_ = 0;
   int sides_ = 0;
 };
