@@ -272,7 +272,7 @@ std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* o
   const auto t0 = std::chrono::steady_clock::now();
   std::size_t triangles = 0;
   if (style_.geometry_on_gpu) {
-    tubes_.upload(yarn_frames(lines, ys, only), ys.sides);
+    tubes_.build(lines, ys, only);
     triangles = tubes_.triangles();
   } else {
     const SurfaceMesh m = yarn_tubes(lines, ys, only);

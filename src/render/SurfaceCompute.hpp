@@ -49,6 +49,11 @@ private:
   /// (blocks_program_, its uniforms set); listed in active_.
   void list_blocks(bool all, std::size_t points);
   std::size_t march(const Region* only);
+  /// The grid's buffers grow with a splash from frame to frame: half as much again when they do,
+  /// but not past the largest storage buffer (which caps the grid anyway).
+  double headroom(std::size_t bytes) const {
+    return bytes > 0 ? std::min(1.5, double(max_buffer_) / double(bytes)) : 1.0;
+  }
 
   ShaderProgram blocks_program_, compact_program_, field_program_, vertex_program_, cube_program_;
   unsigned points_ = 0, bin_start_ = 0, flags_ = 0, active_ = 0, field_ = 0, first_ = 0, cases_ = 0,

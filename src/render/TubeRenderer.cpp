@@ -8,18 +8,20 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include <string>
+#include <vector>
 
 namespace kf::render {
 
 TubeRenderer::TubeRenderer()
     : program_(std::make_unique<ShaderProgram>("tube.vert + mesh.frag", shaders::kTubeVert,
                                                with_shadow_lookup(shaders::kMeshFrag))),
-      index_program_(ShaderProgram::compute("tube_indices.comp", shaders::kTubeIndicesComp)) {
+      index_program_(ShaderProgram::compute("tube_indices.comp", shaders::kTubeIndicesComp)),
+      frame_program_(ShaderProgram::compute("yarn_frames.comp", shaders::kYarnFramesComp)) {
   glCreateVertexArrays(1, &vao_); // no attributes: the vertex shader pulls its data
 }
 
 TubeRenderer::~TubeRenderer() {
-  glDeleteBuffers(6, buffers_);
+  glDeleteBuffers(8, buffers_);
   glDeleteVertexArrays(1, &vao_);
 }
 
@@ -42,6 +44,11 @@ void TubeRenderer::upload(const YarnFrames& f, int sides) {
     buffers_[i] = grown_buffer(buffers_[i], capacity_[i], bytes[i]);
     glNamedBufferSubData(buffers_[i], 0, GLsizeiptr(bytes[i]), data[i]);
   }
+  make_indices(sides);
+  check_gl("uploading the frames of " + std::to_string(n) + " yarn points");
+}
+
+void TubeRenderer::make_indices(int sides) {
   // The index lists, built where they are used: every ring vertex, and every other (coarse).
   const unsigned p = index_program_.id();
   glProgramUniform1ui(p, glGetUniformLocation(p, "segments"), GLuint(segments_));
@@ -59,7 +66,49 @@ void TubeRenderer::upload(const YarnFrames& f, int sides) {
     glDispatchCompute(GLuint((segments_ + 63) / 64), 1, 1);
   }
   glMemoryBarrier(GL_ELEMENT_ARRAY_BARRIER_BIT);
-  check_gl("uploading the frames of " + std::to_string(n) + " yarn points");
+}
+
+void TubeRenderer::build(const YarnPolylines& y, const YarnStyle& style, const Region* only) {
+  if (!(style.radius > 0) || style.sides < 3)
+    throw Error("render: a yarn needs a radius > 0 and at least 3 sides");
+  const YarnChains chains = yarn_chains(y, only);
+  sides_ = style.sides;
+  segments_ = chains.drawn.size();
+  if (segments_ == 0)
+    return;
+  const std::size_t n = y.x.size();
+  std::vector<glm::vec4> points(n);
+  const auto count = std::ptrdiff_t(n);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < count; ++i)
+    points[std::size_t(i)] =
+        glm::vec4(glm::vec3(y.x[std::size_t(i)]), y.s.empty() ? 0.0f : float(y.s[std::size_t(i)]));
+  const void* data[3] = {points.data(), chains.start.data(), chains.drawn.data()};
+  const std::size_t bytes[3] = {n * sizeof(glm::vec4), chains.start.size() * sizeof(std::uint32_t),
+                                segments_ * sizeof(std::uint32_t)};
+  const int slot[3] = {6, 7, 3};
+  for (int k = 0; k < 3; ++k) {
+    const int i = slot[k];
+    buffers_[i] = grown_buffer(buffers_[i], capacity_[i], bytes[k]);
+    glNamedBufferSubData(buffers_[i], 0, GLsizeiptr(bytes[k]), data[k]);
+  }
+  for (int i = 0; i < 3; ++i) {
+    buffers_[i] = grown_buffer(buffers_[i], capacity_[i], n * sizeof(glm::vec4));
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, GLuint(i), buffers_[i]);
+  }
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, buffers_[6]);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, buffers_[7]);
+  const unsigned p = frame_program_.id();
+  const GLuint chain_count = GLuint(chains.start.size() - 1);
+  glProgramUniform1ui(p, glGetUniformLocation(p, "chains"), chain_count);
+  glProgramUniform1f(p, glGetUniformLocation(p, "radius"), float(style.radius));
+  glProgramUniform1f(p, glGetUniformLocation(p, "swell"), float(style.swell));
+  glProgramUniform1f(p, glGetUniformLocation(p, "darkening"), float(style.wet_darkening));
+  glUseProgram(p);
+  glDispatchCompute((chain_count + 63) / 64, 1, 1);
+  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  make_indices(sides_);
+  check_gl("the frames of " + std::to_string(n) + " yarn points");
 }
 
 void TubeRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light,

@@ -24,6 +24,10 @@ public:
 
   /// Moves the frames to the GPU: the draws after it show their tubes of `sides` sides.
   void upload(const YarnFrames& frames, int sides);
+  /// The same from the yarns themselves: their chains listed on the host (yarn_chains), the
+  /// frames computed on the GPU (shaders/yarn_frames.comp, a yarn a thread), so the host moves
+  /// 16 bytes a point.
+  void build(const YarnPolylines& yarns, const YarnStyle& style, const Region* only = nullptr);
   /// Draws the last uploaded tubes into the bound target with depth testing, in `colour`
   /// scaled by each point's shade; coarse, with every other ring vertex (half the sides, an even
   /// number of them: for shadow maps).
@@ -33,11 +37,14 @@ public:
 
 private:
   std::unique_ptr<ShaderProgram> program_;
-  ShaderProgram index_program_;
+  ShaderProgram index_program_, frame_program_;
+  /// The index lists of the drawn segments (buffers_[3]) for `sides`.
+  void make_indices(int sides);
   unsigned vao_ = 0;
-  // centre_radius, r_shade, b, drawn; the indices, all sides and every other
-  unsigned buffers_[6] = {0, 0, 0, 0, 0, 0};
-  std::size_t capacity_[6] = {0, 0, 0, 0, 0, 0};
+  // centre_radius, r_shade, b, drawn; the indices, all sides and every other; the points and
+  // the chains (build)
+  unsigned buffers_[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  std::size_t capacity_[8] = {0, 0, 0, 0, 0, 0, 0, 0};
   std::size_t segments_ = 0;
   int sides_ = 0;
 };

@@ -33,17 +33,13 @@ std::vector<glm::dvec3> tangents(const std::vector<glm::dvec3>& x, std::size_t a
 
 } // namespace
 
-YarnFrames yarn_frames(const YarnPolylines& y, const YarnStyle& style, const Region* only) {
+YarnChains yarn_chains(const YarnPolylines& y, const Region* only) {
   const std::size_t n = y.x.size();
   if (y.segment.size() != n || (!y.s.empty() && y.s.size() != n))
     throw Error("render: the yarn phase has " + std::to_string(n) + " positions but " +
                 std::to_string(y.segment.size()) + " segments and " + std::to_string(y.s.size()) +
                 " saturations");
-  if (!(style.radius > 0) || style.sides < 3)
-    throw Error("render: a yarn needs a radius > 0 and at least 3 sides");
-  // The chains (yarns): each point joined to the next until one ends it.
-  std::vector<std::size_t> chain_start;
-  YarnFrames f;
+  YarnChains c;
   for (std::size_t i = 0; i < n; ++i) {
     const auto& sg = y.segment[i];
     if (sg[0] != i || (sg[1] != i && sg[1] != i + 1) || sg[1] >= n)
@@ -51,11 +47,22 @@ YarnFrames yarn_frames(const YarnPolylines& y, const YarnStyle& style, const Reg
                   std::to_string(sg[0]) + ", " + std::to_string(sg[1]) +
                   ") is not (i, i + 1) or (i, i)");
     if (i == 0 || y.segment[i - 1][1] == i - 1)
-      chain_start.push_back(i);
+      c.start.push_back(std::uint32_t(i));
     if (sg[1] == i + 1 && (!only || only->contains(y.x[i])))
-      f.drawn.push_back(std::uint32_t(i));
+      c.drawn.push_back(std::uint32_t(i));
   }
-  chain_start.push_back(n);
+  c.start.push_back(std::uint32_t(n));
+  return c;
+}
+
+YarnFrames yarn_frames(const YarnPolylines& y, const YarnStyle& style, const Region* only) {
+  const std::size_t n = y.x.size();
+  if (!(style.radius > 0) || style.sides < 3)
+    throw Error("render: a yarn needs a radius > 0 and at least 3 sides");
+  YarnChains chains_of = yarn_chains(y, only);
+  const std::vector<std::uint32_t>& chain_start = chains_of.start;
+  YarnFrames f;
+  f.drawn = std::move(chains_of.drawn);
   f.centre_radius.resize(n);
   f.r_shade.resize(n);
   f.b.resize(n);

@@ -40,6 +40,15 @@ struct YarnFrames {
   std::vector<std::uint32_t> drawn;
 };
 
+/// The yarns as chains of consecutive points (chain c: points start[c] .. start[c+1] - 1; the
+/// last entry is the point count) and the segments drawn, by their first point: with `only`,
+/// those whose first point lies in it. Checks the phase's arrays: sizes, and each segment (i, i
+/// + 1) or (i, i); anything else is a kf::Error naming the point.
+struct YarnChains {
+  std::vector<std::uint32_t> start, drawn;
+};
+YarnChains yarn_chains(const YarnPolylines& yarns, const Region* only = nullptr);
+
 /// The yarns' frames (rotation-minimising along each yarn) and the segments drawn: with `only`,
 /// just those whose first point lies in it. A segment's end must be its start + 1 or the start
 /// itself; anything else is a kf::Error naming the point.
