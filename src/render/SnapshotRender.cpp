@@ -114,10 +114,14 @@ std::vector<std::array<std::uint32_t, 2>> segments(const io::Frame& frame,
   if (!f || f->components != 2 || f->type != io::DType::U32)
     throw Error("render: the snapshot's " + phase +
                 " phase has no segment field (2 unsigned 32-bit indices a point)");
-  const auto v = f->as<std::uint32_t>();
   std::vector<std::array<std::uint32_t, 2>> out(f->count);
-  for (std::size_t i = 0; i < f->count; ++i)
-    out[i] = {v[2 * i], v[2 * i + 1]};
+  static_assert(sizeof(out[0]) == 2 * sizeof(std::uint32_t));
+  if (f->bytes.size() != f->count * sizeof(out[0]))
+    throw Error("render: the snapshot's " + phase + " segment field holds " +
+                std::to_string(f->bytes.size()) + " bytes for " + std::to_string(f->count) +
+                " points");
+  if (!out.empty())
+    std::memcpy(out.data(), f->bytes.data(), f->bytes.size()); // the same layout: pairs in a row
   return out;
 }
 
@@ -258,13 +262,13 @@ std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* o
   yarn_meshes_.upload({});
   if (!has_yarns(frame))
     return 0;
-  const auto yarn_x = phase_positions(frame, "yarn");
+  auto yarn_x = phase_positions(frame, "yarn");
   if (!yarn_r_) {
     yarn_r_ = style_.yarn_radius;
     if (!(*yarn_r_ > 0)) // a fifth of a layer's point spacing; without knit points, the yarn's
       *yarn_r_ = 0.2 * layer_spacing(frame, "knit").value_or(4 * typical_spacing(yarn_x));
   }
-  const YarnPolylines lines{yarn_x, segments(frame, "yarn"),
+  const YarnPolylines lines{std::move(yarn_x), segments(frame, "yarn"),
                             scalar_field(frame, "yarn", "saturation")};
   YarnStyle ys;
   ys.radius = *yarn_r_;

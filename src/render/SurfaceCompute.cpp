@@ -66,6 +66,7 @@ std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
   SurfaceOptions capped = opt;
   capped.max_cells = std::min(opt.max_cells, max_buffer_ / sizeof(float));
   grid_ = surface_grid(points, capped);
+  max_cells_ = capped.max_cells;
   vertex_count_ = index_count_ = 0;
   if (points.empty())
     return 0;
@@ -106,8 +107,7 @@ std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
   glProgramUniform3i(b, location(b, "last_vertex"), last_vertex.x, last_vertex.y, last_vertex.z);
   list_blocks(false, points.size());
   const float empty = opt.field == SurfaceField::Weighted ? float(-reach) : -0.5f;
-  field_ =
-      grown_buffer(field_, field_capacity_, total * sizeof(float), headroom(total * sizeof(float)));
+  field_ = grown_buffer(field_, field_capacity_, total * sizeof(float), headroom());
   glClearNamedBufferSubData(field_, GL_R32F, 0, GLsizeiptr(total * sizeof(float)), GL_RED, GL_FLOAT,
                             &empty);
 
@@ -142,6 +142,7 @@ std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
 std::size_t SurfaceCompute::polygonise(const ScalarGrid& grid, const Region* only) {
   grid_ = grid;
   grid_.value.clear();
+  max_cells_ = grid.value.size();
   vertex_count_ = index_count_ = 0;
   const std::size_t total = std::size_t(grid.n[0]) * grid.n[1] * grid.n[2];
   if (grid.value.size() != total)
@@ -149,8 +150,7 @@ std::size_t SurfaceCompute::polygonise(const ScalarGrid& grid, const Region* onl
                 " values on a grid of " + std::to_string(total) + " vertices");
   if (total == 0)
     return 0;
-  field_ =
-      grown_buffer(field_, field_capacity_, total * sizeof(float), headroom(total * sizeof(float)));
+  field_ = grown_buffer(field_, field_capacity_, total * sizeof(float), headroom());
   glNamedBufferSubData(field_, 0, GLsizeiptr(total * sizeof(float)), grid.value.data());
   list_blocks(true, 0);
   return march(only);
@@ -160,10 +160,8 @@ void SurfaceCompute::list_blocks(bool all, std::size_t points) {
   for (int a = 0; a < 3; ++a)
     blocks_[a] = (grid_.n[a] + kBlock - 1) / kBlock;
   const std::size_t total = std::size_t(blocks_[0]) * blocks_[1] * blocks_[2];
-  flags_ = grown_buffer(flags_, flags_capacity_, total * sizeof(GLuint),
-                        headroom(total * sizeof(GLuint)));
-  active_ = grown_buffer(active_, active_capacity_, (total + 1) * sizeof(GLuint),
-                         headroom((total + 1) * sizeof(GLuint)));
+  flags_ = grown_buffer(flags_, flags_capacity_, total * sizeof(GLuint), headroom());
+  active_ = grown_buffer(active_, active_capacity_, (total + 1) * sizeof(GLuint), headroom());
   const GLuint flag = all ? 1 : 0, zero = 0;
   glClearNamedBufferSubData(flags_, GL_R32UI, 0, GLsizeiptr(total * sizeof(GLuint)), GL_RED_INTEGER,
                             GL_UNSIGNED_INT, &flag);
@@ -196,8 +194,7 @@ std::size_t SurfaceCompute::march(const Region* only) {
   if (nx < 2 || ny < 2 || nz < 2)
     return index_count_ = vertex_count_ = 0;
   const std::size_t total = std::size_t(nx) * ny * nz;
-  first_ = grown_buffer(first_, first_capacity_, total * sizeof(GLuint),
-                        headroom(total * sizeof(GLuint)));
+  first_ = grown_buffer(first_, first_capacity_, total * sizeof(GLuint), headroom());
   const glm::vec3 origin(grid_.origin);
   for (const unsigned p : {vertex_program_.id(), cube_program_.id()}) {
     glProgramUniform3i(p, location(p, "vertices"), nx, ny, nz);
