@@ -223,37 +223,49 @@ bool SnapshotRenderer::has_yarns(const io::Frame& frame) const {
   return style_.knit_yarns && p && p->find("position") && p->find("position")->count > 0;
 }
 
-std::size_t SnapshotRenderer::fluid_surface(const io::Frame& frame, const Region* only) {
+void SnapshotRenderer::start_surface(const io::Frame& frame, const Region* only) {
   last_surface_seconds_ = 0;
+  surface_triangles_ = 0;
+  surface_started_ = false;
   meshes_.upload({});
   if (!style_.fluid_surface)
-    return 0;
+    return;
   const auto x = phase_positions(frame, "fluid");
   if (!fluid_r_ && x.size() > 1)
     fluid_r_ = 0.5 * typical_spacing(x);
   if (x.empty() || !fluid_r_ || !(*fluid_r_ > 0))
-    return 0;
+    return;
   SurfaceOptions opt;
   opt.field = style_.surface_field;
   opt.spacing = 2 * *fluid_r_;
   const auto t0 = std::chrono::steady_clock::now();
-  std::size_t triangles = 0;
   if (style_.geometry_on_gpu) {
     if (!surface_compute_) {
       surface_compute_ = std::make_unique<SurfaceCompute>();
       surface_compute_->time_with(&timer_);
     }
-    const std::size_t indices = surface_compute_->extract(x, opt, only);
-    meshes_.show(surface_compute_->vertex_buffer(), surface_compute_->index_buffer(), indices);
-    triangles = indices / 3;
+    surface_compute_->start(x, opt, only);
+    surface_started_ = true;
   } else {
     const SurfaceMesh m = marching_cubes(surface_field(x, opt, only), only);
     meshes_.upload(m);
-    triangles = m.triangles();
+    surface_triangles_ = m.triangles();
   }
   last_surface_seconds_ =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return triangles;
+}
+
+std::size_t SnapshotRenderer::finish_surface() {
+  if (surface_started_) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::size_t indices = surface_compute_->finish();
+    meshes_.show(surface_compute_->vertex_buffer(), surface_compute_->index_buffer(), indices);
+    surface_triangles_ = indices / 3;
+    surface_started_ = false;
+    last_surface_seconds_ +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  return surface_triangles_;
 }
 
 std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* only) {
@@ -284,6 +296,7 @@ std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* o
     triangles = m.triangles();
   }
   last_yarn_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  timer_.mark("yarns");
   return triangles;
 }
 
@@ -348,10 +361,12 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
     }
   };
   timer_.begin();
-  const std::size_t surface_triangles = fluid_surface(frame, only);
+  // The surface's passes run on the GPU while the host reads the yarns.
+  start_surface(frame, only);
   if (!style_.fluid_surface)
     add("fluid", fluid_r_, 0.5, style_.fluid, {});
   const std::size_t tube_triangles = knit_tubes(frame, only);
+  const std::size_t surface_triangles = finish_surface();
   if (!has_yarns(frame))
     add("knit", knit_r_, 0.6, style_.knit, scalar_field(frame, "knit", "saturation"));
   if (style_.boundary)

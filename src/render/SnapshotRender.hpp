@@ -104,15 +104,17 @@ public:
   /// Seconds the last draw spent on the yarns' frames (host; the GPU builds the rings).
   double last_yarn_seconds() const { return last_yarn_seconds_; }
   /// The last draw's passes and their GPU seconds (GL timestamps): the surface's field and
-  /// cubes, the other uploads, the shadow maps, the picture, its read-back.
+  /// cubes, the yarns' frames, the other uploads, the shadow maps, the picture, its read-back.
   const std::vector<std::pair<std::string, double>>& last_passes() const { return last_passes_; }
   const ContextInfo& context() const { return context_.info(); }
 
 private:
-  /// The frame's fluid surface (none when the fluid is drawn as spheres) into meshes_, and the
-  /// knit's tubes (none without a yarn phase or with the knit as points) into tubes_; their
+  /// The frame's fluid surface (none when the fluid is drawn as spheres) into meshes_: started
+  /// (on the GPU: its passes sent), then finished (their counts waited for), its triangles; and
+  /// the knit's tubes (none without a yarn phase or with the knit as points) into tubes_, their
   /// triangles; both timed; with `only`, its part.
-  std::size_t fluid_surface(const io::Frame& frame, const Region* only);
+  void start_surface(const io::Frame& frame, const Region* only);
+  std::size_t finish_surface();
   std::size_t knit_tubes(const io::Frame& frame, const Region* only);
   bool has_yarns(const io::Frame& frame) const;
   /// Everything uploaded, through `view`: the picture's pass (the floor, the water's reflection,
@@ -137,6 +139,8 @@ private:
   std::optional<double> fluid_r_, knit_r_, boundary_r_, yarn_r_;
   std::size_t last_spheres_ = 0, last_triangles_ = 0;
   double last_surface_seconds_ = 0, last_yarn_seconds_ = 0;
+  bool surface_started_ = false;
+  std::size_t surface_triangles_ = 0;
 };
 
 } // namespace kf::render

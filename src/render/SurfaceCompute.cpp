@@ -26,6 +26,7 @@ GLuint groups_of_64(std::size_t n) {
 }
 
 constexpr int kBlock = 8; // grid vertices a side of a block (active_blocks.glsl)
+constexpr std::size_t kVertexBytes = 7 * sizeof(float), kIndexBytes = sizeof(GLuint);
 
 /// A pass over the active blocks' list (shaders/active_blocks.glsl inserted).
 ShaderProgram block_pass(const char* name, const char* source) {
@@ -63,13 +64,20 @@ SurfaceCompute::~SurfaceCompute() {
 
 std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
                                     const SurfaceOptions& opt, const Region* only) {
+  start(points, opt, only);
+  return finish();
+}
+
+void SurfaceCompute::start(const std::vector<glm::dvec3>& points, const SurfaceOptions& opt,
+                           const Region* only) {
   SurfaceOptions capped = opt;
   capped.max_cells = std::min(opt.max_cells, max_buffer_ / sizeof(float));
   grid_ = surface_grid(points, capped);
   max_cells_ = capped.max_cells;
   vertex_count_ = index_count_ = 0;
+  marching_ = false;
   if (points.empty())
-    return 0;
+    return;
   const double dp = opt.spacing, reach = opt.support * dp;
   const glm::dvec3 lo = grid_.origin;
   const glm::dvec3 hi =
@@ -136,7 +144,7 @@ std::size_t SurfaceCompute::extract(const std::vector<glm::dvec3>& points,
   if (timer_)
     timer_->mark("field");
   check_gl("the fluid surface's field on a grid of " + std::to_string(total) + " vertices");
-  return march(only);
+  march_start(only);
 }
 
 std::size_t SurfaceCompute::polygonise(const ScalarGrid& grid, const Region* only) {
@@ -153,7 +161,8 @@ std::size_t SurfaceCompute::polygonise(const ScalarGrid& grid, const Region* onl
   field_ = grown_buffer(field_, field_capacity_, total * sizeof(float), headroom());
   glNamedBufferSubData(field_, 0, GLsizeiptr(total * sizeof(float)), grid.value.data());
   list_blocks(true, 0);
-  return march(only);
+  march_start(only);
+  return finish();
 }
 
 void SurfaceCompute::list_blocks(bool all, std::size_t points) {
@@ -189,10 +198,12 @@ void SurfaceCompute::list_blocks(bool all, std::size_t points) {
   check_gl("listing the surface grid's " + std::to_string(total) + " blocks");
 }
 
-std::size_t SurfaceCompute::march(const Region* only) {
+void SurfaceCompute::march_start(const Region* only) {
   const int nx = grid_.n[0], ny = grid_.n[1], nz = grid_.n[2];
-  if (nx < 2 || ny < 2 || nz < 2)
-    return index_count_ = vertex_count_ = 0;
+  vertex_count_ = index_count_ = 0;
+  marching_ = nx >= 2 && ny >= 2 && nz >= 2;
+  if (!marching_)
+    return;
   const std::size_t total = std::size_t(nx) * ny * nz;
   first_ = grown_buffer(first_, first_capacity_, total * sizeof(GLuint), headroom());
   const glm::vec3 origin(grid_.origin);
@@ -208,38 +219,51 @@ std::size_t SurfaceCompute::march(const Region* only) {
     glProgramUniform3f(cubes, location(cubes, "only_lo"), lo.x, lo.y, lo.z);
     glProgramUniform3f(cubes, location(cubes, "only_hi"), hi.x, hi.y, hi.z);
   }
-  constexpr std::size_t kVertexBytes = 7 * sizeof(float), kIndexBytes = sizeof(GLuint);
-  auto run = [&] {
-    const GLuint zero[2] = {0, 0};
-    glNamedBufferSubData(counter_, 0, sizeof zero, zero);
-    glProgramUniform1ui(vertex_program_.id(), location(vertex_program_.id(), "capacity"),
-                        GLuint(vertex_capacity_ / kVertexBytes));
-    glProgramUniform1ui(cubes, location(cubes, "capacity"), GLuint(index_capacity_ / kIndexBytes));
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, field_);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, cases_);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, vertices_);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, counter_);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, first_);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, indices_);
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, active_);
-    glUseProgram(vertex_program_.id());
-    glDispatchCompute(block_groups_, 1, 1);
-    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
-    glUseProgram(cubes);
-    glDispatchCompute(block_groups_, 1, 1);
-    glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |
-                    GL_ELEMENT_ARRAY_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
-    GLuint written[2] = {0, 0};
-    glGetNamedBufferSubData(counter_, 0, sizeof written, written);
-    check_gl("marching cubes over a grid of " + std::to_string(nx) + " x " + std::to_string(ny) +
-             " x " + std::to_string(nz));
-    return std::pair<std::size_t, std::size_t>(written[0], written[1]);
-  };
   if (vertices_ == 0) {
     vertices_ = grown_buffer(vertices_, vertex_capacity_, std::size_t(1) << 20);
     indices_ = grown_buffer(indices_, index_capacity_, std::size_t(1) << 20);
   }
-  auto [vertices, indices] = run();
+  dispatch_march();
+  if (timer_)
+    timer_->mark("cubes");
+}
+
+void SurfaceCompute::dispatch_march() {
+  const unsigned cubes = cube_program_.id();
+  const GLuint zero[2] = {0, 0};
+  glNamedBufferSubData(counter_, 0, sizeof zero, zero);
+  glProgramUniform1ui(vertex_program_.id(), location(vertex_program_.id(), "capacity"),
+                      GLuint(vertex_capacity_ / kVertexBytes));
+  glProgramUniform1ui(cubes, location(cubes, "capacity"), GLuint(index_capacity_ / kIndexBytes));
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, field_);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, cases_);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 4, vertices_);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 5, counter_);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 6, first_);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 7, indices_);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 9, active_);
+  glUseProgram(vertex_program_.id());
+  glDispatchCompute(block_groups_, 1, 1);
+  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  glUseProgram(cubes);
+  glDispatchCompute(block_groups_, 1, 1);
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_VERTEX_ATTRIB_ARRAY_BARRIER_BIT |
+                  GL_ELEMENT_ARRAY_BARRIER_BIT | GL_SHADER_STORAGE_BARRIER_BIT);
+  check_gl("marching cubes over a grid of " + std::to_string(grid_.n[0]) + " x " +
+           std::to_string(grid_.n[1]) + " x " + std::to_string(grid_.n[2]));
+}
+
+std::size_t SurfaceCompute::finish() {
+  if (!marching_)
+    return index_count_ = vertex_count_ = 0;
+  marching_ = false;
+  auto counts = [&] {
+    GLuint written[2] = {0, 0};
+    glGetNamedBufferSubData(counter_, 0, sizeof written, written);
+    check_gl("reading the surface's counts");
+    return std::pair<std::size_t, std::size_t>(written[0], written[1]);
+  };
+  auto [vertices, indices] = counts();
   if (vertices * kVertexBytes > vertex_capacity_ || indices * kIndexBytes > index_capacity_) {
     // Too many for the lists: larger ones (a quarter to spare), once more.
     const std::size_t most = max_buffer_;
@@ -255,10 +279,9 @@ std::size_t SurfaceCompute::march(const Region* only) {
       vertices_ = grown_buffer(vertices_, vertex_capacity_, room(vertices, kVertexBytes));
     if (indices * kIndexBytes > index_capacity_)
       indices_ = grown_buffer(indices_, index_capacity_, room(indices, kIndexBytes));
-    std::tie(vertices, indices) = run();
+    dispatch_march();
+    std::tie(vertices, indices) = counts();
   }
-  if (timer_)
-    timer_->mark("cubes");
   vertex_count_ = vertices;
   return index_count_ = indices;
 }

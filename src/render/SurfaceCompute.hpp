@@ -28,6 +28,12 @@ public:
   /// capped by opt.max_cells and by what one GL storage buffer may hold.
   std::size_t extract(const std::vector<glm::dvec3>& points, const SurfaceOptions& opt,
                       const Region* only = nullptr);
+  /// extract in two halves: start sends the passes to the GPU and returns; finish waits for
+  /// their counts (passing them again on larger lists if they overflowed) and returns the index
+  /// count. The host may work, and other GL commands be sent, in between (a frame's yarns).
+  void start(const std::vector<glm::dvec3>& points, const SurfaceOptions& opt,
+             const Region* only = nullptr);
+  std::size_t finish();
   /// Marching cubes alone over a given field (tests: the same field as the host's).
   std::size_t polygonise(const ScalarGrid& grid, const Region* only = nullptr);
 
@@ -48,7 +54,9 @@ private:
   /// The grid's blocks of 8^3 vertices the passes visit: all, or those the points flag
   /// (blocks_program_, its uniforms set); listed in active_.
   void list_blocks(bool all, std::size_t points);
-  std::size_t march(const Region* only);
+  void march_start(const Region* only);
+  /// The vertex and cube passes on the lists' present capacities.
+  void dispatch_march();
   /// The grid's buffers grow with a splash from frame to frame: to four times what this grid
   /// asks when they do (a reallocation stalls a frame by 0.1-0.4 s on an H100: the pour's film
   /// grew its grid five times at 1.5), but not past the largest grid (max_cells_).
@@ -68,6 +76,7 @@ private:
   std::size_t max_cells_ = 0;  // the last options' grid cap
   ScalarGrid grid_;            // the last grid's layout (no values)
   std::size_t vertex_count_ = 0, index_count_ = 0;
+  bool marching_ = false; // passes started and not yet finished
   GpuTimer* timer_ = nullptr;
 };
 
