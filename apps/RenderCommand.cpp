@@ -87,51 +87,63 @@ std::optional<Scene> run_scene(const io::Frame& f, const std::string& snapshot,
   }
 }
 
-/// The scene's sphere obstacles, grey (planes, boxes and meshes come with the floor and meshes).
-std::vector<render::Sphere> obstacle_spheres(const std::optional<Scene>& scene) {
-  std::vector<render::Sphere> out;
-  if (!scene)
-    return out;
-  for (const Obstacle& o : scene->obstacles)
-    if (o.shape == ObstacleShape::Sphere)
-      out.push_back(
-          {glm::vec4(float(o.center.x), float(o.center.y), float(o.center.z), float(o.radius)),
-           glm::vec4(0.55f, 0.57f, 0.6f, 1.0f)});
-  return out;
-}
-
 glm::dvec3 dvec(const Vec3d& v) {
   return {v.x, v.y, v.z};
 }
 
+/// The scene's sphere obstacles, grey, where they start, and their velocities (planes, boxes
+/// and meshes come with the floor and meshes).
+std::vector<render::Sphere> obstacle_spheres(const std::optional<Scene>& scene,
+                                             std::vector<glm::vec3>& velocity) {
+  std::vector<render::Sphere> out;
+  velocity.clear();
+  if (!scene)
+    return out;
+  for (const Obstacle& o : scene->obstacles)
+    if (o.shape == ObstacleShape::Sphere) {
+      out.push_back(
+          {glm::vec4(float(o.center.x), float(o.center.y), float(o.center.z), float(o.radius)),
+           glm::vec4(0.55f, 0.57f, 0.6f, 1.0f)});
+      velocity.emplace_back(glm::vec3(dvec(o.velocity)));
+    }
+  return out;
+}
+
 /// The scene's boxes and OBJ meshes (solids) and its planes as meshes, where they stand at the
-/// start (a moving obstacle is drawn there too, as the spheres are). A plane lying on the
-/// floor's height, facing up, is the floor's to draw.
+/// start, and a velocity a vertex (its obstacle's: the picture moves it with the frame's time).
+/// A plane lying on the floor's height, facing up, is the floor's to draw.
 void obstacle_meshes(const std::optional<Scene>& scene, render::SurfaceMesh& solids,
-                     render::SurfaceMesh& planes) {
+                     render::SurfaceMesh& planes, std::vector<glm::vec3>& solid_velocity,
+                     std::vector<glm::vec3>& plane_velocity) {
   if (!scene)
     return;
+  // Each obstacle's vertices take its velocity, appended as the meshes grow.
+  auto moving = [](render::SurfaceMesh& m, std::vector<glm::vec3>& v, const Obstacle& o,
+                   const render::SurfaceMesh& part) {
+    render::append(m, part);
+    v.resize(m.position.size(), glm::vec3(dvec(o.velocity)));
+  };
   const glm::dvec3 lo = dvec(scene->domain.min), hi = dvec(scene->domain.max);
   const double reach = glm::length(hi - lo);
   for (const Obstacle& o : scene->obstacles)
     switch (o.shape) {
     case ObstacleShape::Box:
-      render::append(solids, render::box_mesh(dvec(o.min), dvec(o.max)));
+      moving(solids, solid_velocity, o, render::box_mesh(dvec(o.min), dvec(o.max)));
       break;
     case ObstacleShape::Mesh:
       if (o.mesh) {
         std::vector<glm::dvec3> v;
         for (const Vec3d& x : o.mesh->solid.vertices)
           v.push_back(dvec(x));
-        render::append(solids, render::triangle_mesh(v, o.mesh->solid.triangles));
+        moving(solids, solid_velocity, o, render::triangle_mesh(v, o.mesh->solid.triangles));
       }
       break;
     case ObstacleShape::Plane:
       if (scene->render.floor && o.normal.z > 0.999 &&
           std::abs(o.point.z - scene->domain.min.z) <= 1e-9 * (1 + reach))
         break;
-      render::append(planes,
-                     render::plane_mesh(dvec(o.point), dvec(o.normal), 0.5 * (lo + hi), reach));
+      moving(planes, plane_velocity, o,
+             render::plane_mesh(dvec(o.point), dvec(o.normal), 0.5 * (lo + hi), reach));
       break;
     case ObstacleShape::Sphere:
       break; // obstacle_spheres
@@ -315,10 +327,10 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
                                                a.overrides, mpi.root() && !a.quiet, log);
   const Scene::Render look = scene ? scene->render : Scene::Render{};
   render::SnapshotStyle style = style_of(look, a);
-  style.obstacles = obstacle_spheres(scene);
+  style.obstacles = obstacle_spheres(scene, style.obstacle_velocity);
   if (scene)
     style.floor_z = scene->domain.min.z;
-  obstacle_meshes(scene, style.solids, style.planes);
+  obstacle_meshes(scene, style.solids, style.planes, style.solid_velocity, style.plane_velocity);
   fs::create_directories(out); // after every check of the input: a refused call writes nothing
   // On a GPU the EGL device of this rank's CUDA device (as `run` chooses it); else llvmpipe.
   const int cuda_device = exec::cuda_available() ? exec::cuda_select_device(mpi.local_rank()) : -1;

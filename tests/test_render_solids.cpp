@@ -87,3 +87,48 @@ TEST(RenderSolids, ABoxsTopTakesTheLightAndAPlaneShowsOnlyItsFront) {
     }
   }
 }
+
+TEST(RenderSolids, AMovingObstacleStandsWhereItsVelocityTookItAtTheFramesTime) {
+  // The scene's prescribed motion, x(t) = x(0) + v t: a box and a sphere moving, drawn at
+  // t = 0.5 s, are the still ones placed at x(0.5) (the same picture: a vertex an ulp apart may
+  // move a silhouette pixel; measured on llvmpipe: none), and not where they started.
+  const glm::vec3 v_box(0.2f, 0.0f, 0.0f), v_ball(0.0f, -0.1f, 0.05f);
+  const double t = 0.5;
+  render::Camera cam;
+  cam.eye = {0.1, -1.2, 0.8};
+  cam.target = {0.1, 0, 0.1};
+  cam.up = {0, 0, 1};
+  auto picture = [&](bool moving, double time) {
+    render::SnapshotStyle s;
+    s.width = 160;
+    s.height = 120;
+    const glm::dvec3 shift = moving ? glm::dvec3(0) : glm::dvec3(v_box) * t;
+    s.solids =
+        render::box_mesh(glm::dvec3(-0.1, -0.1, 0) + shift, glm::dvec3(0.1, 0.1, 0.2) + shift);
+    const glm::vec3 ball_shift = moving ? glm::vec3(0) : v_ball * float(t);
+    s.obstacles = {{glm::vec4(glm::vec3(0.3f, 0.2f, 0.1f) + ball_shift, 0.08f), glm::vec4(1.0f)}};
+    if (moving) {
+      s.solid_velocity.assign(s.solids.position.size(), v_box);
+      s.obstacle_velocity = {v_ball};
+    }
+    io::Frame f;
+    f.time = time;
+    render::SnapshotRenderer r(s);
+    return r.draw(f, cam).pixels;
+  };
+  const auto moved = picture(true, t), still_there = picture(false, t),
+             at_start = picture(true, 0.0);
+  std::size_t off = 0, differ = 0;
+  for (std::size_t i = 0; i < moved.size(); i += 4) {
+    off += std::abs(int(moved[i]) - int(still_there[i])) > 2;
+    differ += moved[i] != at_start[i];
+  }
+  EXPECT_LE(off, 5u);
+  EXPECT_GT(differ, 1000u) << "the obstacles did not move";
+  // Velocities that do not match the obstacles are an error, not a silent still picture.
+  render::SnapshotStyle bad;
+  bad.solids = render::box_mesh({0, 0, 0}, {1, 1, 1});
+  bad.solid_velocity = {v_box};
+  render::SnapshotRenderer r(bad);
+  EXPECT_THROW(r.draw(io::Frame{}, cam), Error);
+}

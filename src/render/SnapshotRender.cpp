@@ -163,6 +163,26 @@ void grow_by_phase(const io::Frame& frame, const std::string& phase, glm::dvec3&
 
 } // namespace
 
+SnapshotRenderer::Placed SnapshotRenderer::placed(double time) const {
+  auto check = [](std::size_t velocities, std::size_t things, const char* what) {
+    if (velocities != 0 && velocities != things)
+      throw Error(std::string("render: ") + std::to_string(velocities) + " velocities for " +
+                  std::to_string(things) + " " + what);
+  };
+  check(style_.obstacle_velocity.size(), style_.obstacles.size(), "obstacle spheres");
+  check(style_.solid_velocity.size(), style_.solids.position.size(), "solids' vertices");
+  check(style_.plane_velocity.size(), style_.planes.position.size(), "planes' vertices");
+  Placed p{style_.obstacles, style_.solids, style_.planes};
+  const float t = float(time);
+  for (std::size_t i = 0; i < style_.obstacle_velocity.size(); ++i)
+    p.spheres[i].centre_radius += glm::vec4(t * style_.obstacle_velocity[i], 0.0f);
+  for (std::size_t i = 0; i < style_.solid_velocity.size(); ++i)
+    p.solids.position[i] += t * style_.solid_velocity[i];
+  for (std::size_t i = 0; i < style_.plane_velocity.size(); ++i)
+    p.planes.position[i] += t * style_.plane_velocity[i];
+  return p;
+}
+
 std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::frame_box(const io::Frame& frame) const {
   glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
   auto grow = [&](const glm::dvec3& p) {
@@ -173,12 +193,13 @@ std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::frame_box(const io::Frame& f
     grow_by_phase(frame, phase, lo, hi);
   if (style_.boundary)
     grow_by_phase(frame, "boundary", lo, hi);
-  for (const Sphere& s : style_.obstacles) {
+  const Placed at = placed(frame.time);
+  for (const Sphere& s : at.spheres) {
     const glm::dvec3 c(s.centre_radius), r(s.centre_radius.w);
     grow(c - r);
     grow(c + r);
   }
-  for (const glm::vec3& v : style_.solids.position) // (planes reach past the frame: not framed)
+  for (const glm::vec3& v : at.solids.position) // (planes reach past the frame: not framed)
     grow(glm::dvec3(v));
   if (!(lo.x <= hi.x))
     throw Error("render: the snapshot holds nothing to draw (no fluid, knit or obstacle)");
@@ -338,8 +359,9 @@ void SnapshotRenderer::draw_shadow_maps(const Camera& camera, double aspect, con
 
 io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camera,
                                      const Region* only) {
+  const Placed at = placed(frame.time);
   std::vector<Sphere> list;
-  for (const Sphere& s : style_.obstacles)
+  for (const Sphere& s : at.spheres)
     if (!only || only->contains(glm::dvec3(glm::vec3(s.centre_radius))))
       list.push_back(s);
   auto add = [&](const std::string& phase, std::optional<double>& radius, double share,
@@ -392,8 +414,8 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   spheres_.upload(list);
   // The solids and planes are the scene's: the same every frame and every part of it, drawn
   // whole by each rank (like the floor) so the composite keeps them.
-  solid_mesh_.upload(style_.solids);
-  plane_mesh_.upload(style_.planes);
+  solid_mesh_.upload(at.solids);
+  plane_mesh_.upload(at.planes);
   timer_.mark("uploads");
   Lighting lighting = style_.lighting;
   if (style_.shadows) {

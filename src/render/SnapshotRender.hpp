@@ -37,6 +37,10 @@ struct SnapshotStyle {
   // The scene's other solids (boxes, OBJ meshes: closed, seen from any side) and planes (seen
   // only from their fluid's side: a tank's walls do not hide what is in it), in obstacle_colour.
   SurfaceMesh solids, planes;
+  // Moving obstacles (a scene's prescribed translation from t = 0): a velocity a sphere of
+  // `obstacles` and a vertex of `solids` and of `planes` (empty: all still); a frame at time t
+  // draws them moved by velocity t, as the run moved them.
+  std::vector<glm::vec3> obstacle_velocity, solid_velocity, plane_velocity;
   glm::vec4 obstacle_colour{0.55f, 0.57f, 0.60f, 1.0f};
   Lighting lighting;
   // The fluid as its surface (marching cubes over the weighted field, FluidSurface) or, off, as
@@ -117,6 +121,12 @@ private:
   std::size_t finish_surface();
   std::size_t knit_tubes(const io::Frame& frame, const Region* only);
   bool has_yarns(const io::Frame& frame) const;
+  /// The obstacles where they stand at `time` (moved by their velocities).
+  struct Placed {
+    std::vector<Sphere> spheres;
+    SurfaceMesh solids, planes;
+  };
+  Placed placed(double time) const;
   /// Everything uploaded, through `view`: the picture's pass (the floor, the water's reflection,
   /// planes one-sided) or a shadow map's (the casters).
   void draw_scene(const ViewMatrices& view, const Lighting& light, bool picture);
