@@ -265,7 +265,7 @@ TEST(RenderYarn, TheGpusTubesAreTheHostMeshsTubes) {
   EXPECT_EQ(tubes.triangles(), 399u * 2 * 8);
   compare(picture([&] { tubes.draw(colour, view); }), "host frames, rings in tube.vert");
   // The frames in float on the GPU (yarn_frames.comp): the same rings to rounding.
-  tubes.build(y, st);
+  tubes.build(render::yarn_points(y), st);
   EXPECT_EQ(tubes.triangles(), 399u * 2 * 8);
   compare(picture([&] { tubes.draw(colour, view); }), "frames on the GPU");
 }

@@ -125,6 +125,40 @@ std::vector<std::array<std::uint32_t, 2>> segments(const io::Frame& frame,
   return out;
 }
 
+/// The yarn phase for the GPU's tubes, read straight from the stored bytes (one pass a field,
+/// in parallel: half a million points a frame).
+YarnPoints yarn_points_of(const io::Frame& frame) {
+  const io::Phase* p = frame.find("yarn");
+  const io::Field* x = p ? p->find("position") : nullptr;
+  if (!x || x->components != 3 || (x->type != io::DType::F32 && x->type != io::DType::F64))
+    throw Error("render: the snapshot's yarn phase has no 3-component position field");
+  YarnPoints y;
+  y.segment = segments(frame, "yarn");
+  const std::size_t n = x->count;
+  y.point.resize(n);
+  const io::Field* s = p->find("saturation");
+  if (s && (s->components != 1 || s->count != n ||
+            (s->type != io::DType::F32 && s->type != io::DType::F64)))
+    s = nullptr; // as scalar_field: a saturation not of this shape is none
+  auto read = [](const io::Field& f, std::size_t i, int k) {
+    if (f.type == io::DType::F32) {
+      float v;
+      std::memcpy(&v, f.bytes.data() + (std::size_t(f.components) * i + std::size_t(k)) * 4, 4);
+      return v;
+    }
+    double v;
+    std::memcpy(&v, f.bytes.data() + (std::size_t(f.components) * i + std::size_t(k)) * 8, 8);
+    return float(v);
+  };
+  const auto count = std::ptrdiff_t(n);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t j = 0; j < count; ++j) {
+    const auto i = std::size_t(j);
+    y.point[i] = {read(*x, i, 0), read(*x, i, 1), read(*x, i, 2), s ? read(*s, i, 0) : 0.0f};
+  }
+  return y;
+}
+
 } // namespace
 
 SnapshotRenderer::SnapshotRenderer(const SnapshotStyle& style, int cuda_device)
@@ -295,23 +329,23 @@ std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* o
   yarn_meshes_.upload({});
   if (!has_yarns(frame))
     return 0;
-  auto yarn_x = phase_positions(frame, "yarn");
   if (!yarn_r_) {
     yarn_r_ = style_.yarn_radius;
     if (!(*yarn_r_ > 0)) // a fifth of a layer's point spacing; without knit points, the yarn's
-      *yarn_r_ = 0.2 * layer_spacing(frame, "knit").value_or(4 * typical_spacing(yarn_x));
+      *yarn_r_ = 0.2 * layer_spacing(frame, "knit")
+                           .value_or(4 * typical_spacing(phase_positions(frame, "yarn")));
   }
-  const YarnPolylines lines{std::move(yarn_x), segments(frame, "yarn"),
-                            scalar_field(frame, "yarn", "saturation")};
   YarnStyle ys;
   ys.radius = *yarn_r_;
   ys.wet_darkening = style_.wet_darkening;
   const auto t0 = std::chrono::steady_clock::now();
   std::size_t triangles = 0;
   if (style_.geometry_on_gpu) {
-    tubes_.build(lines, ys, only);
+    tubes_.build(yarn_points_of(frame), ys, only);
     triangles = tubes_.triangles();
   } else {
+    const YarnPolylines lines{phase_positions(frame, "yarn"), segments(frame, "yarn"),
+                              scalar_field(frame, "yarn", "saturation")};
     const SurfaceMesh m = yarn_tubes(lines, ys, only);
     yarn_meshes_.upload(m);
     triangles = m.triangles();

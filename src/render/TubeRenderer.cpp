@@ -68,7 +68,7 @@ void TubeRenderer::make_indices(int sides) {
   glMemoryBarrier(GL_ELEMENT_ARRAY_BARRIER_BIT);
 }
 
-void TubeRenderer::build(const YarnPolylines& y, const YarnStyle& style, const Region* only) {
+void TubeRenderer::build(const YarnPoints& y, const YarnStyle& style, const Region* only) {
   if (!(style.radius > 0) || style.sides < 3)
     throw Error("render: a yarn needs a radius > 0 and at least 3 sides");
   const YarnChains chains = yarn_chains(y, only);
@@ -76,14 +76,8 @@ void TubeRenderer::build(const YarnPolylines& y, const YarnStyle& style, const R
   segments_ = chains.drawn.size();
   if (segments_ == 0)
     return;
-  const std::size_t n = y.x.size();
-  std::vector<glm::vec4> points(n);
-  const auto count = std::ptrdiff_t(n);
-#pragma omp parallel for schedule(static)
-  for (std::ptrdiff_t i = 0; i < count; ++i)
-    points[std::size_t(i)] =
-        glm::vec4(glm::vec3(y.x[std::size_t(i)]), y.s.empty() ? 0.0f : float(y.s[std::size_t(i)]));
-  const void* data[3] = {points.data(), chains.start.data(), chains.drawn.data()};
+  const std::size_t n = y.point.size();
+  const void* data[3] = {y.point.data(), chains.start.data(), chains.drawn.data()};
   const std::size_t bytes[3] = {n * sizeof(glm::vec4), chains.start.size() * sizeof(std::uint32_t),
                                 segments_ * sizeof(std::uint32_t)};
   const int slot[3] = {6, 7, 3};

@@ -27,7 +27,7 @@ public:
   /// The same from the yarns themselves: their chains listed on the host (yarn_chains), the
   /// frames computed on the GPU (shaders/yarn_frames.comp, a yarn a thread), so the host moves
   /// 16 bytes a point.
-  void build(const YarnPolylines& yarns, const YarnStyle& style, const Region* only = nullptr);
+  void build(const YarnPoints& yarns, const YarnStyle& style, const Region* only = nullptr);
   /// Draws the last uploaded tubes into the bound target with depth testing, in `colour`
   /// scaled by each point's shade; coarse, with every other ring vertex (half the sides, an even
   /// number of them: for shadow maps).

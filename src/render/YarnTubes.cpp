@@ -33,26 +33,57 @@ std::vector<glm::dvec3> tangents(const std::vector<glm::dvec3>& x, std::size_t a
 
 } // namespace
 
+namespace {
+
+/// The chains and the drawn segments of n points: segment(i) its pair, position(i) its place.
+template <typename Segment, typename Position>
+YarnChains chains_of(std::size_t n, Segment&& segment, Position&& position, const Region* only) {
+  YarnChains c;
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto& sg = segment(i);
+    if (sg[0] != i || (sg[1] != i && sg[1] != i + 1) || sg[1] >= n)
+      throw Error("render: yarn point " + std::to_string(i) + "'s segment (" +
+                  std::to_string(sg[0]) + ", " + std::to_string(sg[1]) +
+                  ") is not (i, i + 1) or (i, i)");
+    if (i == 0 || segment(i - 1)[1] == i - 1)
+      c.start.push_back(std::uint32_t(i));
+    if (sg[1] == i + 1 && (!only || only->contains(position(i))))
+      c.drawn.push_back(std::uint32_t(i));
+  }
+  c.start.push_back(std::uint32_t(n));
+  return c;
+}
+
+} // namespace
+
 YarnChains yarn_chains(const YarnPolylines& y, const Region* only) {
   const std::size_t n = y.x.size();
   if (y.segment.size() != n || (!y.s.empty() && y.s.size() != n))
     throw Error("render: the yarn phase has " + std::to_string(n) + " positions but " +
                 std::to_string(y.segment.size()) + " segments and " + std::to_string(y.s.size()) +
                 " saturations");
-  YarnChains c;
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto& sg = y.segment[i];
-    if (sg[0] != i || (sg[1] != i && sg[1] != i + 1) || sg[1] >= n)
-      throw Error("render: yarn point " + std::to_string(i) + "'s segment (" +
-                  std::to_string(sg[0]) + ", " + std::to_string(sg[1]) +
-                  ") is not (i, i + 1) or (i, i)");
-    if (i == 0 || y.segment[i - 1][1] == i - 1)
-      c.start.push_back(std::uint32_t(i));
-    if (sg[1] == i + 1 && (!only || only->contains(y.x[i])))
-      c.drawn.push_back(std::uint32_t(i));
-  }
-  c.start.push_back(std::uint32_t(n));
-  return c;
+  return chains_of(
+      n, [&](std::size_t i) -> const auto& { return y.segment[i]; },
+      [&](std::size_t i) { return y.x[i]; }, only);
+}
+
+YarnChains yarn_chains(const YarnPoints& y, const Region* only) {
+  const std::size_t n = y.point.size();
+  if (y.segment.size() != n)
+    throw Error("render: the yarn phase has " + std::to_string(n) + " positions but " +
+                std::to_string(y.segment.size()) + " segments");
+  return chains_of(
+      n, [&](std::size_t i) -> const auto& { return y.segment[i]; },
+      [&](std::size_t i) { return glm::dvec3(glm::vec3(y.point[i])); }, only);
+}
+
+YarnPoints yarn_points(const YarnPolylines& y) {
+  YarnPoints p;
+  p.segment = y.segment;
+  p.point.resize(y.x.size());
+  for (std::size_t i = 0; i < y.x.size(); ++i)
+    p.point[i] = glm::vec4(glm::vec3(y.x[i]), y.s.empty() ? 0.0f : float(y.s[i]));
+  return p;
 }
 
 YarnFrames yarn_frames(const YarnPolylines& y, const YarnStyle& style, const Region* only) {

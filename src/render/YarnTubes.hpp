@@ -49,6 +49,16 @@ struct YarnChains {
 };
 YarnChains yarn_chains(const YarnPolylines& yarns, const Region* only = nullptr);
 
+/// The yarn phase as the GPU takes it (TubeRenderer::build): a point's position and saturation
+/// (x, y, z, s; s = 0 dry) and its segment, read straight from a snapshot.
+struct YarnPoints {
+  std::vector<glm::vec4> point;
+  std::vector<std::array<std::uint32_t, 2>> segment;
+};
+YarnChains yarn_chains(const YarnPoints& yarns, const Region* only = nullptr);
+/// The polylines' points in float (tests; a snapshot's are float already).
+YarnPoints yarn_points(const YarnPolylines& yarns);
+
 /// The yarns' frames (rotation-minimising along each yarn) and the segments drawn: with `only`,
 /// just those whose first point lies in it. A segment's end must be its start + 1 or the start
 /// itself; anything else is a kf::Error naming the point.
