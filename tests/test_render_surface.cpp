@@ -4,6 +4,8 @@
 // splatting both reported).
 #include "render/FluidSurface.hpp"
 
+#include "support/SurfaceChecks.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,39 +15,19 @@
 #include <random>
 
 using namespace kf;
+using kf::test::unmatched_edges;
 using render::SurfaceField;
 
 namespace {
 
 constexpr double kDp = 0.01;
 
-/// Lattice points of spacing dp inside a ball of `cells` spacings' radius, centred at c.
 std::vector<glm::dvec3> ball(int cells, glm::dvec3 c) {
-  std::vector<glm::dvec3> p;
-  for (int i = -cells; i <= cells; ++i)
-    for (int j = -cells; j <= cells; ++j)
-      for (int k = -cells; k <= cells; ++k)
-        if (i * i + j * j + k * k <= cells * cells)
-          p.push_back(c + kDp * glm::dvec3(i, j, k));
-  return p;
+  return kf::test::lattice_ball(cells, c, kDp);
 }
 
 const char* name(SurfaceField f) {
   return f == SurfaceField::Naive ? "naive" : "weighted";
-}
-
-/// Every edge of the mesh is used once in each direction: closed and consistently oriented.
-std::size_t unmatched_edges(const render::SurfaceMesh& m) {
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> count;
-  for (std::size_t t = 0; t < m.index.size(); t += 3)
-    for (int e = 0; e < 3; ++e)
-      ++count[{m.index[t + std::size_t(e)], m.index[t + std::size_t((e + 1) % 3)]}];
-  std::size_t bad = 0;
-  for (const auto& [edge, n] : count) {
-    const auto back = count.find({edge.second, edge.first});
-    bad += n != 1 || back == count.end() || back->second != 1;
-  }
-  return bad;
 }
 
 /// Signed volume (divergence theorem): positive when the triangles face outward.

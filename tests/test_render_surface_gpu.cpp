@@ -7,6 +7,8 @@
 #include "render/SnapshotRender.hpp"
 #include "render/SurfaceCompute.hpp"
 
+#include "support/SurfaceChecks.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -19,6 +21,7 @@
 #include <random>
 
 using namespace kf;
+using kf::test::unmatched_edges;
 using render::SurfaceField;
 
 namespace {
@@ -27,12 +30,7 @@ constexpr double kDp = 0.01;
 
 /// A ball of lattice points (radius `cells` spacings) and a splash of random drops over it.
 std::vector<glm::dvec3> ball_and_splash(int cells, glm::dvec3 c, int drops) {
-  std::vector<glm::dvec3> p;
-  for (int i = -cells; i <= cells; ++i)
-    for (int j = -cells; j <= cells; ++j)
-      for (int k = -cells; k <= cells; ++k)
-        if (i * i + j * j + k * k <= cells * cells)
-          p.push_back(c + kDp * glm::dvec3(i, j, k));
+  std::vector<glm::dvec3> p = kf::test::lattice_ball(cells, c, kDp);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> u(-3 * cells * kDp, 3 * cells * kDp);
   for (int d = 0; d < drops; ++d)
@@ -75,19 +73,6 @@ render::SurfaceMesh welded(const render::SurfaceMesh& m) {
     w.index.push_back(it->second);
   }
   return w;
-}
-
-std::size_t unmatched_edges(const render::SurfaceMesh& m) {
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> count;
-  for (std::size_t t = 0; t < m.index.size(); t += 3)
-    for (int e = 0; e < 3; ++e)
-      ++count[{m.index[t + std::size_t(e)], m.index[t + std::size_t((e + 1) % 3)]}];
-  std::size_t bad = 0;
-  for (const auto& [edge, n] : count) {
-    const auto back = count.find({edge.second, edge.first});
-    bad += n != 1 || back == count.end() || back->second != 1;
-  }
-  return bad;
 }
 
 class SurfaceOnGpu : public ::testing::Test {
