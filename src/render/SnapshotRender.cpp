@@ -360,7 +360,10 @@ void SnapshotRenderer::draw_scene(const ViewMatrices& view, const Lighting& ligh
   meshes_.draw(style_.fluid, view, light, {.reflective = picture && style_.fluid_reflection});
   // A shadow map takes the tubes with half their sides: an inscribed prism, so a tube does not
   // shadow its own lit side, at half the vertices (the GPU's geometry is what a pass costs).
-  tubes_.draw(style_.knit, view, light, !picture);
+  // A tube is closed but for a yarn's ends and wound outward: the faces it turns away are hidden
+  // behind its own, so the GPU culls them (the picture unchanged). The fluid's surface stays
+  // two-sided: a camera may look at it from inside the water.
+  tubes_.draw(style_.knit, view, light, !picture, true);
   yarn_meshes_.draw(style_.knit, view, light);
   solid_mesh_.draw(style_.obstacle_colour, view, light);
   // The floor receives shadows but casts none; a plane is seen from its front only (a shadow

@@ -106,7 +106,7 @@ void TubeRenderer::build(const YarnPoints& y, const YarnStyle& style, const Regi
 }
 
 void TubeRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light,
-                        bool coarse) {
+                        bool coarse, bool one_sided) {
   if (segments_ == 0)
     return;
   use_lit_program(program_->id(), view, light);
@@ -121,8 +121,13 @@ void TubeRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
+  if (one_sided) {
+    glEnable(GL_CULL_FACE);
+    glCullFace(GL_BACK);
+  }
   glDrawElements(GL_TRIANGLES, GLsizei(segments_ * 6 * std::size_t(sides_ / step)), GL_UNSIGNED_INT,
                  nullptr);
+  glDisable(GL_CULL_FACE);
   check_gl("drawing " + std::to_string(segments_) + " yarn segments as tubes");
 }
 

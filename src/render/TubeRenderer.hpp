@@ -30,9 +30,10 @@ public:
   void build(const YarnPoints& yarns, const YarnStyle& style, const Region* only = nullptr);
   /// Draws the last uploaded tubes into the bound target with depth testing, in `colour`
   /// scaled by each point's shade; coarse, with every other ring vertex (half the sides, an even
-  /// number of them: for shadow maps).
+  /// number of them: for shadow maps); one_sided, the faces turned away culled (seen from
+  /// outside, a tube's own front faces hide them; only a yarn's open end shows the difference).
   void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {},
-            bool coarse = false);
+            bool coarse = false, bool one_sided = false);
   std::size_t triangles() const { return segments_ * 2 * std::size_t(sides_); }
 
 private:
