@@ -39,30 +39,51 @@ double typical_spacing(const std::vector<glm::dvec3>& points) {
   return nearest[nearest.size() / 2];
 }
 
-std::vector<glm::dvec3> phase_positions(const io::Frame& frame, const std::string& phase) {
+namespace {
+
+/// A phase's position field (3 components, float or double): null without the phase, a
+/// kf::Error naming it when the phase has no such field.
+const io::Field* position_field(const io::Frame& frame, const std::string& phase) {
   const io::Phase* p = frame.find(phase);
   if (!p)
-    return {};
+    return nullptr;
   const io::Field* f = p->find("position");
   if (!f || f->components != 3)
     throw Error("render: the snapshot's " + phase + " phase has no 3-component position field");
   if (f->type != io::DType::F32 && f->type != io::DType::F64)
     throw Error("render: the snapshot's " + phase + " positions are not floating point");
+  return f;
+}
+
+/// Component k of row i of a float or double field, read where it is stored (no copy of the
+/// field: a garment's yarns are half a million points a frame).
+double stored(const io::Field& f, std::size_t i, int k) {
+  const std::size_t at = std::size_t(f.components) * i + std::size_t(k);
+  if (f.type == io::DType::F32) {
+    float v;
+    std::memcpy(&v, f.bytes.data() + at * sizeof v, sizeof v);
+    return v;
+  }
+  double v;
+  std::memcpy(&v, f.bytes.data() + at * sizeof v, sizeof v);
+  return v;
+}
+
+glm::dvec3 stored_point(const io::Field& f, std::size_t i) {
+  return {stored(f, i, 0), stored(f, i, 1), stored(f, i, 2)};
+}
+
+} // namespace
+
+std::vector<glm::dvec3> phase_positions(const io::Frame& frame, const std::string& phase) {
+  const io::Field* f = position_field(frame, phase);
+  if (!f)
+    return {};
   std::vector<glm::dvec3> out(f->count);
-  auto fill = [&](auto zero) { // straight from the stored bytes: one pass, no copy between
-    using T = decltype(zero);
-    const auto n = std::ptrdiff_t(f->count);
+  const auto n = std::ptrdiff_t(f->count);
 #pragma omp parallel for schedule(static)
-    for (std::ptrdiff_t i = 0; i < n; ++i) {
-      T v[3];
-      std::memcpy(v, f->bytes.data() + 3 * std::size_t(i) * sizeof(T), sizeof v);
-      out[std::size_t(i)] = {double(v[0]), double(v[1]), double(v[2])};
-    }
-  };
-  if (f->type == io::DType::F32)
-    fill(0.0f);
-  else
-    fill(0.0);
+  for (std::ptrdiff_t i = 0; i < n; ++i)
+    out[std::size_t(i)] = stored_point(*f, std::size_t(i));
   return out;
 }
 
@@ -128,33 +149,22 @@ std::vector<std::array<std::uint32_t, 2>> segments(const io::Frame& frame,
 /// The yarn phase for the GPU's tubes, read straight from the stored bytes (one pass a field,
 /// in parallel: half a million points a frame).
 YarnPoints yarn_points_of(const io::Frame& frame) {
-  const io::Phase* p = frame.find("yarn");
-  const io::Field* x = p ? p->find("position") : nullptr;
-  if (!x || x->components != 3 || (x->type != io::DType::F32 && x->type != io::DType::F64))
-    throw Error("render: the snapshot's yarn phase has no 3-component position field");
+  const io::Field* x = position_field(frame, "yarn");
+  if (!x)
+    throw Error("render: the snapshot has no yarn phase");
   YarnPoints y;
   y.segment = segments(frame, "yarn");
   const std::size_t n = x->count;
   y.point.resize(n);
-  const io::Field* s = p->find("saturation");
+  const io::Field* s = frame.find("yarn")->find("saturation");
   if (s && (s->components != 1 || s->count != n ||
             (s->type != io::DType::F32 && s->type != io::DType::F64)))
     s = nullptr; // as scalar_field: a saturation not of this shape is none
-  auto read = [](const io::Field& f, std::size_t i, int k) {
-    if (f.type == io::DType::F32) {
-      float v;
-      std::memcpy(&v, f.bytes.data() + (std::size_t(f.components) * i + std::size_t(k)) * 4, 4);
-      return v;
-    }
-    double v;
-    std::memcpy(&v, f.bytes.data() + (std::size_t(f.components) * i + std::size_t(k)) * 8, 8);
-    return float(v);
-  };
   const auto count = std::ptrdiff_t(n);
 #pragma omp parallel for schedule(static)
   for (std::ptrdiff_t j = 0; j < count; ++j) {
     const auto i = std::size_t(j);
-    y.point[i] = {read(*x, i, 0), read(*x, i, 1), read(*x, i, 2), s ? read(*s, i, 0) : 0.0f};
+    y.point[i] = glm::vec4(glm::vec3(stored_point(*x, i)), s ? float(stored(*s, i, 0)) : 0.0f);
   }
   return y;
 }
@@ -166,33 +176,17 @@ SnapshotRenderer::SnapshotRenderer(const SnapshotStyle& style, int cuda_device)
 
 namespace {
 
-/// Grows [lo, hi] by a phase's positions, read where they lie (no copy: a garment's yarns are
-/// half a million points a frame).
+/// Grows [lo, hi] by a phase's positions, read where they lie.
 void grow_by_phase(const io::Frame& frame, const std::string& phase, glm::dvec3& lo,
                    glm::dvec3& hi) {
-  const io::Phase* p = frame.find(phase);
-  if (!p)
+  const io::Field* f = position_field(frame, phase);
+  if (!f)
     return;
-  const io::Field* f = p->find("position");
-  if (!f || f->components != 3 || (f->type != io::DType::F32 && f->type != io::DType::F64))
-    throw Error("render: the snapshot's " + phase + " phase has no 3-component position field");
-  auto scan = [&](auto zero) {
-    using T = decltype(zero);
-    glm::dvec3 l = lo, h = hi;
-    for (std::size_t i = 0; i < f->count; ++i) {
-      T v[3];
-      std::memcpy(v, f->bytes.data() + 3 * i * sizeof(T), sizeof v);
-      const glm::dvec3 x{double(v[0]), double(v[1]), double(v[2])};
-      l = glm::min(l, x);
-      h = glm::max(h, x);
-    }
-    lo = l;
-    hi = h;
-  };
-  if (f->type == io::DType::F32)
-    scan(0.0f);
-  else
-    scan(0.0);
+  for (std::size_t i = 0; i < f->count; ++i) {
+    const glm::dvec3 x = stored_point(*f, i);
+    lo = glm::min(lo, x);
+    hi = glm::max(hi, x);
+  }
 }
 
 } // namespace
@@ -218,6 +212,11 @@ SnapshotRenderer::Placed SnapshotRenderer::placed(double time) const {
 }
 
 std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::frame_box(const io::Frame& frame) const {
+  return box_of(frame, placed(frame.time));
+}
+
+std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::box_of(const io::Frame& frame,
+                                                           const Placed& at) const {
   glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
   auto grow = [&](const glm::dvec3& p) {
     lo = glm::min(lo, p);
@@ -227,7 +226,6 @@ std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::frame_box(const io::Frame& f
     grow_by_phase(frame, phase, lo, hi);
   if (style_.boundary)
     grow_by_phase(frame, "boundary", lo, hi);
-  const Placed at = placed(frame.time);
   for (const Sphere& s : at.spheres) {
     const glm::dvec3 c(s.centre_radius), r(s.centre_radius.w);
     grow(c - r);
@@ -325,7 +323,7 @@ std::size_t SnapshotRenderer::finish_surface() {
 
 std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* only) {
   last_yarn_seconds_ = 0;
-  tubes_.upload({}, 8);
+  tubes_.clear();
   yarn_meshes_.upload({});
   if (!has_yarns(frame))
     return 0;
@@ -432,7 +430,7 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
     add("boundary", boundary_r_, 0.5, style_.boundary_colour, {});
   // The floor, and the shadow maps of everything drawn (the box and its shadow on the floor).
   const double aspect = double(style_.width) / style_.height;
-  auto [lo, hi] = frame_box(frame);
+  auto [lo, hi] = box_of(frame, at);
   SurfaceMesh floor;
   if (style_.floor) {
     const double z = std::isnan(style_.floor_z) ? lo.z : style_.floor_z;

@@ -127,6 +127,8 @@ private:
     SurfaceMesh solids, planes;
   };
   Placed placed(double time) const;
+  /// frame_box with the obstacles placed already.
+  std::pair<glm::dvec3, glm::dvec3> box_of(const io::Frame& frame, const Placed& at) const;
   /// Everything uploaded, through `view`: the picture's pass (the floor, the water's reflection,
   /// planes one-sided) or a shadow map's (the casters).
   void draw_scene(const ViewMatrices& view, const Lighting& light, bool picture);

@@ -98,9 +98,12 @@ void SurfaceCompute::start(const std::vector<glm::dvec3>& points, const SurfaceO
   // keeps the empty value, which the field has there too (no particle within reach: weighted
   // -reach, naive a sum of 0 less 1/2).
   const double cell = grid_.cell;
+  // With a region, the vertices marching_cubes(only) reads: within two cells of it (relative to
+  // the grid's origin).
+  const glm::dvec3 near_lo = only ? only->lo - 2 * cell - lo : glm::dvec3(0);
+  const glm::dvec3 near_hi = only ? only->hi + 2 * cell - lo : glm::dvec3(0);
   glm::ivec3 first_vertex(0), last_vertex(grid_.n[0] - 1, grid_.n[1] - 1, grid_.n[2] - 1);
-  if (only) { // the vertices marching_cubes(only) reads: within two cells of the region
-    const glm::dvec3 near_lo = only->lo - 2 * cell - lo, near_hi = only->hi + 2 * cell - lo;
+  if (only) {
     for (int a = 0; a < 3; ++a) {
       first_vertex[a] = int(std::clamp(std::ceil(near_lo[a] / cell), 0.0, double(grid_.n[a])));
       last_vertex[a] = int(std::clamp(std::floor(near_hi[a] / cell), -1.0, double(grid_.n[a] - 1)));
@@ -130,9 +133,9 @@ void SurfaceCompute::start(const std::vector<glm::dvec3>& points, const SurfaceO
   glProgramUniform1i(p, location(p, "weighted"), opt.field == SurfaceField::Weighted ? 1 : 0);
   glProgramUniform1i(p, location(p, "limited"), only ? 1 : 0);
   if (only) {
-    const glm::vec3 near_lo(only->lo - 2 * cell - lo), near_hi(only->hi + 2 * cell - lo);
-    glProgramUniform3f(p, location(p, "near_lo"), near_lo.x, near_lo.y, near_lo.z);
-    glProgramUniform3f(p, location(p, "near_hi"), near_hi.x, near_hi.y, near_hi.z);
+    const glm::vec3 l(near_lo), h(near_hi);
+    glProgramUniform3f(p, location(p, "near_lo"), l.x, l.y, l.z);
+    glProgramUniform3f(p, location(p, "near_hi"), h.x, h.y, h.z);
   }
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, points_);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, bin_start_);

@@ -22,6 +22,8 @@ public:
   TubeRenderer(const TubeRenderer&) = delete;
   TubeRenderer& operator=(const TubeRenderer&) = delete;
 
+  /// No tubes: the draws after it draw nothing.
+  void clear() { segments_ = 0; }
   /// Moves the frames to the GPU: the draws after it show their tubes of `sides` sides.
   void upload(const YarnFrames& frames, int sides);
   /// The same from the yarns themselves: their chains listed on the host (yarn_chains), the
