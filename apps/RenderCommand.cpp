@@ -24,6 +24,7 @@
 #include <optional>
 #include <ostream>
 #include <regex>
+#include <type_traits>
 #include <unistd.h>
 #include <vector>
 
@@ -170,6 +171,9 @@ render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
   st.shadows = r.shadows;
   st.floor = r.floor;
   st.fluid_reflection = r.reflections;
+  st.fluid_translucent = r.refraction;
+  st.refractive_index = float(r.refractive_index);
+  st.absorption_depth = r.absorption_depth;
   st.geometry_on_gpu = r.gpu_geometry;
   st.wet_darkening = r.wet_darkening;
   st.fluid = glm::vec4(vec(r.fluid_colour), 1.0f);
@@ -385,17 +389,36 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
           k == 0 ? first : io::read_snapshot(MPI_COMM_SELF, path_of(chosen[k]).string());
       const auto regions = render::kd_split(
           named(path_of(chosen[k]), [&] { return renderer.drawn_points(f); }), mpi.size());
-      const io::RgbaImage part = named(path_of(chosen[k]), [&] {
-        return renderer.draw(f, camera_at(f.time), &regions[std::size_t(mpi.rank())]);
-      });
-      auto px = render::depth_pixels(part, renderer.depth());
-      const auto t1 = std::chrono::steady_clock::now();
-      const auto swap = comm::binary_swap(
-          mpi.comm(), px.data(), px.size(), sizeof(render::DepthPixel),
-          [](void* mine, const void* theirs, std::size_t n) {
-            render::keep_nearer(static_cast<render::DepthPixel*>(mine),
-                                static_cast<const render::DepthPixel*>(theirs), n);
-          });
+      // Opaque parts composite by depth; with translucent water, every layer by its depth and
+      // the composite's water resolved by the root.
+      auto t1 = t0;
+      auto composite = [&](auto& px) {
+        using Pixel = std::remove_reference_t<decltype(px[0])>;
+        return comm::binary_swap(mpi.comm(), px.data(), px.size(), sizeof(Pixel),
+                                 [](void* mine, const void* theirs, std::size_t n) {
+                                   render::keep_nearer(static_cast<Pixel*>(mine),
+                                                       static_cast<const Pixel*>(theirs), n);
+                                 });
+      };
+      comm::BinarySwapStats swap;
+      io::RgbaImage picture;
+      if (renderer.translucent()) {
+        auto px = named(path_of(chosen[k]), [&] {
+          return renderer.draw_layers(f, camera_at(f.time), &regions[std::size_t(mpi.rank())]);
+        });
+        t1 = std::chrono::steady_clock::now();
+        swap = composite(px);
+        if (mpi.root())
+          picture = renderer.resolve(px, camera_at(f.time));
+      } else {
+        const io::RgbaImage part = named(path_of(chosen[k]), [&] {
+          return renderer.draw(f, camera_at(f.time), &regions[std::size_t(mpi.rank())]);
+        });
+        auto px = render::depth_pixels(part, renderer.depth());
+        t1 = std::chrono::steady_clock::now();
+        swap = composite(px);
+        picture = render::colour_of(px, style.width, style.height);
+      }
       const auto t2 = std::chrono::steady_clock::now();
       const std::uint64_t spheres = mpi.sum(std::uint64_t(renderer.last_spheres()));
       const std::uint64_t triangles = mpi.sum(std::uint64_t(renderer.last_triangles()));
@@ -403,7 +426,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         char name[32];
         std::snprintf(name, sizeof name, "frame_%06llu.png",
                       static_cast<unsigned long long>(chosen[k]));
-        png.put((out / name).string(), render::colour_of(px, style.width, style.height));
+        png.put((out / name).string(), std::move(picture));
         ++written;
         using sec = std::chrono::duration<double>;
         bar.frame(k + 1, sec(std::chrono::steady_clock::now() - t0).count());

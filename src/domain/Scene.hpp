@@ -240,6 +240,12 @@ struct Scene {
     bool shadows = true;     // cascaded shadow maps of the light
     bool floor = true;       // a floor at the domain's bottom, receiving the shadows
     bool reflections = true; // the fluid's surface mirrors a sky (Fresnel)
+    // The fluid's surface as translucent water: the scene behind it seen through it, refracted
+    // by refractive_index and absorbed so that fluid_colour is the tint of absorption_depth
+    // metres of water; false: opaque in fluid_colour.
+    bool refraction = true;
+    double refractive_index = 1.333;
+    double absorption_depth = 0.5; // [m]
     // The fluid's surface and the yarns' tubes built on the GPU (GL compute and vertex
     // shaders); false: on the host (the reference, for a GL without them).
     bool gpu_geometry = true;

@@ -560,11 +560,15 @@ void read_colour(const TableReader& t, std::string_view key, Vec3d& c) {
 }
 
 void read_render(const TableReader& t, Scene::Render& r) {
-  t.allow_only({"width",        "height",      "eye",           "target",     "fov",
-                "orbit",        "light",       "ambient",       "highlights", "background",
-                "fluid_colour", "knit_colour", "wet_darkening", "fluid",      "surface",
-                "boundary",     "knit",        "yarn_radius",   "shadows",    "floor",
-                "reflections",  "gpu_geometry"});
+  t.allow_only({"width",           "height",       "eye",
+                "target",          "fov",          "orbit",
+                "light",           "ambient",      "highlights",
+                "background",      "fluid_colour", "knit_colour",
+                "wet_darkening",   "fluid",        "surface",
+                "boundary",        "knit",         "yarn_radius",
+                "shadows",         "floor",        "reflections",
+                "gpu_geometry",    "refraction",   "refractive_index",
+                "absorption_depth"});
   r.width = read_count(t, "width", r.width, 16, 16384);
   r.height = read_count(t, "height", r.height, 16, 16384);
   const bool eye = t.read("eye", r.eye), target = t.read("target", r.target);
@@ -593,6 +597,9 @@ void read_render(const TableReader& t, Scene::Render& r) {
   t.read("floor", r.floor);
   t.read("reflections", r.reflections);
   t.read("gpu_geometry", r.gpu_geometry);
+  t.read("refraction", r.refraction);
+  t.read("refractive_index", r.refractive_index, Range::closed(1, 3));
+  t.read("absorption_depth", r.absorption_depth, Range::positive());
 }
 
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {

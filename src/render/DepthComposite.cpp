@@ -27,6 +27,22 @@ void keep_nearer(DepthPixel* mine, const DepthPixel* theirs, std::size_t count) 
       mine[k] = theirs[k];
 }
 
+void keep_nearer(LayeredPixel* mine, const LayeredPixel* theirs, std::size_t count) {
+  for (std::size_t k = 0; k < count; ++k) {
+    LayeredPixel& m = mine[k];
+    const LayeredPixel& t = theirs[k];
+    if (t.opaque.depth < m.opaque.depth)
+      m.opaque = t.opaque;
+    if (t.water.front < m.water.front) {
+      std::memcpy(m.water.surface, t.water.surface, sizeof m.water.surface);
+      std::memcpy(m.water.normal, t.water.normal, sizeof m.water.normal);
+      m.water.front = t.water.front;
+    }
+    if (t.water.back < m.water.back)
+      m.water.back = t.water.back;
+  }
+}
+
 io::RgbaImage colour_of(const std::vector<DepthPixel>& pixels, int width, int height) {
   io::RgbaImage img{width, height, std::vector<std::uint8_t>(4 * pixels.size())};
   for (std::size_t k = 0; k < pixels.size(); ++k)

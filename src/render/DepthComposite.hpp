@@ -16,10 +16,33 @@ struct DepthPixel {
 };
 static_assert(sizeof(DepthPixel) == 8);
 
+/// A pixel of the translucent water's layers (render/WaterLayers): the nearest front face's own
+/// light (rgb: the mirrored environment and the highlight; a: Fresnel's share F), its normal
+/// (view space, octahedral, two half floats) and depth; the nearest back face's depth. Depth 1:
+/// no such face.
+struct WaterPixel {
+  std::uint8_t surface[4];
+  std::uint16_t normal[2];
+  float front, back;
+};
+static_assert(sizeof(WaterPixel) == 16);
+
+/// A pixel of a part of a frame with translucent water: the opaque scene's and the water's. The
+/// composite of the parts' records is the whole frame's (each layer the nearest of its kind),
+/// which the water's resolve turns into the picture.
+struct LayeredPixel {
+  DepthPixel opaque;
+  WaterPixel water;
+};
+static_assert(sizeof(LayeredPixel) == 24);
+
 std::vector<DepthPixel> depth_pixels(const io::RgbaImage& colour, const std::vector<float>& depth);
 /// mine[k] = theirs[k] where theirs is strictly nearer: ties keep mine, so a pixel both ranks
 /// left empty keeps its background.
 void keep_nearer(DepthPixel* mine, const DepthPixel* theirs, std::size_t count);
+/// Each layer the nearer: the opaque scene's, the water's front face (its light, normal and
+/// depth together) and its back face; ties keep mine.
+void keep_nearer(LayeredPixel* mine, const LayeredPixel* theirs, std::size_t count);
 io::RgbaImage colour_of(const std::vector<DepthPixel>& pixels, int width, int height);
 
 } // namespace kf::render

@@ -34,7 +34,8 @@ void use_lit_program(unsigned p, const ViewMatrices& vm, const Lighting& light) 
 }
 
 std::string with_shadow_lookup(const char* source) {
-  return with_after_version(source, shaders::kShadowGlsl);
+  return with_after_version(with_after_version(source, shaders::kEnvironmentGlsl).c_str(),
+                            shaders::kShadowGlsl);
 }
 
 void check_gl(const std::string& what) {

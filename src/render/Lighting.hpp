@@ -36,7 +36,8 @@ struct Lighting {
 /// Uses `program` and sets its view, light and shadow uniforms.
 void use_lit_program(unsigned program, const ViewMatrices& view, const Lighting& light);
 
-/// A lit shader's source with the shadow lookup (shaders/shadow.glsl) after its #version line.
+/// A lit shader's source with the shadow lookup (shaders/shadow.glsl) and the environment a
+/// reflection sees (shaders/environment.glsl) after its #version line.
 std::string with_shadow_lookup(const char* source);
 
 /// A kf::Error naming `what` if GL reports an error since the last check.

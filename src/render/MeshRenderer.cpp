@@ -86,16 +86,27 @@ void MeshRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
                         MeshLook look) {
   if (indices_drawn_ == 0)
     return;
-  use_lit_program(program_->id(), view, light);
-  const unsigned p = program_->id();
+  using Water = MeshLook::Water;
+  if (look.water == Water::Front && !water_program_)
+    water_program_ = std::make_unique<ShaderProgram>("mesh.vert + water.frag", shaders::kMeshVert,
+                                                     with_shadow_lookup(shaders::kWaterFrag));
+  if (look.water == Water::Back && !depth_program_)
+    depth_program_ = std::make_unique<ShaderProgram>("mesh.vert + depth_only.frag",
+                                                     shaders::kMeshVert, shaders::kDepthOnlyFrag);
+  const ShaderProgram& program = look.water == Water::Front  ? *water_program_
+                                 : look.water == Water::Back ? *depth_program_
+                                                             : *program_;
+  use_lit_program(program.id(), view, light);
+  const unsigned p = program.id();
   glUniform4fv(glGetUniformLocation(p, "colour"), 1, glm::value_ptr(colour));
   glUniform1i(glGetUniformLocation(p, "reflective"), look.reflective ? 1 : 0);
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
-  if (look.one_sided) {
+  // The water's layers: its front faces (counter-clockwise seen from outside), or its back faces.
+  if (look.one_sided || look.water != Water::None) {
     glEnable(GL_CULL_FACE);
-    glCullFace(GL_BACK);
+    glCullFace(look.water == Water::Back ? GL_FRONT : GL_BACK);
   }
   glDrawElements(GL_TRIANGLES, GLsizei(indices_drawn_), GL_UNSIGNED_INT, nullptr);
   glDisable(GL_CULL_FACE);

@@ -12,10 +12,13 @@ namespace kf::render {
 
 /// How a mesh is drawn: one_sided, only the faces seen from their front (counter-clockwise),
 /// as a plane obstacle is seen from its fluid's side and not from behind; reflective, water's
-/// Fresnel reflection of the sky and the ground over its colour.
+/// Fresnel reflection of the sky and the ground over its colour (opaque) or in its surface's
+/// light (translucent). water: a closed mesh as translucent water into WaterLayers' front layers
+/// (its front faces: their light, normal and depth) or its back faces' depth.
 struct MeshLook {
   bool one_sided = false;
   bool reflective = false;
+  enum class Water { None, Front, Back } water = Water::None;
 };
 
 class MeshRenderer {
@@ -43,7 +46,7 @@ public:
   }
 
 private:
-  std::unique_ptr<ShaderProgram> program_;
+  std::unique_ptr<ShaderProgram> program_, water_program_, depth_program_;
   unsigned vao_ = 0, vertices_ = 0, indices_ = 0;
   std::size_t vertex_capacity_ = 0, index_capacity_ = 0, indices_drawn_ = 0;
 };

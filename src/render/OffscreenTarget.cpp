@@ -14,17 +14,21 @@ OffscreenTarget::OffscreenTarget(int width, int height) : width_(width), height_
     throw Error("render: an image of " + std::to_string(width) + " x " + std::to_string(height) +
                 " pixels");
   glCreateFramebuffers(1, &fbo_);
-  glCreateRenderbuffers(1, &colour_);
-  glCreateRenderbuffers(1, &depth_);
-  glNamedRenderbufferStorage(colour_, GL_RGBA8, width, height);
-  glNamedRenderbufferStorage(depth_, GL_DEPTH_COMPONENT24, width, height);
-  glNamedFramebufferRenderbuffer(fbo_, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colour_);
-  glNamedFramebufferRenderbuffer(fbo_, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_);
+  glCreateTextures(GL_TEXTURE_2D, 1, &colour_);
+  glCreateTextures(GL_TEXTURE_2D, 1, &depth_);
+  glTextureStorage2D(colour_, 1, GL_RGBA8, width, height);
+  glTextureStorage2D(depth_, 1, GL_DEPTH_COMPONENT32F, width, height);
+  for (unsigned t : {colour_, depth_}) { // read texel by texel (texelFetch), never filtered
+    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  }
+  glNamedFramebufferTexture(fbo_, GL_COLOR_ATTACHMENT0, colour_, 0);
+  glNamedFramebufferTexture(fbo_, GL_DEPTH_ATTACHMENT, depth_, 0);
   const GLenum status = glCheckNamedFramebufferStatus(fbo_, GL_FRAMEBUFFER);
   if (status != GL_FRAMEBUFFER_COMPLETE) {
     glDeleteFramebuffers(1, &fbo_);
-    glDeleteRenderbuffers(1, &colour_);
-    glDeleteRenderbuffers(1, &depth_);
+    glDeleteTextures(1, &colour_);
+    glDeleteTextures(1, &depth_);
     throw Error("render: the " + std::to_string(width) + " x " + std::to_string(height) +
                 " framebuffer is incomplete (status 0x" +
                 [&] {
@@ -38,27 +42,14 @@ OffscreenTarget::OffscreenTarget(int width, int height) : width_(width), height_
 
 OffscreenTarget::~OffscreenTarget() {
   glDeleteFramebuffers(1, &fbo_);
-  glDeleteRenderbuffers(1, &colour_);
-  glDeleteRenderbuffers(1, &depth_);
+  glDeleteTextures(1, &colour_);
+  glDeleteTextures(1, &depth_);
 }
 
 void OffscreenTarget::bind() const {
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_);
   glViewport(0, 0, width_, height_);
 }
-
-namespace {
-
-/// GL's rows run bottom up; images top down.
-template <typename T>
-void flip_rows(std::vector<T>& v, std::size_t row) {
-  const std::size_t rows = v.size() / row;
-  for (std::size_t r = 0; r < rows / 2; ++r)
-    std::swap_ranges(v.begin() + r * row, v.begin() + (r + 1) * row,
-                     v.begin() + (rows - 1 - r) * row);
-}
-
-} // namespace
 
 std::vector<std::uint8_t> OffscreenTarget::read_rgba() const {
   std::vector<std::uint8_t> px(std::size_t(width_) * height_ * 4);
@@ -77,6 +68,26 @@ std::vector<float> OffscreenTarget::read_depth() const {
   glReadPixels(0, 0, width_, height_, GL_DEPTH_COMPONENT, GL_FLOAT, d.data());
   flip_rows(d, std::size_t(width_));
   return d;
+}
+
+void OffscreenTarget::write_rgba(const std::vector<std::uint8_t>& rgba) {
+  if (rgba.size() != std::size_t(width_) * height_ * 4)
+    throw Error("render: " + std::to_string(rgba.size()) + " colour bytes for a " +
+                std::to_string(width_) + " x " + std::to_string(height_) + " target");
+  std::vector<std::uint8_t> rows = rgba;
+  flip_rows(rows, std::size_t(width_) * 4);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTextureSubImage2D(colour_, 0, 0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, rows.data());
+}
+
+void OffscreenTarget::write_depth(const std::vector<float>& depth) {
+  if (depth.size() != std::size_t(width_) * height_)
+    throw Error("render: " + std::to_string(depth.size()) + " depths for a " +
+                std::to_string(width_) + " x " + std::to_string(height_) + " target");
+  std::vector<float> rows = depth;
+  flip_rows(rows, std::size_t(width_));
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTextureSubImage2D(depth_, 0, 0, 0, width_, height_, GL_DEPTH_COMPONENT, GL_FLOAT, rows.data());
 }
 
 } // namespace kf::render

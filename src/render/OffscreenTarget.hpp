@@ -1,10 +1,22 @@
 #pragma once
 // Where a frame is drawn without a window: a framebuffer object with an RGBA8 colour and a
-// 24-bit depth attachment, read back into host memory (rows top first, as images are stored).
+// 32-bit float depth attachment, both textures (a later pass samples them: the water's resolve),
+// read back into host memory and written from it (rows top first, as images are stored). Float
+// depth goes to the host and back unchanged, so a composite's pixels resolve as the GPU's own.
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
 namespace kf::render {
+
+/// GL's rows run bottom up, images' top down: reverses the order of `v`'s rows of `row` elements.
+template <typename T>
+void flip_rows(std::vector<T>& v, std::size_t row) {
+  const std::size_t rows = v.size() / row;
+  for (std::size_t r = 0; r < rows / 2; ++r)
+    std::swap_ranges(v.begin() + std::ptrdiff_t(r * row), v.begin() + std::ptrdiff_t((r + 1) * row),
+                     v.begin() + std::ptrdiff_t((rows - 1 - r) * row));
+}
 
 class OffscreenTarget {
 public:
@@ -21,6 +33,11 @@ public:
   std::vector<std::uint8_t> read_rgba() const;
   /// The depth attachment in [0, 1], the top row first.
   std::vector<float> read_depth() const;
+  /// Replace the attachments' contents (the same layouts as read_rgba and read_depth).
+  void write_rgba(const std::vector<std::uint8_t>& rgba);
+  void write_depth(const std::vector<float>& depth);
+  unsigned colour_texture() const { return colour_; }
+  unsigned depth_texture() const { return depth_; }
   int width() const { return width_; }
   int height() const { return height_; }
 

@@ -355,7 +355,8 @@ std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* o
 
 void SnapshotRenderer::draw_scene(const ViewMatrices& view, const Lighting& light, bool picture) {
   spheres_.draw(view, light);
-  meshes_.draw(style_.fluid, view, light, {.reflective = picture && style_.fluid_reflection});
+  if (!(picture && translucent())) // translucent water has layers of its own, after the scene
+    meshes_.draw(style_.fluid, view, light, {.reflective = picture && style_.fluid_reflection});
   // A shadow map takes the tubes with half their sides: an inscribed prism, so a tube does not
   // shadow its own lit side, at half the vertices (the GPU's geometry is what a pass costs).
   // A tube is closed but for a yarn's ends and wound outward: the faces it turns away are hidden
@@ -392,8 +393,79 @@ void SnapshotRenderer::draw_shadow_maps(const Camera& camera, double aspect, con
   }
 }
 
+WaterOptics SnapshotRenderer::optics() const {
+  return {style_.refractive_index,
+          absorption_for(glm::vec3(style_.fluid), style_.absorption_depth)};
+}
+
 io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camera,
                                      const Region* only) {
+  render(frame, camera, only);
+  if (translucent())
+    return resolved(camera);
+  io::RgbaImage image{style_.width, style_.height, target_.read_rgba()};
+  timer_.mark("read-back");
+  last_passes_ = timer_.read();
+  return image;
+}
+
+io::RgbaImage SnapshotRenderer::resolved(const Camera& camera) {
+  if (!picture_)
+    picture_ = std::make_unique<OffscreenTarget>(style_.width, style_.height);
+  const double aspect = double(style_.width) / style_.height;
+  water_->resolve(target_, ViewMatrices::of(camera, aspect), optics(), *picture_);
+  timer_.mark("resolve");
+  io::RgbaImage image{style_.width, style_.height, picture_->read_rgba()};
+  timer_.mark("read-back");
+  last_passes_ = timer_.read();
+  return image;
+}
+
+std::vector<LayeredPixel> SnapshotRenderer::draw_layers(const io::Frame& frame,
+                                                        const Camera& camera, const Region* only) {
+  render(frame, camera, only);
+  const auto colour = target_.read_rgba();
+  const auto depth = target_.read_depth();
+  std::vector<LayeredPixel> out(depth.size());
+  std::vector<WaterPixel> water;
+  if (translucent())
+    water = water_->read();
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    std::memcpy(out[k].opaque.rgba, &colour[4 * k], 4);
+    out[k].opaque.depth = depth[k];
+    out[k].water = water.empty() ? WaterPixel{{0, 0, 0, 0}, {0, 0}, 1.0f, 1.0f} : water[k];
+  }
+  timer_.mark("read-back");
+  last_passes_ = timer_.read();
+  return out;
+}
+
+io::RgbaImage SnapshotRenderer::resolve(const std::vector<LayeredPixel>& layers,
+                                        const Camera& camera) {
+  const std::size_t n = std::size_t(style_.width) * std::size_t(style_.height);
+  if (layers.size() != n)
+    throw Error("render: " + std::to_string(layers.size()) + " layered pixels for a " +
+                std::to_string(style_.width) + " x " + std::to_string(style_.height) + " picture");
+  std::vector<std::uint8_t> colour(4 * n);
+  std::vector<float> depth(n);
+  std::vector<WaterPixel> water(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    std::memcpy(&colour[4 * k], layers[k].opaque.rgba, 4);
+    depth[k] = layers[k].opaque.depth;
+    water[k] = layers[k].water;
+  }
+  if (!translucent())
+    return {style_.width, style_.height, std::move(colour)};
+  timer_.begin();
+  target_.write_rgba(colour);
+  target_.write_depth(depth);
+  if (!water_)
+    water_ = std::make_unique<WaterLayers>(style_.width, style_.height);
+  water_->write(water);
+  return resolved(camera);
+}
+
+void SnapshotRenderer::render(const io::Frame& frame, const Camera& camera, const Region* only) {
   const Placed at = placed(frame.time);
   std::vector<Sphere> list;
   for (const Sphere& s : at.spheres)
@@ -463,14 +535,21 @@ io::RgbaImage SnapshotRenderer::draw(const io::Frame& frame, const Camera& camer
   glClearColor(bg.r, bg.g, bg.b, bg.a);
   glClearDepth(1.0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  draw_scene(ViewMatrices::of(camera, aspect), lighting, true);
+  const ViewMatrices view = ViewMatrices::of(camera, aspect);
+  draw_scene(view, lighting, true);
   last_spheres_ = list.size();
   last_triangles_ = surface_triangles + tube_triangles;
   timer_.mark("picture");
-  io::RgbaImage image{style_.width, style_.height, target_.read_rgba()};
-  timer_.mark("read-back");
-  last_passes_ = timer_.read();
-  return image;
+  if (translucent()) {
+    if (!water_)
+      water_ = std::make_unique<WaterLayers>(style_.width, style_.height);
+    water_->begin_front();
+    meshes_.draw(style_.fluid, view, lighting,
+                 {.reflective = style_.fluid_reflection, .water = MeshLook::Water::Front});
+    water_->begin_back();
+    meshes_.draw(style_.fluid, view, lighting, {.water = MeshLook::Water::Back});
+    timer_.mark("water");
+  }
 }
 
 } // namespace kf::render

@@ -2,7 +2,8 @@
 // A snapshot to a picture: the fluid as its surface (or spheres), the knit as tubes along its
 // yarns (or its points' spheres), darkened where wet, C' = C (1 - alpha sqrt(s)) (paper §6),
 // optionally the boundary's spheres, the scene's obstacles beside them, shadows of the light on a
-// floor, from a camera. The volumetric (lumislice) yarns and a translucent fluid are to come.
+// floor, from a camera; the fluid's surface opaque or translucent water (refracting, absorbing:
+// WaterLayers). The volumetric (lumislice) yarns are to come.
 #include "io/Frame.hpp"
 #include "io/PngImage.hpp"
 #include "render/Camera.hpp"
@@ -16,6 +17,7 @@
 #include "render/SphereRenderer.hpp"
 #include "render/SurfaceCompute.hpp"
 #include "render/TubeRenderer.hpp"
+#include "render/WaterLayers.hpp"
 #include "render/YarnTubes.hpp"
 
 #include <functional>
@@ -49,6 +51,12 @@ struct SnapshotStyle {
   SurfaceField surface_field = SurfaceField::Weighted;
   // The surface mirrors a sky over a grey ground by Fresnel's share (Schlick, F0 = 0.02).
   bool fluid_reflection = false;
+  // The surface as translucent water (WaterLayers): what lies behind seen through it, refracted
+  // (refractive_index) and absorbed so that `fluid` is the tint of absorption_depth metres of
+  // it; off, opaque in `fluid`'s colour, lit.
+  bool fluid_translucent = false;
+  float refractive_index = 1.333f;
+  double absorption_depth = 0.5;
   // The knit as tubes along the snapshot's yarns (where it holds a yarn phase) or, off, as its
   // mass points' spheres; a yarn's radius [m], 0: a fifth of the spacing of the knit's points in
   // a layer (the paper's pour: 1.1 mm for 5.5 mm stitches).
@@ -96,8 +104,18 @@ public:
   /// With `only`, just the particles and obstacles whose centres lie in it (sort-last rendering:
   /// this rank's part of the frame, composited by depth with the others').
   io::RgbaImage draw(const io::Frame& frame, const Camera& camera, const Region* only = nullptr);
-  /// The last draw's depth in [0, 1] (1: nothing drawn), a float a pixel, the top row first.
+  /// The last draw's depth in [0, 1] (1: nothing drawn), a float a pixel, the top row first:
+  /// the opaque scene's where the water is translucent.
   std::vector<float> depth() const { return target_.read_depth(); }
+  /// Whether the fluid is drawn as translucent water: a part of a frame is then composited as
+  /// layers (draw_layers, keep_nearer of LayeredPixel) and the composite resolved.
+  bool translucent() const { return style_.fluid_translucent && style_.fluid_surface; }
+  /// A part of a frame (sort-last) as its layers: the opaque scene's colour and depth and the
+  /// water's (none where it is opaque), a record a pixel, the top row first.
+  std::vector<LayeredPixel> draw_layers(const io::Frame& frame, const Camera& camera,
+                                        const Region* only);
+  /// The picture of a composite of parts' layers seen from `camera` (the water resolved).
+  io::RgbaImage resolve(const std::vector<LayeredPixel>& layers, const Camera& camera);
   /// The points a k-d split of this frame shares out: the drawn phases' positions.
   std::vector<glm::dvec3> drawn_points(const io::Frame& frame) const;
   std::size_t last_spheres() const { return last_spheres_; }
@@ -132,6 +150,12 @@ private:
   /// Everything uploaded, through `view`: the picture's pass (the floor, the water's reflection,
   /// planes one-sided) or a shadow map's (the casters).
   void draw_scene(const ViewMatrices& view, const Lighting& light, bool picture);
+  /// Everything of the frame drawn into target_ (and the water's layers where translucent);
+  /// the public draws read or resolve it.
+  void render(const io::Frame& frame, const Camera& camera, const Region* only);
+  /// The water's layers resolved into picture_ and read back.
+  io::RgbaImage resolved(const Camera& camera);
+  WaterOptics optics() const;
   /// The cascades fitted to the camera and the box, the casters drawn into them; a part's maps
   /// reduced over the ranks (set_shadow_combiner).
   void draw_shadow_maps(const Camera& camera, double aspect, const glm::dvec3& lo,
@@ -144,6 +168,8 @@ private:
   MeshRenderer meshes_, yarn_meshes_, floor_mesh_, solid_mesh_, plane_mesh_;
   TubeRenderer tubes_;
   std::unique_ptr<ShadowMaps> shadows_;
+  std::unique_ptr<WaterLayers> water_;
+  std::unique_ptr<OffscreenTarget> picture_; // the resolve's
   std::unique_ptr<SurfaceCompute> surface_compute_;
   GpuTimer timer_;
   std::vector<std::pair<std::string, double>> last_passes_;

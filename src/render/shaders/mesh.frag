@@ -11,13 +11,6 @@ uniform float specular_strength;
 uniform vec4 colour;
 uniform bool reflective; // water: the sky and the ground mirrored, by Fresnel's share
 out vec4 frag;
-// The environment a reflected ray sees (world directions, z up): a sky brighter at the horizon
-// over a grey ground.
-vec3 environment(vec3 d) {
-  if (d.z < 0.0)
-    return vec3(0.55, 0.55, 0.53);
-  return mix(vec3(0.86, 0.89, 0.93), vec3(0.42, 0.58, 0.85), smoothstep(0.0, 0.6, d.z));
-}
 void main() {
   const vec3 dir = normalize(view_point);
   vec3 n = normalize(view_normal);
