@@ -391,7 +391,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
           named(path_of(chosen[k]), [&] { return renderer.drawn_points(f); }), mpi.size());
       // Opaque parts composite by depth; with translucent water, every layer by its depth and
       // the composite's water resolved by the root.
-      auto t1 = t0;
+      auto t1 = t0, t_swapped = t0;
       auto composite = [&](auto& px) {
         using Pixel = std::remove_reference_t<decltype(px[0])>;
         return comm::binary_swap(mpi.comm(), px.data(), px.size(), sizeof(Pixel),
@@ -408,6 +408,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         });
         t1 = std::chrono::steady_clock::now();
         swap = composite(px);
+        t_swapped = std::chrono::steady_clock::now();
         if (mpi.root())
           picture = renderer.resolve(px, camera_at(f.time));
       } else {
@@ -417,6 +418,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         auto px = render::depth_pixels(part, renderer.depth());
         t1 = std::chrono::steady_clock::now();
         swap = composite(px);
+        t_swapped = std::chrono::steady_clock::now();
         picture = render::colour_of(px, style.width, style.height);
       }
       const auto t2 = std::chrono::steady_clock::now();
@@ -434,8 +436,9 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
           log << "render: " << (out / name).string() << " (t = " << f.time << " s): " << spheres
               << " spheres, " << triangles << " triangles, "
               << sec(std::chrono::steady_clock::now() - t0).count() << " s (draw "
-              << sec(t1 - t0).count() << " s, composite " << sec(t2 - t1).count() << " s, "
-              << swap.bytes_sent << " bytes sent by rank 0)\n";
+              << sec(t1 - t0).count() << " s, composite " << sec(t_swapped - t1).count()
+              << " s, resolve " << sec(t2 - t_swapped).count() << " s, " << swap.bytes_sent
+              << " bytes sent by rank 0)\n";
       }
     }
   }

@@ -355,7 +355,10 @@ std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* o
 
 void SnapshotRenderer::draw_scene(const ViewMatrices& view, const Lighting& light, bool picture) {
   spheres_.draw(view, light);
-  if (!(picture && translucent())) // translucent water has layers of its own, after the scene
+  // Translucent water has layers of its own, drawn after the scene; and it casts no shadow: it
+  // lets nearly all the light through (Fresnel's few percent mirrored, a little absorbed), which
+  // it would focus into caustics, not drawn.
+  if (!translucent())
     meshes_.draw(style_.fluid, view, light, {.reflective = picture && style_.fluid_reflection});
   // A shadow map takes the tubes with half their sides: an inscribed prism, so a tube does not
   // shadow its own lit side, at half the vertices (the GPU's geometry is what a pass costs).
@@ -423,18 +426,11 @@ io::RgbaImage SnapshotRenderer::resolved(const Camera& camera) {
 
 std::vector<LayeredPixel> SnapshotRenderer::draw_layers(const io::Frame& frame,
                                                         const Camera& camera, const Region* only) {
+  if (!translucent())
+    throw Error("render: layers are drawn for translucent water only (the opaque frame "
+                "composites by its colour and depth)");
   render(frame, camera, only);
-  const auto colour = target_.read_rgba();
-  const auto depth = target_.read_depth();
-  std::vector<LayeredPixel> out(depth.size());
-  std::vector<WaterPixel> water;
-  if (translucent())
-    water = water_->read();
-  for (std::size_t k = 0; k < out.size(); ++k) {
-    std::memcpy(out[k].opaque.rgba, &colour[4 * k], 4);
-    out[k].opaque.depth = depth[k];
-    out[k].water = water.empty() ? WaterPixel{{0, 0, 0, 0}, {0, 0}, 1.0f, 1.0f} : water[k];
-  }
+  auto out = water_->read(target_);
   timer_.mark("read-back");
   last_passes_ = timer_.read();
   return out;
@@ -442,26 +438,13 @@ std::vector<LayeredPixel> SnapshotRenderer::draw_layers(const io::Frame& frame,
 
 io::RgbaImage SnapshotRenderer::resolve(const std::vector<LayeredPixel>& layers,
                                         const Camera& camera) {
-  const std::size_t n = std::size_t(style_.width) * std::size_t(style_.height);
-  if (layers.size() != n)
-    throw Error("render: " + std::to_string(layers.size()) + " layered pixels for a " +
-                std::to_string(style_.width) + " x " + std::to_string(style_.height) + " picture");
-  std::vector<std::uint8_t> colour(4 * n);
-  std::vector<float> depth(n);
-  std::vector<WaterPixel> water(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    std::memcpy(&colour[4 * k], layers[k].opaque.rgba, 4);
-    depth[k] = layers[k].opaque.depth;
-    water[k] = layers[k].water;
-  }
   if (!translucent())
-    return {style_.width, style_.height, std::move(colour)};
+    throw Error("render: only translucent water's layers are resolved");
   timer_.begin();
-  target_.write_rgba(colour);
-  target_.write_depth(depth);
   if (!water_)
     water_ = std::make_unique<WaterLayers>(style_.width, style_.height);
-  water_->write(water);
+  water_->write(layers, target_);
+  timer_.mark("uploads");
   return resolved(camera);
 }
 

@@ -110,8 +110,8 @@ public:
   /// Whether the fluid is drawn as translucent water: a part of a frame is then composited as
   /// layers (draw_layers, keep_nearer of LayeredPixel) and the composite resolved.
   bool translucent() const { return style_.fluid_translucent && style_.fluid_surface; }
-  /// A part of a frame (sort-last) as its layers: the opaque scene's colour and depth and the
-  /// water's (none where it is opaque), a record a pixel, the top row first.
+  /// A part of a frame (sort-last) as its layers, translucent water only: the opaque scene's
+  /// colour and depth and the water's, a record a pixel (WaterLayers::read's order).
   std::vector<LayeredPixel> draw_layers(const io::Frame& frame, const Camera& camera,
                                         const Region* only);
   /// The picture of a composite of parts' layers seen from `camera` (the water resolved).

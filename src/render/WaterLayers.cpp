@@ -119,56 +119,77 @@ void WaterLayers::resolve(const OffscreenTarget& opaque, const ViewMatrices& vie
   check_gl("resolving the water");
 }
 
-std::vector<WaterPixel> WaterLayers::read() const {
+namespace {
+
+/// A texture's texels, as GL stores them (bottom row first).
+template <typename T>
+std::vector<T> texels(unsigned texture, GLenum format, GLenum type, std::size_t count) {
+  std::vector<T> v(count);
+  glGetTextureImage(texture, 0, format, type, GLsizei(v.size() * sizeof(T)), v.data());
+  return v;
+}
+
+} // namespace
+
+std::vector<LayeredPixel> WaterLayers::read(const OffscreenTarget& opaque) const {
+  if (opaque.width() != width_ || opaque.height() != height_)
+    throw Error("render: the water's layers and the picture differ in size");
   const std::size_t n = std::size_t(width_) * std::size_t(height_);
-  std::vector<std::uint8_t> surface(4 * n);
-  std::vector<std::uint16_t> normal(2 * n);
-  std::vector<float> front(n), back(n);
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glGetTextureImage(surface_, 0, GL_RGBA, GL_UNSIGNED_BYTE, GLsizei(surface.size()),
-                    surface.data());
-  glGetTextureImage(normal_, 0, GL_RG, GL_HALF_FLOAT, GLsizei(2 * normal.size()), normal.data());
-  glGetTextureImage(front_, 0, GL_DEPTH_COMPONENT, GL_FLOAT, GLsizei(4 * n), front.data());
-  glGetTextureImage(back_, 0, GL_DEPTH_COMPONENT, GL_FLOAT, GLsizei(4 * n), back.data());
+  const auto colour =
+      texels<std::uint8_t>(opaque.colour_texture(), GL_RGBA, GL_UNSIGNED_BYTE, 4 * n);
+  const auto depth = texels<float>(opaque.depth_texture(), GL_DEPTH_COMPONENT, GL_FLOAT, n);
+  const auto surface = texels<std::uint8_t>(surface_, GL_RGBA, GL_UNSIGNED_BYTE, 4 * n);
+  const auto normal = texels<std::uint16_t>(normal_, GL_RG, GL_HALF_FLOAT, 2 * n);
+  const auto front = texels<float>(front_, GL_DEPTH_COMPONENT, GL_FLOAT, n);
+  const auto back = texels<float>(back_, GL_DEPTH_COMPONENT, GL_FLOAT, n);
   check_gl("reading the water's layers");
-  flip_rows(surface, 4 * std::size_t(width_));
-  flip_rows(normal, 2 * std::size_t(width_));
-  flip_rows(front, std::size_t(width_));
-  flip_rows(back, std::size_t(width_));
-  std::vector<WaterPixel> out(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    std::memcpy(out[k].surface, &surface[4 * k], 4);
-    std::memcpy(out[k].normal, &normal[2 * k], 4);
-    out[k].front = front[k];
-    out[k].back = back[k];
+  std::vector<LayeredPixel> out(n);
+  const auto count = std::ptrdiff_t(n);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < count; ++i) {
+    const auto k = std::size_t(i);
+    LayeredPixel& p = out[k];
+    std::memcpy(p.opaque.rgba, &colour[4 * k], 4);
+    p.opaque.depth = depth[k];
+    std::memcpy(p.water.surface, &surface[4 * k], 4);
+    std::memcpy(p.water.normal, &normal[2 * k], 4);
+    p.water.front = front[k];
+    p.water.back = back[k];
   }
   return out;
 }
 
-void WaterLayers::write(const std::vector<WaterPixel>& pixels) {
+void WaterLayers::write(const std::vector<LayeredPixel>& layers, OffscreenTarget& opaque) {
   const std::size_t n = std::size_t(width_) * std::size_t(height_);
-  if (pixels.size() != n)
-    throw Error("render: " + std::to_string(pixels.size()) + " water pixels for a " +
+  if (layers.size() != n || opaque.width() != width_ || opaque.height() != height_)
+    throw Error("render: " + std::to_string(layers.size()) + " layered pixels for a " +
                 std::to_string(width_) + " x " + std::to_string(height_) + " picture");
-  std::vector<std::uint8_t> surface(4 * n);
+  std::vector<std::uint8_t> colour(4 * n), surface(4 * n);
   std::vector<std::uint16_t> normal(2 * n);
-  std::vector<float> front(n), back(n);
-  for (std::size_t k = 0; k < n; ++k) {
-    std::memcpy(&surface[4 * k], pixels[k].surface, 4);
-    std::memcpy(&normal[2 * k], pixels[k].normal, 4);
-    front[k] = pixels[k].front;
-    back[k] = pixels[k].back;
+  std::vector<float> depth(n), front(n), back(n);
+  const auto count = std::ptrdiff_t(n);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < count; ++i) {
+    const auto k = std::size_t(i);
+    const LayeredPixel& p = layers[k];
+    std::memcpy(&colour[4 * k], p.opaque.rgba, 4);
+    depth[k] = p.opaque.depth;
+    std::memcpy(&surface[4 * k], p.water.surface, 4);
+    std::memcpy(&normal[2 * k], p.water.normal, 4);
+    front[k] = p.water.front;
+    back[k] = p.water.back;
   }
-  flip_rows(surface, 4 * std::size_t(width_));
-  flip_rows(normal, 2 * std::size_t(width_));
-  flip_rows(front, std::size_t(width_));
-  flip_rows(back, std::size_t(width_));
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTextureSubImage2D(surface_, 0, 0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE,
-                      surface.data());
-  glTextureSubImage2D(normal_, 0, 0, 0, width_, height_, GL_RG, GL_HALF_FLOAT, normal.data());
-  glTextureSubImage2D(front_, 0, 0, 0, width_, height_, GL_DEPTH_COMPONENT, GL_FLOAT, front.data());
-  glTextureSubImage2D(back_, 0, 0, 0, width_, height_, GL_DEPTH_COMPONENT, GL_FLOAT, back.data());
+  const int w = width_, h = height_;
+  glTextureSubImage2D(opaque.colour_texture(), 0, 0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE,
+                      colour.data());
+  glTextureSubImage2D(opaque.depth_texture(), 0, 0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT,
+                      depth.data());
+  glTextureSubImage2D(surface_, 0, 0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, surface.data());
+  glTextureSubImage2D(normal_, 0, 0, 0, w, h, GL_RG, GL_HALF_FLOAT, normal.data());
+  glTextureSubImage2D(front_, 0, 0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, front.data());
+  glTextureSubImage2D(back_, 0, 0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, back.data());
   check_gl("writing the water's layers");
 }
 

@@ -47,9 +47,11 @@ public:
   /// the layers, from `view` (a perspective camera's).
   void resolve(const OffscreenTarget& opaque, const ViewMatrices& view, const WaterOptics& optics,
                OffscreenTarget& out);
-  /// The layers a pixel, the top row first; and replaced by such (a composite's).
-  std::vector<WaterPixel> read() const;
-  void write(const std::vector<WaterPixel>& pixels);
+  /// The opaque scene's colour and depth (`opaque`'s) and the water's layers, a record a pixel,
+  /// in GL's row order (the bottom row first: a composite needs only the same order on every
+  /// rank, and the host flips nothing); and all of them replaced by such (a composite's).
+  std::vector<LayeredPixel> read(const OffscreenTarget& opaque) const;
+  void write(const std::vector<LayeredPixel>& layers, OffscreenTarget& opaque);
 
 private:
   int width_, height_;

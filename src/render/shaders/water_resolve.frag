@@ -51,6 +51,11 @@ bool behind(sampler2D depth, vec3 p) {
   const vec3 w = window_of(p);
   return !on_screen(w) || w.z > depth_at(depth, w.xy);
 }
+// The same at the nearest texel (one read, not four): the march's coarse test.
+bool behind_texel(sampler2D depth, vec3 p) {
+  const vec3 w = window_of(p);
+  return !on_screen(w) || w.z > texelFetch(depth, ivec2(w.xy), 0).r;
+}
 // The ray's length from p along t where it passes behind the image, between a (in front) and b.
 float refine(sampler2D depth, vec3 p, vec3 t, float a, float b) {
   for (int i = 0; i < 10; ++i) {
@@ -89,18 +94,22 @@ void main() {
   if (dot(n, v) > 0.0)
     n = -n;
   const vec3 t = refract(v, n, relative_index);
-  // March twice as far as the straight ray's way to the opaque scene, in steps, then halve the
-  // step that crossed each image.
-  const float reach = 2.0 * distance(p, view_at(centre, zo));
-  const int steps = 64;
+  // March twice as far as the straight ray's way to the opaque scene, in steps tested at the
+  // nearest texel, then halve the step that crossed each image (and the next: the texel's and
+  // the interpolated depth may place the crossing a step apart) between texel centres.
+  // (Before the background, whose depth is the far plane's, the back face's distance sets the
+  // scale: the ray leaves a drop within it, and the background is the same wherever it lands.)
+  const float reach = 2.0 * distance(p, view_at(centre, zo < 1.0 ? zo : zb));
+  const int steps = 48;
+  const float step = reach / float(steps);
   float hit = -1.0, leave = -1.0, last = 0.0;
   for (int i = 1; i <= steps && hit < 0.0; ++i) {
-    const float d = reach * float(i) / float(steps);
+    const float d = step * float(i);
     const vec3 q = p + t * d;
-    if (leave < 0.0 && behind(back_depth, q))
-      leave = refine(back_depth, p, t, last, d);
-    if (behind(opaque_depth, q))
-      hit = refine(opaque_depth, p, t, last, d);
+    if (leave < 0.0 && behind_texel(back_depth, q))
+      leave = refine(back_depth, p, t, last, min(d + step, reach));
+    if (behind_texel(opaque_depth, q))
+      hit = refine(opaque_depth, p, t, last, min(d + step, reach));
     last = d;
   }
   if (hit < 0.0)
