@@ -171,6 +171,7 @@ render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
   st.shadows = r.shadows;
   st.floor = r.floor;
   st.fluid_reflection = r.reflections;
+  st.environment_size = r.environment_map;
   st.fluid_translucent = r.refraction;
   st.refractive_index = float(r.refractive_index);
   st.absorption_depth = r.absorption_depth;

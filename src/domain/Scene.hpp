@@ -240,6 +240,8 @@ struct Scene {
     bool shadows = true;     // cascaded shadow maps of the light
     bool floor = true;       // a floor at the domain's bottom, receiving the shadows
     bool reflections = true; // the fluid's surface mirrors a sky (Fresnel)
+    // ... and the scene around it: a cube map of that many texels a side (0: the sky alone)
+    int environment_map = 256;
     // The fluid's surface as translucent water: the scene behind it seen through it, refracted
     // by refractive_index and absorbed so that fluid_colour is the tint of absorption_depth
     // metres of water; false: opaque in fluid_colour.

@@ -560,15 +560,32 @@ void read_colour(const TableReader& t, std::string_view key, Vec3d& c) {
 }
 
 void read_render(const TableReader& t, Scene::Render& r) {
-  t.allow_only({"width",           "height",       "eye",
-                "target",          "fov",          "orbit",
-                "light",           "ambient",      "highlights",
-                "background",      "fluid_colour", "knit_colour",
-                "wet_darkening",   "fluid",        "surface",
-                "boundary",        "knit",         "yarn_radius",
-                "shadows",         "floor",        "reflections",
-                "gpu_geometry",    "refraction",   "refractive_index",
-                "absorption_depth"});
+  t.allow_only({"width",
+                "height",
+                "eye",
+                "target",
+                "fov",
+                "orbit",
+                "light",
+                "ambient",
+                "highlights",
+                "background",
+                "fluid_colour",
+                "knit_colour",
+                "wet_darkening",
+                "fluid",
+                "surface",
+                "boundary",
+                "knit",
+                "yarn_radius",
+                "shadows",
+                "floor",
+                "reflections",
+                "gpu_geometry",
+                "refraction",
+                "refractive_index",
+                "absorption_depth",
+                "environment_map"});
   r.width = read_count(t, "width", r.width, 16, 16384);
   r.height = read_count(t, "height", r.height, 16, 16384);
   const bool eye = t.read("eye", r.eye), target = t.read("target", r.target);
@@ -600,6 +617,7 @@ void read_render(const TableReader& t, Scene::Render& r) {
   t.read("refraction", r.refraction);
   t.read("refractive_index", r.refractive_index, Range::closed(1, 3));
   t.read("absorption_depth", r.absorption_depth, Range::positive());
+  r.environment_map = read_count(t, "environment_map", r.environment_map, 0, 4096);
 }
 
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {

@@ -27,6 +27,10 @@ void use_lit_program(unsigned p, const ViewMatrices& vm, const Lighting& light) 
   glUniform3fv(glGetUniformLocation(p, "light_view"), 1, glm::value_ptr(light_view));
   glUniform1f(glGetUniformLocation(p, "ambient"), light.ambient);
   glUniform1f(glGetUniformLocation(p, "specular_strength"), light.specular);
+  // The environment map's sampler on a unit of its own (a cube sampler sharing the shadow
+  // maps' unit would make every draw invalid); off until a reflective draw binds one.
+  glUniform1i(glGetUniformLocation(p, "scene_environment"), 7);
+  glUniform1i(glGetUniformLocation(p, "scene_reflected"), 0);
   if (light.shadows)
     light.shadows->bind_for_lookup(p);
   else

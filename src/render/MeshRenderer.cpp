@@ -100,6 +100,10 @@ void MeshRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
   const unsigned p = program.id();
   glUniform4fv(glGetUniformLocation(p, "colour"), 1, glm::value_ptr(colour));
   glUniform1i(glGetUniformLocation(p, "reflective"), look.reflective ? 1 : 0);
+  if (look.reflective && look.environment != 0) {
+    glBindTextureUnit(7, look.environment);
+    glUniform1i(glGetUniformLocation(p, "scene_reflected"), 1);
+  }
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);

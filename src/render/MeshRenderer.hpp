@@ -18,6 +18,7 @@ namespace kf::render {
 struct MeshLook {
   bool one_sided = false;
   bool reflective = false;
+  unsigned environment = 0; // reflective: the scene's cube map (EnvironmentMap), 0: the sky's
   enum class Water { None, Front, Back } water = Water::None;
 };
 

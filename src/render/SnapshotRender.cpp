@@ -288,6 +288,12 @@ void SnapshotRenderer::start_surface(const io::Frame& frame, const Region* only)
     fluid_r_ = 0.5 * typical_spacing(x);
   if (x.empty() || !fluid_r_ || !(*fluid_r_ > 0))
     return;
+  glm::dvec3 lo(x.front()), hi(x.front());
+  for (const glm::dvec3& p : x) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  fluid_centre_ = 0.5 * (lo + hi);
   SurfaceOptions opt;
   opt.field = style_.surface_field;
   opt.spacing = 2 * *fluid_r_;
@@ -359,7 +365,9 @@ void SnapshotRenderer::draw_scene(const ViewMatrices& view, const Lighting& ligh
   // lets nearly all the light through (Fresnel's few percent mirrored, a little absorbed), which
   // it would focus into caustics, not drawn.
   if (!translucent())
-    meshes_.draw(style_.fluid, view, light, {.reflective = picture && style_.fluid_reflection});
+    meshes_.draw(style_.fluid, view, light,
+                 {.reflective = picture && style_.fluid_reflection,
+                  .environment = picture ? environment_texture_ : 0u});
   // A shadow map takes the tubes with half their sides: an inscribed prism, so a tube does not
   // shadow its own lit side, at half the vertices (the GPU's geometry is what a pass costs).
   // A tube is closed but for a yarn's ends and wound outward: the faces it turns away are hidden
@@ -394,6 +402,40 @@ void SnapshotRenderer::draw_shadow_maps(const Camera& camera, double aspect, con
     combine_shadows_(depths);
     shadows_->write(depths);
   }
+}
+
+unsigned SnapshotRenderer::draw_environment(const io::Frame& frame, const Placed& at,
+                                            const glm::dvec3& lo, const glm::dvec3& hi,
+                                            const Lighting& lighting) {
+  if (!style_.fluid_surface || !style_.fluid_reflection || style_.environment_size <= 0 ||
+      surface_triangles_ == 0)
+    return 0;
+  if (!environment_)
+    environment_ = std::make_unique<EnvironmentMap>(style_.environment_size);
+  std::vector<Sphere> list = at.spheres;
+  const auto knit = phase_positions(frame, "knit");
+  if (!knit.empty()) {
+    if (!knit_r_)
+      knit_r_ = 0.6 * layer_spacing(frame, "knit").value_or(0);
+    const auto saturation = scalar_field(frame, "knit", "saturation");
+    for (std::size_t i = 0; i < knit.size(); ++i) {
+      const double s = saturation.empty() ? 0.0 : std::clamp(saturation[i], 0.0, 1.0);
+      list.push_back(
+          {glm::vec4(glm::vec3(knit[i]), float(*knit_r_)),
+           glm::vec4(glm::vec3(style_.knit) * float(1 - style_.wet_darkening * std::sqrt(s)),
+                     style_.knit.a)});
+    }
+  }
+  environment_spheres_.upload(list);
+  const double size = std::max(glm::length(hi - lo), 1e-6);
+  environment_->render(fluid_centre_, 1e-3 * size, 4 * size, [&](const ViewMatrices& v) {
+    environment_spheres_.draw(v, lighting);
+    solid_mesh_.draw(style_.obstacle_colour, v, lighting);
+    floor_mesh_.draw(style_.floor_colour, v, lighting);
+    plane_mesh_.draw(style_.obstacle_colour, v, lighting, {.one_sided = true});
+  });
+  timer_.mark("environment");
+  return environment_->texture();
 }
 
 WaterOptics SnapshotRenderer::optics() const {
@@ -513,6 +555,7 @@ void SnapshotRenderer::render(const io::Frame& frame, const Camera& camera, cons
     timer_.mark("shadows");
     lighting.shadows = shadows_.get();
   }
+  environment_texture_ = draw_environment(frame, at, lo, hi, lighting);
   target_.bind();
   const glm::vec4& bg = style_.background;
   glClearColor(bg.r, bg.g, bg.b, bg.a);
@@ -528,7 +571,9 @@ void SnapshotRenderer::render(const io::Frame& frame, const Camera& camera, cons
       water_ = std::make_unique<WaterLayers>(style_.width, style_.height);
     water_->begin_front();
     meshes_.draw(style_.fluid, view, lighting,
-                 {.reflective = style_.fluid_reflection, .water = MeshLook::Water::Front});
+                 {.reflective = style_.fluid_reflection,
+                  .environment = environment_texture_,
+                  .water = MeshLook::Water::Front});
     water_->begin_back();
     meshes_.draw(style_.fluid, view, lighting, {.water = MeshLook::Water::Back});
     timer_.mark("water");

@@ -8,6 +8,7 @@
 #include "io/PngImage.hpp"
 #include "render/Camera.hpp"
 #include "render/EglContext.hpp"
+#include "render/EnvironmentMap.hpp"
 #include "render/FluidSurface.hpp"
 #include "render/GpuTimer.hpp"
 #include "render/MeshRenderer.hpp"
@@ -49,8 +50,12 @@ struct SnapshotStyle {
   // the particles' spheres.
   bool fluid_surface = true;
   SurfaceField surface_field = SurfaceField::Weighted;
-  // The surface mirrors a sky over a grey ground by Fresnel's share (Schlick, F0 = 0.02).
+  // The surface mirrors a sky over a grey ground by Fresnel's share (Schlick, F0 = 0.02), and
+  // with environment_size > 0 the scene without the fluid before it: a cube map of that many
+  // texels a side drawn from the fluid's centre (the knit as its points' spheres there: at a
+  // cube map's resolution a yarn is under a texel).
   bool fluid_reflection = false;
+  int environment_size = 0;
   // The surface as translucent water (WaterLayers): what lies behind seen through it, refracted
   // (refractive_index) and absorbed so that `fluid` is the tint of absorption_depth metres of
   // it; off, opaque in `fluid`'s colour, lit.
@@ -160,6 +165,11 @@ private:
   /// reduced over the ranks (set_shadow_combiner).
   void draw_shadow_maps(const Camera& camera, double aspect, const glm::dvec3& lo,
                         const glm::dvec3& hi, bool part);
+  /// The scene without the fluid into the environment map, from the fluid's centre: the whole
+  /// frame's obstacles, knit points, solids, planes and floor on every rank (a few thousand
+  /// texels' worth: no composite needed); 0 when the surface mirrors the sky alone.
+  unsigned draw_environment(const io::Frame& frame, const Placed& at, const glm::dvec3& lo,
+                            const glm::dvec3& hi, const Lighting& lighting);
 
   SnapshotStyle style_;
   EglContext context_;
@@ -169,6 +179,10 @@ private:
   TubeRenderer tubes_;
   std::unique_ptr<ShadowMaps> shadows_;
   std::unique_ptr<WaterLayers> water_;
+  std::unique_ptr<EnvironmentMap> environment_;
+  SphereRenderer environment_spheres_;
+  glm::dvec3 fluid_centre_{0.0};
+  unsigned environment_texture_ = 0;         // this frame's, 0: the sky alone
   std::unique_ptr<OffscreenTarget> picture_; // the resolve's
   std::unique_ptr<SurfaceCompute> surface_compute_;
   GpuTimer timer_;

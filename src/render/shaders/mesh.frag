@@ -25,7 +25,7 @@ void main() {
   vec3 body = colour.rgb * vertex_shade * (ambient + (1.0 - ambient) * diffuse);
   if (reflective) { // Schlick's Fresnel, water's F0 = 0.02
     const float f = 0.02 + 0.98 * pow(1.0 - max(dot(n, -dir), 0.0), 5.0);
-    body = mix(body, environment(mat3(inverse_view) * reflect(dir, n)), f);
+    body = mix(body, mirrored(mat3(inverse_view) * reflect(dir, n)), f);
   }
   frag = vec4(body + vec3(specular), colour.a);
 }

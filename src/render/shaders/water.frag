@@ -1,9 +1,10 @@
 #version 450 core
 // The translucent water's front faces (paper §6.2): what the surface itself sends to the eye,
-// the environment mirrored by Fresnel's share F (Schlick, water's F0 = 0.02) and the light's
-// highlight, with F in alpha; and the surface's normal (view space, octahedral) for the resolve
-// (water_resolve.frag), which refracts through it and adds (1 - F) of what the water lets
-// through. environment.glsl and shadow.glsl are inserted after the #version line.
+// the environment (the scene's cube map over the sky) mirrored by Fresnel's share F (Schlick,
+// water's F0 = 0.02) and the light's highlight, with F in alpha; and the surface's normal (view
+// space, octahedral) for the resolve (water_resolve.frag), which refracts through it and adds
+// (1 - F) of what the water lets through. environment.glsl and shadow.glsl are inserted after
+// the #version line.
 in vec3 view_point;
 in vec3 view_normal;
 in float vertex_shade;
@@ -30,11 +31,11 @@ void main() {
   const vec3 h = normalize(light_view - dir);
   const float specular = pow(max(dot(n, h), 0.0), 64.0) * specular_strength * lit;
   float f = 0.0;
-  vec3 mirrored = vec3(0.0);
+  vec3 reflected = vec3(0.0);
   if (reflective) {
     f = 0.02 + 0.98 * pow(1.0 - max(dot(n, -dir), 0.0), 5.0);
-    mirrored = f * environment(mat3(inverse_view) * reflect(dir, n));
+    reflected = f * mirrored(mat3(inverse_view) * reflect(dir, n));
   }
-  surface = vec4(mirrored + vec3(specular), f);
+  surface = vec4(reflected + vec3(specular), f);
   packed_normal = octahedral(n);
 }
