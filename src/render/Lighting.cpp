@@ -37,7 +37,7 @@ void use_lit_program(unsigned p, const ViewMatrices& vm, const Lighting& light) 
     glUniform1i(glGetUniformLocation(p, "shadow_cascades"), 0);
 }
 
-std::string with_shadow_lookup(const char* source) {
+std::string with_light_lookups(const char* source) {
   return with_after_version(with_after_version(source, shaders::kEnvironmentGlsl).c_str(),
                             shaders::kShadowGlsl);
 }

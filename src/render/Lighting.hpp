@@ -38,7 +38,7 @@ void use_lit_program(unsigned program, const ViewMatrices& view, const Lighting&
 
 /// A lit shader's source with the shadow lookup (shaders/shadow.glsl) and the environment a
 /// reflection sees (shaders/environment.glsl) after its #version line.
-std::string with_shadow_lookup(const char* source);
+std::string with_light_lookups(const char* source);
 
 /// A kf::Error naming `what` if GL reports an error since the last check.
 void check_gl(const std::string& what);

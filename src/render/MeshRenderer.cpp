@@ -16,7 +16,7 @@ namespace kf::render {
 
 MeshRenderer::MeshRenderer()
     : program_(std::make_unique<ShaderProgram>("mesh.vert + mesh.frag", shaders::kMeshVert,
-                                               with_shadow_lookup(shaders::kMeshFrag))) {
+                                               with_light_lookups(shaders::kMeshFrag))) {
   glCreateVertexArrays(1, &vao_);
   glCreateBuffers(1, &vertices_);
   glCreateBuffers(1, &indices_);
@@ -89,7 +89,7 @@ void MeshRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
   using Water = MeshLook::Water;
   if (look.water == Water::Front && !water_program_)
     water_program_ = std::make_unique<ShaderProgram>("mesh.vert + water.frag", shaders::kMeshVert,
-                                                     with_shadow_lookup(shaders::kWaterFrag));
+                                                     with_light_lookups(shaders::kWaterFrag));
   if (look.water == Water::Back && !depth_program_)
     depth_program_ = std::make_unique<ShaderProgram>("mesh.vert + depth_only.frag",
                                                      shaders::kMeshVert, shaders::kDepthOnlyFrag);

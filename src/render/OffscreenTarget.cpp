@@ -70,24 +70,4 @@ std::vector<float> OffscreenTarget::read_depth() const {
   return d;
 }
 
-void OffscreenTarget::write_rgba(const std::vector<std::uint8_t>& rgba) {
-  if (rgba.size() != std::size_t(width_) * height_ * 4)
-    throw Error("render: " + std::to_string(rgba.size()) + " colour bytes for a " +
-                std::to_string(width_) + " x " + std::to_string(height_) + " target");
-  std::vector<std::uint8_t> rows = rgba;
-  flip_rows(rows, std::size_t(width_) * 4);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTextureSubImage2D(colour_, 0, 0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, rows.data());
-}
-
-void OffscreenTarget::write_depth(const std::vector<float>& depth) {
-  if (depth.size() != std::size_t(width_) * height_)
-    throw Error("render: " + std::to_string(depth.size()) + " depths for a " +
-                std::to_string(width_) + " x " + std::to_string(height_) + " target");
-  std::vector<float> rows = depth;
-  flip_rows(rows, std::size_t(width_));
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTextureSubImage2D(depth_, 0, 0, 0, width_, height_, GL_DEPTH_COMPONENT, GL_FLOAT, rows.data());
-}
-
 } // namespace kf::render

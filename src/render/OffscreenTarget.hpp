@@ -1,8 +1,9 @@
 #pragma once
 // Where a frame is drawn without a window: a framebuffer object with an RGBA8 colour and a
-// 32-bit float depth attachment, both textures (a later pass samples them: the water's resolve),
-// read back into host memory and written from it (rows top first, as images are stored). Float
-// depth goes to the host and back unchanged, so a composite's pixels resolve as the GPU's own.
+// 32-bit float depth attachment, both textures (a later pass samples them: the water's resolve;
+// WaterLayers writes a composite into them), read back into host memory (rows top first, as
+// images are stored). Float depth goes to the host and back unchanged, so a composite's pixels
+// resolve as the GPU's own.
 #include <algorithm>
 #include <cstdint>
 #include <vector>
@@ -33,9 +34,6 @@ public:
   std::vector<std::uint8_t> read_rgba() const;
   /// The depth attachment in [0, 1], the top row first.
   std::vector<float> read_depth() const;
-  /// Replace the attachments' contents (the same layouts as read_rgba and read_depth).
-  void write_rgba(const std::vector<std::uint8_t>& rgba);
-  void write_depth(const std::vector<float>& depth);
   unsigned colour_texture() const { return colour_; }
   unsigned depth_texture() const { return depth_; }
   int width() const { return width_; }

@@ -404,6 +404,28 @@ void SnapshotRenderer::draw_shadow_maps(const Camera& camera, double aspect, con
   }
 }
 
+void SnapshotRenderer::add_spheres(std::vector<Sphere>& list, const io::Frame& frame,
+                                   const std::string& phase, std::optional<double>& radius,
+                                   double share, const glm::vec4& colour, bool wet,
+                                   const Region* only) const {
+  const auto x = phase_positions(frame, phase);
+  if (x.empty())
+    return;
+  if (!radius)
+    radius = share * layer_spacing(frame, phase).value_or(0);
+  const auto saturation = wet ? scalar_field(frame, phase, "saturation") : std::vector<double>{};
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (only && !only->contains(x[i]))
+      continue;
+    glm::vec4 c = colour;
+    if (!saturation.empty()) {
+      const double s = std::clamp(saturation[i], 0.0, 1.0);
+      c = glm::vec4(glm::vec3(colour) * float(1 - style_.wet_darkening * std::sqrt(s)), colour.a);
+    }
+    list.push_back({glm::vec4(glm::vec3(x[i]), float(*radius)), c});
+  }
+}
+
 unsigned SnapshotRenderer::draw_environment(const io::Frame& frame, const Placed& at,
                                             const glm::dvec3& lo, const glm::dvec3& hi,
                                             const Lighting& lighting) {
@@ -413,19 +435,7 @@ unsigned SnapshotRenderer::draw_environment(const io::Frame& frame, const Placed
   if (!environment_)
     environment_ = std::make_unique<EnvironmentMap>(style_.environment_size);
   std::vector<Sphere> list = at.spheres;
-  const auto knit = phase_positions(frame, "knit");
-  if (!knit.empty()) {
-    if (!knit_r_)
-      knit_r_ = 0.6 * layer_spacing(frame, "knit").value_or(0);
-    const auto saturation = scalar_field(frame, "knit", "saturation");
-    for (std::size_t i = 0; i < knit.size(); ++i) {
-      const double s = saturation.empty() ? 0.0 : std::clamp(saturation[i], 0.0, 1.0);
-      list.push_back(
-          {glm::vec4(glm::vec3(knit[i]), float(*knit_r_)),
-           glm::vec4(glm::vec3(style_.knit) * float(1 - style_.wet_darkening * std::sqrt(s)),
-                     style_.knit.a)});
-    }
-  }
+  add_spheres(list, frame, "knit", knit_r_, 0.6, style_.knit, true, nullptr);
   environment_spheres_.upload(list);
   const double size = std::max(glm::length(hi - lo), 1e-6);
   environment_->render(fluid_centre_, 1e-3 * size, 4 * size, [&](const ViewMatrices& v) {
@@ -496,35 +506,17 @@ void SnapshotRenderer::render(const io::Frame& frame, const Camera& camera, cons
   for (const Sphere& s : at.spheres)
     if (!only || only->contains(glm::dvec3(glm::vec3(s.centre_radius))))
       list.push_back(s);
-  auto add = [&](const std::string& phase, std::optional<double>& radius, double share,
-                 const glm::vec4& colour, const std::vector<double>& saturation) {
-    const auto x = phase_positions(frame, phase);
-    if (x.empty())
-      return;
-    if (!radius)
-      radius = share * layer_spacing(frame, phase).value_or(0);
-    for (std::size_t i = 0; i < x.size(); ++i) {
-      if (only && !only->contains(x[i]))
-        continue;
-      glm::vec4 c = colour;
-      if (!saturation.empty()) {
-        const double s = std::clamp(saturation[i], 0.0, 1.0);
-        c = glm::vec4(glm::vec3(colour) * float(1 - style_.wet_darkening * std::sqrt(s)), colour.a);
-      }
-      list.push_back({glm::vec4(glm::vec3(x[i]), float(*radius)), c});
-    }
-  };
   timer_.begin();
   // The surface's passes run on the GPU while the host reads the yarns.
   start_surface(frame, only);
   if (!style_.fluid_surface)
-    add("fluid", fluid_r_, 0.5, style_.fluid, {});
+    add_spheres(list, frame, "fluid", fluid_r_, 0.5, style_.fluid, false, only);
   const std::size_t tube_triangles = knit_tubes(frame, only);
   const std::size_t surface_triangles = finish_surface();
   if (!has_yarns(frame))
-    add("knit", knit_r_, 0.6, style_.knit, scalar_field(frame, "knit", "saturation"));
+    add_spheres(list, frame, "knit", knit_r_, 0.6, style_.knit, true, only);
   if (style_.boundary)
-    add("boundary", boundary_r_, 0.5, style_.boundary_colour, {});
+    add_spheres(list, frame, "boundary", boundary_r_, 0.5, style_.boundary_colour, false, only);
   // The floor, and the shadow maps of everything drawn (the box and its shadow on the floor).
   const double aspect = double(style_.width) / style_.height;
   auto [lo, hi] = box_of(frame, at);

@@ -150,6 +150,12 @@ private:
     SurfaceMesh solids, planes;
   };
   Placed placed(double time) const;
+  /// A phase's points as spheres into `list` (with `only`, those in it): radius share x the
+  /// spacing of its points in a layer (taken once, kept in `radius`), colour darkened by the
+  /// saturation where `wet`.
+  void add_spheres(std::vector<Sphere>& list, const io::Frame& frame, const std::string& phase,
+                   std::optional<double>& radius, double share, const glm::vec4& colour, bool wet,
+                   const Region* only) const;
   /// frame_box with the obstacles placed already.
   std::pair<glm::dvec3, glm::dvec3> box_of(const io::Frame& frame, const Placed& at) const;
   /// Everything uploaded, through `view`: the picture's pass (the floor, the water's reflection,

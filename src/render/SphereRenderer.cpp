@@ -11,7 +11,7 @@ namespace kf::render {
 
 SphereRenderer::SphereRenderer()
     : program_(std::make_unique<ShaderProgram>("sphere.vert + sphere.frag", shaders::kSphereVert,
-                                               with_shadow_lookup(shaders::kSphereFrag))) {
+                                               with_light_lookups(shaders::kSphereFrag))) {
   glCreateVertexArrays(1, &vao_);
 }
 

@@ -14,7 +14,7 @@ namespace kf::render {
 
 TubeRenderer::TubeRenderer()
     : program_(std::make_unique<ShaderProgram>("tube.vert + mesh.frag", shaders::kTubeVert,
-                                               with_shadow_lookup(shaders::kMeshFrag))),
+                                               with_light_lookups(shaders::kMeshFrag))),
       index_program_(ShaderProgram::compute("tube_indices.comp", shaders::kTubeIndicesComp)),
       frame_program_(ShaderProgram::compute("yarn_frames.comp", shaders::kYarnFramesComp)) {
   glCreateVertexArrays(1, &vao_); // no attributes: the vertex shader pulls its data
