@@ -168,6 +168,10 @@ render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
                          : render::SurfaceField::Weighted;
   st.knit_yarns = a.knit.empty() ? r.knit == Scene::Render::Knit::Yarns : a.knit == "yarns";
   st.yarn_radius = r.yarn_radius;
+  st.knit_volume = r.yarn_volume;
+  st.lumislice.plies = r.yarn_plies;
+  st.lumislice.fuzz = r.yarn_fuzz;
+  st.yarn_slices = r.yarn_slices;
   st.shadows = r.shadows;
   st.floor = r.floor;
   st.fluid_reflection = r.reflections;
@@ -411,7 +415,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         swap = composite(px);
         t_swapped = std::chrono::steady_clock::now();
         if (mpi.root())
-          picture = renderer.resolve(px, camera_at(f.time));
+          picture = renderer.resolve(px, f, camera_at(f.time));
       } else {
         const io::RgbaImage part = named(path_of(chosen[k]), [&] {
           return renderer.draw(f, camera_at(f.time), &regions[std::size_t(mpi.rank())]);
@@ -420,7 +424,8 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         t1 = std::chrono::steady_clock::now();
         swap = composite(px);
         t_swapped = std::chrono::steady_clock::now();
-        picture = render::colour_of(px, style.width, style.height);
+        if (mpi.root())
+          picture = renderer.composite_picture(px, f, camera_at(f.time));
       }
       const auto t2 = std::chrono::steady_clock::now();
       const std::uint64_t spheres = mpi.sum(std::uint64_t(renderer.last_spheres()));

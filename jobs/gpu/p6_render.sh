@@ -24,6 +24,9 @@ echo "== frames 5 and $last with the surface and the tubes built on the host (th
 echo "== the same, the water opaque (refraction off: no layers, no resolve), frames 5 and $last"
 "$exe" render "$work/pour" --width 1920 --height 1080 --no-film --frames "5:$last:$((last > 5 ? last - 5 : 1))" \
   --set render.refraction=false --out "$work/opaque" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'
+echo "== the same, the yarns as lit tubes (no lumislice: no slices to order and blend), frames 5 and $last"
+"$exe" render "$work/pour" --width 1920 --height 1080 --no-film --frames "5:$last:$((last > 5 ? last - 5 : 1))" \
+  --set render.yarn_volume=false --out "$work/tubes" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'
 echo "== the same, fluid as spheres (the preview's look), frames 5 and $last"
 "$exe" render "$work/pour" --width 1920 --height 1080 --no-film --fluid spheres \
   --frames "5:$last:$((last > 5 ? last - 5 : 1))" --out "$work/spheres" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'

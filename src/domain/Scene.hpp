@@ -236,7 +236,12 @@ struct Scene {
     enum class SurfaceField { Weighted, Naive } surface = SurfaceField::Weighted;
     bool boundary = false;                                // the walls' particles
     enum class Knit { Yarns, Points } knit = Knit::Yarns; // tubes along the yarns, or spheres
-    double yarn_radius = 0;  // [m]; 0: a fifth of the spacing of the knit's points in a layer
+    double yarn_radius = 0; // [m]; 0: a fifth of the spacing of the knit's points in a layer
+    // The yarns drawn volumetrically from a lumislice (plies of fibres twisted, fuzz about
+    // them, blended back to front: render/VolumeYarns) in yarn_slices quads a segment; false:
+    // lit tubes.
+    bool yarn_volume = true;
+    int yarn_plies = 3, yarn_fuzz = 40, yarn_slices = 4;
     bool shadows = true;     // cascaded shadow maps of the light
     bool floor = true;       // a floor at the domain's bottom, receiving the shadows
     bool reflections = true; // the fluid's surface mirrors a sky (Fresnel)

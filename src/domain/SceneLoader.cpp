@@ -578,6 +578,10 @@ void read_render(const TableReader& t, Scene::Render& r) {
                 "boundary",
                 "knit",
                 "yarn_radius",
+                "yarn_volume",
+                "yarn_plies",
+                "yarn_fuzz",
+                "yarn_slices",
                 "shadows",
                 "floor",
                 "reflections",
@@ -610,6 +614,10 @@ void read_render(const TableReader& t, Scene::Render& r) {
   t.read("boundary", r.boundary);
   t.read("knit", r.knit, kRenderKnits);
   t.read("yarn_radius", r.yarn_radius, Range::at_least(0));
+  t.read("yarn_volume", r.yarn_volume);
+  r.yarn_plies = read_count(t, "yarn_plies", r.yarn_plies, 1, 16);
+  r.yarn_fuzz = read_count(t, "yarn_fuzz", r.yarn_fuzz, 0, 10000);
+  r.yarn_slices = read_count(t, "yarn_slices", r.yarn_slices, 1, 4);
   t.read("shadows", r.shadows);
   t.read("floor", r.floor);
   t.read("reflections", r.reflections);

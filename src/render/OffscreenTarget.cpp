@@ -70,4 +70,17 @@ std::vector<float> OffscreenTarget::read_depth() const {
   return d;
 }
 
+void OffscreenTarget::write(std::vector<std::uint8_t> rgba, std::vector<float> depth) {
+  const std::size_t n = std::size_t(width_) * std::size_t(height_);
+  if (rgba.size() != 4 * n || depth.size() != n)
+    throw Error("render: " + std::to_string(depth.size()) + " pixels written into a " +
+                std::to_string(width_) + " x " + std::to_string(height_) + " target");
+  flip_rows(rgba, 4 * std::size_t(width_));
+  flip_rows(depth, std::size_t(width_));
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTextureSubImage2D(colour_, 0, 0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+  glTextureSubImage2D(depth_, 0, 0, 0, width_, height_, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+}
+
 } // namespace kf::render

@@ -34,6 +34,9 @@ public:
   std::vector<std::uint8_t> read_rgba() const;
   /// The depth attachment in [0, 1], the top row first.
   std::vector<float> read_depth() const;
+  /// Replaces both attachments (a composite of parts): 4 bytes and a depth a pixel, the top row
+  /// first.
+  void write(std::vector<std::uint8_t> rgba, std::vector<float> depth);
   unsigned colour_texture() const { return colour_; }
   unsigned depth_texture() const { return depth_; }
   int width() const { return width_; }

@@ -172,7 +172,8 @@ YarnPoints yarn_points_of(const io::Frame& frame) {
 } // namespace
 
 SnapshotRenderer::SnapshotRenderer(const SnapshotStyle& style, int cuda_device)
-    : style_(style), context_(cuda_device), target_(style.width, style.height) {}
+    : style_(style), context_(cuda_device), target_(style.width, style.height),
+      sort_on_cuda_(cuda_device >= 0 && !context_.info().software) {}
 
 namespace {
 
@@ -373,7 +374,8 @@ void SnapshotRenderer::draw_scene(const ViewMatrices& view, const Lighting& ligh
   // A tube is closed but for a yarn's ends and wound outward: the faces it turns away are hidden
   // behind its own, so the GPU culls them (the picture unchanged). The fluid's surface stays
   // two-sided: a camera may look at it from inside the water.
-  tubes_.draw(style_.knit, view, light, !picture, true);
+  if (!picture || !volumetric())
+    tubes_.draw(style_.knit, view, light, !picture, true);
   yarn_meshes_.draw(style_.knit, view, light);
   solid_mesh_.draw(style_.obstacle_colour, view, light);
   // The floor receives shadows but casts none; a plane is seen from its front only (a shadow
@@ -489,7 +491,7 @@ std::vector<LayeredPixel> SnapshotRenderer::draw_layers(const io::Frame& frame,
 }
 
 io::RgbaImage SnapshotRenderer::resolve(const std::vector<LayeredPixel>& layers,
-                                        const Camera& camera) {
+                                        const io::Frame& frame, const Camera& camera) {
   if (!translucent())
     throw Error("render: only translucent water's layers are resolved");
   timer_.begin();
@@ -497,7 +499,55 @@ io::RgbaImage SnapshotRenderer::resolve(const std::vector<LayeredPixel>& layers,
     water_ = std::make_unique<WaterLayers>(style_.width, style_.height);
   water_->write(layers, target_);
   timer_.mark("uploads");
+  draw_yarns_over(frame, camera);
   return resolved(camera);
+}
+
+io::RgbaImage SnapshotRenderer::composite_picture(const std::vector<DepthPixel>& pixels,
+                                                  const io::Frame& frame, const Camera& camera) {
+  if (!volume_yarns(frame))
+    return colour_of(pixels, style_.width, style_.height);
+  timer_.begin();
+  std::vector<std::uint8_t> rgba(4 * pixels.size());
+  std::vector<float> depth(pixels.size());
+  for (std::size_t k = 0; k < pixels.size(); ++k) {
+    std::memcpy(&rgba[4 * k], pixels[k].rgba, 4);
+    depth[k] = pixels[k].depth;
+  }
+  target_.write(std::move(rgba), std::move(depth));
+  timer_.mark("uploads");
+  draw_yarns_over(frame, camera);
+  io::RgbaImage image{style_.width, style_.height, target_.read_rgba()};
+  timer_.mark("read-back");
+  last_passes_ = timer_.read();
+  return image;
+}
+
+void SnapshotRenderer::draw_yarns_over(const io::Frame& frame, const Camera& camera) {
+  if (!volume_yarns(frame))
+    return;
+  knit_tubes(frame, nullptr);
+  if (!volumetric())
+    return;
+  Lighting lighting = style_.lighting;
+  if (style_.shadows && shadows_) // the part's draw left the frame's maps (combined) bound
+    lighting.shadows = shadows_.get();
+  draw_yarn_slices(ViewMatrices::of(camera, double(style_.width) / style_.height), lighting);
+}
+
+void SnapshotRenderer::draw_yarn_slices(const ViewMatrices& view, const Lighting& lighting) {
+  if (!volume_)
+    volume_ = std::make_unique<VolumeYarns>(style_.lumislice, sort_on_cuda_, style_.yarn_slices);
+  volume_->order(tubes_, view, *yarn_r_, lighting);
+  timer_.mark("yarn order");
+  // The slices over the opaque scene, back to front; then the yarns' depth, their tubes' (the
+  // core the fibres nearly hide), for what is drawn after (the water) and the composite.
+  target_.bind();
+  volume_->draw(tubes_, style_.knit, view, lighting);
+  glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+  tubes_.draw(style_.knit, view, Lighting{}, false, true);
+  glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+  timer_.mark("yarns");
 }
 
 void SnapshotRenderer::render(const io::Frame& frame, const Camera& camera, const Region* only) {
@@ -548,13 +598,17 @@ void SnapshotRenderer::render(const io::Frame& frame, const Camera& camera, cons
     lighting.shadows = shadows_.get();
   }
   environment_texture_ = draw_environment(frame, at, lo, hi, lighting);
+  const ViewMatrices view = ViewMatrices::of(camera, aspect);
   target_.bind();
   const glm::vec4& bg = style_.background;
   glClearColor(bg.r, bg.g, bg.b, bg.a);
   glClearDepth(1.0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  const ViewMatrices view = ViewMatrices::of(camera, aspect);
   draw_scene(view, lighting, true);
+  // A part of a sort-last frame draws no yarns (their tubes only cast shadows): the root draws
+  // them over the composite (composite_picture, resolve).
+  if (volumetric() && !only)
+    draw_yarn_slices(view, lighting);
   last_spheres_ = list.size();
   last_triangles_ = surface_triangles + tube_triangles;
   timer_.mark("picture");

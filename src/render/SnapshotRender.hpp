@@ -3,7 +3,7 @@
 // yarns (or its points' spheres), darkened where wet, C' = C (1 - alpha sqrt(s)) (paper §6),
 // optionally the boundary's spheres, the scene's obstacles beside them, shadows of the light on a
 // floor, from a camera; the fluid's surface opaque or translucent water (refracting, absorbing:
-// WaterLayers). The volumetric (lumislice) yarns are to come.
+// WaterLayers); the yarns volumetric, from a lumislice (VolumeYarns).
 #include "io/Frame.hpp"
 #include "io/PngImage.hpp"
 #include "render/Camera.hpp"
@@ -18,6 +18,7 @@
 #include "render/SphereRenderer.hpp"
 #include "render/SurfaceCompute.hpp"
 #include "render/TubeRenderer.hpp"
+#include "render/VolumeYarns.hpp"
 #include "render/WaterLayers.hpp"
 #include "render/YarnTubes.hpp"
 
@@ -67,6 +68,12 @@ struct SnapshotStyle {
   // a layer (the paper's pour: 1.1 mm for 5.5 mm stitches).
   bool knit_yarns = true;
   double yarn_radius = 0;
+  // The yarns drawn volumetrically from a lumislice (VolumeYarns: fibres, plies, fuzz, blended
+  // back to front), the tubes giving their depth and shadows; off, as lit tubes. Needs the
+  // yarns' geometry on the GPU.
+  bool knit_volume = true;
+  LumisliceSpec lumislice;
+  int yarn_slices = 4; // quads a segment, 1..4
   // The surface's field and marching cubes as GL compute passes (SurfaceCompute) and the tubes'
   // rings in a vertex shader (TubeRenderer), llvmpipe running them where there is no GPU; off,
   // both built on the host (FluidSurface, yarn_tubes: the references) and uploaded.
@@ -119,8 +126,17 @@ public:
   /// colour and depth and the water's, a record a pixel (WaterLayers::read's order).
   std::vector<LayeredPixel> draw_layers(const io::Frame& frame, const Camera& camera,
                                         const Region* only);
-  /// The picture of a composite of parts' layers seen from `camera` (the water resolved).
-  io::RgbaImage resolve(const std::vector<LayeredPixel>& layers, const Camera& camera);
+  /// The picture of a composite of parts' layers seen from `camera` (the water resolved): with
+  /// volumetric yarns, first the whole frame's yarns drawn over the composite's opaque scene.
+  io::RgbaImage resolve(const std::vector<LayeredPixel>& layers, const io::Frame& frame,
+                        const Camera& camera);
+  /// The picture of a composite of opaque parts (DepthPixel, the image's order): the composite
+  /// itself, or with volumetric yarns the whole frame's yarns drawn over it. Translucent slices
+  /// blend over what lies behind them, which a part alone does not hold: the parts draw no
+  /// yarns (but their shadows) and the root draws them all over the composite, so the picture
+  /// is the one drawn whole.
+  io::RgbaImage composite_picture(const std::vector<DepthPixel>& pixels, const io::Frame& frame,
+                                  const Camera& camera);
   /// The points a k-d split of this frame shares out: the drawn phases' positions.
   std::vector<glm::dvec3> drawn_points(const io::Frame& frame) const;
   std::size_t last_spheres() const { return last_spheres_; }
@@ -164,6 +180,14 @@ private:
   /// Everything of the frame drawn into target_ (and the water's layers where translucent);
   /// the public draws read or resolve it.
   void render(const io::Frame& frame, const Camera& camera, const Region* only);
+  /// Whether a frame's yarns are drawn volumetrically (in a sort-last frame: after the composite).
+  bool volume_yarns(const io::Frame& frame) const {
+    return style_.knit_volume && style_.geometry_on_gpu && has_yarns(frame);
+  }
+  /// The built tubes' slices, ordered, blended over target_, then their cores' depth.
+  void draw_yarn_slices(const ViewMatrices& view, const Lighting& lighting);
+  /// The whole frame's yarns drawn volumetrically over target_ (a composite written into it).
+  void draw_yarns_over(const io::Frame& frame, const Camera& camera);
   /// The water's layers resolved into picture_ and read back.
   io::RgbaImage resolved(const Camera& camera);
   WaterOptics optics() const;
@@ -183,6 +207,12 @@ private:
   SphereRenderer spheres_;
   MeshRenderer meshes_, yarn_meshes_, floor_mesh_, solid_mesh_, plane_mesh_;
   TubeRenderer tubes_;
+  std::unique_ptr<VolumeYarns> volume_;
+  bool sort_on_cuda_ = false;
+  /// Whether this frame's yarns are drawn volumetrically (their tubes built on the GPU).
+  bool volumetric() const {
+    return style_.knit_volume && style_.geometry_on_gpu && tubes_.segments() > 0;
+  }
   std::unique_ptr<ShadowMaps> shadows_;
   std::unique_ptr<WaterLayers> water_;
   std::unique_ptr<EnvironmentMap> environment_;

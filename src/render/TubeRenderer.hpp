@@ -37,6 +37,11 @@ public:
   void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {},
             bool coarse = false, bool one_sided = false);
   std::size_t triangles() const { return segments_ * 2 * std::size_t(sides_); }
+  /// The drawn segments and the buffers the tubes are built from (VolumeYarns slices the same
+  /// yarns): 0 centre and radius, 1 r and shade, 2 b and the arc length from the yarn's start
+  /// (vec4 a point), 3 the drawn segments' first points (uint).
+  std::size_t segments() const { return segments_; }
+  unsigned frame_buffer(int i) const { return buffers_[i]; }
 
 private:
   std::unique_ptr<ShaderProgram> program_;

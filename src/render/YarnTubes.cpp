@@ -104,7 +104,10 @@ YarnFrames yarn_frames(const YarnPolylines& y, const YarnStyle& style, const Reg
     const std::size_t a = chain_start[std::size_t(c)], b = chain_start[std::size_t(c) + 1] - 1;
     const auto t = tangents(y.x, a, b);
     glm::dvec3 r = some_normal(t[0]);
+    double arc = 0;
     for (std::size_t i = a; i <= b; ++i) {
+      if (i > a)
+        arc += glm::length(y.x[i] - y.x[i - 1]);
       if (i > a) { // double reflection: from the frame at i - 1 to the one at i
         const glm::dvec3 v1 = y.x[i] - y.x[i - 1];
         const double c1 = glm::dot(v1, v1);
@@ -123,7 +126,7 @@ YarnFrames yarn_frames(const YarnPolylines& y, const YarnStyle& style, const Reg
       f.centre_radius[i] =
           glm::vec4(glm::vec3(y.x[i]), float(style.radius * (1 + style.swell * s)));
       f.r_shade[i] = glm::vec4(glm::vec3(r), float(1 - style.wet_darkening * std::sqrt(s)));
-      f.b[i] = glm::vec4(glm::vec3(glm::cross(t[i - a], r)), 0.0f);
+      f.b[i] = glm::vec4(glm::vec3(glm::cross(t[i - a], r)), float(arc));
     }
   }
   return f;

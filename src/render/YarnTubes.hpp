@@ -33,8 +33,8 @@ struct YarnPolylines {
 /// What a tube needs at each yarn point, in float for the GPU (TubeRenderer builds the rings
 /// from it in its vertex shader): the centre and the radius, the ring's first direction r and the
 /// shade 1 - alpha sqrt(s), and b = t x r (the ring's vertex k lies at centre + radius (cos a_k r
-/// + sin a_k b), a_k = 2 pi k / sides); and the segments drawn, by their first point (the next
-/// point closes it).
+/// + sin a_k b), a_k = 2 pi k / sides), b's w the arc length from the yarn's start; and the
+/// segments drawn, by their first point (the next point closes it).
 struct YarnFrames {
   std::vector<glm::vec4> centre_radius, r_shade, b;
   std::vector<std::uint32_t> drawn;

@@ -578,6 +578,10 @@ void max_into(const Exec& ex, std::size_t n, const F& f, T* acc, const char* lab
 /// Both buffers must be on ex.backend and hold n elements; the sort is done in place.
 void sort_by_key(const Exec& ex, DeviceBuffer<std::uint32_t>& keys,
                  DeviceBuffer<std::uint32_t>& values, int key_bits, const char* label);
+/// The same on n keys and values at raw pointers on ex.backend (memory the caller holds: a GL
+/// buffer mapped into CUDA, a host vector).
+void sort_by_key(const Exec& ex, std::uint32_t* keys, std::uint32_t* values, std::size_t n,
+                 int key_bits, const char* label);
 
 /// out[i] = sum of in[0..i); returns the total. out may alias in.
 std::uint64_t exclusive_scan(const Exec& ex, const DeviceBuffer<std::uint32_t>& in,

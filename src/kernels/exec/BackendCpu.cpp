@@ -32,8 +32,8 @@ void cuda_event_wait(void* e, const char* label);
 bool cuda_device_present();
 int cuda_set_device(int local_rank);
 std::string cuda_describe();
-void cuda_sort_by_key(DeviceBuffer<std::uint32_t>& keys, DeviceBuffer<std::uint32_t>& values,
-                      int key_bits, const char* label);
+void cuda_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::size_t n, int key_bits,
+                      const char* label);
 std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
                                   DeviceBuffer<std::uint32_t>& out, const char* label);
 #endif
@@ -288,20 +288,28 @@ static void cpu_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::siz
   }
 }
 
-void sort_by_key(const Exec& ex, DeviceBuffer<std::uint32_t>& keys,
-                 DeviceBuffer<std::uint32_t>& values, int key_bits, const char* label) {
-  if (keys.size() != values.size())
-    throw Error(std::string(label) + ": sort_by_key with " + std::to_string(keys.size()) +
-                " keys but " + std::to_string(values.size()) + " values");
+void sort_by_key(const Exec& ex, std::uint32_t* keys, std::uint32_t* values, std::size_t n,
+                 int key_bits, const char* label) {
   if (ex.backend == Backend::Cuda) {
 #if defined(KF_WITH_CUDA)
-    cuda_sort_by_key(keys, values, key_bits, label);
+    cuda_sort_by_key(keys, values, n, key_bits, label);
     return;
 #else
     no_cuda(label);
 #endif
   }
-  cpu_sort_by_key(keys.data(), values.data(), keys.size(), key_bits);
+  if (key_bits < 0 || key_bits > 32)
+    throw Error(std::string(label) + ": sort_by_key with key_bits=" + std::to_string(key_bits) +
+                " (expected 0..32)");
+  cpu_sort_by_key(keys, values, n, key_bits);
+}
+
+void sort_by_key(const Exec& ex, DeviceBuffer<std::uint32_t>& keys,
+                 DeviceBuffer<std::uint32_t>& values, int key_bits, const char* label) {
+  if (keys.size() != values.size())
+    throw Error(std::string(label) + ": sort_by_key with " + std::to_string(keys.size()) +
+                " keys but " + std::to_string(values.size()) + " values");
+  sort_by_key(ex, keys.data(), values.data(), keys.size(), key_bits, label);
 }
 
 namespace {

@@ -457,12 +457,12 @@ void cuda_read_result(void* dst, const void* device_src, std::size_t bytes, cons
 
 // ---- sort and scan ------------------------------------------------------------------------------
 
-void cuda_sort_by_key(DeviceBuffer<std::uint32_t>& keys, DeviceBuffer<std::uint32_t>& values,
-                      int key_bits, const char* label) {
+void cuda_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::size_t count, int key_bits,
+                      const char* label) {
   if (key_bits < 0 || key_bits > 32)
     throw Error(std::string(label) + ": sort_by_key with key_bits=" + std::to_string(key_bits) +
                 " (expected 0..32)");
-  const std::uint32_t n = checked_count(keys.size(), "sort_by_key", label);
+  const std::uint32_t n = checked_count(count, "sort_by_key", label);
   if (n < 2 || key_bits == 0)
     return; // already sorted
   KernelTimeScope timed(label);
@@ -474,26 +474,26 @@ void cuda_sort_by_key(DeviceBuffer<std::uint32_t>& keys, DeviceBuffer<std::uint3
   // One scratch block: alternate keys, alternate values, then CUB's temporary storage. Sizing
   // needs only the element count; the pointers may be null.
   const std::size_t array_bytes = align_up(std::size_t(n) * sizeof(std::uint32_t));
-  cub::DoubleBuffer<std::uint32_t> dk(keys.data(), nullptr), dv(values.data(), nullptr);
+  cub::DoubleBuffer<std::uint32_t> dk(keys, nullptr), dv(values, nullptr);
   std::size_t temp_bytes = 0;
   KF_CUDA(cub::DeviceRadixSort::SortPairs(nullptr, temp_bytes, dk, dv, n, 0, key_bits), ctx());
   auto* scratch = static_cast<unsigned char*>(
       cuda_scratch(ScratchSlot::Sort, 2 * array_bytes + temp_bytes, label));
   auto* alt_keys = reinterpret_cast<std::uint32_t*>(scratch);
   auto* alt_values = reinterpret_cast<std::uint32_t*>(scratch + array_bytes);
-  dk = cub::DoubleBuffer<std::uint32_t>(keys.data(), alt_keys);
-  dv = cub::DoubleBuffer<std::uint32_t>(values.data(), alt_values);
+  dk = cub::DoubleBuffer<std::uint32_t>(keys, alt_keys);
+  dv = cub::DoubleBuffer<std::uint32_t>(values, alt_values);
   KF_CUDA(cub::DeviceRadixSort::SortPairs(scratch + 2 * array_bytes, temp_bytes, dk, dv, n, 0,
                                           key_bits),
           ctx());
 
   // The pass count decides which half holds the result; bring it home if it ended in scratch.
   const std::size_t bytes = std::size_t(n) * sizeof(std::uint32_t);
-  if (dk.Current() != keys.data())
-    KF_CUDA(cudaMemcpyAsync(keys.data(), dk.Current(), bytes, cudaMemcpyDeviceToDevice),
+  if (dk.Current() != keys)
+    KF_CUDA(cudaMemcpyAsync(keys, dk.Current(), bytes, cudaMemcpyDeviceToDevice),
             ctx() + " (copying keys back)");
-  if (dv.Current() != values.data())
-    KF_CUDA(cudaMemcpyAsync(values.data(), dv.Current(), bytes, cudaMemcpyDeviceToDevice),
+  if (dv.Current() != values)
+    KF_CUDA(cudaMemcpyAsync(values, dv.Current(), bytes, cudaMemcpyDeviceToDevice),
             ctx() + " (copying values back)");
 }
 

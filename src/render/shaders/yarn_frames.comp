@@ -4,7 +4,8 @@
 // central differences (one-sided at a chain's ends; a point on both its neighbours keeps the
 // last tangent); the ring's first direction r carried along by the double reflection (Wang et
 // al. 2008), back to unit and normal to the tangent each step; b = t x r; the radius swells and
-// the shade darkens with the saturation s: radius (1 + swell s), 1 - alpha sqrt(s).
+// the shade darkens with the saturation s: radius (1 + swell s), 1 - alpha sqrt(s); b's w is
+// the arc length from the chain's start (the lumislice's twist, VolumeYarns).
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) writeonly buffer CentreRadius { vec4 centre_radius[]; };
 layout(std430, binding = 1) writeonly buffer RShade { vec4 r_shade[]; };
@@ -28,7 +29,10 @@ void main() {
   vec3 t_last = tangent(a, a, b, vec3(1.0, 0.0, 0.0));
   const vec3 axis = abs(t_last.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
   vec3 r = normalize(cross(t_last, axis));
+  float arc = 0.0;
   for (uint i = a; i <= b; ++i) {
+    if (i > a)
+      arc += length(point[i].xyz - point[i - 1u].xyz);
     const vec3 t = i == a ? t_last : tangent(i, a, b, t_last);
     if (i > a) { // double reflection: from the frame at i - 1 to the one at i
       const vec3 v1 = point[i].xyz - point[i - 1u].xyz;
@@ -46,7 +50,7 @@ void main() {
     const float s = clamp(point[i].w, 0.0, 1.0);
     centre_radius[i] = vec4(point[i].xyz, radius * (1.0 + swell * s));
     r_shade[i] = vec4(r, 1.0 - darkening * sqrt(s));
-    b_out[i] = vec4(cross(t, r), 0.0);
+    b_out[i] = vec4(cross(t, r), arc);
     t_last = t;
   }
 }

@@ -1,0 +1,233 @@
+// The volumetric yarns (render/VolumeYarns, P6): slices drawn back to front (their distances
+// from the eye, read back in drawing order, never grow; the CUDA sort through CUDA-GL interop
+// gives the host sort's order); a straight yarn seen side on: every pixel's opacity is the
+// Beer-Lambert quadrature over the slices the pixel's ray crosses, computed here from the
+// lumislice's texture, its twist and the slices' planes; and the wet yarn's darkening measured
+// on the picture, 1 - alpha sqrt(s).
+#include "kernels/exec/Backend.hpp"
+#include "render/EglContext.hpp"
+#include "render/SnapshotRender.hpp"
+#include "render/TubeRenderer.hpp"
+#include "render/VolumeYarns.hpp"
+#include "render/YarnTubes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <glm/glm.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+using namespace kf;
+
+namespace {
+
+/// Straight yarns along x from x0 to -x0 at the points (y, z), 41 points each, saturation s.
+io::Frame straight_yarns(const std::vector<glm::vec2>& at, float x0, float s) {
+  std::vector<float> x, sat;
+  std::vector<std::uint32_t> seg;
+  const int n = 41;
+  for (const glm::vec2& p : at)
+    for (int i = 0; i < n; ++i) {
+      const auto k = std::uint32_t(x.size() / 3);
+      x.insert(x.end(), {x0 - 2 * x0 * float(i) / float(n - 1), p.x, p.y});
+      seg.insert(seg.end(), {k, i + 1 < n ? k + 1 : k});
+      sat.push_back(s);
+    }
+  io::Frame f;
+  f.phases.push_back({"yarn",
+                      {io::Field::from("position", x, 3), io::Field::from("segment", seg, 2),
+                       io::Field::from("saturation", sat, 1)}});
+  return f;
+}
+
+render::YarnPolylines helix() {
+  render::YarnPolylines y;
+  for (std::uint32_t i = 0; i < 400; ++i) {
+    const double a = 0.05 * i;
+    y.x.push_back({0.1 * std::cos(a), 0.1 * std::sin(a), 0.004 * a});
+    y.segment.push_back({i, i + 1 < 400 ? i + 1 : i});
+    y.s.push_back(0.0);
+  }
+  return y;
+}
+
+/// The ray through pixel (col, row) (row 0 at the top): origin and unit direction.
+std::pair<glm::dvec3, glm::dvec3> pixel_ray(const render::Camera& cam, int w, int h, int col,
+                                            int row) {
+  const glm::dmat4 inv = glm::inverse(glm::dmat4(cam.projection(double(w) / h) * cam.view()));
+  const double x = (col + 0.5) / w * 2 - 1, y = 1 - (row + 0.5) / h * 2;
+  glm::dvec4 a = inv * glm::dvec4(x, y, -1, 1), b = inv * glm::dvec4(x, y, 1, 1);
+  a /= a.w;
+  b /= b.w;
+  return {glm::dvec3(a), glm::normalize(glm::dvec3(b - a))};
+}
+
+} // namespace
+
+TEST(RenderVolumeYarn, SlicesAreDrawnBackToFront) {
+  render::EglContext context;
+  render::TubeRenderer tubes;
+  render::YarnStyle st;
+  st.radius = 0.01;
+  tubes.build(render::yarn_points(helix()), st);
+  render::Camera cam;
+  cam.eye = {0.35, -0.35, 0.3};
+  cam.target = {0, 0, 0.04};
+  const auto view = render::ViewMatrices::of(cam, 4.0 / 3.0);
+  render::VolumeYarns volume({}, false);
+  volume.order(tubes, view, st.radius);
+  const std::vector<float> d = volume.drawn_distances();
+  ASSERT_EQ(d.size(), 399u * 4u);
+  for (std::size_t q = 1; q < d.size(); ++q)
+    ASSERT_LE(d[q], d[q - 1]) << "slice " << q << " drawn after a nearer one";
+  // The slices lie about the yarn: between the nearest and farthest point of the helix's tube.
+  double lo = 1e9, hi = 0;
+  for (const glm::dvec3& x : helix().x) {
+    lo = std::min(lo, glm::length(x - cam.eye));
+    hi = std::max(hi, glm::length(x - cam.eye));
+  }
+  const double reach = st.radius * volume.lumislice().spec.reach();
+  EXPECT_GE(d.back(), lo - reach);
+  EXPECT_LE(d.front(), hi + reach);
+}
+
+TEST(RenderVolumeYarn, TheGpusSortIsTheHostsOrder) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device: the host's sort is the only one here";
+  const int device = exec::cuda_select_device(0);
+  render::EglContext context(device);
+  if (context.info().software)
+    GTEST_SKIP() << "the GL context is not the GPU's";
+  render::TubeRenderer tubes;
+  render::YarnStyle st;
+  st.radius = 0.01;
+  tubes.build(render::yarn_points(helix()), st);
+  render::Camera cam;
+  cam.eye = {0.35, -0.35, 0.3};
+  const auto view = render::ViewMatrices::of(cam, 4.0 / 3.0);
+  render::VolumeYarns host({}, false), gpu({}, true);
+  ASSERT_TRUE(gpu.sorts_on_cuda());
+  host.order(tubes, view, st.radius);
+  gpu.order(tubes, view, st.radius);
+  EXPECT_EQ(gpu.drawn_distances(), host.drawn_distances());
+}
+
+TEST(RenderVolumeYarn, ASideViewsOpacityIsTheSlicesBeerLambert) {
+  // White yarn, black background, ambient light only: a pixel's value is sum_k u_k a_k prod_(j
+  // nearer) (1 - a_j) over the slices its ray crosses, a_k = 1 - exp(-sigma d_k path_k), u_k
+  // the ambient light's share at the slice's point (the texture's last layer); the yarn close
+  // enough that a texel covers more than a pixel (the texture's first level is drawn).
+  const double radius = 0.03;
+  const float x0 = -0.2f;
+  const io::Frame f = straight_yarns({{0.0f, 0.0f}}, x0, 0.0f);
+  render::SnapshotStyle style;
+  style.width = 320;
+  style.height = 240;
+  style.yarn_radius = radius;
+  style.knit = {1, 1, 1, 1};
+  style.background = {0, 0, 0, 1};
+  style.lighting.ambient = 1.0f;
+  render::SnapshotRenderer r(style);
+  render::Camera cam;
+  cam.eye = {0, -0.4, 0};
+  cam.target = {0, 0, 0};
+  cam.up = {0, 0, 1};
+  const io::RgbaImage img = r.draw(f, cam);
+  // The reference from the texture as GL holds it (8 bits a texel), sampled bilinearly.
+  render::Lumislice s = render::make_lumislice(style.lumislice);
+  for (auto* field : {&s.density, &s.ambient})
+    for (float& d : *field)
+      d = std::round(255 * d) / 255;
+  const double reach = s.spec.reach(), twist = 2 * M_PI / (s.spec.twist_pitch * radius);
+  const int slices = style.yarn_slices;
+  // The frame along x: r = +z, b = -y (yarn_frames' first normal); the eye looks along +y, so
+  // the slices are the stack normal to b, at y = -reach R o_j.
+  int compared = 0, worst = 0, opaque = 0;
+  double sum = 0;
+  for (int row = 0; row < style.height; ++row)
+    for (int col = 0; col < style.width; ++col) {
+      const auto [eye, dir] = pixel_ray(cam, style.width, style.height, col, row);
+      double transmitted = 1, value = 0;
+      bool inside = true;
+      for (int j = slices - 1; j >= 0; --j) { // front to back: o_j = 0.75 is the nearest
+
+        const double o = -1 + (2.0 * j + 1) / slices;
+        const double t = (-reach * radius * o - eye.y) / dir.y;
+        const glm::dvec3 p = eye + t * dir;
+        if (p.x < x0 + 0.05 || p.x > -x0 - 0.05) // away from the yarn's ends
+          inside = false;
+        const double lx = p.z / (reach * radius), ly = o, angle = twist * (p.x - x0);
+        const double c = std::cos(angle), sn = std::sin(angle);
+        const double qx = c * lx + sn * ly, qy = -sn * lx + c * ly;
+        const double d = std::abs(lx) > 1 ? 0 : s.density_at(float(qx * reach), float(qy * reach));
+        const double u = s.at(s.ambient.data(), float(qx * reach), float(qy * reach), 1);
+        const double path = 2 * reach / slices / std::max(std::abs(dir.y), 0.2);
+        const double a = 1 - std::exp(-s.spec.extinction * d * path);
+        if (a >= 1.0 / 512) {
+          value += transmitted * a * u;
+          transmitted *= 1 - a;
+        }
+      }
+      if (!inside)
+        continue;
+      const int want = int(std::lround(255 * value));
+      const int got = img.pixels[4 * (std::size_t(row) * style.width + col)];
+      worst = std::max(worst, std::abs(got - want));
+      sum += std::abs(got - want);
+      opaque += transmitted < 0.02;
+      ++compared;
+    }
+  std::printf("side view: %d pixels, %d nearly opaque; off by %d levels at worst, %.3f on "
+              "average\n",
+              compared, opaque, worst, sum / compared);
+  ASSERT_GT(compared, 10000);
+  EXPECT_GT(opaque, 1000) << "the plies' core hides what is behind it";
+  // 8-bit texels, GL's bilinear weights (8 bits of a texel on llvmpipe) and the value's 8-bit
+  // rounding; where a fibre's edge crosses a pixel, the weights' rounding moves a slice's
+  // density by up to a level of the texel's change (measured 3 levels at worst, 0.09 on
+  // average).
+  EXPECT_LE(worst, 4);
+  EXPECT_LT(sum / compared, 0.15);
+}
+
+TEST(RenderVolumeYarn, AWetYarnIsDarkerByOneMinusAlphaRootS) {
+  // Parallel yarns seen from above, lit, on black: the picture's total luminance at saturation
+  // s over that of dry yarns as thick as the wet ones swell (radius (1 + swell s)): the same
+  // fibres at the same places, only their colour darkened.
+  std::vector<glm::vec2> rows;
+  for (int k = -4; k <= 4; ++k)
+    rows.push_back({0.03f * float(k), 0.0f});
+  const double radius = 0.008, swell = render::YarnStyle{}.swell;
+  render::Camera cam;
+  cam.eye = {0, 0, 0.5};
+  cam.target = {0, 0, 0};
+  cam.up = {0, 1, 0};
+  auto luminance = [&](double r, float s) {
+    render::SnapshotStyle style;
+    style.width = 320;
+    style.height = 240;
+    style.yarn_radius = r;
+    style.background = {0, 0, 0, 1};
+    render::SnapshotRenderer renderer(style);
+    const io::RgbaImage img = renderer.draw(straight_yarns(rows, -0.1f, s), cam);
+    double sum = 0;
+    std::size_t lit = 0;
+    for (std::size_t k = 0; k < img.pixels.size(); k += 4) {
+      const std::uint8_t* p = &img.pixels[k];
+      sum += 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2];
+      lit += p[0] > 0;
+    }
+    EXPECT_GT(lit, 5000u) << "the yarns cover too little of the picture";
+    return sum;
+  };
+  for (float s : {0.25f, 1.0f}) {
+    const double ratio = luminance(radius, s) / luminance(radius * (1 + swell * s), 0.0f);
+    const double want = 1 - render::SnapshotStyle{}.wet_darkening * std::sqrt(double(s));
+    std::printf("s = %.2f: luminance ratio %.4f, 1 - alpha sqrt(s) = %.4f\n", s, ratio, want);
+    // The 2%: the twist's pitch is the dry radius's, so the thicker dry yarns' fibres turn
+    // at other places along them (measured 0.7%; the 8-bit rounding is far under it).
+    EXPECT_NEAR(ratio, want, 0.02 * want);
+  }
+}
