@@ -118,7 +118,9 @@ TEST(RenderVolumeYarn, ASideViewsOpacityIsTheSlicesBeerLambert) {
   // White yarn, black background, ambient light only: a pixel's value is sum_k u_k a_k prod_(j
   // nearer) (1 - a_j) over the slices its ray crosses, a_k = 1 - exp(-sigma d_k path_k), u_k
   // the ambient light's share at the slice's point (the texture's last layer); the yarn close
-  // enough that a texel covers more than a pixel (the texture's first level is drawn).
+  // enough that the texture is drawn from its first level: a pixel spans 0.5 texel across the
+  // yarn, and the twist turns the section by under 0.6 texel a pixel at its rim (at 0.4 m the
+  // two summed past a texel at some pixels, where GPUs took the second level: 33 levels off).
   const double radius = 0.03;
   const float x0 = -0.2f;
   const io::Frame f = straight_yarns({{0.0f, 0.0f}}, x0, 0.0f);
@@ -131,7 +133,7 @@ TEST(RenderVolumeYarn, ASideViewsOpacityIsTheSlicesBeerLambert) {
   style.lighting.ambient = 1.0f;
   render::SnapshotRenderer r(style);
   render::Camera cam;
-  cam.eye = {0, -0.4, 0};
+  cam.eye = {0, -0.25, 0};
   cam.target = {0, 0, 0};
   cam.up = {0, 0, 1};
   const io::RgbaImage img = r.draw(f, cam);
@@ -186,10 +188,10 @@ TEST(RenderVolumeYarn, ASideViewsOpacityIsTheSlicesBeerLambert) {
   EXPECT_GT(opaque, 1000) << "the plies' core hides what is behind it";
   // 8-bit texels, GL's bilinear weights (8 bits of a texel on llvmpipe) and the value's 8-bit
   // rounding; where a fibre's edge crosses a pixel, the weights' rounding moves a slice's
-  // density by up to a level of the texel's change (measured 3 levels at worst, 0.09 on
-  // average).
+  // density by up to a level of the texel's change (measured 3 levels at worst, 0.16 on
+  // average, llvmpipe).
   EXPECT_LE(worst, 4);
-  EXPECT_LT(sum / compared, 0.15);
+  EXPECT_LT(sum / compared, 0.25);
 }
 
 TEST(RenderVolumeYarn, AWetYarnIsDarkerByOneMinusAlphaRootS) {

@@ -547,7 +547,7 @@ void SnapshotRenderer::draw_yarn_slices(const ViewMatrices& view, const Lighting
   glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
   tubes_.draw(style_.knit, view, Lighting{}, false, true);
   glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
-  timer_.mark("yarns");
+  timer_.mark("yarn slices");
 }
 
 void SnapshotRenderer::render(const io::Frame& frame, const Camera& camera, const Region* only) {
