@@ -53,6 +53,20 @@ render::YarnPolylines helix() {
   return y;
 }
 
+/// The helix's tubes (radius 1 cm) built on the GPU, and the camera looking at it.
+struct HelixScene {
+  render::TubeRenderer tubes;
+  render::YarnStyle style;
+  render::Camera camera;
+  HelixScene() {
+    style.radius = 0.01;
+    tubes.build(render::yarn_points(helix()), style);
+    camera.eye = {0.35, -0.35, 0.3};
+    camera.target = {0, 0, 0.04};
+  }
+  render::ViewMatrices view() const { return render::ViewMatrices::of(camera, 4.0 / 3.0); }
+};
+
 /// The ray through pixel (col, row) (row 0 at the top): origin and unit direction.
 std::pair<glm::dvec3, glm::dvec3> pixel_ray(const render::Camera& cam, int w, int h, int col,
                                             int row) {
@@ -68,16 +82,10 @@ std::pair<glm::dvec3, glm::dvec3> pixel_ray(const render::Camera& cam, int w, in
 
 TEST(RenderVolumeYarn, SlicesAreDrawnBackToFront) {
   render::EglContext context;
-  render::TubeRenderer tubes;
-  render::YarnStyle st;
-  st.radius = 0.01;
-  tubes.build(render::yarn_points(helix()), st);
-  render::Camera cam;
-  cam.eye = {0.35, -0.35, 0.3};
-  cam.target = {0, 0, 0.04};
-  const auto view = render::ViewMatrices::of(cam, 4.0 / 3.0);
+  const HelixScene h;
+  const render::Camera& cam = h.camera;
   render::VolumeYarns volume({}, false);
-  volume.order(tubes, view, st.radius);
+  volume.order(h.tubes, h.view(), h.style.radius);
   const std::vector<float> d = volume.drawn_distances();
   ASSERT_EQ(d.size(), 399u * 4u);
   for (std::size_t q = 1; q < d.size(); ++q)
@@ -88,7 +96,7 @@ TEST(RenderVolumeYarn, SlicesAreDrawnBackToFront) {
     lo = std::min(lo, glm::length(x - cam.eye));
     hi = std::max(hi, glm::length(x - cam.eye));
   }
-  const double reach = st.radius * volume.lumislice().spec.reach();
+  const double reach = h.style.radius * volume.lumislice().spec.reach();
   EXPECT_GE(d.back(), lo - reach);
   EXPECT_LE(d.front(), hi + reach);
 }
@@ -100,17 +108,11 @@ TEST(RenderVolumeYarn, TheGpusSortIsTheHostsOrder) {
   render::EglContext context(device);
   if (context.info().software)
     GTEST_SKIP() << "the GL context is not the GPU's";
-  render::TubeRenderer tubes;
-  render::YarnStyle st;
-  st.radius = 0.01;
-  tubes.build(render::yarn_points(helix()), st);
-  render::Camera cam;
-  cam.eye = {0.35, -0.35, 0.3};
-  const auto view = render::ViewMatrices::of(cam, 4.0 / 3.0);
+  const HelixScene h;
   render::VolumeYarns host({}, false), gpu({}, true);
   ASSERT_TRUE(gpu.sorts_on_cuda());
-  host.order(tubes, view, st.radius);
-  gpu.order(tubes, view, st.radius);
+  host.order(h.tubes, h.view(), h.style.radius);
+  gpu.order(h.tubes, h.view(), h.style.radius);
   EXPECT_EQ(gpu.drawn_distances(), host.drawn_distances());
 }
 
