@@ -172,6 +172,7 @@ render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
   st.lumislice.plies = r.yarn_plies;
   st.lumislice.fuzz = r.yarn_fuzz;
   st.yarn_slices = r.yarn_slices;
+  st.yarn_detail_pixels = r.yarn_detail_pixels;
   st.shadows = r.shadows;
   st.floor = r.floor;
   st.fluid_reflection = r.reflections;

@@ -27,6 +27,9 @@ echo "== the same, the water opaque (refraction off: no layers, no resolve), fra
 echo "== the same, the yarns as lit tubes (no lumislice: no slices to order and blend), frames 5 and $last"
 "$exe" render "$work/pour" --width 1920 --height 1080 --no-film --frames "5:$last:$((last > 5 ? last - 5 : 1))" \
   --set render.yarn_volume=false --out "$work/tubes" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'
+echo "== the same, every yarn segment its 4 slices (no level of detail), frames 5 and $last"
+"$exe" render "$work/pour" --width 1920 --height 1080 --no-film --frames "5:$last:$((last > 5 ? last - 5 : 1))" \
+  --set render.yarn_detail_pixels=0 --out "$work/slices" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'
 echo "== the same, fluid as spheres (the preview's look), frames 5 and $last"
 "$exe" render "$work/pour" --width 1920 --height 1080 --no-film --fluid spheres \
   --frames "5:$last:$((last > 5 ? last - 5 : 1))" --out "$work/spheres" | grep frame_ | sed 's/^render: [^ ]*\(frame_[0-9]*\)/\1/'

@@ -242,6 +242,9 @@ struct Scene {
     // lit tubes.
     bool yarn_volume = true;
     int yarn_plies = 3, yarn_fuzz = 40, yarn_slices = 4;
+    // A piece of yarn under yarn_detail_pixels on screen: one quad, the lumislice seen whole,
+    // short straight runs of segments merged; 0: every segment its yarn_slices.
+    double yarn_detail_pixels = 12;
     bool shadows = true;     // cascaded shadow maps of the light
     bool floor = true;       // a floor at the domain's bottom, receiving the shadows
     bool reflections = true; // the fluid's surface mirrors a sky (Fresnel)

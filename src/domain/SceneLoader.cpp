@@ -582,6 +582,7 @@ void read_render(const TableReader& t, Scene::Render& r) {
                 "yarn_plies",
                 "yarn_fuzz",
                 "yarn_slices",
+                "yarn_detail_pixels",
                 "shadows",
                 "floor",
                 "reflections",
@@ -618,6 +619,7 @@ void read_render(const TableReader& t, Scene::Render& r) {
   r.yarn_plies = read_count(t, "yarn_plies", r.yarn_plies, 1, 16);
   r.yarn_fuzz = read_count(t, "yarn_fuzz", r.yarn_fuzz, 0, 10000);
   r.yarn_slices = read_count(t, "yarn_slices", r.yarn_slices, 1, 4);
+  t.read("yarn_detail_pixels", r.yarn_detail_pixels, Range::at_least(0));
   t.read("shadows", r.shadows);
   t.read("floor", r.floor);
   t.read("reflections", r.reflections);

@@ -36,9 +36,9 @@ Lumislice make_lumislice(const LumisliceSpec& spec) {
   if (spec.plies < 1 || spec.fibres_per_ply < 1 || !(spec.ply_radius > 0) ||
       !(spec.fibre_radius > 0) || spec.texels < 8 || spec.light_directions < 1 || spec.fuzz < 0 ||
       !(spec.fuzz_reach >= 0) || !(spec.extinction >= 0) || !(spec.ply_offset >= 0) ||
-      !(spec.twist_pitch > 0))
+      !(spec.twist_pitch > 0) || spec.view_angles < 1)
     throw Error("render: a lumislice needs plies, fibres, radii > 0, a twist pitch > 0, at least "
-                "8 texels and 1 light direction");
+                "8 texels, 1 light direction and 1 view angle");
   Lumislice s;
   s.spec = spec;
   std::mt19937 g(spec.seed);
@@ -110,6 +110,38 @@ Lumislice make_lumislice(const LumisliceSpec& spec) {
   for (int d = 0; d < dirs; ++d)
     for (std::size_t t = 0; t < s.ambient.size(); ++t)
       s.ambient[t] += s.light[std::size_t(d) * n * n + t] / float(dirs);
+  // Seen whole: each line marched front to back across the square's diagonal.
+  const int angles = spec.view_angles;
+  s.seen_alpha.assign(std::size_t(angles) * n, 0.0f);
+  s.seen_ambient.assign(std::size_t(angles) * n, 0.0f);
+  s.seen_light.assign(std::size_t(dirs) * angles * n, 0.0f);
+  const int across = int(std::ceil(2 * std::sqrt(2.0) * reach / step));
+#pragma omp parallel for collapse(2) schedule(static)
+  for (int a = 0; a < angles; ++a)
+    for (int i = 0; i < n; ++i) {
+      const double phi = 2 * M_PI * a / angles;
+      const float ux = float(std::cos(phi)), uy = float(std::sin(phi));
+      const float x = float(-reach + (i + 0.5) * h);
+      double through = 1, ambient = 0;
+      std::vector<double> lit(std::size_t(dirs), 0.0);
+      for (int k = 0; k < across; ++k) {
+        const float t = float(-std::sqrt(2.0) * reach) + (float(k) + 0.5f) * step;
+        const float px = -x * uy + t * ux, py = x * ux + t * uy;
+        const double d = s.density_at(px, py);
+        if (d <= 0)
+          continue;
+        const double w = through * (1 - std::exp(-spec.extinction * d * step));
+        ambient += w * s.at(s.ambient.data(), px, py, 1);
+        for (int l = 0; l < dirs; ++l)
+          lit[std::size_t(l)] += w * s.at(&s.light[std::size_t(l) * n * n], px, py, 1);
+        through -= w;
+      }
+      const std::size_t at = std::size_t(a) * n + i;
+      s.seen_alpha[at] = float(1 - through);
+      s.seen_ambient[at] = float(ambient);
+      for (int l = 0; l < dirs; ++l)
+        s.seen_light[std::size_t(l) * angles * n + at] = float(lit[std::size_t(l)]);
+    }
   return s;
 }
 

@@ -537,8 +537,9 @@ void SnapshotRenderer::draw_yarns_over(const io::Frame& frame, const Camera& cam
 
 void SnapshotRenderer::draw_yarn_slices(const ViewMatrices& view, const Lighting& lighting) {
   if (!volume_)
-    volume_ = std::make_unique<VolumeYarns>(style_.lumislice, sort_on_cuda_, style_.yarn_slices);
-  volume_->order(tubes_, view, *yarn_r_, lighting);
+    volume_ = std::make_unique<VolumeYarns>(style_.lumislice, sort_on_cuda_, style_.yarn_slices,
+                                            style_.yarn_detail_pixels);
+  volume_->order(tubes_, view, *yarn_r_, lighting, style_.height);
   timer_.mark("yarn order");
   // The slices over the opaque scene, back to front; then the yarns' depth, their tubes' (the
   // core the fibres nearly hide), for what is drawn after (the water) and the composite.

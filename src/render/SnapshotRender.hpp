@@ -73,7 +73,11 @@ struct SnapshotStyle {
   // yarns' geometry on the GPU.
   bool knit_volume = true;
   LumisliceSpec lumislice;
-  int yarn_slices = 4; // quads a segment, 1..4
+  int yarn_slices = 4; // quads a segment, 1..4: the most
+  // The level of detail: a piece of yarn under yarn_detail_pixels on screen is one quad facing
+  // the eye, shaded from the lumislice seen whole, short straight runs of segments merged; 0:
+  // every segment its yarn_slices.
+  double yarn_detail_pixels = 12;
   // The surface's field and marching cubes as GL compute passes (SurfaceCompute) and the tubes'
   // rings in a vertex shader (TubeRenderer), llvmpipe running them where there is no GPU; off,
   // both built on the host (FluidSurface, yarn_tubes: the references) and uploaded.
