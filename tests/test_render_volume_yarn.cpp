@@ -149,6 +149,63 @@ TEST(RenderVolumeYarn, TheGpusSortIsTheHostsOrder) {
   EXPECT_EQ(gpu.drawn_distances(), host.drawn_distances());
 }
 
+namespace {
+
+/// A straight white yarn of radius 3 cm along x from x0 to -x0, seen side on from 0.25 m (320 x
+/// 240, black background, ambient light only), and each pixel's value against a reference
+/// along its ray: (value, transmitted, whether the ray stays away from the yarn's ends).
+struct SideView {
+  static constexpr double radius = 0.03;
+  static constexpr float x0 = -0.2f;
+  render::SnapshotStyle style;
+  render::Camera cam;
+  SideView() {
+    style.width = 320;
+    style.height = 240;
+    style.yarn_radius = radius;
+    style.knit = {1, 1, 1, 1};
+    style.background = {0, 0, 0, 1};
+    style.lighting.ambient = 1.0f;
+    cam.eye = {0, -0.25, 0};
+    cam.target = {0, 0, 0};
+    cam.up = {0, 0, 1};
+  }
+  struct Ray {
+    double value = 0, transmitted = 1;
+    bool inside = true;
+  };
+  struct Agreement {
+    int compared = 0, worst = 0, opaque = 0;
+    double mean = 0;
+  };
+  template <typename Reference>
+  Agreement compare(const char* name, Reference&& along) const {
+    render::SnapshotRenderer r(style);
+    const io::RgbaImage img = r.draw(straight_yarns({{0.0f, 0.0f}}, x0, 0.0f), cam);
+    Agreement g;
+    double sum = 0;
+    for (int row = 0; row < style.height; ++row)
+      for (int col = 0; col < style.width; ++col) {
+        const auto [eye, dir] = pixel_ray(cam, style.width, style.height, col, row);
+        const Ray ray = along(eye, dir);
+        if (!ray.inside)
+          continue;
+        const int want = int(std::lround(255 * ray.value));
+        const int got = img.pixels[4 * (std::size_t(row) * style.width + col)];
+        g.worst = std::max(g.worst, std::abs(got - want));
+        sum += std::abs(got - want);
+        g.opaque += ray.transmitted < 0.02;
+        ++g.compared;
+      }
+    g.mean = sum / std::max(g.compared, 1);
+    std::printf("%s: %d pixels, %d nearly opaque; off by %d levels at worst, %.3f on average\n",
+                name, g.compared, g.opaque, g.worst, g.mean);
+    return g;
+  }
+};
+
+} // namespace
+
 TEST(RenderVolumeYarn, ASideViewsOpacityIsTheSlicesBeerLambert) {
   // White yarn, black background, ambient light only: a pixel's value is sum_k u_k a_k prod_(j
   // nearer) (1 - a_j) over the slices its ray crosses, a_k = 1 - exp(-sigma d_k path_k), u_k
@@ -156,78 +213,48 @@ TEST(RenderVolumeYarn, ASideViewsOpacityIsTheSlicesBeerLambert) {
   // enough that the texture is drawn from its first level: a pixel spans 0.5 texel across the
   // yarn, and the twist turns the section by under 0.6 texel a pixel at its rim (at 0.4 m the
   // two summed past a texel at some pixels, where GPUs took the second level: 33 levels off).
-  const double radius = 0.03;
-  const float x0 = -0.2f;
-  const io::Frame f = straight_yarns({{0.0f, 0.0f}}, x0, 0.0f);
-  render::SnapshotStyle style;
-  style.width = 320;
-  style.height = 240;
-  style.yarn_radius = radius;
-  style.yarn_detail_pixels = 0; // every segment the 4 slices the reference crosses
-  style.knit = {1, 1, 1, 1};
-  style.background = {0, 0, 0, 1};
-  style.lighting.ambient = 1.0f;
-  render::SnapshotRenderer r(style);
-  render::Camera cam;
-  cam.eye = {0, -0.25, 0};
-  cam.target = {0, 0, 0};
-  cam.up = {0, 0, 1};
-  const io::RgbaImage img = r.draw(f, cam);
+  SideView view;
+  view.style.yarn_detail_pixels = 0; // every segment the 4 slices the reference crosses
+  const double radius = SideView::radius, x0 = SideView::x0;
   // The reference from the texture as GL holds it (8 bits a texel), sampled bilinearly.
-  render::Lumislice s = render::make_lumislice(style.lumislice);
+  render::Lumislice s = render::make_lumislice(view.style.lumislice);
   for (auto* field : {&s.density, &s.ambient})
     for (float& d : *field)
       d = std::round(255 * d) / 255;
   const double reach = s.spec.reach(), twist = 2 * M_PI / (s.spec.twist_pitch * radius);
-  const int slices = style.yarn_slices;
+  const int slices = view.style.yarn_slices;
   // The frame along x: r = +z, b = -y (yarn_frames' first normal); the eye looks along +y, so
   // the slices are the stack normal to b, at y = -reach R o_j.
-  int compared = 0, worst = 0, opaque = 0;
-  double sum = 0;
-  for (int row = 0; row < style.height; ++row)
-    for (int col = 0; col < style.width; ++col) {
-      const auto [eye, dir] = pixel_ray(cam, style.width, style.height, col, row);
-      double transmitted = 1, value = 0;
-      bool inside = true;
-      for (int j = slices - 1; j >= 0; --j) { // front to back: o_j = 0.75 is the nearest
-
-        const double o = -1 + (2.0 * j + 1) / slices;
-        const double t = (-reach * radius * o - eye.y) / dir.y;
-        const glm::dvec3 p = eye + t * dir;
-        if (p.x < x0 + 0.05 || p.x > -x0 - 0.05) // away from the yarn's ends
-          inside = false;
-        const double lx = p.z / (reach * radius), ly = o, angle = twist * (p.x - x0);
-        const double c = std::cos(angle), sn = std::sin(angle);
-        const double qx = c * lx + sn * ly, qy = -sn * lx + c * ly;
-        const double d = std::abs(lx) > 1 ? 0 : s.density_at(float(qx * reach), float(qy * reach));
-        const double u = s.at(s.ambient.data(), float(qx * reach), float(qy * reach), 1);
-        const double path = 2 * reach / slices / std::max(std::abs(dir.y), 0.2);
-        const double a = 1 - std::exp(-s.spec.extinction * d * path);
-        if (a >= 1.0 / 512) {
-          value += transmitted * a * u;
-          transmitted *= 1 - a;
-        }
+  const auto g = view.compare("side view", [&](const glm::dvec3& eye, const glm::dvec3& dir) {
+    SideView::Ray ray;
+    for (int j = slices - 1; j >= 0; --j) { // front to back: o_j = 0.75 is the nearest
+      const double o = -1 + (2.0 * j + 1) / slices;
+      const double t = (-reach * radius * o - eye.y) / dir.y;
+      const glm::dvec3 p = eye + t * dir;
+      if (p.x < x0 + 0.05 || p.x > -x0 - 0.05) // away from the yarn's ends
+        ray.inside = false;
+      const double lx = p.z / (reach * radius), ly = o, angle = twist * (p.x - x0);
+      const double c = std::cos(angle), sn = std::sin(angle);
+      const double qx = c * lx + sn * ly, qy = -sn * lx + c * ly;
+      const double d = std::abs(lx) > 1 ? 0 : s.density_at(float(qx * reach), float(qy * reach));
+      const double u = s.at(s.ambient.data(), float(qx * reach), float(qy * reach), 1);
+      const double path = 2 * reach / slices / std::max(std::abs(dir.y), 0.2);
+      const double a = 1 - std::exp(-s.spec.extinction * d * path);
+      if (a >= 1.0 / 512) {
+        ray.value += ray.transmitted * a * u;
+        ray.transmitted *= 1 - a;
       }
-      if (!inside)
-        continue;
-      const int want = int(std::lround(255 * value));
-      const int got = img.pixels[4 * (std::size_t(row) * style.width + col)];
-      worst = std::max(worst, std::abs(got - want));
-      sum += std::abs(got - want);
-      opaque += transmitted < 0.02;
-      ++compared;
     }
-  std::printf("side view: %d pixels, %d nearly opaque; off by %d levels at worst, %.3f on "
-              "average\n",
-              compared, opaque, worst, sum / compared);
-  ASSERT_GT(compared, 10000);
-  EXPECT_GT(opaque, 1000) << "the plies' core hides what is behind it";
+    return ray;
+  });
+  ASSERT_GT(g.compared, 10000);
+  EXPECT_GT(g.opaque, 1000) << "the plies' core hides what is behind it";
   // 8-bit texels, GL's bilinear weights (8 bits of a texel on llvmpipe) and the value's 8-bit
   // rounding; where a fibre's edge crosses a pixel, the weights' rounding moves a slice's
   // density by up to a level of the texel's change (measured 3 levels at worst, 0.16 on
   // average, llvmpipe).
-  EXPECT_LE(worst, 4);
-  EXPECT_LT(sum / compared, 0.25);
+  EXPECT_LE(g.worst, 4);
+  EXPECT_LT(g.mean, 0.25);
 }
 
 TEST(RenderVolumeYarn, ASideViewSeenWholeIsTheSectionsBeerLambert) {
@@ -239,66 +266,37 @@ TEST(RenderVolumeYarn, ASideViewSeenWholeIsTheSectionsBeerLambert) {
   // turn along it, which the table does not hold (the pitch of 8 R here: 7 levels off on
   // average, 12 at the picture's sides; why the level of detail takes it only where a yarn is
   // small on screen).
-  const double radius = 0.03;
-  const float x0 = -0.2f;
-  const io::Frame f = straight_yarns({{0.0f, 0.0f}}, x0, 0.0f);
-  render::SnapshotStyle style;
-  style.width = 320;
-  style.height = 240;
-  style.yarn_radius = radius;
-  style.yarn_detail_pixels = 1e6; // every piece seen whole
-  style.lumislice.twist_pitch = 1e6;
-  style.knit = {1, 1, 1, 1};
-  style.background = {0, 0, 0, 1};
-  style.lighting.ambient = 1.0f;
-  render::SnapshotRenderer r(style);
-  render::Camera cam;
-  cam.eye = {0, -0.25, 0};
-  cam.target = {0, 0, 0};
-  cam.up = {0, 0, 1};
-  const io::RgbaImage img = r.draw(f, cam);
-  const render::Lumislice s = render::make_lumislice(style.lumislice);
+  SideView view;
+  view.style.yarn_detail_pixels = 1e6; // every piece seen whole
+  view.style.lumislice.twist_pitch = 1e6;
+  const double radius = SideView::radius, x0 = SideView::x0;
+  const render::Lumislice s = render::make_lumislice(view.style.lumislice);
   const double reach = s.spec.reach(), twist = 2 * M_PI / (s.spec.twist_pitch * radius);
-  int compared = 0, worst = 0, opaque = 0;
-  double sum = 0;
-  for (int row = 0; row < style.height; ++row)
-    for (int col = 0; col < style.width; ++col) {
-      const auto [eye, dir] = pixel_ray(cam, style.width, style.height, col, row);
-      const double dt = radius / 64, t0 = (-reach * radius - eye.y) / dir.y,
-                   t1 = (reach * radius - eye.y) / dir.y;
-      double transmitted = 1, value = 0;
-      bool inside = true;
-      for (double t = t0 + 0.5 * dt; t < t1; t += dt) {
-        const glm::dvec3 p = eye + t * dir;
-        if (p.x < x0 + 0.05 || p.x > -x0 - 0.05)
-          inside = false;
-        const double lx = p.z / radius, ly = -p.y / radius, angle = twist * (p.x - x0);
-        const double c = std::cos(angle), sn = std::sin(angle);
-        const double qx = c * lx + sn * ly, qy = -sn * lx + c * ly;
-        const double a =
-            1 - std::exp(-s.spec.extinction * s.density_at(float(qx), float(qy)) * dt / radius);
-        value += transmitted * a * s.at(s.ambient.data(), float(qx), float(qy), 1);
-        transmitted *= 1 - a;
-      }
-      if (!inside)
-        continue;
-      const int want = int(std::lround(255 * value));
-      const int got = img.pixels[4 * (std::size_t(row) * style.width + col)];
-      worst = std::max(worst, std::abs(got - want));
-      sum += std::abs(got - want);
-      opaque += transmitted < 0.02;
-      ++compared;
+  const auto g = view.compare("seen whole", [&](const glm::dvec3& eye, const glm::dvec3& dir) {
+    SideView::Ray ray;
+    const double dt = radius / 64, t0 = (-reach * radius - eye.y) / dir.y,
+                 t1 = (reach * radius - eye.y) / dir.y;
+    for (double t = t0 + 0.5 * dt; t < t1; t += dt) {
+      const glm::dvec3 p = eye + t * dir;
+      if (p.x < x0 + 0.05 || p.x > -x0 - 0.05)
+        ray.inside = false;
+      const double lx = p.z / radius, ly = -p.y / radius, angle = twist * (p.x - x0);
+      const double c = std::cos(angle), sn = std::sin(angle);
+      const double qx = c * lx + sn * ly, qy = -sn * lx + c * ly;
+      const double a =
+          1 - std::exp(-s.spec.extinction * s.density_at(float(qx), float(qy)) * dt / radius);
+      ray.value += ray.transmitted * a * s.at(s.ambient.data(), float(qx), float(qy), 1);
+      ray.transmitted *= 1 - a;
     }
-  std::printf("seen whole: %d pixels, %d nearly opaque; off by %d levels at worst, %.3f on "
-              "average\n",
-              compared, opaque, worst, sum / compared);
-  ASSERT_GT(compared, 10000);
-  EXPECT_GT(opaque, 1000) << "the plies' core hides what is behind it";
+    return ray;
+  });
+  ASSERT_GT(g.compared, 10000);
+  EXPECT_GT(g.opaque, 1000) << "the plies' core hides what is behind it";
   // The table's 64 offsets and 256 angles, bilinear, at 8 bits, against exact offsets: a sharp
   // fibre's edge magnified 2.7 times (the yarn 170 pixels across) moves a pixel by up to a
   // texel's change (measured 21 levels at worst, 1.29 on average, llvmpipe).
-  EXPECT_LE(worst, 26);
-  EXPECT_LT(sum / compared, 1.5);
+  EXPECT_LE(g.worst, 26);
+  EXPECT_LT(g.mean, 1.5);
 }
 
 TEST(RenderVolumeYarn, AWetYarnIsDarkerByOneMinusAlphaRootS) {

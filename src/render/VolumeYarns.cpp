@@ -11,9 +11,43 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <initializer_list>
 #include <string>
 
 namespace kf::render {
+
+namespace {
+
+/// A mipmapped 2D texture array of 8-bit layers w x h, `fields` laid one after another (each a
+/// whole number of layers), values in [0, 1]; t repeats (periodic) or is clamped. Mipmapped: a
+/// yarn is often a few pixels wide, its fibres far under a pixel; the levels average them (their
+/// coverage, the light through them) instead of aliasing into noise.
+unsigned byte_layers(int w, int h, int layers,
+                     std::initializer_list<const std::vector<float>*> fields, bool periodic_t) {
+  std::vector<std::uint8_t> texels;
+  texels.reserve(std::size_t(layers) * w * h);
+  for (const std::vector<float>* f : fields)
+    for (float v : *f)
+      texels.push_back(std::uint8_t(std::lround(255 * std::clamp(v, 0.0f, 1.0f))));
+  if (texels.size() != std::size_t(layers) * w * h)
+    throw Error("render: the lumislice's layers do not fill " + std::to_string(layers) + " x " +
+                std::to_string(w) + " x " + std::to_string(h) + " texels");
+  unsigned t = 0;
+  glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &t);
+  const int levels = 1 + int(std::floor(std::log2(double(std::max(w, h)))));
+  glTextureStorage3D(t, levels, GL_R8, w, h, layers);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTextureSubImage3D(t, 0, 0, 0, 0, w, h, layers, GL_RED, GL_UNSIGNED_BYTE, texels.data());
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glGenerateTextureMipmap(t);
+  glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+  glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(t, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTextureParameteri(t, GL_TEXTURE_WRAP_T, periodic_t ? GL_REPEAT : GL_CLAMP_TO_EDGE);
+  return t;
+}
+
+} // namespace
 
 VolumeYarns::VolumeYarns(const LumisliceSpec& spec, bool sort_on_cuda, int slices,
                          double detail_pixels)
@@ -27,50 +61,12 @@ VolumeYarns::VolumeYarns(const LumisliceSpec& spec, bool sort_on_cuda, int slice
     throw Error("render: a volumetric yarn takes 1 to 4 slices a segment, not " +
                 std::to_string(slices));
   // The lumislice as a texture array of 8-bit layers: the density, the light a direction, the
-  // ambient light's share.
-  const int n = spec.texels, layers = 2 + spec.light_directions;
-  std::vector<std::uint8_t> texels(std::size_t(layers) * n * n);
-  auto to_byte = [](float v) { return std::uint8_t(std::lround(255 * std::clamp(v, 0.0f, 1.0f))); };
-  std::transform(slice_.density.begin(), slice_.density.end(), texels.begin(), to_byte);
-  std::transform(slice_.light.begin(), slice_.light.end(), texels.begin() + std::size_t(n) * n,
-                 to_byte);
-  std::transform(slice_.ambient.begin(), slice_.ambient.end(),
-                 texels.begin() + std::size_t(layers - 1) * n * n, to_byte);
-  glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &texture_);
-  // Mipmapped: a yarn is often a few pixels wide, its fibres far under a pixel; the levels
-  // average them (their coverage, the light through them) instead of aliasing into noise.
-  const int levels = 1 + int(std::floor(std::log2(double(n))));
-  glTextureStorage3D(texture_, levels, GL_R8, n, n, layers);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTextureSubImage3D(texture_, 0, 0, 0, 0, n, n, layers, GL_RED, GL_UNSIGNED_BYTE, texels.data());
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  glGenerateTextureMipmap(texture_);
-  glTextureParameteri(texture_, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-  glTextureParameteri(texture_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  glTextureParameteri(texture_, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-  glTextureParameteri(texture_, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-  // The section seen whole: offset along s, view angle along t (periodic); layers its opacity,
-  // the ambient light's and each direction's light.
-  const int angles = spec.view_angles;
-  std::vector<std::uint8_t> seen(std::size_t(layers) * n * angles);
-  const std::size_t plane = std::size_t(n) * angles;
-  std::transform(slice_.seen_alpha.begin(), slice_.seen_alpha.end(), seen.begin(), to_byte);
-  std::transform(slice_.seen_ambient.begin(), slice_.seen_ambient.end(), seen.begin() + plane,
-                 to_byte);
-  std::transform(slice_.seen_light.begin(), slice_.seen_light.end(), seen.begin() + 2 * plane,
-                 to_byte);
-  glCreateTextures(GL_TEXTURE_2D_ARRAY, 1, &seen_texture_);
-  const int seen_levels = 1 + int(std::floor(std::log2(double(std::max(n, angles)))));
-  glTextureStorage3D(seen_texture_, seen_levels, GL_R8, n, angles, layers);
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  glTextureSubImage3D(seen_texture_, 0, 0, 0, 0, n, angles, layers, GL_RED, GL_UNSIGNED_BYTE,
-                      seen.data());
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  glGenerateTextureMipmap(seen_texture_);
-  glTextureParameteri(seen_texture_, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-  glTextureParameteri(seen_texture_, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  glTextureParameteri(seen_texture_, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-  glTextureParameteri(seen_texture_, GL_TEXTURE_WRAP_T, GL_REPEAT);
+  // ambient light's share; and the section seen whole (offset along s, view angle along t,
+  // periodic): its opacity, the ambient light's and each direction's light.
+  const int n = spec.texels, layers = 2 + spec.light_directions, angles = spec.view_angles;
+  texture_ = byte_layers(n, n, layers, {&slice_.density, &slice_.light, &slice_.ambient}, false);
+  seen_texture_ = byte_layers(n, angles, layers,
+                              {&slice_.seen_alpha, &slice_.seen_ambient, &slice_.seen_light}, true);
   glCreateVertexArrays(1, &vao_); // no attributes: the vertex shader pulls its data
   // {count, instances, first, base instance}: the count added by the compute pass.
   const GLuint command[4] = {0, 1, 0, 0};
