@@ -1,5 +1,4 @@
 #include "RenderCommand.hpp"
-
 #include "comm/BinarySwap.hpp"
 #include "core/Error.hpp"
 #include "domain/MeshObstacle.hpp"
@@ -7,6 +6,7 @@
 #include "io/SnapshotReader.hpp"
 #include "kernels/exec/Backend.hpp"
 #include "render/DepthComposite.hpp"
+#include "render/FrameParts.hpp"
 #include "render/FrameSelection.hpp"
 #include "render/SnapshotRender.hpp"
 #include "render/SolidMeshes.hpp"
@@ -391,13 +391,16 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
           << " parts (a k-d split of its particles), composited by depth (binary swap)\n";
     for (std::size_t k = 0; k < chosen.size(); ++k) {
       const auto t0 = std::chrono::steady_clock::now();
-      const io::Frame f =
-          k == 0 ? first : io::read_snapshot(MPI_COMM_SELF, path_of(chosen[k]).string());
-      const auto regions = render::kd_split(
-          named(path_of(chosen[k]), [&] { return renderer.drawn_points(f); }), mpi.size());
+      // Each rank reads its share of the file and keeps its region's fluid (and a halo).
+      const render::FramePart part = named(path_of(chosen[k]), [&] {
+        return render::read_frame_part(mpi.comm(), path_of(chosen[k]).string(), renderer);
+      });
+      const io::Frame& f = part.frame;
+      const std::vector<render::Region>& regions = part.regions;
+      const auto t_read = std::chrono::steady_clock::now();
       // Opaque parts composite by depth; with translucent water, every layer by its depth and
       // the composite's water resolved by the root.
-      auto t1 = t0, t_swapped = t0;
+      auto t1 = t_read, t_swapped = t_read;
       auto composite = [&](auto& px) {
         using Pixel = std::remove_reference_t<decltype(px[0])>;
         return comm::binary_swap(mpi.comm(), px.data(), px.size(), sizeof(Pixel),
@@ -442,10 +445,12 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         if (!a.quiet && !bar.tty())
           log << "render: " << (out / name).string() << " (t = " << f.time << " s): " << spheres
               << " spheres, " << triangles << " triangles, "
-              << sec(std::chrono::steady_clock::now() - t0).count() << " s (draw "
-              << sec(t1 - t0).count() << " s, composite " << sec(t_swapped - t1).count()
-              << " s, resolve " << sec(t2 - t_swapped).count() << " s, " << swap.bytes_sent
-              << " bytes sent by rank 0)\n";
+              << sec(std::chrono::steady_clock::now() - t0).count() << " s (read "
+              << sec(t_read - t0).count() << " s, draw " << sec(t1 - t_read).count()
+              << " s, composite " << sec(t_swapped - t1).count() << " s, resolve "
+              << sec(t2 - t_swapped).count() << " s, " << swap.bytes_sent
+              << " bytes sent by rank 0; its fluid rows: " << part.fluid_read << " read, "
+              << part.fluid_held << " drawn or about its part, of " << part.fluid_total << ")\n";
       }
     }
   }

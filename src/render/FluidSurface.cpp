@@ -67,9 +67,14 @@ ScalarGrid surface_grid(const std::vector<glm::dvec3>& points, const SurfaceOpti
     return g;
   const double dp = opt.spacing, reach = opt.support * dp;
   glm::dvec3 lo(points[0]), hi(points[0]);
-  for (const auto& p : points) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
+  if (opt.box) {
+    lo = opt.box->first;
+    hi = opt.box->second;
+  } else {
+    for (const auto& p : points) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
   }
   // A margin past the kernel's reach: the field is negative on the grid's border, so the surface
   // closes inside it.

@@ -14,6 +14,9 @@
 
 #include <glm/glm.hpp>
 
+#include <optional>
+#include <utility>
+
 #include <algorithm>
 #include <array>
 #include <cstdint>
@@ -41,6 +44,9 @@ struct SurfaceOptions {
   double radius = 1.0;
   double support = 4.0;
   std::size_t max_cells = 64u << 20; // a larger box is polygonised on a coarser grid
+  // The box of the points the grid is laid over, when they are a part of them (a rank's share
+  // of a frame): the grid is then the whole frame's, vertex for vertex.
+  std::optional<std::pair<glm::dvec3, glm::dvec3>> box;
 };
 
 /// A regular grid of field values at its vertices: origin, cell edge, vertices per axis.

@@ -13,30 +13,49 @@
 
 namespace kf::render {
 
-double typical_spacing(const std::vector<glm::dvec3>& points) {
-  const std::size_t n = points.size();
-  if (n < 2)
-    return 0;
+std::vector<std::size_t> spacing_samples(std::size_t n) {
   const std::size_t samples = std::min<std::size_t>(256, n);
-  std::vector<double> nearest;
-  nearest.reserve(samples);
-  for (std::size_t s = 0; s < samples; ++s) {
-    const std::size_t i = s * n / samples;
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t j = 0; j < n; ++j)
-      if (j != i) {
-        const glm::dvec3 d = points[j] - points[i];
+  std::vector<std::size_t> at(samples);
+  for (std::size_t s = 0; s < samples; ++s)
+    at[s] = s * n / samples;
+  return at;
+}
+
+void nearest_to_samples(const std::vector<glm::dvec3>& sample,
+                        const std::vector<std::size_t>& sample_index,
+                        const std::vector<glm::dvec3>& points, std::size_t first,
+                        std::vector<double>& best) {
+  for (std::size_t s = 0; s < sample.size(); ++s)
+    for (std::size_t j = 0; j < points.size(); ++j)
+      if (first + j != sample_index[s]) {
+        const glm::dvec3 d = points[j] - sample[s];
         const double d2 = glm::dot(d, d);
         if (d2 > 0)
-          best = std::min(best, d2);
+          best[s] = std::min(best[s], d2);
       }
-    if (std::isfinite(best))
-      nearest.push_back(std::sqrt(best));
-  }
+}
+
+double median_spacing(const std::vector<double>& best) {
+  std::vector<double> nearest;
+  for (double b : best)
+    if (std::isfinite(b))
+      nearest.push_back(std::sqrt(b));
   if (nearest.empty())
     return 0;
   std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
   return nearest[nearest.size() / 2];
+}
+
+double typical_spacing(const std::vector<glm::dvec3>& points) {
+  if (points.size() < 2)
+    return 0;
+  const std::vector<std::size_t> at = spacing_samples(points.size());
+  std::vector<glm::dvec3> sample;
+  for (std::size_t i : at)
+    sample.push_back(points[i]);
+  std::vector<double> best(at.size(), std::numeric_limits<double>::infinity());
+  nearest_to_samples(sample, at, points, 0, best);
+  return median_spacing(best);
 }
 
 namespace {
@@ -224,7 +243,12 @@ std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::box_of(const io::Frame& fram
     hi = glm::max(hi, p);
   };
   for (const char* phase : {"fluid", "knit", "yarn"})
-    grow_by_phase(frame, phase, lo, hi);
+    if (std::string(phase) != "fluid" || !whole_fluid_)
+      grow_by_phase(frame, phase, lo, hi);
+  if (whole_fluid_ && !whole_fluid_->empty) {
+    grow(whole_fluid_->lo);
+    grow(whole_fluid_->hi);
+  }
   if (style_.boundary)
     grow_by_phase(frame, "boundary", lo, hi);
   for (const Sphere& s : at.spheres) {
@@ -261,6 +285,33 @@ SurfaceMesh floor_square(const glm::dvec3& lo, const glm::dvec3& hi, double z) {
 
 } // namespace
 
+SurfaceOptions SnapshotRenderer::surface_options() const {
+  SurfaceOptions opt;
+  opt.field = style_.surface_field;
+  opt.spacing = fluid_r_ ? 2 * *fluid_r_ : 0;
+  return opt;
+}
+
+void SnapshotRenderer::set_whole_fluid(std::optional<WholeFluid> whole) {
+  whole_fluid_ = whole;
+  if (whole && whole->spacing > 0 && !fluid_r_) // the first frame's, kept (as drawn whole)
+    fluid_r_ = 0.5 * whole->spacing;
+}
+
+double SnapshotRenderer::fluid_halo(const WholeFluid& whole) const {
+  const double spacing = fluid_r_ ? 2 * *fluid_r_ : whole.spacing;
+  if (!style_.fluid_surface || whole.empty || !(spacing > 0))
+    return 0;
+  // The grid surface_field lays over the whole fluid (its cell, maybe coarsened): a part fills
+  // the vertices within 2 cells of its region, each from the points within the kernel's reach;
+  // a spacing more against rounding.
+  SurfaceOptions opt = surface_options();
+  opt.spacing = spacing;
+  opt.box = std::pair(whole.lo, whole.hi);
+  const ScalarGrid g = surface_grid({whole.lo}, opt);
+  return opt.support * opt.spacing + 2 * g.cell + opt.spacing;
+}
+
 std::vector<glm::dvec3> SnapshotRenderer::drawn_points(const io::Frame& frame) const {
   std::vector<glm::dvec3> all;
   for (const char* phase : {"fluid", "knit", "boundary"}) {
@@ -294,10 +345,13 @@ void SnapshotRenderer::start_surface(const io::Frame& frame, const Region* only)
     lo = glm::min(lo, p);
     hi = glm::max(hi, p);
   }
+  SurfaceOptions opt = surface_options();
+  if (whole_fluid_) { // a part of the fluid: the grid laid over the whole
+    lo = whole_fluid_->lo;
+    hi = whole_fluid_->hi;
+    opt.box = std::pair(lo, hi);
+  }
   fluid_centre_ = 0.5 * (lo + hi);
-  SurfaceOptions opt;
-  opt.field = style_.surface_field;
-  opt.spacing = 2 * *fluid_r_;
   const auto t0 = std::chrono::steady_clock::now();
   if (style_.geometry_on_gpu) {
     if (!surface_compute_) {

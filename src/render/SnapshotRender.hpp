@@ -95,6 +95,16 @@ struct SnapshotStyle {
 /// Typical distance between neighbouring points: the median, over up to 256 of them spread
 /// through the list, of the distance to the nearest other point (brute force: 256 x n).
 double typical_spacing(const std::vector<glm::dvec3>& points);
+/// Its parts, for points spread over ranks: the indices of the samples among n points; the
+/// least squared distance (> 0) from each sample (its index sample_index[s]) to `points`,
+/// which are points first.. of the n, folded into best[s]; the median of the square roots of
+/// the finite ones (0 without any).
+std::vector<std::size_t> spacing_samples(std::size_t n);
+void nearest_to_samples(const std::vector<glm::dvec3>& sample,
+                        const std::vector<std::size_t>& sample_index,
+                        const std::vector<glm::dvec3>& points, std::size_t first,
+                        std::vector<double>& best);
+double median_spacing(const std::vector<double>& best);
 
 /// A phase's positions ("position", 3 components, float or double); empty when the frame lacks
 /// the phase.
@@ -143,6 +153,22 @@ public:
                                   const Camera& camera);
   /// The points a k-d split of this frame shares out: the drawn phases' positions.
   std::vector<glm::dvec3> drawn_points(const io::Frame& frame) const;
+  /// The whole frame's fluid, for frames that hold a part of it (a rank's region and a halo,
+  /// read as its share of the snapshot; the other phases whole): its box and typical spacing,
+  /// so the surface's grid, the frame's box, the shadows' and the spheres' radius are the
+  /// whole frame's. Unset (nullopt), they come from the frame drawn.
+  struct WholeFluid {
+    glm::dvec3 lo{0}, hi{0};
+    double spacing = 0; // typical_spacing of all its points
+    bool empty = true;
+  };
+  void set_whole_fluid(std::optional<WholeFluid> whole);
+  /// Whether the fluid's spacing is known (from the first frame drawn or set_whole_fluid): a
+  /// later WholeFluid's spacing is not used.
+  bool knows_fluid_spacing() const { return fluid_r_.has_value(); }
+  /// How far past a region a part's drawing reads the fluid (the surface's kernel reach and
+  /// the cells about the region its field fills), for the whole fluid `whole`: 0 for spheres.
+  double fluid_halo(const WholeFluid& whole) const;
   std::size_t last_spheres() const { return last_spheres_; }
   std::size_t last_triangles() const { return last_triangles_; }
   /// Seconds the last draw spent on the fluid's surface (field and marching cubes, their
@@ -229,6 +255,8 @@ private:
   std::vector<std::pair<std::string, double>> last_passes_;
   std::function<void(std::vector<float>&)> combine_shadows_;
   std::optional<double> fluid_r_, knit_r_, boundary_r_, yarn_r_;
+  std::optional<WholeFluid> whole_fluid_;
+  SurfaceOptions surface_options() const;
   std::size_t last_spheres_ = 0, last_triangles_ = 0;
   double last_surface_seconds_ = 0, last_yarn_seconds_ = 0;
   bool surface_started_ = false;

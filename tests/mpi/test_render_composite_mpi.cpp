@@ -2,8 +2,11 @@
 // while each rank sends about one image in all, and a frame drawn in the parts of a k-d split and
 // composited by depth is the frame drawn whole on one rank. Under mpiexec -n 2 and -n 3 (3 folds a
 // rank before the swap).
+#include "../support/TestPaths.hpp"
 #include "comm/BinarySwap.hpp"
+#include "io/SnapshotWriter.hpp"
 #include "render/DepthComposite.hpp"
+#include "render/FrameParts.hpp"
 #include "render/SnapshotRender.hpp"
 #include "render/SpaceSplit.hpp"
 
@@ -255,4 +258,79 @@ TEST(SortLast, TheCompositedLayersOfTranslucentWaterResolveToTheFrameDrawnWhole)
   // The water's front faces (their light, normals, depth) and back faces composited with the
   // opaque scene, layer by layer; the root's resolve refracts through the composite.
   expect_composite_is_whole(true, true, true, true);
+}
+
+TEST(SortLast, EachRankReadsItsShareAndDrawsItsPartAsFromTheWholeFrame) {
+  // The test frame in a snapshot; each rank reads its share of the file (parallel HDF5) and
+  // keeps the fluid rows its region (grown by the halo its surface reads) holds, the knit and
+  // yarns whole. Against the whole frame: the same k-d split; exactly the rows of the whole
+  // fluid within the grown region, in the file's order; and the part drawn from them, pixel
+  // for pixel and depth for depth, the part drawn from the whole frame (the surface's grid,
+  // the fluid's spacing and the frame's box the whole frame's).
+  const int n = size_of(), me = rank_of();
+  const io::Frame whole = test_frame();
+  const auto dir = test::scratch_dir("render_frame_parts");
+  if (me == 0)
+    io::SnapshotWriter(MPI_COMM_SELF, dir.string()).write(whole);
+  MPI_Barrier(MPI_COMM_WORLD);
+  const std::string path = (dir / io::snapshot_file_name(whole.index)).string();
+  render::SnapshotStyle style;
+  style.width = 320;
+  style.height = 200;
+  style.shadows = style.floor = true;
+  style.shadow_resolution = 1024;
+  style.obstacles.push_back({glm::vec4(0.0f, 0.0f, -0.35f, 0.2f), glm::vec4(0.5f, 0.5f, 0.5f, 1)});
+  auto combine = [](std::vector<float>& d) {
+    MPI_Allreduce(MPI_IN_PLACE, d.data(), int(d.size()), MPI_FLOAT, MPI_MIN, MPI_COMM_WORLD);
+  };
+  render::SnapshotRenderer from_share(style), from_whole(style);
+  from_share.set_shadow_combiner(combine);
+  from_whole.set_shadow_combiner(combine);
+  const render::FramePart part = render::read_frame_part(MPI_COMM_WORLD, path, from_share);
+
+  const auto regions = render::kd_split(from_whole.drawn_points(whole), n);
+  ASSERT_EQ(part.regions.size(), regions.size());
+  for (std::size_t r = 0; r < regions.size(); ++r) {
+    EXPECT_EQ(part.regions[r].lo, regions[r].lo) << "region " << r;
+    EXPECT_EQ(part.regions[r].hi, regions[r].hi) << "region " << r;
+  }
+  const auto x = render::phase_positions(whole, "fluid");
+  render::SnapshotRenderer::WholeFluid fluid;
+  fluid.empty = false;
+  fluid.lo = fluid.hi = x.front();
+  for (const glm::dvec3& p : x) {
+    fluid.lo = glm::min(fluid.lo, p);
+    fluid.hi = glm::max(fluid.hi, p);
+  }
+  fluid.spacing = render::typical_spacing(x);
+  const double halo = from_whole.fluid_halo(fluid);
+  EXPECT_GT(halo, 4 * fluid.spacing) << "the surface's kernel reaches 4 spacings";
+  const render::Region mine = regions[std::size_t(me)];
+  const render::Region grown{mine.lo - glm::dvec3(halo), mine.hi + glm::dvec3(halo)};
+  std::vector<glm::dvec3> want;
+  for (const glm::dvec3& p : x)
+    if (grown.contains(p))
+      want.push_back(p);
+  EXPECT_EQ(render::phase_positions(part.frame, "fluid"), want);
+  EXPECT_EQ(part.fluid_total, x.size());
+  EXPECT_EQ(part.fluid_held, want.size());
+  EXPECT_NEAR(double(part.fluid_read), double(x.size()) / n, 1.0) << "a share of the file's rows";
+  if (n > 1) {
+    EXPECT_LT(want.size(), x.size()) << "rank " << me << " holds the whole fluid";
+  }
+  EXPECT_EQ(part.frame.find("yarn")->find("segment")->bytes,
+            whole.find("yarn")->find("segment")->bytes);
+  EXPECT_EQ(render::phase_positions(part.frame, "knit"), render::phase_positions(whole, "knit"));
+
+  const render::Camera camera = from_whole.frame_camera(whole);
+  const io::RgbaImage a = from_share.draw(part.frame, camera, &part.regions[std::size_t(me)]);
+  const std::vector<float> a_depth = from_share.depth();
+  const io::RgbaImage b = from_whole.draw(whole, camera, &regions[std::size_t(me)]);
+  EXPECT_GT(from_whole.last_triangles(), 0u);
+  EXPECT_EQ(from_share.last_triangles(), from_whole.last_triangles());
+  std::size_t differ = 0;
+  for (std::size_t k = 0; k < a.pixels.size(); ++k)
+    differ += a.pixels[k] != b.pixels[k];
+  EXPECT_EQ(differ, 0u) << "rank " << me << "'s part unlike the one drawn from the whole frame";
+  EXPECT_EQ(a_depth, from_whole.depth());
 }
