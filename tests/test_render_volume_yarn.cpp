@@ -407,3 +407,61 @@ TEST(RenderVolumeYarn, TheLevelOfDetailKeepsTheKnitsPicture) {
   EXPECT_LT(off, 10.0);
   EXPECT_LT(off, slices_off / 3) << "the slices came nearer the reference than the level of detail";
 }
+
+TEST(RenderVolumeYarn, StitchColoursFromTheYarnsColourField) {
+  // Two parallel yarns seen from above, one red and one blue by the snapshot's colour field
+  // (a colour chart's), on black, ambient light only: every lit pixel over the red yarn is red
+  // (its green and blue nothing), over the blue one blue; volumetric and as tubes (their white
+  // highlight off). A yarn
+  // without colours (negative) takes the style's knit colour.
+  io::Frame f = straight_yarns({{-0.03f, 0.0f}, {0.03f, 0.0f}, {0.0f, 0.0f}}, -0.1f, 0.0f);
+  const std::size_t n = f.phases[0].fields[0].count;
+  std::vector<float> colour;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int yarn = int(i / (n / 3));
+    colour.insert(colour.end(), yarn == 0   ? std::initializer_list<float>{1, 0, 0}
+                                : yarn == 1 ? std::initializer_list<float>{0, 0, 1}
+                                            : std::initializer_list<float>{-1, -1, -1});
+  }
+  f.phases[0].fields.push_back(io::Field::from("colour", colour, 3));
+  render::Camera cam;
+  cam.eye = {0, 0, 0.4};
+  cam.target = {0, 0, 0};
+  cam.up = {0, 1, 0};
+  for (bool volume : {true, false}) {
+    SCOPED_TRACE(volume ? "volumetric" : "tubes");
+    render::SnapshotStyle style;
+    style.width = 320;
+    style.height = 240;
+    style.yarn_radius = 0.006;
+    style.knit_volume = volume;
+    style.knit = {0, 1, 0, 1}; // green: the uncoloured yarn's
+    style.background = {0, 0, 0, 1};
+    style.lighting.ambient = 1.0f;
+    style.lighting.specular = 0.0f; // the tubes' white highlight off
+    render::SnapshotRenderer r(style);
+    const io::RgbaImage img = r.draw(f, cam);
+    std::size_t lit[3] = {0, 0, 0}, wrong = 0;
+    for (int row = 0; row < style.height; ++row)
+      for (int col = 0; col < style.width; ++col) {
+        const std::uint8_t* p = &img.pixels[4 * (std::size_t(row) * style.width + col)];
+        if (p[0] + p[1] + p[2] < 8)
+          continue;
+        // The yarn under the pixel: y = -0.03 (top of the picture: up is +y), 0.03 or 0.
+        const auto [eye, dir] = pixel_ray(cam, style.width, style.height, col, row);
+        const double y = eye.y + dir.y * (-eye.z / dir.z);
+        const int yarn = y > 0.015 ? 1 : (y < -0.015 ? 0 : 2);
+        ++lit[yarn];
+        const int own = yarn == 0 ? 0 : (yarn == 1 ? 2 : 1);
+        for (int c = 0; c < 3; ++c)
+          wrong += c != own && p[c] > 0;
+      }
+    std::printf("%s: %zu / %zu / %zu pixels lit over the red, blue and plain yarns; %zu channels "
+                "not theirs\n",
+                volume ? "volumetric" : "tubes", lit[0], lit[1], lit[2], wrong);
+    EXPECT_GT(lit[0], 2000u);
+    EXPECT_GT(lit[1], 2000u);
+    EXPECT_GT(lit[2], 2000u);
+    EXPECT_EQ(wrong, 0u) << "a yarn's pixels carry another's colour";
+  }
+}

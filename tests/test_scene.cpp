@@ -486,4 +486,35 @@ TEST(Scene, RenderTableReadsItsKeys) {
   EXPECT_EQ(plain.render.width, 1280);
 }
 
+TEST(Scene, AColourChartNamesItsLettersColours) {
+  const std::string head = "[simulation]\nend_time = 1\nmodules = [\"knit\"]\n"
+                           "[domain]\nmin = [-1, -1, -1]\nmax = [1, 1, 1]\n"
+                           "[[knit.piece]]\nshape = \"patch\"\ncenter = [0, 0, 0]\n";
+  const Scene s = parse_scene(
+      head + "colours = { A = [0.8, 0.1, 0.1], B = [0.9, 0.9, 0.85] }\ncolour_chart = [\"AB\"]\n",
+      "<string>");
+  const KnitPiece& k = s.knit.pieces.at(0);
+  EXPECT_EQ(k.colour_chart, std::vector<std::string>{"AB"});
+  ASSERT_EQ(k.colours.size(), 2u);
+  EXPECT_DOUBLE_EQ(k.colours.at('A').x, 0.8);
+  EXPECT_DOUBLE_EQ(k.colours.at('B').z, 0.85);
+  // Each mistake named with its key and what was expected.
+  const std::pair<std::string, std::string> bad[] = {
+      {"colours = { A = [1, 0, 0] }\ncolour_chart = [\"AC\"]\n", "colour_chart[0]"},
+      {"colours = { A = [1, 0, 2] }\ncolour_chart = [\"A\"]\n", "colours.A"},
+      {"colours = { AB = [1, 0, 0] }\ncolour_chart = [\"A\"]\n", "colours.AB"},
+      {"colour_chart = [\"A\"]\n", "colour_chart"},
+      {"colours = { A = [1, 0, 0] }\n", "colour_chart"},
+      {"colours = { A = [1, 0, 0] }\ncolour_chart = [\"AA\", \"A\"]\n", "colour_chart[1]"}};
+  for (const auto& [text, key] : bad) {
+    std::string error;
+    try {
+      parse_scene(head + text, "<string>");
+    } catch (const SceneError& e) {
+      error = e.what();
+    }
+    EXPECT_NE(error.find(key), std::string::npos) << text << " -> " << error;
+  }
+}
+
 } // namespace kf

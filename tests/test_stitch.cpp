@@ -249,3 +249,44 @@ TEST(Stitch, YarnsCarryAScalarWithTheSameWeights) {
     }
   }
 }
+
+// A colour chart colours each yarn where it runs through a stitch: the yarn of course j, at
+// wale i, takes the chart's letter (i % columns of row j % rows). Checked against where each
+// yarn point lies: its wale from its x (wales 0.1 wide along x), its course from its yarn.
+TEST(Stitch, AColourChartColoursTheYarnsByStitch) {
+  Scene s = patch_scene(4, 3);
+  s.knit.yarn_samples = 4;
+  const Vec3d red{1, 0, 0}, blue{0, 0, 1};
+  s.knit.pieces[0].colours = {{'A', red}, {'B', blue}};
+  s.knit.pieces[0].colour_chart = {"AB", "BA"};
+  const io::Frame fr = Simulation::create(s, exec::Backend::Cpu)->frame();
+  const io::Phase* yarn = fr.find("yarn");
+  ASSERT_NE(yarn, nullptr);
+  ASSERT_NE(yarn->find("colour"), nullptr);
+  const auto x = yarn->find("position")->as<double>();
+  const auto c = yarn->find("colour")->as<float>();
+  const auto course = yarn->find("yarn")->as<std::uint32_t>();
+  ASSERT_EQ(c.size(), x.size());
+  std::size_t checked = 0, seen[2] = {0, 0};
+  for (std::size_t p = 0; p < course.size(); ++p) {
+    const Vec3d got{c[3 * p], c[3 * p + 1], c[3 * p + 2]};
+    ASSERT_TRUE(norm(got - red) == 0 || norm(got - blue) == 0) << "yarn point " << p;
+    // Away from a wale's sides (a stitch's loop reaches past them; the colour turns mid-span).
+    const double u = (x[3 * p] + 0.2) / 0.1;
+    const int wale = int(std::floor(u));
+    if (wale < 0 || wale > 3 || std::abs(u - std::round(u)) < 0.3)
+      continue;
+    const bool a = (wale + int(course[p])) % 2 == 0;
+    EXPECT_EQ(norm(got - (a ? red : blue)), 0.0)
+        << "yarn point " << p << " (wale " << wale << ", course " << course[p] << ")";
+    ++checked;
+    ++seen[a ? 0 : 1];
+  }
+  EXPECT_GT(checked, x.size() / 3 / 3) << "too few yarn points away from the wales' sides";
+  EXPECT_GT(seen[0], 0u);
+  EXPECT_GT(seen[1], 0u);
+  // No chart, no colour field.
+  s.knit.pieces[0].colour_chart.clear();
+  EXPECT_EQ(Simulation::create(s, exec::Backend::Cpu)->frame().find("yarn")->find("colour"),
+            nullptr);
+}

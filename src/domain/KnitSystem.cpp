@@ -298,10 +298,21 @@ io::Phase KnitSystem<T>::yarn_phase(const std::vector<double>* saturation,
   for (std::size_t i = 0; i < x.size(); ++i)
     x[i] = vec_cast<double>(xt[i]);
   std::vector<std::vector<YarnPoint>> yarns;
+  bool coloured = false;
   // An empty `at` (another rank than the one writing the yarns): the phase's fields, no rows.
-  for (std::size_t k = 0; k < (at && at->empty() ? 0 : pieces_.size()); ++k)
-    for (auto& y : yarn_points(x, saturation, pieces_[k], scene_.knit.pieces[k].chart))
-      yarns.push_back(std::move(y));
+  for (std::size_t k = 0; k < pieces_.size(); ++k)
+    coloured |= !scene_.knit.pieces[k].colour_chart.empty();
+  for (std::size_t k = 0; k < (at && at->empty() ? 0 : pieces_.size()); ++k) {
+    const KnitPiece& piece = scene_.knit.pieces[k];
+    auto course = yarn_points(x, saturation, pieces_[k], piece.chart);
+    for (std::size_t j = 0; j < course.size(); ++j) {
+      if (!piece.colour_chart.empty())
+        for (YarnPoint& q : course[j])
+          if (q.wale >= 0)
+            q.colour = stitch_colour(piece.colour_chart, piece.colours, q.wale, int(j));
+      yarns.push_back(std::move(course[j]));
+    }
+  }
   const YarnLines lines = yarn_lines(yarns, scene_.knit.yarn_samples);
   std::vector<Vec3<T>> pos(lines.x.size());
   for (std::size_t i = 0; i < pos.size(); ++i)
@@ -318,6 +329,13 @@ io::Phase KnitSystem<T>::yarn_phase(const std::vector<double>* saturation,
   if (saturation) {
     std::vector<T> sat(lines.s.begin(), lines.s.end());
     p.fields.push_back(io::Field::from("saturation", sat, 1));
+  }
+  if (coloured) { // float RGB a point; negative where a piece has no colour chart
+    std::vector<float> c;
+    c.reserve(3 * lines.colour.size());
+    for (const Vec3d& v : lines.colour)
+      c.insert(c.end(), {float(v.x), float(v.y), float(v.z)});
+    p.fields.push_back(io::Field::from("colour", c, 3));
   }
   return p;
 }

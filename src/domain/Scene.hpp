@@ -7,6 +7,7 @@
 #include "core/Vec3.hpp"
 
 #include <array>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -64,6 +65,11 @@ struct KnitPiece {
   // Stitch chart: rows of 'K' (knit) and 'P' (purl), row r for courses j with j % rows == r,
   // column c for wales i with i % columns == c. Default stockinette (the paper's).
   std::vector<std::string> chart{"K"};
+  // Colours of the stitches: `colour_chart` rows of letters (row r for the yarn of course j
+  // with j % rows == r, letter c for wales i with i % columns == c) naming colours of `colours`
+  // (linear RGB in [0, 1]); without them, the [render] knit colour. Grid pieces only.
+  std::vector<std::string> colour_chart;
+  std::map<char, Vec3d> colours;
 
   // mesh: the OBJ quad mesh (a relative path is resolved against the scene file's directory),
   // each vertex x placed at scale * x + translate; read and checked by the loader.

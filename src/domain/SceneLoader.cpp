@@ -397,6 +397,54 @@ void read_stitch_chart(const TableReader& t, KnitPiece& k) {
   }
 }
 
+/// `colours` (a table of single letters naming linear RGB colours) and `colour_chart` (rows of
+/// those letters, equally long), both or neither.
+void read_colour_chart(const TableReader& t, KnitPiece& k) {
+  const toml::node* colours = t.node("colours");
+  const toml::node* chart = t.node("colour_chart");
+  if (!colours && !chart)
+    return;
+  if (!colours)
+    t.fail_key(*chart, "colour_chart", "a chart beside a 'colours' table naming its letters",
+               repr(*chart));
+  if (!chart)
+    t.fail_missing("colour_chart");
+  const toml::table* table = colours->as_table();
+  if (!table || table->empty())
+    t.fail_key(*colours, "colours", "a table of letters naming colours ({ A = [0.8, 0.1, 0.1] })",
+               repr(*colours));
+  const TableReader named = t.table("colours");
+  for (auto&& [key, value] : *table) {
+    const std::string name(key.str());
+    if (name.size() != 1 || !std::isalpha(static_cast<unsigned char>(name[0])))
+      t.fail_key(value, "colours." + name, "a key of a single letter naming a colour", name);
+    Vec3d c{};
+    named.read(name, c);
+    for (double v : {c.x, c.y, c.z})
+      if (!(v >= 0 && v <= 1))
+        t.fail_key(value, "colours." + name, "a colour: three numbers in [0, 1] (linear RGB)",
+                   repr(value));
+    k.colours[name[0]] = c;
+  }
+  std::string letters;
+  for (const auto& [letter, c] : k.colours)
+    letters += letter;
+  const std::string expected =
+      "a non-empty array of equally long strings of the letters of 'colours' (" + letters + ")";
+  const toml::array* rows = chart->as_array();
+  if (!rows || rows->empty())
+    t.fail_key(*chart, "colour_chart", expected, repr(*chart));
+  for (std::size_t r = 0; r < rows->size(); ++r) {
+    const toml::node& row = *rows->get(r);
+    const auto* text = row.as_string();
+    if (!text || text->get().empty() ||
+        text->get().find_first_not_of(letters) != std::string::npos ||
+        (r > 0 && text->get().size() != k.colour_chart[0].size()))
+      t.fail_key(row, "colour_chart[" + std::to_string(r) + "]", expected, repr(row));
+    k.colour_chart.push_back(text->get());
+  }
+}
+
 /// A knit piece of shape "mesh": its OBJ quad mesh (relative to the scene file's directory, placed
 /// by scale and translate as a mesh obstacle is) read and checked now, so a broken mesh fails
 /// with the scene's line. Keys of the grid shapes are an error of their own, not unknown keys.
@@ -443,10 +491,10 @@ KnitPiece read_knit_piece(const TableReader& t, std::size_t index, const Scene::
     return read_knit_mesh_piece(t, index, d, scene_dir);
   if (k.shape == KnitShape::Patch)
     t.allow_only({"shape", "name", "center", "normal", "u_axis", "width", "height", "wales",
-                  "courses", "velocity", "pattern", "chart"});
+                  "courses", "velocity", "pattern", "chart", "colours", "colour_chart"});
   else
     t.allow_only({"shape", "name", "center", "normal", "u_axis", "circumference", "length", "wales",
-                  "courses", "velocity", "pattern", "chart"});
+                  "courses", "velocity", "pattern", "chart", "colours", "colour_chart"});
   k.name = "knit.piece[" + std::to_string(index) + "]";
   t.read("name", k.name);
   k.center = t.require_vec3("center");
@@ -473,6 +521,7 @@ KnitPiece read_knit_piece(const TableReader& t, std::size_t index, const Scene::
   k.courses = read_count(t, "courses", k.courses, 1, 100000);
   t.read("velocity", k.velocity);
   read_stitch_chart(t, k);
+  read_colour_chart(t, k);
   return k;
 }
 

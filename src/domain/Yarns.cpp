@@ -9,6 +9,12 @@
 
 namespace kf {
 
+Vec3d stitch_colour(const std::vector<std::string>& colour_chart,
+                    const std::map<char, Vec3d>& colours, int i, int j) {
+  const std::string& row = colour_chart[static_cast<std::size_t>(j) % colour_chart.size()];
+  return colours.at(row[static_cast<std::size_t>(i) % row.size()]);
+}
+
 bool is_purl(const std::vector<std::string>& chart, int i, int j) {
   const std::string& row = chart[static_cast<std::size_t>(j) % chart.size()];
   return row[static_cast<std::size_t>(i) % row.size()] == 'P';
@@ -94,6 +100,7 @@ std::vector<std::vector<YarnPoint>> grid_yarns(const Source& x, const KnitPieceL
   for (int j = 0; j <= cv; ++j) {
     std::vector<YarnPoint> y;
     for (int i = 0; i < cu; ++i) {
+      const std::size_t from = y.size();
       const Side own = side_of(is_purl(chart, i, j)), above = side_of(is_purl(chart, i, j + 1));
       if (j < cv) { // left leg down: head t5 t6, then t7 (t8 is the arc's t1, or the cast-on edge)
         for (int k : {4, 5})
@@ -128,6 +135,8 @@ std::vector<std::vector<YarnPoint>> grid_yarns(const Source& x, const KnitPieceL
         for (int k : {9, 8})
           push_unique(y, bonding(x, grid_cell(L, i, j), above, k));
       }
+      for (std::size_t q = from; q < y.size(); ++q)
+        y[q].wale = i;
     }
     if (L.periodic_u && !y.empty())
       push_unique(y, y.front()); // a tube's course closes on itself
@@ -250,8 +259,10 @@ YarnLines yarn_lines(const std::vector<std::vector<YarnPoint>>& yarns, int sampl
                                     Vec3d{p[s + 1].s, 0, 0}, Vec3d{at(std::ptrdiff_t(s) + 2), 0, 0},
                                     double(q) / samples);
         out.s.push_back(std::max(0.0, c.x));
+        out.colour.push_back(2 * q < samples ? p[s].colour : p[s + 1].colour);
       }
     out.s.push_back(p.back().s);
+    out.colour.push_back(p.back().colour);
   }
   return out;
 }

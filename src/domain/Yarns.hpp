@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -29,7 +30,14 @@ std::vector<std::vector<Vec3d>> yarn_bonding_points(const std::vector<Vec3d>& x,
 struct YarnPoint {
   Vec3d x;
   double s = 0;
+  int wale = -1;            // the wale of the stitch it belongs to (grid pieces), else -1
+  Vec3d colour{-1, -1, -1}; // a stitch colour (colour_chart), or negative: none
 };
+
+/// The colour of stitch (i, j) of a colour chart (rows repeating over courses j, letters over
+/// wales i), as `colours` names it.
+Vec3d stitch_colour(const std::vector<std::string>& colour_chart,
+                    const std::map<char, Vec3d>& colours, int i, int j);
 
 /// yarn_bonding_points with a per-knit-point scalar (nullptr: zero) interpolated with the same
 /// Eq. 1 weights.
@@ -42,6 +50,7 @@ std::vector<std::vector<YarnPoint>> yarn_points(const std::vector<Vec3d>& x,
 struct YarnLines {
   std::vector<Vec3d> x;
   std::vector<double> s;           // the scalar per point (yarn_lines of YarnPoints only)
+  std::vector<Vec3d> colour;       // the colour per point, a bonding point's to mid-span (ditto)
   std::vector<std::uint32_t> yarn; // yarn index of each point
   std::vector<std::array<std::uint32_t, 2>>
       segment; // per point: (i, i + 1), or (i, i) at a yarn's end

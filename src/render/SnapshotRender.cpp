@@ -185,6 +185,16 @@ YarnPoints yarn_points_of(const io::Frame& frame) {
     const auto i = std::size_t(j);
     y.point[i] = glm::vec4(glm::vec3(stored_point(*x, i)), s ? float(stored(*s, i, 0)) : 0.0f);
   }
+  // Stitch colours (a colour chart): rgb a point, negative where its piece has none.
+  const io::Field* c = frame.find("yarn")->find("colour");
+  if (c && c->components == 3 && c->count == n &&
+      (c->type == io::DType::F32 || c->type == io::DType::F64)) {
+    y.colour.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const glm::vec3 rgb(stored(*c, i, 0), stored(*c, i, 1), stored(*c, i, 2));
+      y.colour[i] = rgb.r >= 0 ? glm::vec4(rgb, 1.0f) : glm::vec4(0.0f);
+    }
+  }
   return y;
 }
 

@@ -21,7 +21,7 @@ TubeRenderer::TubeRenderer()
 }
 
 TubeRenderer::~TubeRenderer() {
-  glDeleteBuffers(8, buffers_);
+  glDeleteBuffers(9, buffers_);
   glDeleteVertexArrays(1, &vao_);
 }
 
@@ -29,6 +29,7 @@ void TubeRenderer::upload(const YarnFrames& f, int sides) {
   if (sides < 3)
     throw Error("render: a tube needs at least 3 sides");
   sides_ = sides;
+  coloured_ = false;
   segments_ = f.drawn.size();
   if (segments_ == 0)
     return;
@@ -74,9 +75,18 @@ void TubeRenderer::build(const YarnPoints& y, const YarnStyle& style, const Regi
   const YarnChains chains = yarn_chains(y, only);
   sides_ = style.sides;
   segments_ = chains.drawn.size();
+  coloured_ = false;
   if (segments_ == 0)
     return;
   const std::size_t n = y.point.size();
+  if (!y.colour.empty()) {
+    if (y.colour.size() != n)
+      throw Error("render: " + std::to_string(y.colour.size()) + " yarn colours for " +
+                  std::to_string(n) + " points");
+    buffers_[8] = grown_buffer(buffers_[8], capacity_[8], n * sizeof(glm::vec4));
+    glNamedBufferSubData(buffers_[8], 0, GLsizeiptr(n * sizeof(glm::vec4)), y.colour.data());
+    coloured_ = true;
+  }
   const void* data[3] = {y.point.data(), chains.start.data(), chains.drawn.data()};
   const std::size_t bytes[3] = {n * sizeof(glm::vec4), chains.start.size() * sizeof(std::uint32_t),
                                 segments_ * sizeof(std::uint32_t)};
@@ -114,6 +124,9 @@ void TubeRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
   glUniform4fv(glGetUniformLocation(p, "colour"), 1, glm::value_ptr(colour));
   glUniform1i(glGetUniformLocation(p, "reflective"), 0);
   glUniform1i(glGetUniformLocation(p, "sides"), sides_);
+  glUniform1i(glGetUniformLocation(p, "coloured"), coloured_ ? 1 : 0);
+  if (coloured_)
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 13, buffers_[8]);
   for (GLuint i = 0; i < 3; ++i)
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, buffers_[i]);
   const int step = coarse && sides_ % 2 == 0 ? 2 : 1;

@@ -42,6 +42,8 @@ public:
   /// (vec4 a point), 3 the drawn segments' first points (uint).
   std::size_t segments() const { return segments_; }
   unsigned frame_buffer(int i) const { return buffers_[i]; }
+  /// The points' stitch colours (vec4 a point, a > 0 where given; build's), or 0 for none.
+  unsigned colour_buffer() const { return coloured_ ? buffers_[8] : 0u; }
 
 private:
   std::unique_ptr<ShaderProgram> program_;
@@ -51,8 +53,11 @@ private:
   unsigned vao_ = 0;
   // centre_radius, r_shade, b, drawn; the indices, all sides and every other; the points and
   // the chains (build)
-  unsigned buffers_[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-  std::size_t capacity_[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  // centre_radius, r_shade, b, drawn; the indices, all sides and every other; the points and
+  // the chains (build); the points' colours (build, where the yarns carry them)
+  unsigned buffers_[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  std::size_t capacity_[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  bool coloured_ = false;
   std::size_t segments_ = 0;
   int sides_ = 0;
 };

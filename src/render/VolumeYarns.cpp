@@ -153,6 +153,10 @@ void VolumeYarns::draw(const TubeRenderer& tubes, const glm::vec4& colour, const
   for (GLuint i = 1; i < 4; ++i)
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8 + i, buffers_[i]);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 12, draw_);
+  const unsigned colours = tubes.colour_buffer();
+  glUniform1i(glGetUniformLocation(p, "coloured"), colours ? 1 : 0);
+  if (colours)
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 13, colours);
   glBindBuffer(GL_DRAW_INDIRECT_BUFFER, draw_);
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);

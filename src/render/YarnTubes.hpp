@@ -54,6 +54,8 @@ YarnChains yarn_chains(const YarnPolylines& yarns, const Region* only = nullptr)
 struct YarnPoints {
   std::vector<glm::vec4> point;
   std::vector<std::array<std::uint32_t, 2>> segment;
+  // A stitch colour a point (rgb, a = 1), a = 0 where none; empty: none at all.
+  std::vector<glm::vec4> colour;
 };
 YarnChains yarn_chains(const YarnPoints& yarns, const Region* only = nullptr);
 /// The polylines' points in float (tests; a snapshot's are float already).

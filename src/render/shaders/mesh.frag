@@ -5,6 +5,7 @@
 in vec3 view_point;
 in vec3 view_normal;
 in float vertex_shade;
+in vec4 vertex_colour; // a yarn point's stitch colour where a > 0 (tube.vert), else `colour`
 uniform vec3 light_view;
 uniform float ambient;
 uniform float specular_strength;
@@ -22,7 +23,8 @@ void main() {
   const float diffuse = max(cos_light, 0.0) * lit;
   const vec3 h = normalize(light_view - dir);
   const float specular = pow(max(dot(n, h), 0.0), 64.0) * specular_strength * lit;
-  vec3 body = colour.rgb * vertex_shade * (ambient + (1.0 - ambient) * diffuse);
+  const vec3 base = vertex_colour.a > 0.5 ? vertex_colour.rgb : colour.rgb;
+  vec3 body = base * vertex_shade * (ambient + (1.0 - ambient) * diffuse);
   if (reflective) { // Schlick's Fresnel, water's F0 = 0.02
     const float f = 0.02 + 0.98 * pow(1.0 - max(dot(n, -dir), 0.0), 5.0);
     body = mix(body, mirrored(mat3(inverse_view) * reflect(dir, n)), f);

@@ -9,10 +9,12 @@ uniform mat4 projection;
 out vec3 view_point;
 out vec3 view_normal;
 out float vertex_shade;
+out vec4 vertex_colour; // none: mesh.frag's uniform colour
 void main() {
   const vec4 p = view * vec4(position, 1.0);
   view_point = p.xyz;
   view_normal = mat3(view) * normal; // the view is a rotation and a translation
   vertex_shade = shade;
+  vertex_colour = vec4(0.0);
   gl_Position = projection * p;
 }

@@ -6,12 +6,15 @@
 layout(std430, binding = 0) readonly buffer CentreRadius { vec4 centre_radius[]; };
 layout(std430, binding = 1) readonly buffer RShade { vec4 r_shade[]; };
 layout(std430, binding = 2) readonly buffer B { vec4 b[]; };
+layout(std430, binding = 13) readonly buffer Colours { vec4 point_colour[]; }; // a > 0: given
 uniform int sides;
+uniform bool coloured; // the points carry stitch colours (binding 13)
 uniform mat4 view;
 uniform mat4 projection;
 out vec3 view_point;
 out vec3 view_normal;
 out float vertex_shade;
+out vec4 vertex_colour;
 
 void main() {
   const uint point = uint(gl_VertexID / sides);
@@ -24,5 +27,6 @@ void main() {
   view_point = p.xyz;
   view_normal = mat3(view) * out_dir; // the view is a rotation and a translation
   vertex_shade = rs.w;
+  vertex_colour = coloured ? point_colour[point] : vec4(0.0);
   gl_Position = projection * p;
 }

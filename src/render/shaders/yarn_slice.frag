@@ -18,6 +18,7 @@ in vec2 light_in_section;
 in float lit;
 in vec2 view_in_section;
 flat in int whole;
+in vec4 stitch_colour;
 uniform sampler2DArray lumislice; // 0: density; 1 + k: light from direction k; then ambient
 uniform sampler2DArray seen_whole; // 0: opacity; 1: ambient light; 2 + k: from direction k
 uniform int light_directions;
@@ -65,5 +66,6 @@ void main() {
   }
   if (a < 1.0 / 512.0)
     discard;
-  frag = vec4(colour.rgb * shade * (ambient * around + (1.0 - ambient) * through * lit), a);
+  const vec3 base = stitch_colour.a > 0.5 ? stitch_colour.rgb : colour.rgb;
+  frag = vec4(base * shade * (ambient * around + (1.0 - ambient) * through * lit), a);
 }

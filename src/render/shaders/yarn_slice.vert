@@ -19,6 +19,8 @@ layout(std430, binding = 9) readonly buffer Codes { uint code[]; };
 layout(std430, binding = 10) readonly buffer Pieces { uvec2 piece[]; };
 layout(std430, binding = 11) readonly buffer Lit { float segment_lit[]; };
 layout(std430, binding = 12) readonly buffer Draw { uint vertex_count; };
+layout(std430, binding = 13) readonly buffer Colours { vec4 point_colour[]; }; // a > 0: given
+uniform bool coloured; // the points carry stitch colours (binding 13)
 uniform uint slices; // a segment's slots
 uniform float reach;
 uniform float twist; // radians a metre of yarn
@@ -32,6 +34,7 @@ out float shade;
 out float path;
 out vec2 light_in_section;
 out float lit;
+out vec4 stitch_colour; // a > 0: the point's (binding 13), else the uniform colour
 out vec2 view_in_section;
 flat out int whole;
 
@@ -57,6 +60,7 @@ void main() {
     radius = mix(centre_radius[i].w, centre_radius[e].w, u);
     arc = mix(b[i].w, b[e].w, u);
     shade = mix(r_shade[i].w, r_shade[e].w, u);
+    stitch_colour = coloured ? point_colour[u < 0.5 ? i : e] : vec4(0.0);
     l = vec2(k);
     const vec3 d = p1 - p0;
     normal = dot(d, d) > 0.0 ? normalize(d) : cross(r, n);
@@ -69,6 +73,7 @@ void main() {
     radius = centre_radius[end].w;
     arc = b[end].w;
     shade = r_shade[end].w;
+    stitch_colour = coloured ? point_colour[end] : vec4(0.0);
     l = stack == 1u ? vec2(float(k.y), o) : vec2(o, float(k.y));
     normal = stack == 1u ? n : r;
     path = 2.0 * reach / float(n_slices);
