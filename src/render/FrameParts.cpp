@@ -98,11 +98,7 @@ FramePart read_frame_part(MPI_Comm comm, const std::string& path, SnapshotRender
   renderer.set_whole_fluid(whole);
   // The k-d split of the drawn points: the fluid's gathered (every k-th row of the file), the
   // rest as every rank holds it.
-  io::Frame rest = f;
-  rest.phases.erase(std::remove_if(rest.phases.begin(), rest.phases.end(),
-                                   [](const io::Phase& p) { return p.name == "fluid"; }),
-                    rest.phases.end());
-  const std::vector<glm::dvec3> others = renderer.drawn_points(rest);
+  const std::vector<glm::dvec3> others = renderer.drawn_points(f, false);
   constexpr std::uint64_t kMostSplitPoints = 2'000'000;
   const std::uint64_t stride = (total + others.size()) / kMostSplitPoints + 1;
   std::vector<unsigned char> picked;

@@ -322,10 +322,12 @@ double SnapshotRenderer::fluid_halo(const WholeFluid& whole) const {
   return opt.support * opt.spacing + 2 * g.cell + opt.spacing;
 }
 
-std::vector<glm::dvec3> SnapshotRenderer::drawn_points(const io::Frame& frame) const {
+std::vector<glm::dvec3> SnapshotRenderer::drawn_points(const io::Frame& frame,
+                                                       bool with_fluid) const {
   std::vector<glm::dvec3> all;
   for (const char* phase : {"fluid", "knit", "boundary"}) {
-    if (std::string(phase) == "boundary" && !style_.boundary)
+    if ((std::string(phase) == "boundary" && !style_.boundary) ||
+        (std::string(phase) == "fluid" && !with_fluid))
       continue;
     const auto x = phase_positions(frame, phase);
     all.insert(all.end(), x.begin(), x.end());
@@ -351,15 +353,16 @@ void SnapshotRenderer::start_surface(const io::Frame& frame, const Region* only)
   if (x.empty() || !fluid_r_ || !(*fluid_r_ > 0))
     return;
   glm::dvec3 lo(x.front()), hi(x.front());
-  for (const glm::dvec3& p : x) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  }
   SurfaceOptions opt = surface_options();
   if (whole_fluid_) { // a part of the fluid: the grid laid over the whole
     lo = whole_fluid_->lo;
     hi = whole_fluid_->hi;
     opt.box = std::pair(lo, hi);
+  } else {
+    for (const glm::dvec3& p : x) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
   }
   fluid_centre_ = 0.5 * (lo + hi);
   const auto t0 = std::chrono::steady_clock::now();

@@ -151,8 +151,9 @@ public:
   /// is the one drawn whole.
   io::RgbaImage composite_picture(const std::vector<DepthPixel>& pixels, const io::Frame& frame,
                                   const Camera& camera);
-  /// The points a k-d split of this frame shares out: the drawn phases' positions.
-  std::vector<glm::dvec3> drawn_points(const io::Frame& frame) const;
+  /// The points a k-d split of this frame shares out: the drawn phases' positions (without
+  /// the fluid's: the others', for a frame whose fluid is split over ranks).
+  std::vector<glm::dvec3> drawn_points(const io::Frame& frame, bool with_fluid = true) const;
   /// The whole frame's fluid, for frames that hold a part of it (a rank's region and a halo,
   /// read as its share of the snapshot; the other phases whole): its box and typical spacing,
   /// so the surface's grid, the frame's box, the shadows' and the spheres' radius are the

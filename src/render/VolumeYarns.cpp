@@ -84,6 +84,16 @@ VolumeYarns::~VolumeYarns() {
   glDeleteVertexArrays(1, &vao_);
 }
 
+void VolumeYarns::bind(const TubeRenderer& tubes) const {
+  for (GLuint i = 0; i < 4; ++i) {
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, tubes.frame_buffer(int(i)));
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8 + i, buffers_[i]);
+  }
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 12, draw_);
+  if (const unsigned colours = tubes.colour_buffer())
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 13, colours);
+}
+
 void VolumeYarns::order(const TubeRenderer& tubes, const ViewMatrices& view, double radius,
                         const Lighting& light, int height) {
   const std::size_t segments = tubes.segments();
@@ -99,11 +109,7 @@ void VolumeYarns::order(const TubeRenderer& tubes, const ViewMatrices& view, dou
                                 slots_ * 2 * sizeof(std::uint32_t), segments * sizeof(float)};
   for (int i = 0; i < 4; ++i)
     buffers_[i] = grown_buffer(buffers_[i], capacity_[i], bytes[i], 1.2);
-  for (GLuint i = 0; i < 4; ++i)
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, tubes.frame_buffer(int(i)));
-  for (GLuint i = 0; i < 4; ++i)
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8 + i, buffers_[i]);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 12, draw_);
+  bind(tubes);
   const unsigned p = order_program_.id();
   use_lit_program(p, view, light); // the shadow maps' uniforms and sampler
   const glm::vec3 toward = glm::normalize(light.toward_light);
@@ -148,15 +154,8 @@ void VolumeYarns::draw(const TubeRenderer& tubes, const glm::vec4& colour, const
   glUniform1i(glGetUniformLocation(p, "seen_whole"), 7);
   glBindTextureUnit(6, texture_);
   glBindTextureUnit(7, seen_texture_);
-  for (GLuint i = 0; i < 4; ++i)
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, i, tubes.frame_buffer(int(i)));
-  for (GLuint i = 1; i < 4; ++i)
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 8 + i, buffers_[i]);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 12, draw_);
-  const unsigned colours = tubes.colour_buffer();
-  glUniform1i(glGetUniformLocation(p, "coloured"), colours ? 1 : 0);
-  if (colours)
-    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 13, colours);
+  bind(tubes);
+  glUniform1i(glGetUniformLocation(p, "coloured"), tubes.colour_buffer() ? 1 : 0);
   glBindBuffer(GL_DRAW_INDIRECT_BUFFER, draw_);
   glBindVertexArray(vao_);
   glEnable(GL_DEPTH_TEST);

@@ -51,6 +51,9 @@ public:
   bool sorts_on_cuda() const { return sort_.on_cuda(); }
 
 private:
+  /// The shaders' buffers: the tubes' frames (0-3), keys, slots, pieces, light (8-11), the
+  /// indirect draw (12), the points' colours where the tubes have them (13).
+  void bind(const TubeRenderer& tubes) const;
   Lumislice slice_;
   int slices_;
   double detail_pixels_;
