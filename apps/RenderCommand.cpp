@@ -1,15 +1,14 @@
 #include "RenderCommand.hpp"
-#include "comm/BinarySwap.hpp"
 #include "core/Error.hpp"
 #include "domain/MeshObstacle.hpp"
 #include "domain/Scene.hpp"
 #include "io/SnapshotReader.hpp"
 #include "kernels/exec/Backend.hpp"
-#include "render/DepthComposite.hpp"
 #include "render/FrameParts.hpp"
 #include "render/FrameSelection.hpp"
 #include "render/SnapshotRender.hpp"
 #include "render/SolidMeshes.hpp"
+#include "render/SortLastFrame.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -388,7 +387,8 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
     });
     if (mpi.root() && !a.quiet)
       log << "render: each frame in " << mpi.size()
-          << " parts (a k-d split of its particles), composited by depth (binary swap)\n";
+          << " parts (a k-d split of its particles), composited by depth and the yarns by \"over\" "
+             "in order (binary swap)\n";
     for (std::size_t k = 0; k < chosen.size(); ++k) {
       const auto t0 = std::chrono::steady_clock::now();
       // Each rank reads its share of the file and keeps its region's fluid (and a halo).
@@ -396,42 +396,14 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
         return render::read_frame_part(mpi.comm(), path_of(chosen[k]).string(), renderer);
       });
       const io::Frame& f = part.frame;
-      const std::vector<render::Region>& regions = part.regions;
       const auto t_read = std::chrono::steady_clock::now();
-      // Opaque parts composite by depth; with translucent water, every layer by its depth and
-      // the composite's water resolved by the root.
-      auto t1 = t_read, t_swapped = t_read;
-      auto composite = [&](auto& px) {
-        using Pixel = std::remove_reference_t<decltype(px[0])>;
-        return comm::binary_swap(mpi.comm(), px.data(), px.size(), sizeof(Pixel),
-                                 [](void* mine, const void* theirs, std::size_t n) {
-                                   render::keep_nearer(static_cast<Pixel*>(mine),
-                                                       static_cast<const Pixel*>(theirs), n);
-                                 });
-      };
-      comm::BinarySwapStats swap;
-      io::RgbaImage picture;
-      if (renderer.translucent()) {
-        auto px = named(path_of(chosen[k]), [&] {
-          return renderer.draw_layers(f, camera_at(f.time), &regions[std::size_t(mpi.rank())]);
-        });
-        t1 = std::chrono::steady_clock::now();
-        swap = composite(px);
-        t_swapped = std::chrono::steady_clock::now();
-        if (mpi.root())
-          picture = renderer.resolve(px, f, camera_at(f.time));
-      } else {
-        const io::RgbaImage part = named(path_of(chosen[k]), [&] {
-          return renderer.draw(f, camera_at(f.time), &regions[std::size_t(mpi.rank())]);
-        });
-        auto px = render::depth_pixels(part, renderer.depth());
-        t1 = std::chrono::steady_clock::now();
-        swap = composite(px);
-        t_swapped = std::chrono::steady_clock::now();
-        if (mpi.root())
-          picture = renderer.composite_picture(px, f, camera_at(f.time));
-      }
-      const auto t2 = std::chrono::steady_clock::now();
+      // Opaque parts (and the translucent water's layers) composite by depth, the volumetric
+      // yarns' layers by "over" in the regions' order from the eye; the root's picture.
+      render::SortLastTimes times;
+      io::RgbaImage picture = named(path_of(chosen[k]), [&] {
+        return render::draw_sort_last(mpi.comm(), renderer, f, camera_at(f.time), part.regions,
+                                      &times);
+      });
       const std::uint64_t spheres = mpi.sum(std::uint64_t(renderer.last_spheres()));
       const std::uint64_t triangles = mpi.sum(std::uint64_t(renderer.last_triangles()));
       if (mpi.root()) {
@@ -446,11 +418,12 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
           log << "render: " << (out / name).string() << " (t = " << f.time << " s): " << spheres
               << " spheres, " << triangles << " triangles, "
               << sec(std::chrono::steady_clock::now() - t0).count() << " s (read "
-              << sec(t_read - t0).count() << " s, draw " << sec(t1 - t_read).count()
-              << " s, composite " << sec(t_swapped - t1).count() << " s, resolve "
-              << sec(t2 - t_swapped).count() << " s, " << swap.bytes_sent
-              << " bytes sent by rank 0; its fluid rows: " << part.fluid_read << " read, "
-              << part.fluid_held << " drawn or about its part, of " << part.fluid_total << ")\n";
+              << sec(t_read - t0).count() << " s, draw " << times.draw << " s, composite "
+              << times.composite << " s, yarns " << times.yarns << " s, their composite "
+              << times.yarn_composite << " s, resolve " << times.resolve << " s, "
+              << times.bytes_sent << " bytes sent by rank 0; its fluid rows: " << part.fluid_read
+              << " read, " << part.fluid_held << " drawn or about its part, of " << part.fluid_total
+              << ")\n";
       }
     }
   }

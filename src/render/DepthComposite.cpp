@@ -2,6 +2,11 @@
 
 #include "core/Error.hpp"
 
+#include <glm/glm.hpp>
+#include <glm/gtc/packing.hpp>
+
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <string>
 
@@ -40,6 +45,47 @@ void keep_nearer(LayeredPixel* mine, const LayeredPixel* theirs, std::size_t cou
     }
     if (t.water.back < m.water.back)
       m.water.back = t.water.back;
+  }
+}
+
+namespace {
+
+glm::vec4 unpacked(const YarnPixel& p) {
+  return {glm::unpackHalf1x16(p.rgba[0]), glm::unpackHalf1x16(p.rgba[1]),
+          glm::unpackHalf1x16(p.rgba[2]), glm::unpackHalf1x16(p.rgba[3])};
+}
+
+} // namespace
+
+void yarns_over(YarnPixel* mine, const YarnPixel* theirs, std::size_t count, bool theirs_in_front) {
+  for (std::size_t k = 0; k < count; ++k) {
+    const YarnPixel& f = theirs_in_front ? theirs[k] : mine[k];
+    const YarnPixel& b = theirs_in_front ? mine[k] : theirs[k];
+    if (b.rgba[3] == 0 && b.rgba[0] == 0 && b.rgba[1] == 0 && b.rgba[2] == 0) {
+      // Nothing behind (the common case: most of a part's pixels hold no yarn): front as is.
+      const float depth = std::min(f.depth, b.depth);
+      mine[k] = f;
+      mine[k].depth = depth;
+      continue;
+    }
+    const glm::vec4 front = unpacked(f), back = unpacked(b);
+    const glm::vec4 c = front + (1.0f - front.a) * back;
+    YarnPixel out;
+    for (int i = 0; i < 4; ++i)
+      out.rgba[i] = glm::packHalf1x16(c[i]);
+    out.depth = std::min(f.depth, b.depth);
+    mine[k] = out;
+  }
+}
+
+void put_yarns_over(DepthPixel& opaque, const YarnPixel& yarns) {
+  opaque.depth = std::min(opaque.depth, yarns.depth);
+  if (yarns.rgba[3] == 0 && yarns.rgba[0] == 0 && yarns.rgba[1] == 0 && yarns.rgba[2] == 0)
+    return;
+  const glm::vec4 y = unpacked(yarns);
+  for (int i = 0; i < 4; ++i) {
+    const float c = y[i] + (1.0f - y.a) * float(opaque.rgba[i]) / 255.0f;
+    opaque.rgba[i] = std::uint8_t(std::lround(255.0f * std::clamp(c, 0.0f, 1.0f)));
   }
 }
 

@@ -36,6 +36,16 @@ struct LayeredPixel {
 };
 static_assert(sizeof(LayeredPixel) == 24);
 
+/// A pixel of a part's volumetric yarns (sort-last): their slices blended back to front over
+/// transparent black, premultiplied (half floats: parts are folded by "over" before the 8 bits
+/// of the picture), and their cores' nearest depth (the tubes'; 1: none). The parts are
+/// folded in the order they lie from the eye (comm::ordered_binary_swap).
+struct YarnPixel {
+  std::uint16_t rgba[4];
+  float depth;
+};
+static_assert(sizeof(YarnPixel) == 12);
+
 std::vector<DepthPixel> depth_pixels(const io::RgbaImage& colour, const std::vector<float>& depth);
 /// mine[k] = theirs[k] where theirs is strictly nearer: ties keep mine, so a pixel both ranks
 /// left empty keeps its background.
@@ -43,6 +53,12 @@ void keep_nearer(DepthPixel* mine, const DepthPixel* theirs, std::size_t count);
 /// Each layer the nearer: the opaque scene's, the water's front face (its light, normal and
 /// depth together) and its back face; ties keep mine.
 void keep_nearer(LayeredPixel* mine, const LayeredPixel* theirs, std::size_t count);
+/// Folds two parts' yarns: the one in front "over" the other (colour front + (1 - its alpha)
+/// back), the nearer core; the result in `mine`.
+void yarns_over(YarnPixel* mine, const YarnPixel* theirs, std::size_t count, bool theirs_in_front);
+/// The yarns over the opaque scene behind them: colour y + (1 - y's alpha) opaque, rounded to 8
+/// bits; the depth the nearer of the scene's and the cores'.
+void put_yarns_over(DepthPixel& opaque, const YarnPixel& yarns);
 io::RgbaImage colour_of(const std::vector<DepthPixel>& pixels, int width, int height);
 
 } // namespace kf::render

@@ -9,14 +9,15 @@
 
 namespace kf::render {
 
-OffscreenTarget::OffscreenTarget(int width, int height) : width_(width), height_(height) {
+OffscreenTarget::OffscreenTarget(int width, int height, bool half_float)
+    : width_(width), height_(height) {
   if (width <= 0 || height <= 0)
     throw Error("render: an image of " + std::to_string(width) + " x " + std::to_string(height) +
                 " pixels");
   glCreateFramebuffers(1, &fbo_);
   glCreateTextures(GL_TEXTURE_2D, 1, &colour_);
   glCreateTextures(GL_TEXTURE_2D, 1, &depth_);
-  glTextureStorage2D(colour_, 1, GL_RGBA8, width, height);
+  glTextureStorage2D(colour_, 1, half_float ? GL_RGBA16F : GL_RGBA8, width, height);
   glTextureStorage2D(depth_, 1, GL_DEPTH_COMPONENT32F, width, height);
   for (unsigned t : {colour_, depth_}) { // read texel by texel (texelFetch), never filtered
     glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
@@ -51,14 +52,28 @@ void OffscreenTarget::bind() const {
   glViewport(0, 0, width_, height_);
 }
 
-std::vector<std::uint8_t> OffscreenTarget::read_rgba() const {
-  std::vector<std::uint8_t> px(std::size_t(width_) * height_ * 4);
+namespace {
+
+/// The framebuffer's colour read back as `type` (4 values a pixel), the top row first.
+template <typename T>
+std::vector<T> read_colour(unsigned fbo, int width, int height, GLenum type) {
+  std::vector<T> px(std::size_t(width) * std::size_t(height) * 4);
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glNamedFramebufferReadBuffer(fbo_, GL_COLOR_ATTACHMENT0);
-  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_);
-  glReadPixels(0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, px.data());
-  flip_rows(px, std::size_t(width_) * 4);
+  glNamedFramebufferReadBuffer(fbo, GL_COLOR_ATTACHMENT0);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo);
+  glReadPixels(0, 0, width, height, GL_RGBA, type, px.data());
+  flip_rows(px, std::size_t(width) * 4);
   return px;
+}
+
+} // namespace
+
+std::vector<std::uint8_t> OffscreenTarget::read_rgba() const {
+  return read_colour<std::uint8_t>(fbo_, width_, height_, GL_UNSIGNED_BYTE);
+}
+
+std::vector<std::uint16_t> OffscreenTarget::read_rgba_half() const {
+  return read_colour<std::uint16_t>(fbo_, width_, height_, GL_HALF_FLOAT);
 }
 
 std::vector<float> OffscreenTarget::read_depth() const {
@@ -79,6 +94,16 @@ void OffscreenTarget::write(std::vector<std::uint8_t> rgba, std::vector<float> d
   flip_rows(depth, std::size_t(width_));
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTextureSubImage2D(colour_, 0, 0, 0, width_, height_, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+  glTextureSubImage2D(depth_, 0, 0, 0, width_, height_, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+}
+
+void OffscreenTarget::write_depth(std::vector<float> depth) {
+  if (depth.size() != std::size_t(width_) * std::size_t(height_))
+    throw Error("render: " + std::to_string(depth.size()) + " depths written into a " +
+                std::to_string(width_) + " x " + std::to_string(height_) + " target");
+  flip_rows(depth, std::size_t(width_));
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTextureSubImage2D(depth_, 0, 0, 0, width_, height_, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
 }

@@ -22,8 +22,9 @@ void flip_rows(std::vector<T>& v, std::size_t row) {
 class OffscreenTarget {
 public:
   /// Needs a current context (EglContext). A kf::Error names the framebuffer's status if the
-  /// driver refuses the attachments.
-  OffscreenTarget(int width, int height);
+  /// driver refuses the attachments. half_float: the colour as 4 half floats a pixel (a
+  /// translucent layer blended over transparent black, composited before it meets 8 bits).
+  OffscreenTarget(int width, int height, bool half_float = false);
   ~OffscreenTarget();
   OffscreenTarget(const OffscreenTarget&) = delete;
   OffscreenTarget& operator=(const OffscreenTarget&) = delete;
@@ -32,11 +33,15 @@ public:
   void bind() const;
   /// The colour attachment, 4 bytes a pixel, the top row first.
   std::vector<std::uint8_t> read_rgba() const;
+  /// The colour attachment as half floats (4 a pixel), the top row first.
+  std::vector<std::uint16_t> read_rgba_half() const;
   /// The depth attachment in [0, 1], the top row first.
   std::vector<float> read_depth() const;
   /// Replaces both attachments (a composite of parts): 4 bytes and a depth a pixel, the top row
   /// first.
   void write(std::vector<std::uint8_t> rgba, std::vector<float> depth);
+  /// Replaces the depth attachment alone (a pixel a value, the top row first).
+  void write_depth(std::vector<float> depth);
   unsigned colour_texture() const { return colour_; }
   unsigned depth_texture() const { return depth_; }
   int width() const { return width_; }

@@ -413,7 +413,9 @@ std::size_t SnapshotRenderer::knit_tubes(const io::Frame& frame, const Region* o
   const auto t0 = std::chrono::steady_clock::now();
   std::size_t triangles = 0;
   if (style_.geometry_on_gpu) {
-    tubes_.build(yarn_points_of(frame), ys, only);
+    // A part's volumetric yarns: every segment within their reach of it (its layer cuts them
+    // at its faces; as shadow casters a segment drawn by two parts is the nearest once).
+    tubes_.build(yarn_points_of(frame), ys, only, only && style_.knit_volume ? yarn_reach() : 0.0);
     triangles = tubes_.triangles();
   } else {
     const YarnPolylines lines{phase_positions(frame, "yarn"), segments(frame, "yarn"),
@@ -557,52 +559,78 @@ std::vector<LayeredPixel> SnapshotRenderer::draw_layers(const io::Frame& frame,
   return out;
 }
 
-io::RgbaImage SnapshotRenderer::resolve(const std::vector<LayeredPixel>& layers,
-                                        const io::Frame& frame, const Camera& camera) {
+io::RgbaImage SnapshotRenderer::resolve(std::vector<LayeredPixel> layers,
+                                        const std::vector<YarnPixel>& yarns, const Camera& camera) {
   if (!translucent())
     throw Error("render: only translucent water's layers are resolved");
+  if (!yarns.empty() && yarns.size() != layers.size())
+    throw Error("render: " + std::to_string(yarns.size()) + " yarn pixels over " +
+                std::to_string(layers.size()) + " layered ones");
   timer_.begin();
+  // The layers run bottom up (GL's rows), the yarns top down (the image's).
+  const std::size_t w = std::size_t(style_.width), h = std::size_t(style_.height);
+  for (std::size_t k = 0; k < yarns.size(); ++k)
+    put_yarns_over(layers[k].opaque, yarns[(h - 1 - k / w) * w + k % w]);
   if (!water_)
     water_ = std::make_unique<WaterLayers>(style_.width, style_.height);
   water_->write(layers, target_);
   timer_.mark("uploads");
-  draw_yarns_over(frame, camera);
   return resolved(camera);
 }
 
-io::RgbaImage SnapshotRenderer::composite_picture(const std::vector<DepthPixel>& pixels,
-                                                  const io::Frame& frame, const Camera& camera) {
-  if (!volume_yarns(frame))
-    return colour_of(pixels, style_.width, style_.height);
-  timer_.begin();
-  std::vector<std::uint8_t> rgba(4 * pixels.size());
-  std::vector<float> depth(pixels.size());
-  for (std::size_t k = 0; k < pixels.size(); ++k) {
-    std::memcpy(&rgba[4 * k], pixels[k].rgba, 4);
-    depth[k] = pixels[k].depth;
-  }
-  target_.write(std::move(rgba), std::move(depth));
-  timer_.mark("uploads");
-  draw_yarns_over(frame, camera);
-  io::RgbaImage image{style_.width, style_.height, target_.read_rgba()};
-  timer_.mark("read-back");
-  last_passes_ = timer_.read();
-  return image;
+io::RgbaImage SnapshotRenderer::composite_picture(std::vector<DepthPixel> pixels,
+                                                  const std::vector<YarnPixel>& yarns) const {
+  if (!yarns.empty() && yarns.size() != pixels.size())
+    throw Error("render: " + std::to_string(yarns.size()) + " yarn pixels over " +
+                std::to_string(pixels.size()) + " opaque ones");
+  for (std::size_t k = 0; k < yarns.size(); ++k)
+    put_yarns_over(pixels[k], yarns[k]);
+  return colour_of(pixels, style_.width, style_.height);
 }
 
-void SnapshotRenderer::draw_yarns_over(const io::Frame& frame, const Camera& camera) {
-  if (!volume_yarns(frame))
-    return;
-  knit_tubes(frame, nullptr);
+double SnapshotRenderer::yarn_reach() const {
+  // The slices span reach radii of the wet (swollen) yarn about its centre; a little more for
+  // the level of detail's merged runs (within half a pixel of the points).
+  return 1.05 * style_.lumislice.reach() * yarn_r_.value_or(0) * (1 + YarnStyle{}.swell);
+}
+
+std::vector<YarnPixel> SnapshotRenderer::draw_yarn_layer(const Camera& camera, const Region& only,
+                                                         const std::vector<float>& opaque_depth) {
+  const std::size_t n = std::size_t(style_.width) * std::size_t(style_.height);
+  if (opaque_depth.size() != n)
+    throw Error("render: an opaque depth of " + std::to_string(opaque_depth.size()) +
+                " pixels for a " + std::to_string(style_.width) + " x " +
+                std::to_string(style_.height) + " picture");
+  std::vector<YarnPixel> out(n, YarnPixel{{0, 0, 0, 0}, 1.0f});
   if (!volumetric())
-    return;
+    return out;
+  timer_.begin();
+  if (!yarn_layer_)
+    yarn_layer_ = std::make_unique<OffscreenTarget>(style_.width, style_.height, true);
+  yarn_layer_->write_depth(opaque_depth);
+  yarn_layer_->bind();
+  glClearColor(0, 0, 0, 0); // a transparent black layer: what the slices add, premultiplied
+  glClear(GL_COLOR_BUFFER_BIT);
+  timer_.mark("uploads");
   Lighting lighting = style_.lighting;
   if (style_.shadows && shadows_) // the part's draw left the frame's maps (combined) bound
     lighting.shadows = shadows_.get();
-  draw_yarn_slices(ViewMatrices::of(camera, double(style_.width) / style_.height), lighting);
+  draw_yarn_slices(ViewMatrices::of(camera, double(style_.width) / style_.height), lighting,
+                   *yarn_layer_, &only);
+  const std::vector<std::uint16_t> rgba = yarn_layer_->read_rgba_half();
+  const std::vector<float> depth = yarn_layer_->read_depth();
+  for (std::size_t k = 0; k < n; ++k) {
+    std::memcpy(out[k].rgba, &rgba[4 * k], sizeof out[k].rgba);
+    out[k].depth = depth[k]; // the opaque scene's or a nearer core's: folded by the nearer
+  }
+  timer_.mark("read-back");
+  for (auto& pass : timer_.read())
+    last_passes_.push_back({"layer " + pass.first, pass.second});
+  return out;
 }
 
-void SnapshotRenderer::draw_yarn_slices(const ViewMatrices& view, const Lighting& lighting) {
+void SnapshotRenderer::draw_yarn_slices(const ViewMatrices& view, const Lighting& lighting,
+                                        const OffscreenTarget& target, const Region* clip) {
   if (!volume_)
     volume_ = std::make_unique<VolumeYarns>(style_.lumislice, sort_on_cuda_, style_.yarn_slices,
                                             style_.yarn_detail_pixels);
@@ -610,10 +638,10 @@ void SnapshotRenderer::draw_yarn_slices(const ViewMatrices& view, const Lighting
   timer_.mark("yarn order");
   // The slices over the opaque scene, back to front; then the yarns' depth, their tubes' (the
   // core the fibres nearly hide), for what is drawn after (the water) and the composite.
-  target_.bind();
-  volume_->draw(tubes_, style_.knit, view, lighting);
+  target.bind();
+  volume_->draw(tubes_, style_.knit, view, lighting, clip);
   glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
-  tubes_.draw(style_.knit, view, Lighting{}, false, true);
+  tubes_.draw(style_.knit, view, Lighting{}, false, true, clip);
   glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
   timer_.mark("yarn slices");
 }
@@ -673,10 +701,10 @@ void SnapshotRenderer::render(const io::Frame& frame, const Camera& camera, cons
   glClearDepth(1.0);
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   draw_scene(view, lighting, true);
-  // A part of a sort-last frame draws no yarns (their tubes only cast shadows): the root draws
-  // them over the composite (composite_picture, resolve).
+  // A part of a sort-last frame draws its yarns after the opaque scene's composite
+  // (draw_yarn_layer): their slices blend over what lies behind them, in any part.
   if (volumetric() && !only)
-    draw_yarn_slices(view, lighting);
+    draw_yarn_slices(view, lighting, target_);
   last_spheres_ = list.size();
   last_triangles_ = surface_triangles + tube_triangles;
   timer_.mark("picture");

@@ -137,20 +137,31 @@ public:
   /// layers (draw_layers, keep_nearer of LayeredPixel) and the composite resolved.
   bool translucent() const { return style_.fluid_translucent && style_.fluid_surface; }
   /// A part of a frame (sort-last) as its layers, translucent water only: the opaque scene's
-  /// colour and depth and the water's, a record a pixel (WaterLayers::read's order).
+  /// colour and depth and the water's, a record a pixel (WaterLayers::read's order: GL's, the
+  /// bottom row first).
   std::vector<LayeredPixel> draw_layers(const io::Frame& frame, const Camera& camera,
                                         const Region* only);
-  /// The picture of a composite of parts' layers seen from `camera` (the water resolved): with
-  /// volumetric yarns, first the whole frame's yarns drawn over the composite's opaque scene.
-  io::RgbaImage resolve(const std::vector<LayeredPixel>& layers, const io::Frame& frame,
+  /// Whether a sort-last part draws this frame's yarns as a layer of their own
+  /// (draw_yarn_layer): volumetric yarns are translucent, blended over what lies behind them.
+  bool yarn_layer(const io::Frame& frame) const { return volume_yarns(frame); }
+  /// A part's volumetric yarns, after its draw (or draw_layers) of the same frame from the same
+  /// camera, once the opaque scene's composite depth is known (`opaque_depth`, a value a pixel,
+  /// the top row first: every part's, comm::allgather_strips): the slices of the yarns within
+  /// reach of `only`, cut at its faces, blended back to front over transparent black where
+  /// that scene does not hide them, and their cores' depth (YarnPixel, the image's order). The
+  /// parts' layers folded front to back (yarns_over, in visibility_order) are the whole
+  /// frame's yarns.
+  std::vector<YarnPixel> draw_yarn_layer(const Camera& camera, const Region& only,
+                                         const std::vector<float>& opaque_depth);
+  /// The picture of a composite of parts' layers seen from `camera` (the water resolved), the
+  /// composite of their yarns' layers (none: empty; the image's order, top row first, unlike
+  /// the layers') over its opaque scene first.
+  io::RgbaImage resolve(std::vector<LayeredPixel> layers, const std::vector<YarnPixel>& yarns,
                         const Camera& camera);
-  /// The picture of a composite of opaque parts (DepthPixel, the image's order): the composite
-  /// itself, or with volumetric yarns the whole frame's yarns drawn over it. Translucent slices
-  /// blend over what lies behind them, which a part alone does not hold: the parts draw no
-  /// yarns (but their shadows) and the root draws them all over the composite, so the picture
-  /// is the one drawn whole.
-  io::RgbaImage composite_picture(const std::vector<DepthPixel>& pixels, const io::Frame& frame,
-                                  const Camera& camera);
+  /// The picture of a composite of opaque parts (DepthPixel, the image's order) with the
+  /// composite of their yarns' layers (none: empty) over it.
+  io::RgbaImage composite_picture(std::vector<DepthPixel> pixels,
+                                  const std::vector<YarnPixel>& yarns) const;
   /// The points a k-d split of this frame shares out: the drawn phases' positions (without
   /// the fluid's: the others', for a frame whose fluid is split over ranks).
   std::vector<glm::dvec3> drawn_points(const io::Frame& frame, bool with_fluid = true) const;
@@ -172,6 +183,8 @@ public:
   double fluid_halo(const WholeFluid& whole) const;
   std::size_t last_spheres() const { return last_spheres_; }
   std::size_t last_triangles() const { return last_triangles_; }
+  /// The yarn segments the last draw built (a part's: those within reach of its region).
+  std::size_t last_yarn_segments() const { return tubes_.segments(); }
   /// Seconds the last draw spent on the fluid's surface (field and marching cubes, their
   /// triangles ready to draw).
   double last_surface_seconds() const { return last_surface_seconds_; }
@@ -180,6 +193,7 @@ public:
   /// The last draw's passes and their GPU seconds (GL timestamps): the surface's field and
   /// cubes, the yarns' frames, the other uploads, the shadow maps, the picture, its read-back.
   const std::vector<std::pair<std::string, double>>& last_passes() const { return last_passes_; }
+  int width() const { return style_.width; }
   const ContextInfo& context() const { return context_.info(); }
 
 private:
@@ -215,10 +229,12 @@ private:
   bool volume_yarns(const io::Frame& frame) const {
     return style_.knit_volume && style_.geometry_on_gpu && has_yarns(frame);
   }
-  /// The built tubes' slices, ordered, blended over target_, then their cores' depth.
-  void draw_yarn_slices(const ViewMatrices& view, const Lighting& lighting);
-  /// The whole frame's yarns drawn volumetrically over target_ (a composite written into it).
-  void draw_yarns_over(const io::Frame& frame, const Camera& camera);
+  /// The built tubes' slices, ordered, blended over `target`, then their cores' depth;
+  /// with `clip`, cut at its faces.
+  void draw_yarn_slices(const ViewMatrices& view, const Lighting& lighting,
+                        const OffscreenTarget& target, const Region* clip = nullptr);
+  /// The reach of a part's yarns past its region: the slices' half width, wet.
+  double yarn_reach() const;
   /// The water's layers resolved into picture_ and read back.
   io::RgbaImage resolved(const Camera& camera);
   WaterOptics optics() const;
@@ -249,8 +265,9 @@ private:
   std::unique_ptr<EnvironmentMap> environment_;
   SphereRenderer environment_spheres_;
   glm::dvec3 fluid_centre_{0.0};
-  unsigned environment_texture_ = 0;         // this frame's, 0: the sky alone
-  std::unique_ptr<OffscreenTarget> picture_; // the resolve's
+  unsigned environment_texture_ = 0;            // this frame's, 0: the sky alone
+  std::unique_ptr<OffscreenTarget> picture_;    // the resolve's
+  std::unique_ptr<OffscreenTarget> yarn_layer_; // a part's yarns (half floats)
   std::unique_ptr<SurfaceCompute> surface_compute_;
   GpuTimer timer_;
   std::vector<std::pair<std::string, double>> last_passes_;

@@ -3,7 +3,9 @@
 #include "core/Error.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
+#include <string>
 
 namespace kf::render {
 
@@ -49,6 +51,52 @@ std::vector<Region> kd_split(std::vector<glm::dvec3> points, int parts) {
   const double inf = std::numeric_limits<double>::infinity();
   std::vector<Region> out;
   split(points.begin(), points.end(), {glm::dvec3(-inf), glm::dvec3(inf)}, parts, out);
+  return out;
+}
+
+namespace {
+
+void visit(const std::vector<Region>& parts, int first, int last, const glm::dvec3& eye,
+           std::vector<int>& out) {
+  const int k = last - first;
+  if (k == 1) {
+    out.push_back(first);
+    return;
+  }
+  const int mid = first + (k + 1) / 2;
+  // The cut: the axis on which every box of the first side ends where the second side's begin.
+  int axis = -1;
+  double cut = 0;
+  for (int a = 0; a < 3 && axis < 0; ++a) {
+    double end = -std::numeric_limits<double>::infinity();
+    double begin = std::numeric_limits<double>::infinity();
+    for (int r = first; r < mid; ++r)
+      end = std::max(end, parts[std::size_t(r)].hi[a]);
+    for (int r = mid; r < last; ++r)
+      begin = std::min(begin, parts[std::size_t(r)].lo[a]);
+    if (end <= begin) {
+      axis = a;
+      cut = end;
+    }
+  }
+  if (axis < 0)
+    throw Error("render: parts " + std::to_string(first) + ".." + std::to_string(last - 1) +
+                " are not a k-d split's (no plane between their halves)");
+  if (eye[axis] < cut) {
+    visit(parts, first, mid, eye, out);
+    visit(parts, mid, last, eye, out);
+  } else {
+    visit(parts, mid, last, eye, out);
+    visit(parts, first, mid, eye, out);
+  }
+}
+
+} // namespace
+
+std::vector<int> visibility_order(const std::vector<Region>& parts, const glm::dvec3& eye) {
+  std::vector<int> out;
+  if (!parts.empty())
+    visit(parts, 0, int(parts.size()), eye, out);
   return out;
 }
 

@@ -21,4 +21,11 @@ struct Region {
 /// cut, so the counts differ by at most the points lying on a cut plane.
 std::vector<Region> kd_split(std::vector<glm::dvec3> points, int parts);
 
+/// The parts of a k-d split (kd_split's, in its order) from the nearest to the eye to the
+/// farthest: along any line of sight from `eye` they are met in this order (the translucent
+/// layers' "over" needs it). The split's tree is found again from the boxes (a part's k parts
+/// are ceil(k/2) then the rest, one plane between them); at each cut the side holding the eye
+/// comes first.
+std::vector<int> visibility_order(const std::vector<Region>& parts, const glm::dvec3& eye);
+
 } // namespace kf::render

@@ -2,6 +2,7 @@
 
 #include "core/Error.hpp"
 #include "render/GlBuffers.hpp"
+#include "render/RegionClip.hpp"
 #include "render/Shaders.hpp"
 
 #include <epoxy/gl.h>
@@ -13,7 +14,8 @@
 namespace kf::render {
 
 TubeRenderer::TubeRenderer()
-    : program_(std::make_unique<ShaderProgram>("tube.vert + mesh.frag", shaders::kTubeVert,
+    : program_(std::make_unique<ShaderProgram>("tube.vert + mesh.frag",
+                                               with_region_clip(shaders::kTubeVert),
                                                with_light_lookups(shaders::kMeshFrag))),
       index_program_(ShaderProgram::compute("tube_indices.comp", shaders::kTubeIndicesComp)),
       frame_program_(ShaderProgram::compute("yarn_frames.comp", shaders::kYarnFramesComp)) {
@@ -69,10 +71,11 @@ void TubeRenderer::make_indices(int sides) {
   glMemoryBarrier(GL_ELEMENT_ARRAY_BARRIER_BIT);
 }
 
-void TubeRenderer::build(const YarnPoints& y, const YarnStyle& style, const Region* only) {
+void TubeRenderer::build(const YarnPoints& y, const YarnStyle& style, const Region* only,
+                         double reach) {
   if (!(style.radius > 0) || style.sides < 3)
     throw Error("render: a yarn needs a radius > 0 and at least 3 sides");
-  const YarnChains chains = yarn_chains(y, only);
+  const YarnChains chains = yarn_chains(y, only, reach);
   sides_ = style.sides;
   segments_ = chains.drawn.size();
   coloured_ = false;
@@ -116,7 +119,7 @@ void TubeRenderer::build(const YarnPoints& y, const YarnStyle& style, const Regi
 }
 
 void TubeRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light,
-                        bool coarse, bool one_sided) {
+                        bool coarse, bool one_sided, const Region* clip) {
   if (segments_ == 0)
     return;
   use_lit_program(program_->id(), view, light);
@@ -138,8 +141,10 @@ void TubeRenderer::draw(const glm::vec4& colour, const ViewMatrices& view, const
     glEnable(GL_CULL_FACE);
     glCullFace(GL_BACK);
   }
+  clip_to(p, clip);
   glDrawElements(GL_TRIANGLES, GLsizei(segments_ * 6 * std::size_t(sides_ / step)), GL_UNSIGNED_INT,
                  nullptr);
+  clip_to(p, nullptr);
   glDisable(GL_CULL_FACE);
   check_gl("drawing " + std::to_string(segments_) + " yarn segments as tubes");
 }

@@ -29,13 +29,16 @@ public:
   /// The same from the yarns themselves: their chains listed on the host (yarn_chains), the
   /// frames computed on the GPU (shaders/yarn_frames.comp, a yarn a thread), so the host moves
   /// 16 bytes a point.
-  void build(const YarnPoints& yarns, const YarnStyle& style, const Region* only = nullptr);
+  /// `only` and `reach` choose the drawn segments (yarn_chains').
+  void build(const YarnPoints& yarns, const YarnStyle& style, const Region* only = nullptr,
+             double reach = 0);
   /// Draws the last uploaded tubes into the bound target with depth testing, in `colour`
   /// scaled by each point's shade; coarse, with every other ring vertex (half the sides, an even
   /// number of them: for shadow maps); one_sided, the faces turned away culled (seen from
-  /// outside, a tube's own front faces hide them; only a yarn's open end shows the difference).
+  /// outside, a tube's own front faces hide them; only a yarn's open end shows the difference);
+  /// with `clip`, cut at its faces (RegionClip).
   void draw(const glm::vec4& colour, const ViewMatrices& view, const Lighting& light = {},
-            bool coarse = false, bool one_sided = false);
+            bool coarse = false, bool one_sided = false, const Region* clip = nullptr);
   std::size_t triangles() const { return segments_ * 2 * std::size_t(sides_); }
   /// The drawn segments and the buffers the tubes are built from (VolumeYarns slices the same
   /// yarns): 0 centre and radius, 1 r and shade, 2 b and the arc length from the yarn's start

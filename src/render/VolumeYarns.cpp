@@ -2,8 +2,10 @@
 
 #include "core/Error.hpp"
 #include "render/GlBuffers.hpp"
+#include "render/RegionClip.hpp"
 #include "render/Shaders.hpp"
 #include "render/TubeRenderer.hpp"
+#include "render/YarnTubes.hpp"
 
 #include <epoxy/gl.h>
 #include <glm/gtc/type_ptr.hpp>
@@ -52,7 +54,7 @@ unsigned byte_layers(int w, int h, int layers,
 VolumeYarns::VolumeYarns(const LumisliceSpec& spec, bool sort_on_cuda, int slices,
                          double detail_pixels)
     : slice_(make_lumislice(spec)), slices_(slices), detail_pixels_(detail_pixels),
-      program_("yarn_slice.vert + yarn_slice.frag", shaders::kYarnSliceVert,
+      program_("yarn_slice.vert + yarn_slice.frag", with_region_clip(shaders::kYarnSliceVert),
                shaders::kYarnSliceFrag),
       order_program_(
           ShaderProgram::compute("yarn_slices.comp", with_light_lookups(shaders::kYarnSlicesComp))),
@@ -118,7 +120,7 @@ void VolumeYarns::order(const TubeRenderer& tubes, const ViewMatrices& view, dou
   // Pixels a metre at a metre from the eye: the projection's vertical scale over half a picture.
   const bool detail = detail_pixels_ > 0 && height > 0;
   const float pixel_scale = detail ? 0.5f * float(height) * view.projection[1][1] : 0.0f;
-  const GLuint group = detail ? 8 : 1;
+  const GLuint group = detail ? GLuint(kYarnGroup) : 1; // yarn_chains keeps a part's groups whole
   glProgramUniform1ui(p, glGetUniformLocation(p, "segments"), GLuint(segments));
   glProgramUniform1ui(p, glGetUniformLocation(p, "slices"), GLuint(slices_));
   glProgramUniform3fv(p, glGetUniformLocation(p, "eye"), 1, glm::value_ptr(eye));
@@ -136,7 +138,7 @@ void VolumeYarns::order(const TubeRenderer& tubes, const ViewMatrices& view, dou
 }
 
 void VolumeYarns::draw(const TubeRenderer& tubes, const glm::vec4& colour, const ViewMatrices& view,
-                       const Lighting& light) {
+                       const Lighting& light, const Region* clip) {
   if (slots_ == 0 || tubes.segments() * std::size_t(slices_) != slots_)
     return;
   const unsigned p = program_.id();
@@ -163,7 +165,9 @@ void VolumeYarns::draw(const TubeRenderer& tubes, const glm::vec4& colour, const
   glDepthMask(GL_FALSE);
   glEnable(GL_BLEND);
   glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  clip_to(p, clip);
   glDrawArraysIndirect(GL_TRIANGLES, nullptr);
+  clip_to(p, nullptr);
   glBindBuffer(GL_DRAW_INDIRECT_BUFFER, 0);
   glDisable(GL_BLEND);
   glDepthMask(GL_TRUE);

@@ -13,6 +13,7 @@
 #include "render/Lighting.hpp"
 #include "render/Lumislice.hpp"
 #include "render/ShaderProgram.hpp"
+#include "render/SpaceSplit.hpp"
 
 #include <glm/glm.hpp>
 
@@ -40,9 +41,10 @@ public:
   /// for the level of detail (0: none).
   void order(const TubeRenderer& tubes, const ViewMatrices& view, double radius,
              const Lighting& light = {}, int height = 0);
-  /// The ordered slices drawn into the bound target: depth tested, not written; blended.
+  /// The ordered slices drawn into the bound target: depth tested, not written; blended; with
+  /// `clip`, cut at its faces (a sort-last part's, RegionClip).
   void draw(const TubeRenderer& tubes, const glm::vec4& colour, const ViewMatrices& view,
-            const Lighting& light);
+            const Lighting& light, const Region* clip = nullptr);
   /// The quads the last order draws (read back: a wait for the GPU).
   std::size_t drawn_quads() const;
   /// The last order's distances from the eye in the order drawn (tests: back to front).

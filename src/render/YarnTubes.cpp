@@ -37,7 +37,14 @@ namespace {
 
 /// The chains and the drawn segments of n points: segment(i) its pair, position(i) its place.
 template <typename Segment, typename Position>
-YarnChains chains_of(std::size_t n, Segment&& segment, Position&& position, const Region* only) {
+YarnChains chains_of(std::size_t n, Segment&& segment, Position&& position, const Region* only,
+                     double reach = 0) {
+  // A segment within reach of the region: its points' box grown by reach meets the region's.
+  const auto near = [&](std::size_t i) {
+    const glm::dvec3 a = position(i), b = position(i + 1);
+    return glm::all(glm::lessThan(glm::min(a, b) - reach, only->hi)) &&
+           glm::all(glm::greaterThanEqual(glm::max(a, b) + reach, only->lo));
+  };
   YarnChains c;
   for (std::size_t i = 0; i < n; ++i) {
     const auto& sg = segment(i);
@@ -47,10 +54,24 @@ YarnChains chains_of(std::size_t n, Segment&& segment, Position&& position, cons
                   ") is not (i, i + 1) or (i, i)");
     if (i == 0 || segment(i - 1)[1] == i - 1)
       c.start.push_back(std::uint32_t(i));
-    if (sg[1] == i + 1 && (!only || only->contains(position(i))))
+    if (sg[1] == i + 1 && (!only || reach > 0 || only->contains(position(i))))
       c.drawn.push_back(std::uint32_t(i));
   }
   c.start.push_back(std::uint32_t(n));
+  if (only && reach > 0) { // whole groups of the list, any of whose segments is near
+    std::size_t kept = 0;
+    const std::size_t g = kYarnGroup;
+    for (std::size_t first = 0; first < c.drawn.size(); first += g) {
+      const std::size_t last = std::min(first + g, c.drawn.size());
+      bool any = false;
+      for (std::size_t k = first; k < last && !any; ++k)
+        any = near(c.drawn[k]);
+      if (any)
+        for (std::size_t k = first; k < last; ++k)
+          c.drawn[kept++] = c.drawn[k];
+    }
+    c.drawn.resize(kept);
+  }
   return c;
 }
 
@@ -67,14 +88,14 @@ YarnChains yarn_chains(const YarnPolylines& y, const Region* only) {
       [&](std::size_t i) { return y.x[i]; }, only);
 }
 
-YarnChains yarn_chains(const YarnPoints& y, const Region* only) {
+YarnChains yarn_chains(const YarnPoints& y, const Region* only, double reach) {
   const std::size_t n = y.point.size();
   if (y.segment.size() != n)
     throw Error("render: the yarn phase has " + std::to_string(n) + " positions but " +
                 std::to_string(y.segment.size()) + " segments");
   return chains_of(
       n, [&](std::size_t i) -> const auto& { return y.segment[i]; },
-      [&](std::size_t i) { return glm::dvec3(glm::vec3(y.point[i])); }, only);
+      [&](std::size_t i) { return glm::dvec3(glm::vec3(y.point[i])); }, only, reach);
 }
 
 YarnPoints yarn_points(const YarnPolylines& y) {

@@ -57,7 +57,12 @@ struct YarnPoints {
   // A stitch colour a point (rgb, a = 1), a = 0 where none; empty: none at all.
   std::vector<glm::vec4> colour;
 };
-YarnChains yarn_chains(const YarnPoints& yarns, const Region* only = nullptr);
+/// With reach > 0, the segments whose box (of its two points) grown by reach meets `only`: all
+/// that may show in it once their drawing is cut at its faces (a part's translucent yarns); in
+/// whole groups of kYarnGroup of the list without `only`, as the volumetric yarns' level of
+/// detail merges runs within such a group: a part's pieces are then the whole frame's.
+constexpr int kYarnGroup = 8;
+YarnChains yarn_chains(const YarnPoints& yarns, const Region* only = nullptr, double reach = 0);
 /// The polylines' points in float (tests; a snapshot's are float already).
 YarnPoints yarn_points(const YarnPolylines& yarns);
 

@@ -61,16 +61,30 @@ EOF
      || [ "$(ls "$out/$name.2"/render/frame_*.png | wc -l)" != "$(ls "$out/$name.2"/frame_*.h5 | wc -l)" ]; then
     echo "FAIL $name: render on 2 ranks"; cat "$out/$name.png.log"; fail=1; continue
   fi
-  # And the last frame drawn in two parts of space composited by depth (binary swap): the same
-  # picture, byte for byte, as one rank drawing it whole (tests/mpi/test_render_composite_mpi
-  # says why ties cannot differ here).
+  # And the last frame drawn in two parts of space composited (binary swap: by depth, the
+  # volumetric yarns by "over" in the parts' order): the picture one rank draws whole, every
+  # channel within 1 level (the yarns blended in half floats in parts, in 8 bits whole;
+  # tests/mpi/test_render_composite_mpi measures it; the opaque scene alone is byte for byte)
+  # but in 1 pixel in 1,000: where a part's face cuts two slices whose order by their centres
+  # (the whole frame's) is not the order along the line of sight (the parts'), here the garment's
+  # silhouette at its cut (1 pixel of 3,072, 45 levels off).
   last=$(ls "$out/$name.2"/frame_*.h5 | tail -1 | sed -E 's/.*frame_0*([0-9]+)\.h5/\1/')
   for n in 1 2; do
     timeout 300 "$mpiexec" -n $n --oversubscribe "$exe" render "$out/$name.2" --width 64 \
       --height 48 --quiet --frames "$last:$last:1" --split space --out "$out/$name.space$n" \
       > "$out/$name.space$n.log" 2>&1 || { echo "FAIL $name: --split space on $n rank(s)"; cat "$out/$name.space$n.log"; fail=1; continue 2; }
   done
-  if ! cmp -s "$out/$name.space1"/frame_*.png "$out/$name.space2"/frame_*.png; then
+  if ! /usr/bin/python3 - "$out/$name.space1"/frame_*.png "$out/$name.space2"/frame_*.png <<'EOF'
+import sys
+import matplotlib.image as mpimg
+import numpy as np
+a, b = (np.rint(255 * mpimg.imread(p)).astype(int) for p in sys.argv[1:3])
+assert a.shape == b.shape, f"{a.shape} against {b.shape}"
+off = np.abs(a - b).max(axis=2)
+beyond = int((off > 1).sum())
+assert beyond <= off.size // 1000, f"{beyond} pixels beyond 1 level of the picture drawn whole"
+EOF
+  then
     echo "FAIL $name: the composited picture is not the one drawn whole"; fail=1; continue
   fi
   echo "ok   $name"

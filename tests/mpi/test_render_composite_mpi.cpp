@@ -4,10 +4,12 @@
 // rank before the swap).
 #include "../support/TestPaths.hpp"
 #include "comm/BinarySwap.hpp"
+#include "core/Error.hpp"
 #include "io/SnapshotWriter.hpp"
 #include "render/DepthComposite.hpp"
 #include "render/FrameParts.hpp"
 #include "render/SnapshotRender.hpp"
+#include "render/SortLastFrame.hpp"
 #include "render/SpaceSplit.hpp"
 
 #include <gtest/gtest.h>
@@ -15,6 +17,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <numeric>
 #include <random>
 
 using namespace kf;
@@ -120,6 +124,120 @@ TEST(BinarySwap, TheRootHoldsTheNearestOfEveryRankAndEachSendsAboutOneImage) {
   }
 }
 
+/// A record of the ordered swap's test: the affine map x -> a x + b on 32-bit words (wrapping),
+/// composed: associative, not commutative, and exact, so the fold's order shows in the result.
+struct Affine {
+  std::uint32_t a, b;
+};
+
+/// f after g: x -> f.a (g.a x + g.b) + f.b.
+Affine after(const Affine& f, const Affine& g) {
+  return {f.a * g.a, f.a * g.b + f.b};
+}
+
+std::vector<Affine> random_maps(int r, std::size_t pixels) {
+  std::mt19937 rng(99u + unsigned(r));
+  std::vector<Affine> m(pixels);
+  for (auto& x : m)
+    x = {std::uint32_t(rng()) | 1u, std::uint32_t(rng())};
+  return m;
+}
+
+TEST(BinarySwap, TheOrderedSwapFoldsTheImagesInTheGivenOrder) {
+  // The front image's map applied last ("over": the front's colour on top of the rest): the
+  // composite must be order[0]'s after order[1]'s after ..., for any order of the ranks.
+  const int n = size_of(), me = rank_of();
+  std::mt19937 shuffle(5);
+  for (int trial = 0; trial < 4; ++trial) {
+    std::vector<int> order(static_cast<std::size_t>(n));
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), shuffle); // the same on every rank
+    for (std::size_t pixels : {std::size_t(1), std::size_t(1001)}) {
+      auto px = random_maps(me, pixels);
+      const auto st = comm::ordered_binary_swap(
+          MPI_COMM_WORLD, px.data(), pixels, sizeof(Affine), order,
+          [](void* mine, const void* theirs, std::size_t count, bool theirs_in_front) {
+            auto* m = static_cast<Affine*>(mine);
+            const auto* t = static_cast<const Affine*>(theirs);
+            for (std::size_t k = 0; k < count; ++k)
+              m[k] = theirs_in_front ? after(t[k], m[k]) : after(m[k], t[k]);
+          });
+      EXPECT_LE(st.bytes_sent, pixels * sizeof(Affine) + std::size_t(st.rounds + 1) * 8);
+      if (me != 0)
+        continue;
+      auto want = random_maps(order.back(), pixels);
+      for (int v = n - 2; v >= 0; --v) {
+        const auto front = random_maps(order[std::size_t(v)], pixels);
+        for (std::size_t k = 0; k < pixels; ++k)
+          want[k] = after(front[k], want[k]);
+      }
+      std::size_t wrong = 0;
+      for (std::size_t k = 0; k < pixels; ++k)
+        wrong += px[k].a != want[k].a || px[k].b != want[k].b;
+      EXPECT_EQ(wrong, 0u) << pixels << " pixels, order trial " << trial;
+    }
+  }
+  // An order that is not a permutation of the ranks is refused on every rank (before any
+  // message: no rank waits for a partner).
+  std::vector<int> bad(static_cast<std::size_t>(n), 0);
+  auto px = random_maps(me, 4);
+  if (n > 1) {
+    EXPECT_THROW(comm::ordered_binary_swap(MPI_COMM_WORLD, px.data(), 4, sizeof(Affine), bad,
+                                           [](void*, const void*, std::size_t, bool) {}),
+                 Error);
+  }
+}
+
+TEST(SpaceSplit, TheVisibilityOrderIsTheOrderAlongEveryLineOfSight) {
+  // Brute force: lines of sight from random eyes through random points; along each, the parts
+  // it enters (a box's entry by the slab method) must come in the order's sequence.
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<glm::dvec3> pts(4000);
+  for (auto& p : pts)
+    p = {g(rng), 0.5 * g(rng), 2.0 * g(rng)};
+  for (int parts : {1, 2, 3, 5, 8}) {
+    const auto regions = render::kd_split(pts, parts);
+    for (int e = 0; e < 20; ++e) {
+      const glm::dvec3 eye(4 * g(rng), 4 * g(rng), 4 * g(rng));
+      const std::vector<int> order = render::visibility_order(regions, eye);
+      ASSERT_EQ(order.size(), std::size_t(parts));
+      std::vector<int> place(std::size_t(parts), -1);
+      for (int v = 0; v < parts; ++v)
+        place[std::size_t(order[std::size_t(v)])] = v;
+      ASSERT_EQ(std::count(place.begin(), place.end(), -1), 0) << "a part left out";
+      for (int line = 0; line < 50; ++line) {
+        const glm::dvec3 d = glm::normalize(pts[rng() % pts.size()] - eye);
+        std::vector<std::pair<double, int>> entered; // (entry distance, part)
+        for (int r = 0; r < parts; ++r) {
+          double t0 = 0, t1 = std::numeric_limits<double>::infinity();
+          for (int a = 0; a < 3; ++a) {
+            const double lo = regions[std::size_t(r)].lo[a], hi = regions[std::size_t(r)].hi[a];
+            if (d[a] == 0) {
+              if (eye[a] < lo || eye[a] >= hi)
+                t0 = t1 + 1;
+              continue;
+            }
+            double ta = (lo - eye[a]) / d[a], tb = (hi - eye[a]) / d[a];
+            if (ta > tb)
+              std::swap(ta, tb);
+            t0 = std::max(t0, std::isnan(ta) ? t0 : ta);
+            t1 = std::min(t1, std::isnan(tb) ? t1 : tb);
+          }
+          if (t0 < t1)
+            entered.push_back({t0, r});
+        }
+        std::sort(entered.begin(), entered.end());
+        for (std::size_t k = 1; k < entered.size(); ++k)
+          EXPECT_LT(place[std::size_t(entered[k - 1].second)],
+                    place[std::size_t(entered[k].second)])
+              << parts << " parts: part " << entered[k - 1].second << " met before part "
+              << entered[k].second;
+      }
+    }
+  }
+}
+
 TEST(SpaceSplit, PartsTileSpaceWithEqualCounts) {
   std::mt19937 rng(3);
   std::normal_distribution<double> g(0.0, 1.0);
@@ -146,24 +264,17 @@ TEST(SpaceSplit, PartsTileSpaceWithEqualCounts) {
   }
 }
 
-/// The pixels of the parts' composite unlike the whole frame drawn by one rank (0 off the root);
-/// the yarns as tubes or volumetric.
-std::size_t composite_against_whole(bool fluid_surface, bool yarns, bool shadows, bool translucent,
-                                    bool volume);
+/// How the parts' composite differs from the whole frame drawn by one rank (zeros off the
+/// root): pixels unlike it, beyond `tolerance` levels in a channel; the largest difference in a
+/// channel; the mean over the channels of the pixels that show yarns or differ.
+struct Difference {
+  std::size_t wrong = 0;
+  int largest = 0;
+  double mean = 0;
+};
 
-void expect_composite_is_whole(bool fluid_surface, bool yarns, bool shadows = false,
-                               bool translucent = false) {
-  const std::size_t wrong =
-      composite_against_whole(fluid_surface, yarns, shadows, translucent, false);
-  // Each sphere (and each yarn segment's tube) is drawn by one rank with the depth it has in the
-  // whole frame (the same shader, camera and radii), so the nearest per pixel is the whole
-  // frame's: equal but for two of different parts at one depth value in one pixel (none
-  // seen on llvmpipe or the H100); allow 1 pixel in 10,000 for it.
-  EXPECT_LE(wrong, 320u * 200u / 10000) << "pixels unlike the whole frame's";
-}
-
-std::size_t composite_against_whole(bool fluid_surface, bool yarns, bool shadows, bool translucent,
-                                    bool volume) {
+Difference composite_against_whole(bool fluid_surface, bool yarns, bool shadows, bool translucent,
+                                   bool volume, int tolerance = 0) {
   const int n = size_of(), me = rank_of();
   render::SnapshotStyle style;
   style.knit_volume = volume;
@@ -185,52 +296,65 @@ std::size_t composite_against_whole(bool fluid_surface, bool yarns, bool shadows
   const io::Frame f = test_frame();
   const render::Camera camera = renderer.frame_camera(f);
   const io::RgbaImage whole = renderer.draw(f, camera);
+  const std::size_t whole_segments = renderer.last_yarn_segments();
 
   const auto regions = render::kd_split(renderer.drawn_points(f), n);
-  // Translucent water: each layer (the opaque scene's, the water's front and back faces)
-  // composited by depth, the composite resolved by the root.
-  std::vector<render::LayeredPixel> layers;
-  if (translucent)
-    layers = renderer.draw_layers(f, camera, &regions[std::size_t(me)]);
-  const io::RgbaImage part = translucent ? renderer.resolve(layers, f, camera)
-                                         : renderer.draw(f, camera, &regions[std::size_t(me)]);
-  // The part is a real share: it misses much of what the whole shows.
-  std::size_t differ = 0;
-  for (std::size_t k = 0; k < whole.pixels.size(); ++k)
-    differ += whole.pixels[k] != part.pixels[k];
-  // (A part may be mostly hidden: 1,000 of the 64,000 pixels for one part here; a floor is
-  // drawn by every rank.)
-  if (n > 1) {
+  // The part is a real share: it misses much of what the whole shows. (A part may be mostly
+  // hidden: 1,000 of the 64,000 pixels for one part here; a floor is drawn by every rank.)
+  if (n > 1 && !translucent) {
+    const io::RgbaImage part = renderer.draw(f, camera, &regions[std::size_t(me)]);
+    std::size_t differ = 0;
+    for (std::size_t k = 0; k < whole.pixels.size(); ++k)
+      differ += whole.pixels[k] != part.pixels[k];
     EXPECT_GT(differ, whole.pixels.size() / 200) << "rank " << me << "'s part is the whole frame";
   }
-
-  io::RgbaImage composite;
-  if (translucent) {
-    comm::binary_swap(MPI_COMM_WORLD, layers.data(), layers.size(), sizeof(render::LayeredPixel),
-                      [](void* mine, const void* theirs, std::size_t count) {
-                        render::keep_nearer(static_cast<render::LayeredPixel*>(mine),
-                                            static_cast<const render::LayeredPixel*>(theirs),
-                                            count);
-                      });
-    if (me != 0)
-      return 0;
-    std::size_t water = 0; // pixels whose water lies before the opaque scene
-    for (const auto& p : layers)
-      water += p.water.front < p.opaque.depth;
-    // (1,555 of the 64,000 pixels here: the block of fluid, over the knit and the ball.)
-    EXPECT_GT(water, layers.size() / 100) << "the water covers too little to test";
-    composite = renderer.resolve(layers, f, camera);
-  } else {
-    auto px = render::depth_pixels(part, renderer.depth());
-    comm::binary_swap(MPI_COMM_WORLD, px.data(), px.size(), sizeof(render::DepthPixel), keep);
-    if (me != 0)
-      return 0;
-    composite = renderer.composite_picture(px, f, camera);
+  render::SortLastTimes times;
+  const io::RgbaImage composite =
+      render::draw_sort_last(MPI_COMM_WORLD, renderer, f, camera, regions, &times);
+  if (volume && yarns) {
+    // The yarns are spread: each part draws some of the segments, together at least all.
+    const std::size_t mine = renderer.last_yarn_segments();
+    std::size_t all = mine;
+    MPI_Allreduce(MPI_IN_PLACE, &all, 1, MPI_UNSIGNED_LONG, MPI_SUM, MPI_COMM_WORLD);
+    EXPECT_GE(all, whole_segments);
+    if (n > 1) {
+      EXPECT_LT(mine, whole_segments) << "rank " << me << " draws every yarn";
+    }
   }
-  std::size_t wrong = 0;
-  for (std::size_t k = 0; k < whole.pixels.size(); k += 4)
-    wrong += !std::equal(&whole.pixels[k], &whole.pixels[k] + 4, &composite.pixels[k]);
-  return wrong;
+  // About one image a layer sent by each rank whatever their count (records of 8 bytes opaque,
+  // 24 with the water's layers; the opaque depth shared, 4; the yarns' layer, 12).
+  const std::size_t pixels = std::size_t(style.width) * std::size_t(style.height);
+  const std::size_t record = (translucent ? 24 : 8) + (volume && yarns ? 4 + 12 : 0);
+  EXPECT_LE(times.bytes_sent, pixels * record + 256) << "rank " << me;
+  Difference d;
+  if (me != 0)
+    return d;
+  std::size_t counted = 0;
+  double sum = 0;
+  for (std::size_t k = 0; k < whole.pixels.size(); k += 4) {
+    int worst = 0;
+    for (int c = 0; c < 4; ++c)
+      worst = std::max(worst, std::abs(int(whole.pixels[k + c]) - int(composite.pixels[k + c])));
+    d.largest = std::max(d.largest, worst);
+    d.wrong += worst > tolerance;
+    if (worst > 0) {
+      ++counted;
+      for (int c = 0; c < 3; ++c)
+        sum += std::abs(int(whole.pixels[k + c]) - int(composite.pixels[k + c]));
+    }
+  }
+  d.mean = counted ? sum / (3.0 * double(counted)) : 0.0;
+  return d;
+}
+
+void expect_composite_is_whole(bool fluid_surface, bool yarns, bool shadows = false,
+                               bool translucent = false) {
+  const Difference d = composite_against_whole(fluid_surface, yarns, shadows, translucent, false);
+  // Each sphere (and each yarn segment's tube) is drawn by one rank with the depth it has in the
+  // whole frame (the same shader, camera and radii), so the nearest per pixel is the whole
+  // frame's: equal but for two of different parts at one depth value in one pixel (none
+  // seen on llvmpipe or the H100); allow 1 pixel in 10,000 for it.
+  EXPECT_LE(d.wrong, 320u * 200u / 10000) << "pixels unlike the whole frame's";
 }
 
 TEST(SortLast, TheCompositedFrameIsTheFrameDrawnWhole) {
@@ -243,14 +367,25 @@ TEST(SortLast, TheCompositedFrameIsTheFrameDrawnWhole) {
   expect_composite_is_whole(true, true, true);
 }
 
-TEST(SortLast, VolumetricYarnsDrawnOverTheCompositeAreTheFrameDrawnWhole) {
-  // The yarns' slices blend over whatever lies behind them, in any part: the parts draw none
-  // (their tubes cast their shadows) and the root draws the whole frame's over the composite of
-  // the rest, opaque or translucent water's layers.
+TEST(SortLast, TheVolumetricYarnsOfThePartsBlendedInOrderAreTheFrameDrawnWhole) {
+  // Each part draws the slices within reach of its region cut at its faces, over the opaque
+  // composite's depth, and the parts' layers are folded front to back. The whole frame blends
+  // every slice in one order in 8 bits; the parts blend theirs in half floats and meet 8 bits
+  // once: a pixel differs by the rounding of the blends over it. Measured (llvmpipe, 2 and 3
+  // ranks, opaque and translucent water): every pixel within 1 level, 0.47 on average over
+  // those that differ at all, as on one rank (its one part the whole of space). A slice cut by
+  // a face would show at its seam; a part's pieces unlike the whole frame's (the level of
+  // detail's merged runs) showed as 1,400 pixels 30 levels off on average.
   for (bool translucent : {false, true}) {
     SCOPED_TRACE(translucent ? "translucent water" : "opaque water");
-    const std::size_t wrong = composite_against_whole(true, true, true, translucent, true);
-    EXPECT_LE(wrong, 320u * 200u / 10000) << "pixels unlike the whole frame's";
+    const Difference d = composite_against_whole(true, true, true, translucent, true, 2);
+    if (rank_of() != 0)
+      continue;
+    std::printf("volumetric yarns over %d ranks%s: %zu pixels beyond 2 levels, the largest "
+                "difference %d, the mean %.3f levels over the pixels that differ\n",
+                size_of(), translucent ? ", translucent water" : "", d.wrong, d.largest, d.mean);
+    EXPECT_LE(d.wrong, 320u * 200u / 10000) << "pixels beyond 2 levels of the whole frame's";
+    EXPECT_LE(d.mean, 0.6) << "levels on average over the pixels that differ";
   }
 }
 

@@ -23,10 +23,12 @@ void main() {
   const vec4 cr = centre_radius[point];
   const vec4 rs = r_shade[point];
   const vec3 out_dir = cos(a) * rs.xyz + sin(a) * b[point].xyz;
-  const vec4 p = view * vec4(cr.xyz + cr.w * out_dir, 1.0);
+  const vec3 world = cr.xyz + cr.w * out_dir;
+  const vec4 p = view * vec4(world, 1.0);
   view_point = p.xyz;
   view_normal = mat3(view) * out_dir; // the view is a rotation and a translation
   vertex_shade = rs.w;
   vertex_colour = coloured ? point_colour[point] : vec4(0.0);
+  clip_to_region(world);
   gl_Position = projection * p;
 }

@@ -99,5 +99,6 @@ void main() {
   angle = twist * arc;
   light_in_section = vec2(dot(toward_light, r), dot(toward_light, n));
   lit = segment_lit[slot / slices];
+  clip_to_region(world);
   gl_Position = projection * p;
 }
