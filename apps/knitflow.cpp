@@ -102,6 +102,17 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   std::printf("scene      %s (%s)\n", scene.name.c_str(), scene.path.c_str());
   std::printf("modules    %s\n", mods.c_str());
   std::printf("precision  %s\n", std::string(kf::to_string(scene.precision)).c_str());
+  if (scene.solver.quality != kf::Scene::Solver::Quality::None) {
+    const kf::QualityPreset q = kf::quality_preset(scene.solver.quality);
+    std::printf("quality    %s: fluid spacing x %g (now %g m), speed of sound x %g (now %g m/s), "
+                "cfl %g, density %s, lists %s\n",
+                kf::to_string(scene.solver.quality).c_str(), q.spacing_scale, scene.fluid.spacing,
+                q.sound_speed_scale, scene.fluid.speed_of_sound, scene.solver.cfl,
+                scene.solver.density == kf::DensityModel::Continuity ? "continuity" : "summation",
+                scene.solver.neighbour_list == kf::Scene::Solver::NeighbourLists::Verlet ? "verlet"
+                : scene.solver.neighbour_list == kf::Scene::Solver::NeighbourLists::On   ? "on"
+                                                                                         : "off");
+  }
   std::printf("particles  fluid %zu, boundary %zu, knit %zu (%zu springs, %zu volume cells)\n",
               r.fluid, r.boundary, r.knit, r.springs, r.volume_cells);
   if (scene.has(kf::Module::Fluid))

@@ -517,4 +517,37 @@ TEST(Scene, AColourChartNamesItsLettersColours) {
   }
 }
 
+TEST(Scene, QualityPresetsScaleTheSpacingAndFillWhatTheSceneLeavesOut) {
+  const Scene plain = load_scene(scene_file("minimal.toml"));
+  EXPECT_EQ(plain.solver.quality, Scene::Solver::Quality::None);
+  // "production" is the scene as written.
+  const Scene production =
+      load_scene(scene_file("minimal.toml"), {"solver.quality=\"production\""});
+  EXPECT_DOUBLE_EQ(production.fluid.spacing, plain.fluid.spacing);
+  EXPECT_DOUBLE_EQ(production.solver.cfl, plain.solver.cfl);
+  // "preview": twice the spacing and its own settings; a key the scene gives wins.
+  const Scene preview = load_scene(scene_file("minimal.toml"), {"solver.quality=\"preview\""});
+  const QualityPreset p = quality_preset(Scene::Solver::Quality::Preview);
+  EXPECT_DOUBLE_EQ(preview.fluid.spacing, p.spacing_scale * plain.fluid.spacing);
+  EXPECT_DOUBLE_EQ(preview.solver.cfl, *p.cfl);
+  EXPECT_EQ(preview.solver.density, *p.density);
+  EXPECT_EQ(preview.solver.neighbour_list, *p.neighbour_list);
+  const Scene mine =
+      load_scene(scene_file("minimal.toml"),
+                 {"solver.quality=\"preview\"", "solver.cfl=0.15", "solver.density=\"summation\""});
+  EXPECT_DOUBLE_EQ(mine.solver.cfl, 0.15);
+  EXPECT_EQ(mine.solver.density, DensityModel::Summation);
+  EXPECT_DOUBLE_EQ(mine.fluid.spacing, p.spacing_scale * plain.fluid.spacing);
+  // "reference": half the spacing, twice the speed of sound; the rest as written.
+  const Scene reference = load_scene(scene_file("minimal.toml"), {"solver.quality=\"reference\""});
+  EXPECT_DOUBLE_EQ(reference.fluid.spacing, 0.5 * plain.fluid.spacing);
+  EXPECT_DOUBLE_EQ(reference.fluid.speed_of_sound, 2 * plain.fluid.speed_of_sound);
+  EXPECT_DOUBLE_EQ(reference.solver.cfl, plain.solver.cfl);
+  EXPECT_EQ(reference.precision, plain.precision);
+  EXPECT_EQ(to_string(Scene::Solver::Quality::Reference), "reference");
+  const std::string bad = load_error(scene_file("minimal.toml"), {"solver.quality=\"best\""});
+  EXPECT_NE(bad.find("solver.quality"), std::string::npos) << bad;
+  EXPECT_NE(bad.find("\"preview\""), std::string::npos) << bad;
+}
+
 } // namespace kf

@@ -9,6 +9,7 @@
 #include <array>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -140,6 +141,10 @@ struct Scene {
     // "summation" (Eq. 2) or "continuity" (drho/dt with delta-SPH diffusion; docs/PHYSICS.md).
     DensityModel density = DensityModel::Summation;
     double density_diffusion = 0.1; // continuity: delta of the diffusion term (0: none)
+    // A preset of what accuracy costs (P7, docs/VALIDATION.md): "preview" and "reference"
+    // scale the fluid's spacing and set the settings the scene does not give itself
+    // (quality_preset); "production" and none: the scene as written.
+    enum class Quality { None, Preview, Production, Reference } quality = Quality::None;
   } solver;
 
   // [fluid]
@@ -283,6 +288,20 @@ Scene load_scene(const std::string& path, const std::vector<std::string>& overri
 /// Same, from text; source_name stands in for the file name in messages.
 Scene parse_scene(const std::string& text, const std::string& source_name,
                   const std::vector<std::string>& overrides = {});
+
+/// What a [solver] quality preset sets: the fluid's spacing scaled, and the settings it names
+/// (unset: the scene's). Chosen from P7's Pareto fronts (docs/VALIDATION.md, where each
+/// preset's error and cost on the reference cases are stated).
+struct QualityPreset {
+  double spacing_scale = 1;
+  double sound_speed_scale = 1; // the fluid's speed of sound (the EOS's stiffness c^2) scaled
+  std::optional<double> cfl;
+  std::optional<DensityModel> density;
+  std::optional<Scene::Solver::NeighbourLists> neighbour_list;
+  std::optional<Precision> precision;
+};
+QualityPreset quality_preset(Scene::Solver::Quality q);
+std::string to_string(Scene::Solver::Quality q);
 
 std::string to_string(KernelType k);
 std::string to_string(EosType e);

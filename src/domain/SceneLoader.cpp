@@ -51,6 +51,10 @@ constexpr std::array kTransports{
     Choice<Scene::Parallel::Transport>{"nccl", Scene::Parallel::Transport::Nccl}};
 constexpr std::array kDensityModels{Choice<DensityModel>{"summation", DensityModel::Summation},
                                     Choice<DensityModel>{"continuity", DensityModel::Continuity}};
+constexpr std::array kQualities{
+    Choice<Scene::Solver::Quality>{"preview", Scene::Solver::Quality::Preview},
+    Choice<Scene::Solver::Quality>{"production", Scene::Solver::Quality::Production},
+    Choice<Scene::Solver::Quality>{"reference", Scene::Solver::Quality::Reference}};
 constexpr std::array kInitialDensities{
     Choice<Scene::Fluid::InitialDensity>{"rest", Scene::Fluid::InitialDensity::Rest},
     Choice<Scene::Fluid::InitialDensity>{"hydrostatic", Scene::Fluid::InitialDensity::Hydrostatic}};
@@ -157,7 +161,8 @@ void read_output(const TableReader& t, Scene& s) {
 void read_solver(const TableReader& t, Scene::Solver& sv) {
   t.allow_only({"kernel", "cfl", "force_factor", "viscous_factor", "dt_max", "dt_min", "max_steps",
                 "damping", "damping_until", "cell_span", "cell_order", "neighbour_list",
-                "neighbour_skin", "density", "density_diffusion"});
+                "neighbour_skin", "density", "density_diffusion", "quality"});
+  t.read("quality", sv.quality, kQualities);
   t.read("kernel", sv.kernel, kKernels);
   t.read("neighbour_list", sv.neighbour_list, kNeighbourLists);
   t.read("neighbour_skin", sv.neighbour_skin, Range::above_up_to(0, 1));
@@ -679,6 +684,22 @@ void read_render(const TableReader& t, Scene::Render& r) {
   r.environment_map = read_count(t, "environment_map", r.environment_map, 0, 4096);
 }
 
+/// [solver] quality: the preset's spacing scale on the fluid, and its settings where the scene
+/// gives none of its own (a key the scene or --set writes wins).
+void apply_quality(const TableReader& sim, const TableReader& solver, Scene& s) {
+  const QualityPreset q = quality_preset(s.solver.quality);
+  s.fluid.spacing *= q.spacing_scale;
+  s.fluid.speed_of_sound *= q.sound_speed_scale;
+  if (q.cfl && !solver.node("cfl"))
+    s.solver.cfl = *q.cfl;
+  if (q.density && !solver.node("density"))
+    s.solver.density = *q.density;
+  if (q.neighbour_list && !solver.node("neighbour_list"))
+    s.solver.neighbour_list = *q.neighbour_list;
+  if (q.precision && !sim.node("precision"))
+    s.precision = *q.precision;
+}
+
 Scene build_scene(const TableReader& root, const std::filesystem::path& scene_dir) {
   root.allow_only({"simulation", "domain", "output", "solver", "fluid", "obstacle", "knit",
                    "coupling", "capillary", "parallel", "render"});
@@ -687,9 +708,11 @@ Scene build_scene(const TableReader& root, const std::filesystem::path& scene_di
   read_simulation(sim, s);
   read_domain(root.table("domain"), s.domain);
   read_output(root.table("output"), s);
-  read_solver(root.table("solver"), s.solver);
+  const TableReader solver = root.table("solver");
+  read_solver(solver, s.solver);
   const TableReader fluid = root.table("fluid");
   read_fluid(fluid, s);
+  apply_quality(sim, solver, s);
   check_fluid_blocks(sim, fluid, s);
   const auto obstacles = root.array_of_tables("obstacle");
   for (std::size_t i = 0; i < obstacles.size(); ++i)
