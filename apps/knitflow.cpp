@@ -3,6 +3,7 @@
 #include "RenderCommand.hpp"
 #include "comm/MpiContext.hpp"
 #include "core/Error.hpp"
+#include "domain/CostModel.hpp"
 #include "domain/PartitionPlan.hpp"
 #include "domain/Runner.hpp"
 #include "domain/Scene.hpp"
@@ -91,6 +92,52 @@ void print_partition(const kf::Scene& scene, const kf::PlanReport& plan, int ran
               human_bytes(double(total)).c_str());
 }
 
+std::string human_seconds(double s) {
+  char buf[32];
+  if (s < 120)
+    std::snprintf(buf, sizeof buf, "%.3g s", s);
+  else if (s < 7200)
+    std::snprintf(buf, sizeof buf, "%.3g min", s / 60);
+  else
+    std::snprintf(buf, sizeof buf, "%.3g h", s / 3600);
+  return buf;
+}
+
+/// The run's steps and what they cost on each device of the model (domain/CostModel), and the
+/// same for each quality preset.
+void print_cost(const Args& a, const kf::Scene& scene, const kf::PlanReport& r) {
+  std::printf("steps      ~%.0f over the run (dt ~%.4g s; the CFL condition at a fall speed of "
+              "%.3g m/s)\n",
+              r.run_steps, r.run_dt, r.fall_speed);
+  std::string settings;
+  for (const std::string& name : kf::cost_settings(scene))
+    settings += (settings.empty() ? "" : ",") + name;
+  // The model's inputs in one line (jobs/studies/cost_model.py reads it).
+  std::printf("model      fluid %zu, boundary %zu, knit %zu, support %g, steps %.0f, settings %s\n",
+              r.fluid, r.boundary, r.knit, scene.fluid.support, r.run_steps,
+              settings.empty() ? "none" : settings.c_str());
+  const auto& model = kf::builtin_cost_model();
+  for (const kf::DeviceCost& d : model) {
+    const kf::CostEstimate e = kf::estimate_cost(d, scene, r);
+    std::printf("cost       %-10s %.3g ms a step, %s in all (the model within %.0f%% of its "
+                "studies' runs)%s\n",
+                d.name.c_str(), 1e3 * e.step_s, human_seconds(e.total_s).c_str(), 100 * d.worst_off,
+                r.knit ? "; the knit's points are not in the model yet" : "");
+  }
+  using Q = kf::Scene::Solver::Quality;
+  for (Q q : {Q::Preview, Q::Production, Q::Reference}) {
+    std::vector<std::string> with = a.overrides;
+    with.push_back("solver.quality=\"" + kf::to_string(q) + "\"");
+    const kf::Scene s = kf::load_scene(a.scene, with);
+    const kf::PlanReport p = kf::Simulation::plan(s);
+    std::printf("preset     %-10s fluid %zu:", kf::to_string(q).c_str(), p.fluid);
+    for (const kf::DeviceCost& d : model)
+      std::printf(" %s %s", d.name.c_str(),
+                  human_seconds(kf::estimate_cost(d, s, p).total_s).c_str());
+    std::printf("\n");
+  }
+}
+
 int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   const kf::Scene scene = kf::load_scene(a.scene, a.overrides);
   const kf::PlanReport r = kf::Simulation::plan(scene);
@@ -143,6 +190,7 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
               human_bytes(r.bytes_solids).c_str());
   print_partition(scene, r, a.ranks > 0 ? a.ranks : mpi.size());
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
+  print_cost(a, scene, r);
   std::printf("output     %s every %.4g s to t = %.4g s\n",
               scene.output.enabled ? scene.output.dir.c_str() : "(disabled)", scene.output.interval,
               scene.end_time);

@@ -71,6 +71,9 @@ struct PlanReport {
   std::vector<std::string> obstacles; // one line per obstacle: name, shape, mesh details
   double initial_dt = 0;
   std::string dt_limit; // which condition sets the initial dt
+  // The run's typical dt (the CFL condition at the fluid's fall speed from its top, zero for a
+  // scene settling under damping) and end_time over it: the cost model's steps.
+  double fall_speed = 0, run_dt = 0, run_steps = 0;
 };
 
 class Simulation {

@@ -1,6 +1,9 @@
 // `knitflow plan`: the scene's stages, particle counts and step limits without running it.
 #include "domain/SimulationT.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 namespace kf {
 
 namespace {
@@ -103,6 +106,21 @@ PlanReport Simulation::plan(const Scene& scene) {
     else
       count(KnitSystem<float>(scene, host));
   }
+  // The run's typical step: the CFL condition at the fluid's fall from its top, sqrt(2 g H) (none
+  // where the scene damps its motion: a rest state settling), where that is below the initial
+  // step; the cost model's steps (domain/CostModel).
+  r.run_dt = r.initial_dt;
+  if (scene.has(Module::Fluid) && !scene.fluid.blocks.empty()) {
+    double top = scene.fluid.blocks.front().max.z;
+    for (const auto& b : scene.fluid.blocks)
+      top = std::max(top, b.max.z);
+    const double g = norm(scene.gravity);
+    if (s.damping <= 0 && g > 0)
+      r.fall_speed = std::sqrt(2 * g * std::max(top - scene.domain.min.z, 0.0));
+    r.run_dt =
+        std::min(r.run_dt, s.cfl * h / (scene.fluid.speed_of_sound + std::max(vmax, r.fall_speed)));
+  }
+  r.run_steps = std::ceil(scene.end_time / r.run_dt);
   return r;
 }
 
