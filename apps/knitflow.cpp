@@ -106,9 +106,15 @@ std::string human_seconds(double s) {
 /// The run's steps and what they cost on each device of the model (domain/CostModel), and the
 /// same for each quality preset.
 void print_cost(const Args& a, const kf::Scene& scene, const kf::PlanReport& r) {
-  std::printf("steps      ~%.0f over the run (dt ~%.4g s; the CFL condition at a fall speed of "
-              "%.3g m/s)\n",
-              r.run_steps, r.run_dt, r.fall_speed);
+  // The run's dt: the initial one's limit, or the CFL condition at the fluid's fall speed where
+  // that is smaller.
+  if (r.run_dt < r.initial_dt)
+    std::printf("steps      ~%.0f over the run (dt ~%.4g s: the CFL condition at the fluid's fall "
+                "speed, %.3g m/s)\n",
+                r.run_steps, r.run_dt, r.fall_speed);
+  else
+    std::printf("steps      ~%.0f over the run (dt ~%.4g s: %s)\n", r.run_steps, r.run_dt,
+                r.dt_limit.c_str());
   std::string settings;
   for (const std::string& name : kf::cost_settings(scene))
     settings += (settings.empty() ? "" : ",") + name;
