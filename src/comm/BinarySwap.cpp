@@ -72,7 +72,7 @@ BinarySwapStats swap_strips(MPI_Comm comm, void* image, std::size_t pixels,
     throw Error("binary swap: an order of " + std::to_string(front_to_back.size()) + " ranks for " +
                 std::to_string(size));
   BinarySwapStats st;
-  st.last = pixels;
+  st.last = st.pixels = pixels;
   if (size == 1)
     return st;
   auto* px = static_cast<unsigned char*>(image);
@@ -131,10 +131,8 @@ void gather_strips(MPI_Comm comm, void* image, std::size_t record_bytes, BinaryS
   if (size == 1)
     return;
   auto* px = static_cast<unsigned char*>(image);
-  std::size_t pixels = st.last;
-  MPI_Allreduce(MPI_IN_PLACE, &pixels, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, comm);
   std::vector<int> counts, displs;
-  strip_counts(comm, st.first, st.last, record_bytes, pixels, counts, displs);
+  strip_counts(comm, st.first, st.last, record_bytes, st.pixels, counts, displs);
   if (rank == root) {
     // The root's own strip is already in place: it gathers the others' only.
     counts[std::size_t(root)] = 0;

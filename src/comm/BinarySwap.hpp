@@ -31,6 +31,7 @@ struct BinarySwapStats {
   // After the swap, this rank holds the composite of records [first, last) (empty on a rank
   // folded into another before the swap).
   std::size_t first = 0, last = 0;
+  std::size_t pixels = 0; // the image's records (the gather's extent)
 };
 
 /// Collective over `comm`. `image` (pixels x record_bytes) is used as scratch on every rank; on

@@ -55,13 +55,18 @@ glm::vec4 unpacked(const YarnPixel& p) {
           glm::unpackHalf1x16(p.rgba[2]), glm::unpackHalf1x16(p.rgba[3])};
 }
 
+/// No yarn over this pixel: its layer is still the transparent black it was cleared to.
+bool clear(const YarnPixel& p) {
+  return p.rgba[0] == 0 && p.rgba[1] == 0 && p.rgba[2] == 0 && p.rgba[3] == 0;
+}
+
 } // namespace
 
 void yarns_over(YarnPixel* mine, const YarnPixel* theirs, std::size_t count, bool theirs_in_front) {
   for (std::size_t k = 0; k < count; ++k) {
     const YarnPixel& f = theirs_in_front ? theirs[k] : mine[k];
     const YarnPixel& b = theirs_in_front ? mine[k] : theirs[k];
-    if (b.rgba[3] == 0 && b.rgba[0] == 0 && b.rgba[1] == 0 && b.rgba[2] == 0) {
+    if (clear(b)) {
       // Nothing behind (the common case: most of a part's pixels hold no yarn): front as is.
       const float depth = std::min(f.depth, b.depth);
       mine[k] = f;
@@ -80,7 +85,7 @@ void yarns_over(YarnPixel* mine, const YarnPixel* theirs, std::size_t count, boo
 
 void put_yarns_over(DepthPixel& opaque, const YarnPixel& yarns) {
   opaque.depth = std::min(opaque.depth, yarns.depth);
-  if (yarns.rgba[3] == 0 && yarns.rgba[0] == 0 && yarns.rgba[1] == 0 && yarns.rgba[2] == 0)
+  if (clear(yarns))
     return;
   const glm::vec4 y = unpacked(yarns);
   for (int i = 0; i < 4; ++i) {
