@@ -118,17 +118,29 @@ void print_cost(const Args& a, const kf::Scene& scene, const kf::PlanReport& r) 
   std::string settings;
   for (const std::string& name : kf::cost_settings(scene))
     settings += (settings.empty() ? "" : ",") + name;
+  std::string terms;
+  for (const std::string& name : kf::knit_cost_terms(scene))
+    terms += (terms.empty() ? "" : ",") + name;
   // The model's inputs in one line (jobs/studies/cost_model.py reads it).
-  std::printf("model      fluid %zu, boundary %zu, knit %zu, support %g, steps %.0f, settings %s\n",
+  std::printf("model      fluid %zu, boundary %zu, knit %zu, support %g, steps %.0f, settings %s, "
+              "substeps %d, knit terms %s, darcy substeps %.0f, frames %.0f\n",
               r.fluid, r.boundary, r.knit, scene.fluid.support, r.run_steps,
-              settings.empty() ? "none" : settings.c_str());
+              settings.empty() ? "none" : settings.c_str(), r.knit ? scene.knit.substeps : 0,
+              terms.empty() ? "none" : terms.c_str(), r.darcy_substeps, r.output_frames);
   const auto& model = kf::builtin_cost_model();
   for (const kf::DeviceCost& d : model) {
     const kf::CostEstimate e = kf::estimate_cost(d, scene, r);
+    // The fit's worst miss over the runs like this scene: with a knit or without.
+    const double off = r.knit && d.has_knit_terms()
+                           ? d.worst_off
+                           : (d.worst_off_fluid > 0 ? d.worst_off_fluid : d.worst_off);
     std::printf("cost       %-10s %.3g ms a step, %s in all (the model within %.0f%% of its "
-                "studies' runs)%s\n",
-                d.name.c_str(), 1e3 * e.step_s, human_seconds(e.total_s).c_str(), 100 * d.worst_off,
-                r.knit ? "; the knit's points are not in the model yet" : "");
+                "studies'%s runs)%s\n",
+                d.name.c_str(), 1e3 * e.step_s, human_seconds(e.total_s).c_str(), 100 * off,
+                r.knit && d.has_knit_terms() ? "" : " fluid",
+                r.knit && !d.has_knit_terms()
+                    ? "; no knit run fitted this device: the knit not counted"
+                    : "");
   }
   using Q = kf::Scene::Solver::Quality;
   for (Q q : {Q::Preview, Q::Production, Q::Reference}) {

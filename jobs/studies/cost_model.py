@@ -5,7 +5,9 @@
 
 A run's wall time on a device is predicted as (src/domain/CostModel.hpp)
 
-    T = start + S f (step + (support / 2)^3 fluid N_fluid + boundary N_boundary)
+    T = start + S (f (step + (support / 2)^3 fluid N_fluid + boundary N_boundary)
+                   + substeps (knit_substep + N_knit (knit + self_contact? + coupling?))
+                   + conserving? N_knit)
 
 S the run's steps, N the particles, the support and the settings that carry a factor f as
 `knitflow plan` gives them (its "model" line: S = end_time over the CFL step at the fluid's fall
@@ -13,8 +15,11 @@ speed from its top, none where the scene damps its motion toward rest): f the pr
 a setting (the continuity density, the neighbour lists "on", "verlet" in a settling scene and in
 a flowing one, double precision) on a whole step (on a GPU a small step is mostly its kernels'
 launches, which a setting changes with its passes). start, step, fluid and boundary are fitted by
-least squares on relative error over the runs without such settings; each setting's factor is
-then the geometric mean of what its runs ask for. Every study run's prediction is printed against
+least squares on relative error over the fluid's runs without such settings; each setting's
+factor is then the geometric mean of what its runs ask for; the knit's coefficients (a substep's
+fixed cost, a point's a substep, the self-contact's and the knit-fluid coupling's a point a
+substep where the scene has them, the conserving absorption's a point a step: the plan's "knit
+terms") by least squares over the runs with a knit, the fluid's part of them as fitted. Every study run's prediction is printed against
 its measured time; --out writes the device's table into the model file (src/domain/CostModel.toml,
 which the app compiles in), keeping the other devices'.
 """
@@ -30,33 +35,42 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import accuracy  # noqa: E402  (the studies' cases and settings)
 
+def parsed(text):
+    """A CSV cell as the study wrote it: an integer, a number or a word."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
 def overrides_of(row, full):
     """The --set overrides the study gave this row's run."""
-    case, axis, value = row["case"], row["axis"], row["value"]
-    _, _, fixed = accuracy.CASES[case]
-    base = [] if axis == "spacing" else accuracy.setting(
-        "spacing", accuracy.AXES[case]["base"]["full" if full else "small"])
-    try:
-        value = float(value)
-    except ValueError:
-        pass
-    return fixed + base + accuracy.setting(axis, value)
+    case = accuracy.CASES[row["case"]]
+    size = "full" if full else "small"
+    return (case.fixed[size] + case.base_for(row["axis"], full)
+            + case.setting(row["axis"], parsed(row["value"])))
 
 
 def plan_of(exe, case, overrides):
     """The model's inputs as `knitflow plan` gives them: its "model" line (particles, support,
     the run's steps, the settings that carry a factor)."""
-    cmd = [exe, "plan", os.path.join(accuracy.ROOT, accuracy.CASES[case][0])]
+    cmd = [exe, "plan", os.path.join(accuracy.ROOT, accuracy.CASES[case].scene)]
     for o in overrides:
         cmd += ["--set", o]
     text = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
     m = re.search(r"model\s+fluid (\d+), boundary (\d+), knit (\d+), support (\S+), steps (\d+), "
-                  r"settings (\S+)", text)
+                  r"settings (\S+?), substeps (\d+), knit terms (\S+?), darcy substeps (\d+), "
+                  r"frames (\d+)", text)
     if not m:
         raise SystemExit(f"{' '.join(cmd)}: no model line in the plan")
     return {"fluid": int(m.group(1)), "boundary": int(m.group(2)), "knit": int(m.group(3)),
             "support": float(m.group(4)), "steps": float(m.group(5)),
-            "settings": [] if m.group(6) == "none" else m.group(6).split(",")}
+            "settings": [] if m.group(6) == "none" else m.group(6).split(","),
+            "substeps": int(m.group(7)),
+            "terms": [] if m.group(8) == "none" else m.group(8).split(","),
+            "darcy": float(m.group(9)), "frames": float(m.group(10))}
 
 
 def step_factor(row, factors):
@@ -67,27 +81,78 @@ def step_factor(row, factors):
 
 
 def step_cost(c, row):
+    """The fluid's part of a step before its settings' factor (none without fluid)."""
+    if row["Nf"] == 0 and row["Nb"] == 0:
+        return 0.0
     return c[1] + (row["support"] / 2.0) ** 3 * c[2] * row["Nf"] + c[3] * row["Nb"]
 
 
-def predict(c, row, factors):
-    return c[0] + row["S"] * step_factor(row, factors) * step_cost(c, row)
+KNIT_TERMS = ["knit_substep_s", "knit_s", "self_contact_s", "coupling_s", "coupling_step_s",
+              "conserving_s"]
+
+
+def knit_columns(row):
+    """The knit's part of a step as a sum of its coefficients (KNIT_TERMS) times these."""
+    n, sub, terms = row["Nk"], row["substeps"], row["terms"]
+    if n == 0:
+        return np.zeros(len(KNIT_TERMS))
+    coupled = "knit_coupling" in terms
+    return np.array([sub, sub * n, sub * n * ("knit_self_contact" in terms), sub * n * coupled,
+                     coupled,
+                     n * max(row["darcy"], 1.0) * ("absorption_conserving" in terms)], float)
+
+
+def output_column(row):
+    """The snapshots' writing: frames times every particle."""
+    return row["frames"] * (row["Nf"] + row["Nb"] + row["Nk"])
+
+
+def predict(c, row, factors, knit):
+    return (c[0] + row["S"] * (step_factor(row, factors) * step_cost(c, row)
+                               + float(knit_columns(row) @ knit)) + c[4] * output_column(row))
+
+
+def nonnegative_lstsq(A, y):
+    """Least squares with every coefficient >= 0: a column whose coefficient comes out negative
+    is dropped (its term 0) and the rest fitted again."""
+    keep = [j for j in range(A.shape[1]) if np.any(A[:, j])]
+    while True:
+        x = np.zeros(A.shape[1])
+        if keep:
+            x[keep], *_ = np.linalg.lstsq(A[:, keep], y, rcond=None)
+        bad = [j for j in keep if x[j] < 0]
+        if not bad:
+            return x
+        keep.remove(min(bad, key=lambda j: x[j]))
 
 
 def fit(rows):
-    base = [r for r in rows if not r["settings"]]
-    A = np.array([[1.0, r["S"], r["S"] * r["Nf"], r["S"] * r["Nb"]] for r in base])
+    """The fluid's coefficients over the fluid runs without settings, each setting's factor from
+    its own runs, then the knit's coefficients over the knit's runs (the fluid's part of them as
+    the fluid's fit predicts it); least squares on relative error."""
+    fluid = [r for r in rows if r["Nk"] == 0]
+    base = [r for r in fluid if not r["settings"]]
+    A = np.array([[1.0, r["S"], r["S"] * r["Nf"], r["S"] * r["Nb"], output_column(r)]
+                  for r in base])
     w = np.array([1.0 / r["wall"] for r in base])
     y = np.array([r["wall"] for r in base])
-    c, *_ = np.linalg.lstsq(A * w[:, None], y * w, rcond=None)
-    c = np.maximum(c, 0.0)
+    c = nonnegative_lstsq(A * w[:, None], y * w)
     asks = {}
-    for r in rows:
+    for r in fluid:
         if len(r["settings"]) == 1:  # a setting's own runs ask for its factor
             step = r["S"] * step_cost(c, r)
-            asks.setdefault(r["settings"][0], []).append(max(r["wall"] - c[0], 0.05 * step) / step)
+            rest = r["wall"] - c[0] - c[4] * output_column(r)
+            asks.setdefault(r["settings"][0], []).append(max(rest, 0.05 * step) / step)
     factors = {k: float(np.exp(np.mean(np.log(v)))) for k, v in asks.items()}
-    return c, factors
+    knit = np.zeros(len(KNIT_TERMS))
+    knitted = [r for r in rows if r["Nk"] > 0]
+    if knitted:
+        A = np.array([r["S"] * knit_columns(r) for r in knitted])
+        y = np.array([r["wall"] - c[0] - r["S"] * step_factor(r, factors) * step_cost(c, r)
+                      - c[4] * output_column(r) for r in knitted])
+        w = np.array([1.0 / r["wall"] for r in knitted])
+        knit = nonnegative_lstsq(A * w[:, None], y * w)
+    return c, factors, knit
 
 
 def main():
@@ -105,28 +170,34 @@ def main():
                 p = plan_of(a.exe, r["case"], overrides_of(r, a.full))
                 r.update(S=p["steps"], settings=p["settings"], support=p["support"],
                          steps=int(float(r["steps"])), Nf=p["fluid"], Nb=p["boundary"],
+                         Nk=p["knit"], substeps=p["substeps"], terms=p["terms"],
+                         darcy=p["darcy"], frames=p["frames"],
                          wall=float(r["wall_s"]))
                 rows.append(r)
-    c, factors = fit(rows)
-    worst = 0.0
-    print(f"{'case':12} {'axis':15} {'value':>10} {'fluid':>9} {'boundary':>9} {'steps':>7} "
-          f"{'predicted':>7} {'measured':>9} {'predicted':>10} {'off':>6}")
+    c, factors, knit = fit(rows)
+    worst = worst_fluid = 0.0
+    print(f"{'case':12} {'axis':15} {'value':>10} {'fluid':>9} {'boundary':>9} {'knit':>7} "
+          f"{'steps':>7} {'planned':>7} {'measured':>9} {'predicted':>10} {'off':>6}")
     for r in rows:
-        t = predict(c, r, factors)
+        t = predict(c, r, factors, knit)
         off = t / r["wall"] - 1
         worst = max(worst, abs(off))
+        if r["Nk"] == 0:
+            worst_fluid = max(worst_fluid, abs(off))
         print(f"{r['case']:12} {r['axis']:15} {str(r['value']):>10} {r['Nf']:9d} {r['Nb']:9d} "
-              f"{r['steps']:7d} {r['S']:7.0f} {r['wall']:9.2f} {t:10.2f} {100 * off:+5.0f}%")
+              f"{r['Nk']:7d} {r['steps']:7d} {r['S']:7.0f} {r['wall']:9.2f} {t:10.2f} {100 * off:+5.0f}%")
     device = a.device or rows[0].get("device", "device")
     print(f"{device}: t_start {c[0]:.3g} s, a step {c[1]:.3g} s + {c[2]:.3g} s a fluid particle "
-          f"+ {c[3]:.3g} s a boundary particle; factors "
+          f"+ {c[3]:.3g} s a boundary particle, {c[4]:.3g} s a particle a snapshot; factors "
           + ", ".join(f"{k} x{f:.2f}" for k, f in factors.items())
-          + f"; worst prediction {100 * worst:.0f}% off over {len(rows)} runs")
+          + "; knit " + ", ".join(f"{k} {v:.3g}" for k, v in zip(KNIT_TERMS, knit))
+          + f"; worst prediction {100 * worst:.0f}% off over {len(rows)} runs, "
+          f"{100 * worst_fluid:.0f}% over those without a knit")
     if a.out:
-        write_model(a.out, device, c, factors, worst, a.csv)
+        write_model(a.out, device, c, factors, knit, worst, worst_fluid, a.csv)
 
 
-def write_model(path, device, c, factors, worst, sources):
+def write_model(path, device, c, factors, knit, worst, worst_fluid, sources):
     """The device's table into the model file, the other devices' kept."""
     lines = open(path).read().splitlines() if os.path.exists(path) else []
     kept, skip = [], False
@@ -140,9 +211,11 @@ def write_model(path, device, c, factors, worst, sources):
     table = [f"[{device}]",
              f"# fitted by jobs/studies/cost_model.py to {', '.join(os.path.basename(p) for p in sources)}",
              f"start_s = {c[0]:.6g}", f"step_s = {c[1]:.6g}", f"fluid_s = {c[2]:.6g}",
-             f"boundary_s = {c[3]:.6g}"]
+             f"boundary_s = {c[3]:.6g}", f"output_s = {c[4]:.6g}"]
     table += [f"{k} = {f:.4g}" for k, f in factors.items()]
+    table += [f"{k} = {v:.6g}" for k, v in zip(KNIT_TERMS, knit) if v > 0]
     table.append(f"worst_off = {worst:.3f}")
+    table.append(f"worst_off_fluid = {worst_fluid:.3f}")
     with open(path, "w") as f:
         f.write("\n".join(kept + ([""] if kept else []) + table) + "\n")
 

@@ -5,7 +5,10 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <utility>
 
 namespace kf {
 
@@ -37,10 +40,20 @@ std::vector<DeviceCost> parse_cost_model(const std::string& text, const std::str
     d.fluid_s = coefficient("fluid_s", true);
     d.boundary_s = coefficient("boundary_s", true);
     d.worst_off = coefficient("worst_off", false);
+    d.worst_off_fluid = coefficient("worst_off_fluid", false);
+    const std::pair<const char*, double*> knit[] = {
+        {"knit_substep_s", &d.knit_substep_s},  {"knit_s", &d.knit_s},
+        {"self_contact_s", &d.self_contact_s},  {"coupling_s", &d.coupling_s},
+        {"conserving_s", &d.conserving_s},      {"output_s", &d.output_s},
+        {"coupling_step_s", &d.coupling_step_s}};
+    for (const auto& [key, at] : knit)
+      *at = coefficient(key, false);
     for (const auto& [key, value] : *t) {
       const std::string k(key.str());
       if (k == "start_s" || k == "step_s" || k == "fluid_s" || k == "boundary_s" ||
-          k == "worst_off")
+          k == "worst_off" || k == "worst_off_fluid" ||
+          std::any_of(std::begin(knit), std::end(knit),
+                      [&](const auto& e) { return k == e.first; }))
         continue;
       d.factors[k] = coefficient(k.c_str(), true);
     }
@@ -70,6 +83,22 @@ std::vector<std::string> cost_settings(const Scene& scene) {
   return out;
 }
 
+std::vector<std::string> knit_cost_terms(const Scene& scene) {
+  std::vector<std::string> out;
+  if (!scene.has(Module::Knit))
+    return out;
+  if (scene.knit.self_collision)
+    out.push_back("knit_self_contact");
+  const bool coupled =
+      scene.has(Module::Fluid) && (scene.has(Module::Contact) || scene.has(Module::Capillary));
+  if (coupled)
+    out.push_back("knit_coupling");
+  if (coupled && scene.has(Module::Capillary) &&
+      scene.capillary.model == Scene::AbsorptionModel::Conserving)
+    out.push_back("absorption_conserving");
+  return out;
+}
+
 CostEstimate estimate_cost(const DeviceCost& device, const Scene& scene, const PlanReport& plan) {
   double f = 1;
   for (const std::string& name : cost_settings(scene)) {
@@ -79,9 +108,25 @@ CostEstimate estimate_cost(const DeviceCost& device, const Scene& scene, const P
   }
   const double pairs = std::pow(scene.fluid.support / 2.0, 3);
   CostEstimate e;
-  e.step_s = f * (device.step_s + pairs * device.fluid_s * double(plan.fluid) +
-                  device.boundary_s * double(plan.boundary));
-  e.total_s = device.start_s + plan.run_steps * e.step_s;
+  if (plan.fluid > 0 || plan.boundary > 0)
+    e.step_s = f * (device.step_s + pairs * device.fluid_s * double(plan.fluid) +
+                    device.boundary_s * double(plan.boundary));
+  if (plan.knit > 0) {
+    const double n = double(plan.knit);
+    double point = device.knit_s, per_step = 0;
+    for (const std::string& term : knit_cost_terms(scene)) {
+      if (term == "knit_self_contact")
+        point += device.self_contact_s;
+      else if (term == "knit_coupling") {
+        point += device.coupling_s;
+        per_step += device.coupling_step_s;
+      } else if (term == "absorption_conserving")
+        per_step += device.conserving_s * n * std::max(1.0, plan.darcy_substeps);
+    }
+    e.step_s += double(scene.knit.substeps) * (device.knit_substep_s + n * point) + per_step;
+  }
+  e.total_s = device.start_s + plan.run_steps * e.step_s +
+              plan.output_frames * device.output_s * double(plan.fluid + plan.boundary + plan.knit);
   return e;
 }
 

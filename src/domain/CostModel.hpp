@@ -3,11 +3,18 @@
 // (jobs/studies/cost_model.py writes src/domain/CostModel.toml; the build compiles it in). A
 // run's wall time on a device:
 //
-//   T = start + steps f (step + (support / 2)^3 fluid N_fluid + boundary N_boundary)
+//   T = start + steps (f (step + (support / 2)^3 fluid N_fluid + boundary N_boundary)
+//                      + substeps (knit_substep + N_knit (knit + self_contact? + coupling?))
+//                      + coupling? coupling_step + conserving? darcy_substeps N_knit conserving)
+//         + frames output (N_fluid + N_boundary + N_knit)
 //
 // steps from the plan (PlanReport::run_steps), f the product of the factors of the settings the
-// scene uses (cost_settings: the continuity density, the neighbour lists, double precision).
-// Knit points are not in the model yet (no study has a knit): a scene with a knit says so.
+// scene uses (cost_settings: the continuity density, the neighbour lists, double precision); the
+// fluid's part where the scene has fluid, the knit's where it has a knit, a knit term where the
+// scene calls for its stage (knit_cost_terms: self-collision, the knit-fluid coupling (and its
+// step's fixed cost), the
+// conserving absorption's Darcy substeps a step), and the snapshots' writing (frames the run
+// writes, PlanReport::output_frames). A device fitted to no knit run has no knit terms.
 #include "domain/Scene.hpp"
 #include "domain/Simulation.hpp"
 
@@ -22,7 +29,14 @@ struct DeviceCost {
   double start_s = 0, step_s = 0;        // a run's start; a step's fixed cost [s]
   double fluid_s = 0, boundary_s = 0;    // a particle's, a step [s]
   std::map<std::string, double> factors; // a setting's (cost_settings' names) on a whole step
-  double worst_off = 0;                  // the fit's worst relative error over its runs
+  // The knit's: a substep's fixed cost, a point's a substep, the self-contact's and the
+  // coupling's a point a substep, the conserving absorption's a point a Darcy substep [s].
+  double knit_substep_s = 0, knit_s = 0, self_contact_s = 0, coupling_s = 0, conserving_s = 0;
+  double coupling_step_s = 0; // the coupling's fixed cost a step [s]
+  double output_s = 0;        // a particle's a snapshot [s]
+  bool has_knit_terms() const { return knit_substep_s > 0 || knit_s > 0; }
+  double worst_off = 0;       // the fit's worst relative error over its runs
+  double worst_off_fluid = 0; // the same over its runs without a knit
 };
 
 /// The model compiled in.
@@ -35,6 +49,10 @@ std::vector<DeviceCost> parse_cost_model(const std::string& text, const std::str
 /// "neighbour_list_on", "neighbour_list_verlet_settling" or "_flowing" (kept lists last longer
 /// where the scene damps its motion toward rest), "precision_double".
 std::vector<std::string> cost_settings(const Scene& scene);
+
+/// The names of the knit's stages that carry a term: "knit_self_contact", "knit_coupling" (the
+/// scene's fluid meets its knit: contact or capillary), "absorption_conserving".
+std::vector<std::string> knit_cost_terms(const Scene& scene);
 
 struct CostEstimate {
   double step_s = 0, total_s = 0;

@@ -74,6 +74,9 @@ struct PlanReport {
   // The run's typical dt (the CFL condition at the fluid's fall speed from its top, zero for a
   // scene settling under damping) and end_time over it: the cost model's steps.
   double fall_speed = 0, run_dt = 0, run_steps = 0;
+  // The conserving absorption's Darcy substeps in a step of run_dt (0 without it), and the
+  // snapshots the run writes (0 with output off): the cost model's.
+  double darcy_substeps = 0, output_frames = 0;
 };
 
 class Simulation {

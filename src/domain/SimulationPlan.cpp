@@ -1,5 +1,7 @@
 // `knitflow plan`: the scene's stages, particle counts and step limits without running it.
+#include "domain/PoreNetwork.hpp"
 #include "domain/SimulationT.hpp"
+#include "kernels/coupling/Absorption.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -121,6 +123,17 @@ PlanReport Simulation::plan(const Scene& scene) {
         std::min(r.run_dt, s.cfl * h / (scene.fluid.speed_of_sound + std::max(vmax, r.fall_speed)));
   }
   r.run_steps = std::ceil(scene.end_time / r.run_dt);
+  if (r.knit > 0 && scene.has(Module::Fluid) && scene.has(Module::Capillary) &&
+      scene.capillary.model == Scene::AbsorptionModel::Conserving) {
+    const PoreNetwork net = pore_network(scene, build_knit(scene));
+    const double scale =
+        scene.capillary.sigma / std::sqrt(scene.capillary.permeability / scene.capillary.porosity);
+    r.darcy_substeps =
+        std::min(1e4, std::ceil(r.run_dt / darcy_stable_substep(net.capacity, net.links,
+                                                                net.conductance, scale)));
+  }
+  if (scene.output.enabled && scene.output.interval > 0)
+    r.output_frames = std::floor(scene.end_time / scene.output.interval + 1e-9) + 1;
   return r;
 }
 

@@ -2,6 +2,8 @@
 // stages. The passes themselves are in SimulationFluid.cpp and SimulationStep.cpp.
 #include "domain/SimulationT.hpp"
 
+#include "domain/PoreNetwork.hpp"
+
 namespace kf {
 
 template <typename T>
@@ -159,26 +161,10 @@ void SimulationT<T>::init_particles() {
 
 template <typename T>
 void SimulationT<T>::init_absorption(const CouplingParams<T>& cp) {
-  // Pore links: in-layer stretch springs and the straight springs between layers. Conductance
-  // rho0 kappa / mu times the link's cross-section over its length, (V_i + V_j) / (2 L^2)
-  // (exact for a grid's u and v links: V / a^2 = b t / (3 a)).
-  const KnitMesh mesh = build_knit(scene_);
-  const double vpm = scene_.knit.thickness / scene_.knit.mass_per_area;
-  const double rho0 = scene_.fluid.rest_density, phi = scene_.capillary.porosity;
-  const double darcy =
-      rho0 * scene_.capillary.permeability / std::max(scene_.fluid.viscosity, 1e-6);
-  std::vector<std::array<std::uint32_t, 2>> links;
-  std::vector<double> conductance;
-  for (const Spring& sp : mesh.springs)
-    if (sp.kind == SpringKind::Stretch || sp.kind == SpringKind::VolumeStraight) {
-      links.push_back({sp.i, sp.j});
-      conductance.push_back(darcy * (mesh.m[sp.i] + mesh.m[sp.j]) * vpm / (2 * sp.rest * sp.rest));
-    }
-  std::vector<T> dry(mesh.m.size()), capacity(mesh.m.size());
-  for (std::size_t i = 0; i < dry.size(); ++i) {
-    dry[i] = static_cast<T>(mesh.m[i]);
-    capacity[i] = static_cast<T>(phi * mesh.m[i] * vpm * rho0);
-  }
+  const PoreNetwork net = pore_network(scene_, build_knit(scene_));
+  const double rho0 = scene_.fluid.rest_density;
+  std::vector<T> dry(net.dry.begin(), net.dry.end()),
+      capacity(net.capacity.begin(), net.capacity.end());
   AbsorptionParams<T> ap;
   ap.reach = cp.reach;
   ap.emit_saturation = static_cast<T>(scene_.capillary.emit_saturation);
@@ -191,7 +177,7 @@ void SimulationT<T>::init_absorption(const CouplingParams<T>& cp) {
   ap.gravity = vec_cast<T>(scene_.gravity);
   ap.rho0 = static_cast<T>(rho0);
   ap.pressure_scale = cp.pressure_scale;
-  absorption_.emplace(ex_.backend, ap, dry, capacity, links, conductance);
+  absorption_.emplace(ex_.backend, ap, dry, capacity, net.links, net.conductance);
 }
 
 template <typename T>

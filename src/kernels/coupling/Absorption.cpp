@@ -7,6 +7,21 @@
 
 namespace kf {
 
+double darcy_stable_substep(const std::vector<double>& capacity,
+                            const std::vector<std::array<std::uint32_t, 2>>& links,
+                            const std::vector<double>& conductance, double pressure_scale) {
+  std::vector<double> sum_k(capacity.size(), 0.0);
+  for (std::size_t l = 0; l < links.size(); ++l) {
+    sum_k[links[l][0]] += conductance[l];
+    sum_k[links[l][1]] += conductance[l];
+  }
+  double h = 1e30; // no link: no limit
+  for (std::size_t i = 0; i < capacity.size(); ++i)
+    if (sum_k[i] > 0)
+      h = std::min(h, 0.5 * capacity[i] / (4.5 * pressure_scale * sum_k[i]));
+  return h;
+}
+
 template <typename T>
 ConservingAbsorption<T>::ConservingAbsorption(
     exec::Backend b, const AbsorptionParams<T>& params, const std::vector<T>& dry_mass,
@@ -35,26 +50,19 @@ ConservingAbsorption<T>::ConservingAbsorption(
   for (std::size_t i = 0; i < n; ++i)
     start[i + 1] += start[i];
   std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-  std::vector<double> sum_k(n, 0);
   for (std::size_t l = 0; l < links.size(); ++l) {
     const auto [i, j] = links[l];
     other[fill[i]] = j;
     k[fill[i]++] = static_cast<T>(conductance[l]);
     other[fill[j]] = i;
     k[fill[j]++] = static_cast<T>(conductance[l]);
-    sum_k[i] += conductance[l];
-    sum_k[j] += conductance[l];
   }
   mesh_start_ = std::move(start);
   mesh_other_ = std::move(other);
   mesh_k_ = std::move(k);
   whole();
-  // Explicit stability: dPhi/dm = -scale J'(s) / C with |J'| <= 4.5 for s in [0, 1.5].
-  for (std::size_t i = 0; i < n; ++i)
-    if (sum_k[i] > 0)
-      stable_substep_ =
-          std::min(stable_substep_,
-                   0.5 * double(capacity[i]) / (4.5 * double(params.pressure_scale) * sum_k[i]));
+  stable_substep_ = darcy_stable_substep(std::vector<double>(capacity.begin(), capacity.end()),
+                                         links, conductance, double(params.pressure_scale));
 }
 
 template <typename T>

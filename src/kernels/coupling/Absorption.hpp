@@ -42,6 +42,13 @@ struct AbsorptionStats {
   double diffused_mass = 0; // net mass moved along links per fluid step, summed over the run
 };
 
+/// The Darcy flow's explicit stability limit [s]: 0.5 min_i C_i / (4.5 scale sum_l K_il) (dPhi/dm
+/// = -scale J'(s) / C with |J'| <= 4.5 on s <= 1.5, scale = sigma / sqrt(kappa / phi));
+/// infinite without links.
+double darcy_stable_substep(const std::vector<double>& capacity,
+                            const std::vector<std::array<std::uint32_t, 2>>& links,
+                            const std::vector<double>& conductance, double pressure_scale);
+
 template <typename T>
 class ConservingAbsorption {
 public:
