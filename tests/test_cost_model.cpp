@@ -34,6 +34,16 @@ long steps_of(const Scene& s) {
   return n;
 }
 
+/// A device with the fluid's coefficients (no settings' factors, no knit terms).
+DeviceCost fluid_device(double start_s) {
+  DeviceCost d;
+  d.start_s = start_s;
+  d.step_s = 1e-4;
+  d.fluid_s = 1e-8;
+  d.boundary_s = 1e-9;
+  return d;
+}
+
 } // namespace
 
 TEST(CostModel, TheCompiledInModelHasTheStudiedDevices) {
@@ -104,11 +114,7 @@ TEST(CostModel, ThePlansStepsAreARunsSteps) {
 }
 
 TEST(CostModel, AnEstimateComposesTheSettingsFactors) {
-  DeviceCost d;
-  d.start_s = 2;
-  d.step_s = 1e-4;
-  d.fluid_s = 1e-8;
-  d.boundary_s = 1e-9;
+  DeviceCost d = fluid_device(2);
   d.factors = {{"density_continuity", 0.8},
                {"neighbour_list_verlet_flowing", 0.5},
                {"neighbour_list_verlet_settling", 0.25}};
@@ -137,11 +143,7 @@ TEST(CostModel, AnEstimateComposesTheSettingsFactors) {
 }
 
 TEST(CostModel, AnEstimateAddsTheKnitsTermsItsStagesCallFor) {
-  DeviceCost d;
-  d.start_s = 1;
-  d.step_s = 1e-4;
-  d.fluid_s = 1e-8;
-  d.boundary_s = 1e-9;
+  DeviceCost d = fluid_device(1);
   d.knit_substep_s = 2e-5;
   d.knit_s = 3e-9;
   d.self_contact_s = 5e-10;

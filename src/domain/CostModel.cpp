@@ -41,18 +41,19 @@ std::vector<DeviceCost> parse_cost_model(const std::string& text, const std::str
     d.boundary_s = coefficient("boundary_s", true);
     d.worst_off = coefficient("worst_off", false);
     d.worst_off_fluid = coefficient("worst_off_fluid", false);
-    const std::pair<const char*, double*> knit[] = {
+    // The coefficients a device may lack (a fit without knit runs, an older table): zero.
+    const std::pair<const char*, double*> optional[] = {
         {"knit_substep_s", &d.knit_substep_s},  {"knit_s", &d.knit_s},
         {"self_contact_s", &d.self_contact_s},  {"coupling_s", &d.coupling_s},
         {"conserving_s", &d.conserving_s},      {"output_s", &d.output_s},
         {"coupling_step_s", &d.coupling_step_s}};
-    for (const auto& [key, at] : knit)
+    for (const auto& [key, at] : optional)
       *at = coefficient(key, false);
     for (const auto& [key, value] : *t) {
       const std::string k(key.str());
       if (k == "start_s" || k == "step_s" || k == "fluid_s" || k == "boundary_s" ||
           k == "worst_off" || k == "worst_off_fluid" ||
-          std::any_of(std::begin(knit), std::end(knit),
+          std::any_of(std::begin(optional), std::end(optional),
                       [&](const auto& e) { return k == e.first; }))
         continue;
       d.factors[k] = coefficient(k.c_str(), true);

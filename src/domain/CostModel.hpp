@@ -11,10 +11,9 @@
 // steps from the plan (PlanReport::run_steps), f the product of the factors of the settings the
 // scene uses (cost_settings: the continuity density, the neighbour lists, double precision); the
 // fluid's part where the scene has fluid, the knit's where it has a knit, a knit term where the
-// scene calls for its stage (knit_cost_terms: self-collision, the knit-fluid coupling (and its
-// step's fixed cost), the
-// conserving absorption's Darcy substeps a step), and the snapshots' writing (frames the run
-// writes, PlanReport::output_frames). A device fitted to no knit run has no knit terms.
+// scene calls for its stage (knit_cost_terms: self-collision, the knit-fluid coupling and its
+// step's fixed cost, the conserving absorption's Darcy substeps a step), and the snapshots'
+// writing (PlanReport::output_frames). A device fitted to no knit run has no knit terms.
 #include "domain/Scene.hpp"
 #include "domain/Simulation.hpp"
 

@@ -81,6 +81,7 @@ PlanReport Simulation::plan(const Scene& scene) {
       limit(s.viscous_factor * h * h * scene.fluid.rest_density / scene.fluid.viscosity,
             "viscosity");
   }
+  double pressure_scale = 0; // the capillary's sigma / sqrt(kappa / phi), for the Darcy substeps
   if (scene.has(Module::Knit)) {
     // Built in the scene's precision on the host (the CPU backend): plan never touches a device.
     auto count = [&](auto&& knit) {
@@ -93,6 +94,7 @@ PlanReport Simulation::plan(const Scene& scene) {
       if (scene.has(Module::Contact) || scene.has(Module::Capillary)) {
         const auto p = coupling_params<double>(scene, knit.longest_spacing());
         r.coupling_reach = p.reach;
+        pressure_scale = p.pressure_scale;
         r.coupling_stiffness = p.contact ? p.dem.k : 0;
         if (p.contact) {
           const CouplingLimits lim = coupling_limits(scene, p.dem.k, knit.min_free_mass());
@@ -126,11 +128,9 @@ PlanReport Simulation::plan(const Scene& scene) {
   if (r.knit > 0 && scene.has(Module::Fluid) && scene.has(Module::Capillary) &&
       scene.capillary.model == Scene::AbsorptionModel::Conserving) {
     const PoreNetwork net = pore_network(scene, build_knit(scene));
-    const double scale =
-        scene.capillary.sigma / std::sqrt(scene.capillary.permeability / scene.capillary.porosity);
     r.darcy_substeps =
         std::min(1e4, std::ceil(r.run_dt / darcy_stable_substep(net.capacity, net.links,
-                                                                net.conductance, scale)));
+                                                                net.conductance, pressure_scale)));
   }
   if (scene.output.enabled && scene.output.interval > 0)
     r.output_frames = std::floor(scene.end_time / scene.output.interval + 1e-9) + 1;
