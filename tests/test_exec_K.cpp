@@ -163,8 +163,9 @@ void lane_sums(const Exec& ex, DeviceBuffer<double>& out, DeviceBuffer<std::uint
 /// group queries over its chunk: the first lane whose element is 3 mod 5, that lane's element
 /// (broadcast), the smallest and largest element mod 97 over the chunk's lanes, the ballot of
 /// the lanes whose element is even (its bit count, and the bits below this lane), and the box
-/// of the points (e mod 97, -(e mod 89), e mod 13) over the chunk's lanes (min_each, max_each).
-constexpr std::size_t kChunkAnswers = 8;
+/// of the points (e mod 97, -(e mod 89), e mod 13) over the chunk's lanes (min_each, max_each),
+/// and the smallest 7919 e mod 1009 over them as a 64-bit word (reduce).
+constexpr std::size_t kChunkAnswers = 9;
 struct ChunkQueries {
   std::size_t n;
   std::int32_t* out; // kChunkAnswers per element
@@ -180,6 +181,9 @@ struct ChunkQueries {
     const kf::Vec3<float> p{float(e % 97), -float(e % 89), float(e % 13)};
     const kf::Vec3<float> blo = g.min_each(mine ? p : kf::Vec3<float>{big, big, big});
     const kf::Vec3<float> bhi = g.max_each(mine ? p : kf::Vec3<float>{-big, -big, -big});
+    const std::uint64_t least =
+        g.reduce(mine ? std::uint64_t(e * 7919 % 1009) : ~std::uint64_t(0),
+                 [](std::uint64_t a, std::uint64_t b) { return b < a ? b : a; });
     if (mine) {
       std::int32_t* o = out + kChunkAnswers * e;
       o[0] = int(lead) + (any ? 0 : 100);
@@ -187,9 +191,10 @@ struct ChunkQueries {
       o[2] = lo;
       o[3] = hi;
       o[4] = int(kf::popcount(even));
-      o[5] = int(kf::popcount(even & ((1u << g.lane) - 1u)));
+      o[5] = int(g.count_below(even));
       o[6] = int(blo.x) * 10000 + int(-blo.y) * 100 + int(blo.z);
       o[7] = int(bhi.x) * 10000 + int(-bhi.y) * 100 + int(bhi.z);
+      o[8] = int(least);
     }
   }
 };
@@ -204,7 +209,7 @@ void check_chunks(const Exec& ex, Backend b) {
     for (std::size_t e = 0; e < n; ++e) {
       const std::size_t first = e / size * size, last = std::min(n, first + size);
       std::size_t lead = size;
-      int lo = 1000, hi = -1, evens = 0, evens_below = 0;
+      int lo = 1000, hi = -1, evens = 0, evens_below = 0, least = 2000;
       int box_lo[3] = {1000, 1000, 1000}, box_hi[3] = {-1, -1, -1}; // x, -y, z
       for (std::size_t k = first; k < last; ++k) {
         if (lead == size && k % 5 == 3)
@@ -213,6 +218,7 @@ void check_chunks(const Exec& ex, Backend b) {
         hi = std::max(hi, int(k % 97));
         evens += k % 2 == 0;
         evens_below += k % 2 == 0 && k < e;
+        least = std::min(least, int(k * 7919 % 1009));
         const int c[3] = {int(k % 97), int(k % 89), int(k % 13)};
         for (int a = 0; a < 3; ++a) {
           box_lo[a] = std::min(box_lo[a], c[a]);
@@ -229,6 +235,7 @@ void check_chunks(const Exec& ex, Backend b) {
       // min over x and z, and over y = -(k mod 89): the largest k mod 89, and the reverse.
       ASSERT_EQ(r[6], box_lo[0] * 10000 + box_hi[1] * 100 + box_lo[2]) << "G " << G << " e " << e;
       ASSERT_EQ(r[7], box_hi[0] * 10000 + box_lo[1] * 100 + box_hi[2]) << "G " << G << " e " << e;
+      ASSERT_EQ(r[8], least) << "G " << G << " e " << e;
     }
   }
 }

@@ -524,6 +524,78 @@ void check_local_rule(exec::Backend backend) {
 // over 32-candidate blocks, pushed 16 bits at a time with a flush after each, as the chunk
 // builder does; rows that fit, rows that overflow their capacity, empty rows. The rows are
 // poisoned first; the last group's slots past the count must hold kNoEntry.
+// build_for with eight lanes a query point writes the rows the one-lane build writes, slot for
+// slot: the same candidates in the same order, the same counts past a row's capacity (an
+// overflow its user must see), nothing for an inactive query point. Query points elsewhere than
+// the candidates (a fluid over a knit), ~40 candidates in range each against a capacity of 24.
+template <typename T>
+void check_lane_build_for(exec::Backend backend) {
+  const double h = 0.1;
+  const Vec3d lo{0, 0, 0}, hi{1.0, 0.3, 0.55};
+  const auto cand = test_points<T>(3000, h, lo, hi, 5);
+  const auto query = test_points<T>(1500, h, lo, hi, 6);
+  std::vector<std::uint32_t> active(query.size());
+  for (std::size_t i = 0; i < active.size(); ++i)
+    active[i] = i % 3 != 0;
+  const T r2 = static_cast<T>(0.07 * 0.07);
+  const std::uint32_t capacity = 24;
+  std::vector<std::uint32_t> rows[2];
+  std::size_t slots = 0;
+  for (int lanes : {1, 8}) {
+    const exec::Backend b = lanes == 1 ? exec::Backend::Cpu : backend;
+    exec::Exec ex{b};
+    NeighbourGrid<T> grid(b, NeighbourGrid<T>::cover(lo, hi, h));
+    exec::DeviceBuffer<Vec3<T>> x(b), xs(b, cand.size()), q(b);
+    exec::DeviceBuffer<std::uint32_t> on(b);
+    x.assign(cand);
+    q.assign(query);
+    on.assign(active);
+    grid.build(ex, x.data(), cand.size());
+    exec::gather(ex, grid.permutation(), x, xs, "test.gather");
+    NeighbourList<T> lists(b);
+    if (lanes == 1)
+      lists.build_for(ex, q.data(), on.data(), query.size(), xs.data(), grid.view(), r2, capacity);
+    else
+      lists.template build_for<8>(ex, q.data(), on.data(), query.size(), xs.data(), grid.view(), r2,
+                                  capacity);
+    const auto v = lists.view();
+    slots = v.capacity;
+    auto& got = rows[lanes == 8];
+    got.assign(query.size() * (1 + slots), 0xDEADBEEFu);
+    exec::copy_bytes(got.data(), exec::Backend::Cpu, v.count, b,
+                     query.size() * sizeof(std::uint32_t));
+    exec::copy_bytes(got.data() + query.size(), exec::Backend::Cpu, v.list, b,
+                     query.size() * slots * sizeof(std::uint32_t));
+  }
+  const std::size_t n = query.size();
+  const ListView<T> layout{nullptr, nullptr, slots, n};
+  std::size_t overflowing = 0, listed = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_EQ(rows[1][i], rows[0][i]) << "count of query point " << i;
+    if (!active[i])
+      ASSERT_EQ(rows[1][i], 0u) << "inactive query point " << i;
+    overflowing += rows[0][i] > slots;
+    listed += rows[0][i];
+    const std::size_t m = std::min<std::size_t>(rows[0][i], slots);
+    for (std::size_t k = 0; k < m; ++k)
+      ASSERT_EQ(rows[1][n + layout.slot(i, k)], rows[0][n + layout.slot(i, k)])
+          << "query point " << i << " slot " << k;
+  }
+  EXPECT_GT(overflowing, n / 10) << "the test must overflow some rows";
+  EXPECT_GT(listed, 10 * n) << "too few neighbours to test";
+}
+
+TEST(NeighbourList, BuildForInLanesWritesTheOneLaneRowsCpu) {
+  check_lane_build_for<float>(exec::Backend::Cpu);
+}
+
+TEST(NeighbourList, BuildForInLanesWritesTheOneLaneRowsCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check_lane_build_for<float>(exec::Backend::Cuda);
+  check_lane_build_for<double>(exec::Backend::Cuda);
+}
+
 TEST(StagedRowAppender, MatchesEntryByEntryAppends) {
   constexpr std::uint32_t kPoison = 0xDEADBEEFu;
   std::mt19937 rng(7);

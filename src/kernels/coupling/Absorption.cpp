@@ -129,11 +129,12 @@ ConservingAbsorption<T>::absorb(const exec::Exec& ex, KnitSet<T>& knit, FluidSet
         ex, n, [=] KF_HD(std::size_t k) { ss[k] = a[pp[k]] / c[pp[k]]; }, "absorb.saturation");
   }
   target_.resize(nf);
-  exec::for_each(ex, nf,
-                 AbsorbTargetEvaluator<T>{
-                     fluid.x.data(), coupling.sorted_x().data(), s_sorted_.data(), perm.data(),
-                     knit.id.data(), coupling.knit_grid().view(), params_.reach, target_.data()},
-                 "absorb.target");
+  exec::for_each_lanes<kFluidSideLanes>(
+      ex, nf,
+      AbsorbTargetEvaluator<T>{fluid.x.data(), coupling.sorted_x().data(), s_sorted_.data(),
+                               perm.data(), knit.id.data(), coupling.knit_grid().view(),
+                               params_.reach, target_.data()},
+      "absorb.target");
   std::uint32_t* t = target_.data();
   if (split) {
     // A ghost's choice is its owner's (who sees every knit point within its reach): the

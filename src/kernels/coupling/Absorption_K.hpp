@@ -46,11 +46,14 @@ struct AbsorbTargetEvaluator {
   T reach;
   std::uint32_t* target;
 
-  KF_HD void operator()(std::size_t j) const {
+  /// g: the lanes sharing particle j (for_each_lanes, kFluidSideLanes); each takes every
+  /// g.size-th candidate, then the group keeps the nearest, the lowest id among equals: the
+  /// choice one lane makes over them all.
+  KF_HD void operator()(std::size_t j, exec::Lanes g = {}) const {
     const Vec3<T> xj = fluid_x[j];
     T best = reach * reach;
     std::uint32_t pick = kNoTarget;
-    knit_cells.for_each_candidate(xj, [&](std::uint32_t k) {
+    knit_cells.for_each_candidate(xj, g.lane, g.size, [&](std::uint32_t k) {
       const T r2 = norm2(xj - knit_x_sorted[k]);
       // Ties go to the lower id, so the choice depends neither on the grid's order nor on where
       // a rank keeps the point.
@@ -60,7 +63,18 @@ struct AbsorbTargetEvaluator {
         pick = knit_index[k];
       }
     });
-    target[j] = pick;
+    if (g.size > 1) {
+      const T nearest = g.reduce(best, [](T a, T b) { return b < a ? b : a; });
+      const bool mine = pick != kNoTarget && best == nearest;
+      const std::uint64_t id = mine ? knit_id[pick] : ~std::uint64_t(0);
+      const std::uint64_t lowest =
+          g.reduce(id, [](std::uint64_t a, std::uint64_t b) { return b < a ? b : a; });
+      const unsigned from = g.first_set(mine && id == lowest);
+      pick = from < g.size ? static_cast<std::uint32_t>(g.broadcast(static_cast<int>(pick), from))
+                           : kNoTarget;
+    }
+    if (g.lane == 0)
+      target[j] = pick;
   }
 };
 

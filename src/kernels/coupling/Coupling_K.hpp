@@ -127,6 +127,12 @@ struct SortedKnitSide {
 /// the watched knit motion since the grid's sort passed its skin (*moved2 > skin2: the grid, the
 /// flags and the lists may miss a point), every fluid particle sums over all knit points
 /// instead: exact, O(n m), rare.
+/// Lanes a fluid particle in the coupling's fluid-side passes (its knit list's build, its pair
+/// forces, the absorption's choice): with a knit finer than the fluid a particle meets hundreds
+/// of knit points (a 0.01 m fluid over 128 stitches, a 1.25 mm wicking strip), and one lane's walk
+/// over them took 200-350 us a pass on an H200 while the knit's side took 20 (docs/PERFORMANCE.md).
+inline constexpr unsigned kFluidSideLanes = 8;
+
 template <typename T, typename K>
 struct FluidCouplingEvaluator {
   K kernel;
@@ -142,7 +148,9 @@ struct FluidCouplingEvaluator {
   T skin2;
   std::uint32_t n_knit;
 
-  KF_HD void operator()(std::size_t j) const {
+  /// g: the lanes sharing particle j (for_each_lanes): a coarse fluid's particle may meet
+  /// hundreds of a fine knit's points, and one lane's walk over them was the pass's latency.
+  KF_HD void operator()(std::size_t j, exec::Lanes g = {}) const {
     const bool stale = !(*moved2 <= skin2);
     if (!stale && !near[j])
       return;
@@ -156,13 +164,15 @@ struct FluidCouplingEvaluator {
         sum += fij;
     };
     if (!stale && list.complete(j))
-      list.for_each_neighbour(j, xj, pair);
+      list.for_each_neighbour(j, xj, g.lane, g.size, pair);
     else if (!stale)
-      knit_cells.for_each_candidate(xj, pair);
+      knit_cells.for_each_candidate(xj, g.lane, g.size, pair);
     else
-      for (std::uint32_t i = 0; i < n_knit; ++i)
+      for (std::uint32_t i = g.lane; i < n_knit; i += g.size)
         pair(i);
-    impulse[j] += sum * weight;
+    sum = g.sum(sum);
+    if (g.lane == 0)
+      impulse[j] += sum * weight;
   }
 };
 

@@ -124,8 +124,8 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
   // in a cell).
   watch_.observe_gather(ex, knit.x, knit.v, perm(), x_, v_);
   const T r = coupling_reach(params_) + list_skin_;
-  list_.build_for(ex, fluid.f.x, near_flag_.data(), fluid.f.n, x_.data(), grid_.view(), r * r,
-                  list_capacity_);
+  list_.template build_for<kFluidSideLanes>(ex, fluid.f.x, near_flag_.data(), fluid.f.n, x_.data(),
+                                            grid_.view(), r * r, list_capacity_);
 }
 
 template <typename T>
@@ -146,13 +146,13 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
   watch_.observe_gather(ex, knit.x, knit.v, perm(), x_, v_);
   with_kernel<T>(kernel_, params_.h, [&](auto k) {
     using K = decltype(k);
-    exec::for_each(ex, fluid.f.n,
-                   FluidCouplingEvaluator<T, K>{
-                       k, params_, fluid.f,
-                       SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()}, grid_.view(),
-                       weight, impulse_.data(), near_flag_.data(), list_.view(), watch_.moved2(),
-                       watch_.skin2(), static_cast<std::uint32_t>(x_.size())},
-                   "coupling.fluid");
+    exec::for_each_lanes<kFluidSideLanes>(
+        ex, fluid.f.n,
+        FluidCouplingEvaluator<T, K>{
+            k, params_, fluid.f, SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()},
+            grid_.view(), weight, impulse_.data(), near_flag_.data(), list_.view(), watch_.moved2(),
+            watch_.skin2(), static_cast<std::uint32_t>(x_.size())},
+        "coupling.fluid");
     auto kv = knit.view();
     kv.n = active(knit);
     exec::for_each_lanes<4>(ex, kv.n,

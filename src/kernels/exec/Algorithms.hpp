@@ -90,6 +90,17 @@ struct Lanes {
       return Vec3<T>{kmax(a.x, b.x), kmax(a.y, b.y), kmax(a.z, b.z)};
     });
   }
+  /// op (associative, commutative) over the group's lanes, the result on every lane (all lanes
+  /// call): a butterfly in a fixed order, deterministic. V: a number or a Vec3.
+  template <typename V, typename Op>
+  KF_HD KF_INLINE V reduce(V v, Op op) const {
+    return butterfly(v, op);
+  }
+  /// How many of the lanes below this one have their bit set in `bits` (a ballot's result):
+  /// where this lane's item goes when the group appends in lane order.
+  KF_HD KF_INLINE unsigned count_below(unsigned bits) const {
+    return popcount(bits & ((1u << lane) - 1u));
+  }
   /// The group's bits of the lanes whose p is true, lane 0 of the group at bit 0 (all lanes
   /// call; one lane on the CPU).
   KF_HD KF_INLINE unsigned ballot(bool p) const {

@@ -209,9 +209,9 @@ namespace list_detail {
 /// One query point's neighbours among one grid's candidates. P: Vec3 or a packed Vec4.
 template <typename T, typename P, typename Pred>
 struct ListBuilder {
-  const Vec3<T>* q;            // query points
-  const P* x;                  // candidates, in `cells`' order
-  const std::uint32_t* active; // nullptr: every query point; else those with active[i] != 0
+  const Vec3<T>* q;             // query points
+  const P* x;                   // candidates, in `cells`' order
+  const std::uint32_t* active;  // nullptr: every query point; else those with active[i] != 0
   const std::uint8_t* occupied; // per cell of `cells`: CellView::may_find (null: walk all)
   CellView<T> cells;
   T radius2;
@@ -229,6 +229,37 @@ struct ListBuilder {
         });
     }
     row.finish();
+  }
+};
+
+/// ListBuilder with a group of lanes a query point (for_each_lanes): the lanes test a row's
+/// candidates side by side, eight or so at a time, and append those in range in the walk's order
+/// (a ballot: each lane's slot is the count so far plus its hits below it), so the row is the
+/// one ListBuilder writes. For query points with many candidates and few points (a coarse
+/// fluid's particles over a fine knit), whose one-lane walk was the whole pass's latency.
+template <typename T, typename P, typename Pred>
+struct LaneListBuilder {
+  ListBuilder<T, P, Pred> b;
+
+  KF_HD void operator()(std::size_t i, exec::Lanes g) const {
+    std::uint32_t c = 0;
+    if (!b.active || b.active[i]) {
+      const Vec3<T> xi = b.q[i];
+      if (b.cells.may_find(b.occupied, xi))
+        b.cells.for_each_row_range(xi, [&](std::uint32_t lo, std::uint32_t hi) {
+          for (std::uint32_t base = lo; base < hi; base += g.size) { // the same trips on every lane
+            const std::uint32_t j = base + g.lane;
+            const bool hit = j < hi && norm2(xi - position_of(b.x[j])) < b.radius2 && b.keep(i, j);
+            const unsigned bits = g.ballot(hit);
+            const std::uint32_t k = c + g.count_below(bits);
+            if (hit && k < b.out.capacity)
+              *b.out.slot(i, k) = j;
+            c += popcount(bits);
+          }
+        });
+    }
+    if (g.lane == 0)
+      b.out.count[i] = c;
   }
 };
 
@@ -283,7 +314,9 @@ public:
   /// x: positions (Vec3) or packed (x, w) pairs (Vec4). `occupied` (NeighbourGrid::
   /// occupied_around of `cells`, or null) lets query points with no candidate around skip
   /// their walk.
-  template <typename P, typename Pred = AnyPair>
+  /// G > 1: G lanes a query point (LaneListBuilder; the same lists), for few query points with
+  /// many candidates each.
+  template <unsigned G = 1, typename P, typename Pred = AnyPair>
   void build_for(const exec::Exec& ex, const Vec3<T>* q, const std::uint32_t* active, std::size_t n,
                  const P* x, const CellView<T>& cells, T radius2, std::uint32_t capacity,
                  Pred keep = {}, const std::uint8_t* occupied = nullptr,
@@ -291,10 +324,12 @@ public:
     capacity_ = (capacity + kListGroup - 1) / kListGroup * kListGroup;
     count_.resize(n);
     list_.resize(std::size_t(capacity_) * n);
-    exec::for_each(
-        ex, n,
-        list_detail::ListBuilder<T, P, Pred>{q, x, active, occupied, cells, radius2, sink(n), keep},
-        label);
+    const list_detail::ListBuilder<T, P, Pred> b{q,     x,       active,  occupied,
+                                                 cells, radius2, sink(n), keep};
+    if constexpr (G > 1)
+      exec::for_each_lanes<G>(ex, n, list_detail::LaneListBuilder<T, P, Pred>{b}, label);
+    else
+      exec::for_each(ex, n, b, label);
   }
   ListView<T> view() const { return {count_.data(), list_.data(), capacity_, count_.size()}; }
   /// Slots per particle now; most neighbours of one particle at the last build (build,
