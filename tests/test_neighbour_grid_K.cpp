@@ -572,8 +572,9 @@ void check_lane_build_for(exec::Backend backend) {
   std::size_t overflowing = 0, listed = 0;
   for (std::size_t i = 0; i < n; ++i) {
     ASSERT_EQ(rows[1][i], rows[0][i]) << "count of query point " << i;
-    if (!active[i])
+    if (!active[i]) {
       ASSERT_EQ(rows[1][i], 0u) << "inactive query point " << i;
+    }
     overflowing += rows[0][i] > slots;
     listed += rows[0][i];
     const std::size_t m = std::min<std::size_t>(rows[0][i], slots);
