@@ -7,6 +7,7 @@
 #include "domain/PartitionPlan.hpp"
 #include "domain/Runner.hpp"
 #include "domain/Scene.hpp"
+#include "domain/SceneSize.hpp"
 #include "domain/Simulation.hpp"
 #include "kernels/exec/Backend.hpp"
 
@@ -47,9 +48,40 @@ void add_scene_options(CLI::App* cmd, Args& a) {
 kf::exec::Backend choose_backend(const std::string& device) {
   if (device == "cpu")
     return kf::exec::Backend::Cpu;
-  if (device == "cuda")
+  if (device == "cuda") {
+    if (!kf::exec::cuda_compiled())
+      throw kf::InputError("--device cuda: this knitflow was built without CUDA (build it with "
+                           "the 'cuda' preset, or run with --device cpu)");
+    if (!kf::exec::cuda_available())
+      throw kf::InputError("--device cuda: no CUDA device is visible (CUDA_VISIBLE_DEVICES=" +
+                           std::string(std::getenv("CUDA_VISIBLE_DEVICES")
+                                           ? std::getenv("CUDA_VISIBLE_DEVICES")
+                                           : "unset") +
+                           "; run with --device cpu)");
     return kf::exec::Backend::Cuda;
+  }
   return kf::exec::cuda_available() ? kf::exec::Backend::Cuda : kf::exec::Backend::Cpu;
+}
+
+/// Refuses, before anything is sampled or allocated, a scene that cannot fit where it is to
+/// run (domain/SceneSize): `plan` builds its counts on the host, `run` on its backend, each
+/// rank its share (the ranks of one host share its memory; those of one GPU, the GPU's).
+void check_scene_size(const kf::Scene& scene, kf::exec::Backend b, const kf::comm::MpiContext& mpi,
+                      bool whole_on_host) {
+  const kf::SceneSize z = kf::estimate_size(scene);
+  if (whole_on_host) {
+    kf::check_size(scene, z, kf::available_memory(kf::exec::Backend::Cpu), 1, mpi.local_size(),
+                   "this machine's memory (MemAvailable)");
+    return;
+  }
+  int sharing = mpi.local_size();
+  if (b == kf::exec::Backend::Cuda) {
+    const int devices = std::max(1, kf::exec::cuda_devices());
+    sharing = (mpi.local_size() + devices - 1) / devices;
+  }
+  kf::check_size(scene, z, kf::available_memory(b), mpi.size(), sharing,
+                 b == kf::exec::Backend::Cuda ? "the GPU's free memory"
+                                              : "this machine's memory (MemAvailable)");
 }
 
 std::string human_bytes(double b) {
@@ -158,6 +190,7 @@ void print_cost(const Args& a, const kf::Scene& scene, const kf::PlanReport& r) 
 
 int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   const kf::Scene scene = kf::load_scene(a.scene, a.overrides);
+  check_scene_size(scene, kf::exec::Backend::Cpu, mpi, true);
   const kf::PlanReport r = kf::Simulation::plan(scene);
   if (!mpi.root())
     return 0;
@@ -232,6 +265,7 @@ int cmd_run(const Args& a, const kf::comm::MpiContext& mpi) {
   opt.backend = choose_backend(a.device);
   if (opt.backend == kf::exec::Backend::Cuda)
     kf::exec::cuda_select_device(mpi.local_rank());
+  check_scene_size(scene, opt.backend, mpi, false);
   opt.restart = a.restart;
   opt.progress = !a.quiet;
   opt.profile = a.profile;
@@ -250,7 +284,8 @@ int cmd_run(const Args& a, const kf::comm::MpiContext& mpi) {
 
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);
-  int rc = 0;
+  int rc = 0, ranks = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
   {
     kf::comm::MpiContext mpi;
     CLI::App app{"knitflow: knitted cloth and liquid, simulated with particles"};
@@ -328,8 +363,9 @@ int main(int argc, char** argv) {
       rc = 1;
     }
   }
-  if (rc == 1)
-    MPI_Abort(MPI_COMM_WORLD, 1); // another rank may be waiting in a collective
+  // Another rank may be waiting in a collective; alone, a plain exit says it without MPI's banner.
+  if (rc == 1 && ranks > 1)
+    MPI_Abort(MPI_COMM_WORLD, 1);
   MPI_Finalize();
   return rc;
 }

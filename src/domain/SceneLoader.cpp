@@ -9,6 +9,7 @@
 #include "domain/SceneReader.hpp"
 #include "kernels/grid/GridGeometry.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -249,6 +250,27 @@ void read_fluid(const TableReader& t, Scene& s) {
   t.read("initial_density", f.initial_density, kInitialDensities);
   for (const TableReader& b : t.array_of_tables("block"))
     f.blocks.push_back(read_block(b, s.domain));
+}
+
+/// Every fluid block holds particles at the spacing (a spacing larger than a block's side places
+/// none there: a scene that would run without its fluid).
+void check_blocks_hold_particles(const TableReader& fluid, const Scene& s) {
+  if (!s.has(Module::Fluid))
+    return;
+  const auto blocks = fluid.array_of_tables("block");
+  for (std::size_t i = 0; i < s.fluid.blocks.size() && i < blocks.size(); ++i) {
+    const Vec3d e = s.fluid.blocks[i].max - s.fluid.blocks[i].min;
+    const double side = std::min({e.x, e.y, e.z});
+    if (side < s.fluid.spacing * (1 - 1e-9)) {
+      std::ostringstream got;
+      got << "a block whose smallest side is " << side << " m: it holds no particle at "
+          << "fluid.spacing = " << s.fluid.spacing << " m";
+      blocks[i].fail_key(*blocks[i].node("max"), "max",
+                         "a block at least one spacing (" + std::to_string(s.fluid.spacing) +
+                             " m) on every side",
+                         got.str());
+    }
+  }
 }
 
 /// Fluid blocks exist exactly when the fluid module is on.
@@ -714,6 +736,7 @@ Scene build_scene(const TableReader& root, const std::filesystem::path& scene_di
   read_fluid(fluid, s);
   apply_quality(sim, solver, s);
   check_fluid_blocks(sim, fluid, s);
+  check_blocks_hold_particles(fluid, s);
   const auto obstacles = root.array_of_tables("obstacle");
   for (std::size_t i = 0; i < obstacles.size(); ++i)
     s.obstacles.push_back(read_obstacle(obstacles[i], i, scene_dir));

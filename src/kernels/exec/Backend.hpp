@@ -20,6 +20,10 @@ bool cuda_available();
 /// (more ranks than devices on a node share them round-robin), and returns its CUDA index;
 /// -1 on CPU builds.
 int cuda_select_device(int local_rank);
+/// CUDA devices visible (0 on CPU builds or without one).
+int cuda_devices();
+/// Free memory of the selected CUDA device in bytes (0 without one).
+std::size_t cuda_free_memory_now();
 /// One-line description of the device in use ("NVIDIA H100 80GB HBM3, 132 SMs" or "CPU, 2
 /// threads").
 std::string describe(Backend b);

@@ -32,6 +32,8 @@ void cuda_event_wait(void* e, const char* label);
 bool cuda_device_present();
 int cuda_set_device(int local_rank);
 std::string cuda_describe();
+std::size_t cuda_free_memory();
+int cuda_device_count();
 void cuda_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::size_t n, int key_bits,
                       const char* label);
 std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
@@ -62,6 +64,22 @@ bool cuda_available() {
   return cuda_device_present();
 #else
   return false;
+#endif
+}
+
+int cuda_devices() {
+#if defined(KF_WITH_CUDA)
+  return cuda_device_present() ? cuda_device_count() : 0;
+#else
+  return 0;
+#endif
+}
+
+std::size_t cuda_free_memory_now() {
+#if defined(KF_WITH_CUDA)
+  return cuda_device_present() ? cuda_free_memory() : 0;
+#else
+  return 0;
 #endif
 }
 

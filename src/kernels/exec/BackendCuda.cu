@@ -285,6 +285,24 @@ int cuda_set_device(int local_rank) {
   return device;
 }
 
+int cuda_device_count() {
+  int count = 0;
+  if (cudaGetDeviceCount(&count) != cudaSuccess) {
+    (void)cudaGetLastError();
+    return 0;
+  }
+  return count;
+}
+
+std::size_t cuda_free_memory() {
+  std::size_t free_b = 0, total_b = 0;
+  if (cudaMemGetInfo(&free_b, &total_b) != cudaSuccess) {
+    (void)cudaGetLastError();
+    return 0;
+  }
+  return free_b;
+}
+
 std::string cuda_describe() {
   if (!cuda_device_present())
     throw Error("describe: no CUDA device is visible");
