@@ -9,6 +9,14 @@ jobs=$(nproc)
 cmake --preset cpu >/dev/null
 cmake --build --preset cpu -j"$jobs"
 ctest --preset cpu -j"$jobs" --timeout 1500
+# The scene parser under libFuzzer (fuzz/): a short run seeded with the shipped and the broken
+# scenes; any crash, sanitizer report or exception other than a scene error fails CI.
+echo "== fuzz: the scene parser, 60 s"
+cmake -S fuzz -B build/fuzz -DCMAKE_CXX_COMPILER=clang++ >/dev/null
+cmake --build build/fuzz -j"$jobs" >/dev/null
+rm -rf build/fuzz/corpus && mkdir -p build/fuzz/corpus
+build/fuzz/fuzz_scene -max_total_time=60 -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
+  build/fuzz/corpus scenes scenes/studies scenes/bench tests/data/scenes/broken 2>&1 | tail -4
 if command -v nvcc >/dev/null 2>&1 || [ -x /usr/local/cuda/bin/nvcc ]; then
   echo "== CUDA build (compile only: kernels, library, tests, app)"
   cmake --preset cuda -DKF_BUILD_BENCH=OFF >/dev/null

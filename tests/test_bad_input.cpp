@@ -13,6 +13,8 @@
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 namespace fs = std::filesystem;
@@ -87,8 +89,11 @@ TEST(BadInput, ParticlesPastTheIndexRangeAreRefusedBeforeSampling) {
 TEST(BadInput, MoreMemoryThanTheMachineHasIsRefusedBeforeAllocating) {
   for (const char* cmd : {"plan", "run"}) {
     const auto cwd = test::scratch_dir(std::string("bad_memory_") + cmd);
-    const Result r = knitflow(
-        std::string(cmd) + " " + scene("dambreak.toml") + " --set fluid.spacing=0.000175", cwd);
+    // On the CPU: a GPU's free memory is the measure of a run there (its own message).
+    const Result r =
+        knitflow(std::string(cmd) + " " + scene("dambreak.toml") + " --set fluid.spacing=0.000175" +
+                     (std::string(cmd) == "run" ? " --device cpu" : ""),
+                 cwd);
     expect_refused(r, cwd,
                    {"the scene asks for ~2.98e+09 fluid", "GiB;",
                     "this machine's memory (MemAvailable) has", "raise fluid.spacing"});
@@ -144,4 +149,53 @@ TEST(SceneSize, EstimateMatchesThePlansCounts) {
     ++scenes;
   }
   EXPECT_GE(scenes, 10);
+}
+
+// A snapshot cut short at any point (a copy interrupted, a full disk): restarting from it is a
+// one-line error naming the file, no crash, nothing written.
+TEST(BadInput, ATruncatedSnapshotIsRefusedOnRestart) {
+  const auto dir = test::scratch_dir("bad_snapshot");
+  const Result made = knitflow("run " + scene("hydrostatic.toml") +
+                                   " --device cpu --set simulation.end_time=0.01 "
+                                   "--set output.interval=0.01 --output made -q",
+                               dir);
+  ASSERT_EQ(made.code, 0) << made.output;
+  const fs::path frame = dir / "made" / "frame_000001.h5";
+  const auto size = fs::file_size(frame);
+  for (double cut : {0.0, 0.001, 0.25, 0.5, 0.75, 0.999}) {
+    const auto keep = static_cast<std::uintmax_t>(cut * double(size));
+    const fs::path cwd = test::scratch_dir("bad_snapshot_run");
+    fs::copy_file(frame, cwd / "cut.h5");
+    fs::resize_file(cwd / "cut.h5", keep);
+    const Result r = knitflow(
+        "run " + scene("hydrostatic.toml") + " --device cpu --restart cut.h5 --output out -q", cwd);
+    EXPECT_NE(r.code, 0) << "cut at " << keep << " of " << size << " bytes";
+    EXPECT_LT(r.code, 128) << "a signal, not an error: " << r.output;
+    EXPECT_EQ(r.output.rfind("knitflow: error: cut.h5: ", 0), 0u) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+    EXPECT_FALSE(fs::exists(cwd / "out")) << "cut at " << keep << ": wrote output";
+  }
+}
+
+// An OBJ mesh cut mid-line: the scene's error names the file and the line.
+TEST(BadInput, ATruncatedObjIsRefusedNamingItsLine) {
+  const auto cwd = test::scratch_dir("bad_obj");
+  const fs::path blob = test::source_dir() / "scenes" / "meshes" / "blob.obj";
+  std::string text;
+  {
+    std::ifstream in(blob);
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  // Cut inside a face line: its last index goes missing (a face of two vertices).
+  const auto face = text.find("\nf ", text.size() / 2);
+  ASSERT_NE(face, std::string::npos);
+  const auto second_space = text.find(' ', text.find(' ', face + 3) + 1);
+  fs::create_directories(cwd / "meshes");
+  std::ofstream(cwd / "meshes" / "blob.obj") << text.substr(0, second_space);
+  fs::copy_file(test::source_dir() / "scenes" / "mesh_obstacle.toml", cwd / "scene.toml");
+  const Result r = knitflow("plan scene.toml", cwd);
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_EQ(r.output.rfind("knitflow: error: ", 0), 0u) << r.output;
+  EXPECT_NE(r.output.find("blob.obj:"), std::string::npos) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
 }
