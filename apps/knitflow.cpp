@@ -295,7 +295,9 @@ int main(int argc, char** argv) {
     add_scene_options(run, a);
     run->add_option("--device", a.device, "cpu, cuda or auto (the GPU when present)")
         ->check(CLI::IsMember({"auto", "cpu", "cuda"}));
-    run->add_option("--restart", a.restart, "continue from this snapshot (frame_NNNNNN.h5)");
+    run->add_option("--restart", a.restart,
+                    "continue from this snapshot or checkpoint (frame_NNNNNN.h5), or 'latest': "
+                    "the newest complete one in the output directory");
     run->add_option("--output", a.output, "output directory (overrides output.dir)");
     run->add_option("--threads", a.threads, "OpenMP threads for the CPU backend");
     run->add_flag("--quiet,-q", a.quiet, "no progress line or summary");

@@ -2,11 +2,13 @@
 #include "domain/StageParts.hpp"
 
 #include "core/Error.hpp"
+#include "io/Checkpoints.hpp"
 #include "io/Progress.hpp"
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -50,6 +52,28 @@ void inject(const RunOptions::Fault& f, int rank, std::uint64_t steps) {
   std::raise(f.kind == "abort" ? SIGABRT : SIGSEGV);
 }
 
+/// --restart latest: the newest complete state in the scene's output directory, found by rank 0
+/// and told to the others (one answer for the whole job).
+std::string latest_state(const Scene& scene, const comm::MpiContext& mpi) {
+  std::string path, error;
+  if (mpi.root()) {
+    try {
+      path = io::latest_state(scene.output.dir);
+    } catch (const InputError& e) {
+      error = e.what();
+    }
+  }
+  int sizes[2] = {int(path.size()), int(error.size())};
+  MPI_Bcast(sizes, 2, MPI_INT, 0, mpi.comm());
+  path.resize(std::size_t(sizes[0]));
+  error.resize(std::size_t(sizes[1]));
+  MPI_Bcast(path.data(), sizes[0], MPI_CHAR, 0, mpi.comm());
+  MPI_Bcast(error.data(), sizes[1], MPI_CHAR, 0, mpi.comm());
+  if (!error.empty())
+    throw InputError(error);
+  return path;
+}
+
 } // namespace
 
 RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,
@@ -58,7 +82,8 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
   sim->set_profiling(opt.profile);
   std::uint64_t frame_index = 0;
   if (!opt.restart.empty()) {
-    io::Frame fr = io::read_snapshot(mpi.comm(), opt.restart);
+    const std::string from = opt.restart == "latest" ? latest_state(scene, mpi) : opt.restart;
+    io::Frame fr = io::read_snapshot(mpi.comm(), from);
     sim->restore(fr);
     frame_index = fr.index;
   }
@@ -80,6 +105,29 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
     if (opt.restart.empty())
       write_frame(0);
   }
+  // Checkpoints: the whole state, on their own cadence, in the output directory.
+  const auto& out = scene.output;
+  std::unique_ptr<io::CheckpointWriter> checkpoints;
+  if (output && (out.checkpoint_steps > 0 || out.checkpoint_seconds > 0))
+    checkpoints = std::make_unique<io::CheckpointWriter>(
+        mpi.comm(), scene.output.dir + "/checkpoints", static_cast<int>(out.checkpoint_keep));
+  using Clock = std::chrono::steady_clock;
+  auto last_checkpoint = Clock::now();
+  auto checkpoint_due = [&] {
+    if (out.checkpoint_steps > 0 &&
+        sim->steps() % static_cast<std::uint64_t>(out.checkpoint_steps) == 0)
+      return true;
+    if (!(out.checkpoint_seconds > 0))
+      return false;
+    // Every rank must agree: rank 0's clock decides, read every 16 steps on N ranks.
+    if (mpi.size() > 1 && sim->steps() % 16 != 0)
+      return false;
+    int due = std::chrono::duration<double>(Clock::now() - last_checkpoint).count() >=
+              out.checkpoint_seconds;
+    if (mpi.size() > 1)
+      MPI_Bcast(&due, 1, MPI_INT, 0, mpi.comm());
+    return due != 0;
+  };
 
   io::Progress progress(log, end, opt.progress_interval_s, opt.progress && mpi.root());
   const std::uint64_t start_steps = sim->steps();
@@ -121,13 +169,22 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
           write_frame(frame_index);
         next_out = (frame_index + 1) * interval;
       }
+      if (checkpoints && checkpoint_due()) {
+        io::Frame fr = sim->frame();
+        fr.index = frame_index; // the last frame written: a restart continues its cadence
+        sum.last_checkpoint = checkpoints->write(fr, sim->steps());
+        ++sum.checkpoints;
+        last_checkpoint = Clock::now();
+      }
     }
   } catch (const InstabilityError& e) {
     progress.finish();
-    throw InstabilityError(std::string(e.what()) +
-                           (sum.last_snapshot.empty()
-                                ? "; no snapshot was written"
-                                : "; last good snapshot: " + sum.last_snapshot));
+    throw InstabilityError(
+        std::string(e.what()) +
+        (sum.last_snapshot.empty() ? "; no snapshot was written"
+                                   : "; last good snapshot: " + sum.last_snapshot) +
+        (sum.last_checkpoint.empty() ? std::string()
+                                     : ", last checkpoint: " + sum.last_checkpoint));
   }
   progress.update(sim->steps(), sim->time(), 0, 0, true);
   progress.finish();
@@ -231,6 +288,8 @@ std::string format_summary(const RunSummary& s) {
   }
   if (s.frames)
     o << "snapshots: " << s.frames << " written, last " << s.last_snapshot << "\n";
+  if (s.checkpoints)
+    o << "checkpoints: " << s.checkpoints << " written, last " << s.last_checkpoint << "\n";
   double total = 0;
   for (const auto& st : s.stages)
     total += st.seconds;

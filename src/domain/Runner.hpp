@@ -15,7 +15,8 @@ namespace kf {
 
 struct RunOptions {
   exec::Backend backend = exec::Backend::Cpu;
-  std::string restart; // snapshot to continue from ("" = start at t = 0)
+  std::string restart; // snapshot to continue from ("" = start at t = 0; "latest": the newest
+                       // complete checkpoint or frame in the scene's output directory)
   bool progress = true;
   double progress_interval_s = 1.0;
   bool profile = false;  // time each stage (synchronises the device after each)
@@ -39,6 +40,8 @@ struct RunSummary {
   double particle_steps_per_s = 0;
   std::uint64_t frames = 0; // snapshots written by this run
   std::string last_snapshot;
+  std::uint64_t checkpoints = 0; // checkpoints written by this run
+  std::string last_checkpoint;
   Diagnostics diagnostics;
   std::vector<Pipeline::Stage> stages; // with their times when profiled (run functions dropped)
   Simulation::RankReport split;        // this rank's (rank 0's in the log) on N ranks

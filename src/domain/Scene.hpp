@@ -112,6 +112,12 @@ struct Scene {
     std::string dir = "out/scene";
     double interval = 0.02; // simulated seconds between snapshots
     bool enabled = true;
+    // Full-state checkpoints in dir/checkpoints (P8): every checkpoint_steps steps and every
+    // checkpoint_seconds of wall time (0: not by that measure), the newest checkpoint_keep kept.
+    // A run killed at any moment resumes with --restart latest.
+    long checkpoint_steps = 0;
+    double checkpoint_seconds = 600;
+    long checkpoint_keep = 2;
   } output;
 
   // [solver]

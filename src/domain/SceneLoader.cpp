@@ -152,11 +152,15 @@ void read_domain(const TableReader& t, Scene::Domain& d) {
 }
 
 void read_output(const TableReader& t, Scene& s) {
-  t.allow_only({"dir", "interval", "enabled"});
+  t.allow_only(
+      {"dir", "interval", "enabled", "checkpoint_steps", "checkpoint_seconds", "checkpoint_keep"});
   s.output.dir = "out/" + s.name;
   t.read("dir", s.output.dir);
   t.read("interval", s.output.interval, Range::positive());
   t.read("enabled", s.output.enabled);
+  t.read_integer("checkpoint_steps", s.output.checkpoint_steps, 0);
+  t.read("checkpoint_seconds", s.output.checkpoint_seconds, Range::at_least(0));
+  t.read_integer("checkpoint_keep", s.output.checkpoint_keep, 1);
 }
 
 void read_solver(const TableReader& t, Scene::Solver& sv) {

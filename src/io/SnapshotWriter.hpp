@@ -15,6 +15,10 @@ namespace kf::io {
 /// "frame_000012.h5" for index 12.
 std::string snapshot_file_name(std::uint64_t index);
 
+/// Collective: writes f to path through path + ".tmp" and a rename once every rank has closed
+/// it, so `path` is complete or absent whenever the job dies. Returns path.
+std::string publish_snapshot(MPI_Comm comm, const std::string& path, const Frame& f);
+
 /// File layout: root attributes time, step, frame, precision, scene, units, knitflow_version and
 /// one double per Frame::scalars entry; a group per phase with attribute `count` (global rows) and
 /// one dataset per field, [count] or [count, components], in the field's own element type.
