@@ -7,16 +7,21 @@
 # and again until it finishes: a resumed run may be killed too), and its last frame compared with
 # the whole run's (tests/checkpoint/same_state.py: every field, rows in id order). No .tmp may be
 # left, at most checkpoint_keep checkpoints.
-# Usage: kill_resume.sh KNITFLOW SCENE NP [MPIEXEC]
+# Usage: kill_resume.sh KNITFLOW SCENE NP [MPIEXEC]   (KILL_RESUME_DEVICE=cuda: on the GPU)
 set -uo pipefail
 exe=$1 scene=$2 np=$3 mpiexec=${4:-}
 here="$(cd "$(dirname "$0")" && pwd)"
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 export OMP_NUM_THREADS=1
+# A Python with h5py (Debian's; a GPU machine's may be another first on PATH).
+py=/usr/bin/python3
+for p in python3 /usr/bin/python3; do
+  if "$p" -c "import h5py" 2>/dev/null; then py=$p; break; fi
+done
 launch=("$exe")
 [ "$np" -gt 1 ] && launch=("$mpiexec" -n "$np" --oversubscribe "$exe")
-opts=(--device cpu --quiet --set fluid.spacing=0.02 --set simulation.end_time=0.3
+opts=(--device "${KILL_RESUME_DEVICE:-cpu}" --quiet --set fluid.spacing=0.02 --set simulation.end_time=0.3
       --set output.interval=0.05 --set output.checkpoint_steps=40 --set output.checkpoint_keep=2)
 last=frame_000006.h5
 
@@ -55,7 +60,7 @@ for case in 1 2 3 publishing; do
     grep -q "no complete checkpoint or snapshot" "$dir.log" &&
       "${launch[@]}" run "$scene" "${opts[@]}" --output "$dir" >> "$dir.log" 2>&1 && break
   done
-  if ! /usr/bin/python3 "$here/same_state.py" "$out/whole/$last" "$dir/$last"; then
+  if ! "$py" "$here/same_state.py" "$out/whole/$last" "$dir/$last"; then
     echo "FAIL case $case: the resumed run's last frame differs"; cat "$dir.log"; fail=1
   elif ls "$dir"/*.tmp "$dir"/checkpoints/*.tmp > /dev/null 2>&1; then
     echo "FAIL case $case: a .tmp was left"; fail=1
