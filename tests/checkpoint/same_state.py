@@ -2,7 +2,9 @@
 """Two snapshot files hold the same state bit for bit: the same time and step, the same phases and
 fields, every value equal row for row once each phase's rows are put in id order (on N ranks a
 run's rows come in its ranks' order, which its history sets). The scene text is not compared (it
-records the command's overrides, --output among them).
+records the command's overrides, --output among them), nor the field "rank": which rank holds a
+particle follows the balance, which measured wall times steer (the state does not depend on it:
+sums go in id order on every partition).
 
     same_state.py A.h5 B.h5
 """
@@ -32,7 +34,7 @@ def main():
             continue
         oa = np.argsort(ga["id"][...], kind="stable") if "id" in ga else slice(None)
         ob = np.argsort(gb["id"][...], kind="stable") if "id" in gb else slice(None)
-        for field in sorted(ga):
+        for field in sorted(f for f in ga if f != "rank"):
             x, y = ga[field][...][oa], gb[field][...][ob]
             if x.shape != y.shape or x.tobytes() != y.tobytes():
                 diff = "shape" if x.shape != y.shape else f"{np.count_nonzero(x != y)} values"
