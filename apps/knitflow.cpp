@@ -84,18 +84,6 @@ void check_scene_size(const kf::Scene& scene, kf::exec::Backend b, const kf::com
                                               : "this machine's memory (MemAvailable)");
 }
 
-std::string human_bytes(double b) {
-  const char* unit[] = {"B", "KiB", "MiB", "GiB", "TiB"};
-  int k = 0;
-  while (b >= 1024 && k < 4) {
-    b /= 1024;
-    ++k;
-  }
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f %s", b, unit[k]);
-  return buf;
-}
-
 /// The split over `ranks`: blocks, ghost widths, and per rank what it owns, what it receives and
 /// the bytes a step exchanges (domain/PartitionPlan).
 void print_partition(const kf::Scene& scene, const kf::PlanReport& plan, int ranks) {
@@ -117,11 +105,11 @@ void print_partition(const kf::Scene& scene, const kf::PlanReport& plan, int ran
     const kf::RankShare& s = p.rank[k];
     std::printf("  %4d %10zu %10zu %10zu | %9zu %9zu %9zu | %5d %10s %8.4g\n", k, s.owned[0],
                 s.owned[1], s.owned[2], s.ghosts[0], s.ghosts[1], s.ghosts[2], s.neighbours,
-                human_bytes(double(s.bytes_per_step)).c_str(), s.cost);
+                kf::format_bytes(double(s.bytes_per_step)).c_str(), s.cost);
     total += s.bytes_per_step;
   }
   std::printf("exchange   %s a step over all ranks (ghost refreshes between rebuilds)\n",
-              human_bytes(double(total)).c_str());
+              kf::format_bytes(double(total)).c_str());
 }
 
 std::string human_seconds(double s) {
@@ -235,10 +223,10 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   const double total = double(r.bytes_fluid + r.bytes_boundary + r.bytes_grid + r.bytes_knit);
   std::printf("memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s, "
               "solids %s)\n",
-              human_bytes(total / mpi.size() + double(r.bytes_solids)).c_str(), mpi.size(),
-              human_bytes(r.bytes_fluid).c_str(), human_bytes(r.bytes_boundary).c_str(),
-              human_bytes(r.bytes_knit).c_str(), human_bytes(r.bytes_grid).c_str(),
-              human_bytes(r.bytes_solids).c_str());
+              kf::format_bytes(total / mpi.size() + double(r.bytes_solids)).c_str(), mpi.size(),
+              kf::format_bytes(r.bytes_fluid).c_str(), kf::format_bytes(r.bytes_boundary).c_str(),
+              kf::format_bytes(r.bytes_knit).c_str(), kf::format_bytes(r.bytes_grid).c_str(),
+              kf::format_bytes(r.bytes_solids).c_str());
   print_partition(scene, r, a.ranks > 0 ? a.ranks : mpi.size());
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
   print_cost(a, scene, r);

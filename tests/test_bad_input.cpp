@@ -5,6 +5,7 @@
 #include "domain/SceneSize.hpp"
 #include "domain/Simulation.hpp"
 #include "kernels/exec/Backend.hpp"
+#include "support/RunKnitflow.hpp"
 #include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
@@ -22,21 +23,10 @@ using namespace kf;
 
 namespace {
 
-struct Result {
-  int code;
-  std::string output;
-};
+using Result = test::CliResult;
 
-Result knitflow(const std::string& args, const fs::path& cwd) {
-  const std::string cmd =
-      "cd '" + cwd.string() + "' && " + test::knitflow_exe().string() + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p))
-    out += buf.data();
-  const int status = pclose(p);
-  return {WEXITSTATUS(status), out};
+Result knitflow(const std::string& args, const fs::path& cwd = {}) {
+  return test::run_knitflow(args, cwd);
 }
 
 std::string scene(const char* name) {

@@ -2,6 +2,7 @@
 // plan prints the pipeline without running; run writes snapshots and an XDMF index.
 #include "io/PngImage.hpp"
 #include "io/SnapshotWriter.hpp"
+#include "support/RunKnitflow.hpp"
 #include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
@@ -17,21 +18,10 @@ using namespace kf;
 
 namespace {
 
-struct Result {
-  int code;
-  std::string output;
-};
+using Result = test::CliResult;
 
 Result run(const std::string& args, const fs::path& cwd = {}) {
-  const std::string cd = cwd.empty() ? "" : "cd '" + cwd.string() + "' && ";
-  const std::string cmd = cd + test::knitflow_exe().string() + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p))
-    out += buf.data();
-  const int status = pclose(p);
-  return {WEXITSTATUS(status), out};
+  return test::run_knitflow(args, cwd);
 }
 
 } // namespace

@@ -112,7 +112,7 @@ std::string format_bytes(double b) {
     ++k;
   }
   char buf[48];
-  std::snprintf(buf, sizeof buf, "%.3g %s", b, unit[k]);
+  std::snprintf(buf, sizeof buf, "%.1f %s", b, unit[k]);
   return buf;
 }
 

@@ -34,7 +34,7 @@ void check_size(const Scene& scene, const SceneSize& size, double available, int
 /// MemAvailable) or the selected CUDA device's free memory; 0 when it cannot be read.
 double available_memory(exec::Backend b);
 
-/// "1.9 PiB", "22.1 GiB".
+/// "1.9 PiB", "22.1 GiB": one decimal in the largest unit under 1024 (plan's memory lines too).
 std::string format_bytes(double bytes);
 
 } // namespace kf
