@@ -7,7 +7,7 @@ packages=(
   libgtest-dev libtomlplusplus-dev libcli11-dev libpng-dev
   libegl-dev libopengl-dev libepoxy-dev libglm-dev libegl-mesa0 libgl1-mesa-dri
   python3 python3-h5py python3-matplotlib python3-numpy
-  clang libclang-rt-14-dev
+  clang libclang-rt-14-dev procps
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -46,8 +46,11 @@ for case in 1 2 3 publishing; do
     setsid "${launch[@]}" run "$scene" "${opts[@]}" --output "$dir" > "$dir.log" 2>&1 &
     pid=$!
     sleep "$wait_s"
-    kill -KILL -- -"$pid" 2>/dev/null # the whole process group (mpiexec and its ranks)
+    # The whole session: mpiexec puts its ranks in process groups of their own, so killing the
+    # group alone leaves ranks that go on writing (a .tmp appearing after the resume began).
+    pkill -KILL -s "$pid" 2>/dev/null
     wait "$pid" 2>/dev/null
+    for _ in $(seq 50); do pgrep -s "$pid" > /dev/null || break; sleep 0.1; done
     echo "case $case: killed after $wait_s s"
   fi
   at_kill=$(ls "$dir/checkpoints" 2>/dev/null | grep -v tmp | tail -1)
@@ -62,7 +65,7 @@ for case in 1 2 3 publishing; do
   done
   if ! "$py" "$here/same_state.py" "$out/whole/$last" "$dir/$last"; then
     echo "FAIL case $case: the resumed run's last frame differs"; cat "$dir.log"; fail=1
-  elif ls "$dir"/*.tmp "$dir"/checkpoints/*.tmp > /dev/null 2>&1; then
+  elif compgen -G "$dir/*.tmp" > /dev/null || compgen -G "$dir/checkpoints/*.tmp" > /dev/null; then
     echo "FAIL case $case: a .tmp was left"; fail=1
   elif [ "$(ls "$dir"/checkpoints | wc -l)" -gt 2 ]; then
     echo "FAIL case $case: more than checkpoint_keep checkpoints"; ls "$dir/checkpoints"; fail=1
