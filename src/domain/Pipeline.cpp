@@ -17,8 +17,9 @@ void Pipeline::run(const std::function<void()>& timer_sync) {
     const auto t0 = clock::now();
     try {
       s.run();
-    } catch (const InstabilityError&) {
-      throw; // names its step and particle already
+    } catch (const InstabilityError& e) { // names its step and particle: add the stage
+      throw InstabilityError(std::string(e.what()) + "; in stage '" + s.name + "' [" + s.module +
+                             "]");
     } catch (const Error& e) {
       // A device failure (out of memory, a failed launch) names its buffer or kernel and size;
       // the stage says where in the step it happened.

@@ -1,5 +1,6 @@
 #include "domain/Runner.hpp"
 #include "domain/StageParts.hpp"
+#include "domain/Watchdog.hpp"
 
 #include "core/Error.hpp"
 #include "io/Checkpoints.hpp"
@@ -13,6 +14,7 @@
 #include <csignal>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <sstream>
 
@@ -30,22 +32,34 @@ RunOptions::Fault parse_fault(const std::string& text) {
     f.step = std::stoull(text.substr(a + 1, b - a - 1));
     f.kind = text.substr(b + 1);
   } catch (const std::exception&) {
-    throw Error("KF_FAULT: expected rank:step:kind (kind error, abort or segv), got '" + text +
-                "'");
+    throw Error("KF_FAULT: expected rank:step:kind (kind error, instability, abort or segv), "
+                "got '" +
+                text + "'");
   }
-  if (f.kind != "error" && f.kind != "abort" && f.kind != "segv")
-    throw Error("KF_FAULT: expected the kind error, abort or segv, got '" + f.kind + "'");
+  if (f.kind != "error" && f.kind != "instability" && f.kind != "abort" && f.kind != "segv")
+    throw Error("KF_FAULT: expected the kind error, instability, abort or segv, got '" + f.kind +
+                "'");
   return f;
 }
 
 namespace {
 
 void inject(const RunOptions::Fault& f, int rank, std::uint64_t steps) {
-  if (f.rank != rank || steps != f.step)
+  // An instability is the job's (every rank finds it, from reduced bounds or readings): the
+  // injected one fires on every rank, named by the rank given.
+  if ((f.kind != "instability" && f.rank != rank) || steps != f.step)
     return;
   if (f.kind == "error")
     throw Error("injected fault (KF_FAULT) on rank " + std::to_string(rank) + " after step " +
                 std::to_string(steps));
+  if (f.kind == "instability") { // once a process: a rollback's second pass goes through
+    static bool fired = false;
+    if (fired)
+      return;
+    fired = true;
+    throw InstabilityError("injected instability (KF_FAULT) on rank " + std::to_string(f.rank) +
+                           " after step " + std::to_string(steps));
+  }
   std::fprintf(stderr, "knitflow: rank %d: raising %s after step %llu (KF_FAULT)\n", rank,
                f.kind == "abort" ? "SIGABRT" : "SIGSEGV", static_cast<unsigned long long>(steps));
   std::fflush(stderr);
@@ -76,8 +90,9 @@ std::string latest_state(const Scene& scene, const comm::MpiContext& mpi) {
 
 } // namespace
 
-RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,
+RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::MpiContext& mpi,
                      std::ostream& log) {
+  Scene scene = scene_in; // a rollback makes its steps smaller
   auto sim = Simulation::create(scene, opt.backend, &mpi);
   sim->set_profiling(opt.profile);
   std::uint64_t frame_index = 0;
@@ -147,14 +162,78 @@ RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiC
   const std::uint64_t particles = d0.fluid + d0.knit;
   double next_out = (frame_index + 1) * interval;
   const double eps = 1e-12 * std::max(1.0, end);
+  // The watchdog (domain/Watchdog): on a trigger, a diagnostic snapshot, then either the end
+  // of the run with the report, or (on_instability = "rollback") the last checkpoint again with
+  // cfl and dt_max halved and twice the knit's substeps.
+  const bool watching = scene.solver.watchdog_steps > 0;
+  std::optional<Watchdog> dog;
+  if (watching)
+    dog.emplace(scene, sim->watch(), stored_energy(d0), sim->time());
+  long rollbacks = 0;
+  auto trouble = [&](const std::string& why) {
+    std::string diagnostic;
+    if (output) {
+      try {
+        io::Frame fr = sim->frame();
+        fr.index = frame_index;
+        diagnostic = io::publish_snapshot(
+            mpi.comm(),
+            scene.output.dir + "/diagnostic_step_" + std::to_string(sim->steps()) + ".h5", fr);
+      } catch (const Error&) { // the report matters more than its snapshot
+      }
+    }
+    const std::string where =
+        "; diagnostic snapshot: " + (diagnostic.empty() ? std::string("none") : diagnostic);
+    if (scene.solver.on_instability == Scene::Solver::OnInstability::Rollback &&
+        rollbacks < scene.solver.rollback_retries && !sum.last_checkpoint.empty()) {
+      ++rollbacks;
+      scene.solver.cfl *= 0.5;
+      scene.solver.dt_max *= 0.5;
+      scene.knit.substeps *= 2;
+      if (mpi.root())
+        log << "knitflow: " << why << where << "; rollback " << rollbacks << " of "
+            << scene.solver.rollback_retries << " to " << sum.last_checkpoint << " with cfl "
+            << scene.solver.cfl << ", dt_max " << scene.solver.dt_max << " s, knit substeps "
+            << scene.knit.substeps << "\n";
+      sim = Simulation::create(scene, opt.backend, &mpi);
+      sim->set_profiling(opt.profile);
+      io::Frame fr = io::read_snapshot(mpi.comm(), sum.last_checkpoint);
+      sim->restore(fr);
+      frame_index = fr.index;
+      next_out = (frame_index + 1) * interval;
+      if (watching) // the energy's bound from the state it goes back to
+        dog.emplace(scene, sim->watch(), stored_energy(sim->diagnostics()), sim->time());
+      ++sum.rollbacks;
+      return;
+    }
+    throw InstabilityError(why + where);
+  };
   try {
     while (sim->time() < end - eps) {
       if (scene.solver.max_steps > 0 &&
           sim->steps() >= static_cast<std::uint64_t>(scene.solver.max_steps))
         break;
       const double t_limit = std::min(next_out, end);
-      const double dt = sim->step(t_limit);
-      inject(opt.fault, mpi.rank(), sim->steps());
+      double dt = 0;
+      try {
+        dt = sim->step(t_limit);
+        inject(opt.fault, mpi.rank(), sim->steps());
+      } catch (const InstabilityError& e) {
+        trouble(e.what());
+        continue;
+      }
+      if (watching && sim->steps() % static_cast<std::uint64_t>(scene.solver.watchdog_steps) == 0) {
+        const Watchdog::Trip trip = dog->check(sim->watch(), sim->time());
+        if (!trip.why.empty()) {
+          std::ostringstream at;
+          at << "watchdog at step " << sim->steps() << ", t = " << sim->time()
+             << " s (between steps): " << trip.why;
+          if (trip.worst)
+            at << "; worst " << sim->describe_worst(*trip.worst);
+          trouble(at.str());
+          continue;
+        }
+      }
       if (const auto r = since_start(sim->rank_report()); r.ranks > 1) {
         char note[128];
         std::snprintf(note, sizeof note, "%d ranks, imbalance %.3f, exchanges %.1f%% of the step",

@@ -30,7 +30,8 @@ struct RunOptions {
   } fault;
 };
 
-/// Parses KF_FAULT ("rank:step:kind", kind error | abort | segv); empty text: no fault.
+/// Parses KF_FAULT ("rank:step:kind", kind error | instability | abort | segv; instability: an
+/// InstabilityError, once a process); empty text: no fault.
 RunOptions::Fault parse_fault(const std::string& text);
 
 struct RunSummary {
@@ -42,6 +43,7 @@ struct RunSummary {
   std::string last_snapshot;
   std::uint64_t checkpoints = 0; // checkpoints written by this run
   std::string last_checkpoint;
+  std::uint64_t rollbacks = 0; // returns to the last checkpoint (on_instability = "rollback")
   Diagnostics diagnostics;
   std::vector<Pipeline::Stage> stages; // with their times when profiled (run functions dropped)
   Simulation::RankReport split;        // this rank's (rank 0's in the log) on N ranks

@@ -151,6 +151,19 @@ struct Scene {
     // scale the fluid's spacing and set the settings the scene does not give itself
     // (quality_preset); "production" and none: the scene as written.
     enum class Quality { None, Preview, Production, Reference } quality = Quality::None;
+    // The watchdog (P8, domain/Watchdog): every watchdog_steps steps (0: off) the run checks for
+    // non-finite values, a speed past watchdog_max_speed (0: limits set from the scene), a
+    // density error past watchdog_density_error and kinetic plus gravitational energy risen past
+    // what the run started with (and could have been given) by more than watchdog_energy_rise of
+    // it. On a trigger, "stop" ends the run with a report and a diagnostic snapshot; "rollback"
+    // goes back to the last checkpoint with cfl and dt_max halved and twice the knit's
+    // substeps, at most rollback_retries times.
+    long watchdog_steps = 50;
+    double watchdog_max_speed = 0;
+    double watchdog_density_error = 0.3;
+    double watchdog_energy_rise = 0.1;
+    enum class OnInstability { Stop, Rollback } on_instability = OnInstability::Stop;
+    long rollback_retries = 3;
   } solver;
 
   // [fluid]

@@ -52,6 +52,9 @@ constexpr std::array kTransports{
     Choice<Scene::Parallel::Transport>{"nccl", Scene::Parallel::Transport::Nccl}};
 constexpr std::array kDensityModels{Choice<DensityModel>{"summation", DensityModel::Summation},
                                     Choice<DensityModel>{"continuity", DensityModel::Continuity}};
+constexpr std::array kOnInstability{
+    Choice<Scene::Solver::OnInstability>{"stop", Scene::Solver::OnInstability::Stop},
+    Choice<Scene::Solver::OnInstability>{"rollback", Scene::Solver::OnInstability::Rollback}};
 constexpr std::array kQualities{
     Choice<Scene::Solver::Quality>{"preview", Scene::Solver::Quality::Preview},
     Choice<Scene::Solver::Quality>{"production", Scene::Solver::Quality::Production},
@@ -164,10 +167,35 @@ void read_output(const TableReader& t, Scene& s) {
 }
 
 void read_solver(const TableReader& t, Scene::Solver& sv) {
-  t.allow_only({"kernel", "cfl", "force_factor", "viscous_factor", "dt_max", "dt_min", "max_steps",
-                "damping", "damping_until", "cell_span", "cell_order", "neighbour_list",
-                "neighbour_skin", "density", "density_diffusion", "quality"});
+  t.allow_only({"kernel",
+                "cfl",
+                "force_factor",
+                "viscous_factor",
+                "dt_max",
+                "dt_min",
+                "max_steps",
+                "damping",
+                "damping_until",
+                "cell_span",
+                "cell_order",
+                "neighbour_list",
+                "neighbour_skin",
+                "density",
+                "density_diffusion",
+                "quality",
+                "watchdog_steps",
+                "watchdog_max_speed",
+                "watchdog_density_error",
+                "watchdog_energy_rise",
+                "on_instability",
+                "rollback_retries"});
   t.read("quality", sv.quality, kQualities);
+  t.read_integer("watchdog_steps", sv.watchdog_steps, 0);
+  t.read("watchdog_max_speed", sv.watchdog_max_speed, Range::at_least(0));
+  t.read("watchdog_density_error", sv.watchdog_density_error, Range::positive());
+  t.read("watchdog_energy_rise", sv.watchdog_energy_rise, Range::positive());
+  t.read("on_instability", sv.on_instability, kOnInstability);
+  t.read_integer("rollback_retries", sv.rollback_retries, 0);
   t.read("kernel", sv.kernel, kKernels);
   t.read("neighbour_list", sv.neighbour_list, kNeighbourLists);
   t.read("neighbour_skin", sv.neighbour_skin, Range::above_up_to(0, 1));

@@ -79,6 +79,18 @@ struct PlanReport {
   double darcy_substeps = 0, output_frames = 0;
 };
 
+/// What the watchdog reads every few dozen steps (domain/Watchdog), the job's: one pass over
+/// each set on the device and one small read (and on N ranks one reduction).
+struct WatchReading {
+  double mass = 0;      // fluid and knit (dry) [kg]
+  double knit_mass = 0; // the knit's (dry) [kg]
+  double kinetic = 0;   // fluid and knit, sum 1/2 m v^2 [J]
+  double potential = 0; // fluid and knit, sum m |g| height above the domain's lowest corner [J]
+  double fluid_max_speed = 0, fluid_max_density = 0, knit_max_speed = 0; // NaN: not finite
+};
+/// The measures the watchdog bounds, each of one particle.
+enum class WatchMeasure { FluidSpeed, FluidDensity, KnitSpeed };
+
 class Simulation {
 public:
   /// The stages, particle counts, memory and initial dt of a scene, without running it.
@@ -105,6 +117,12 @@ public:
   virtual void restore(const io::Frame& frame) = 0;
 
   virtual Diagnostics diagnostics() const = 0;
+  /// The watchdog's reading (collective on N ranks).
+  virtual WatchReading watch() = 0;
+  /// The particle with the largest measure (NaN counts as largest), the job's: its phase, id,
+  /// position, speed (and density), and its neighbourhood within the support radius (how many,
+  /// their speeds and densities). For the watchdog's report; collective, the text on every rank.
+  virtual std::string describe_worst(WatchMeasure measure) const = 0;
   virtual const Pipeline& pipeline() const = 0;
   virtual const Scene& scene() const = 0;
   virtual exec::Backend backend() const = 0;

@@ -14,11 +14,11 @@ double SimulationT<T>::stable_dt() {
     if (!knit_on_)
       return dt;
     if (!ranks_)
-      return std::min(dt, knit_->stable_dt());
+      return std::min(dt, knit_stable_dt(nullptr));
     knit_->motion_bounds_to(bounds_.data());
     auto kb = bounds_.to_host()[0];
     job_bounds(&kb, 1);
-    return std::min(dt, knit_->stable_dt(kb));
+    return std::min(dt, knit_stable_dt(&kb));
   }
   auto f = fluid_->view();
   MotionBounds<T> mb;
@@ -28,18 +28,15 @@ double SimulationT<T>::stable_dt() {
     auto both = bounds_.to_host();
     if (ranks_)
       job_bounds(both.data(), 2);
-    dt = std::min(dt, knit_->stable_dt(both[0]));
+    dt = std::min(dt, knit_stable_dt(&both[0]));
     mb = both[1];
   } else if (fluid_bounds_ready_) {
     mb = bounds_.to_host()[1];
   } else {
     mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
   }
-  if (ranks_ && !knit_on_) { // one dt for the job: the largest speed and acceleration of all ranks
-    if (!(std::isfinite(double(mb.v2)) && std::isfinite(double(mb.a2))))
-      report_instability("a fluid velocity or acceleration is not finite");
-    job_bounds(&mb, 1);
-  }
+  if (ranks_ && !knit_on_) // one dt for the job: the largest speed and acceleration of all ranks
+    job_bounds(&mb, 1);    // (NaN read as infinite: every rank reports the instability below)
   fluid_bounds_ = mb;
   if (!(std::isfinite(double(mb.v2)) && std::isfinite(double(mb.a2))))
     report_instability("a fluid velocity or acceleration is not finite");
@@ -134,34 +131,30 @@ double SimulationT<T>::step(double t_limit) {
 }
 
 template <typename T>
-void SimulationT<T>::report_instability(const std::string& why) {
+void SimulationT<T>::report_instability(const std::string& why, WatchMeasure worst) {
   std::ostringstream msg;
   msg << "instability at step " << steps_ << ", t = " << time_ << " s: " << why;
-  if (fluid_on_) {
-    const auto v = fluid_->v.to_host();
-    const auto a = fluid_->a.to_host();
-    const auto x = fluid_->x.to_host();
-    const auto id = fluid_->id.to_host();
-    std::size_t worst = 0;
-    double worst_v = -1;
-    for (std::size_t i = 0; i < v.size(); ++i) {
-      const double s = std::sqrt(double(norm2(v[i]))) + std::sqrt(double(norm2(a[i])));
-      if (!std::isfinite(s)) {
-        worst = i;
-        break;
-      }
-      if (s > worst_v) {
-        worst_v = s;
-        worst = i;
-      }
-    }
-    if (!v.empty())
-      msg << "; worst fluid particle id " << id[worst] << " at (" << x[worst].x << ", "
-          << x[worst].y << ", " << x[worst].z
-          << ") with |v| = " << std::sqrt(double(norm2(v[worst])))
-          << " m/s, |a| = " << std::sqrt(double(norm2(a[worst]))) << " m/s^2";
+  // Every rank reports an instability found from the job's bounds: the worst particle is the
+  // job's (collective); on one rank, this rank's.
+  std::string w;
+  try {
+    double value = 0;
+    w = ranks_ ? describe_worst(worst) : local_worst(worst, &value);
+  } catch (const Error& e) { // the report matters more than its details
+    w = std::string("not found (") + e.what() + ")";
   }
+  if (!w.empty() && w != "no particle")
+    msg << "; worst " << w;
   throw InstabilityError(msg.str());
+}
+
+template <typename T>
+double SimulationT<T>::knit_stable_dt(const MotionBounds<T>* bounds) {
+  try {
+    return bounds ? knit_->stable_dt(*bounds) : knit_->stable_dt();
+  } catch (const InstabilityError& e) { // the knit names no point: find it
+    report_instability(e.what(), WatchMeasure::KnitSpeed);
+  }
 }
 
 template double SimulationT<float>::stable_dt();
@@ -170,13 +163,15 @@ template FluidStepRule SimulationT<float>::fluid_step_rule() const;
 template bool SimulationT<float>::plans_step_on_device() const;
 template void SimulationT<float>::settle_step();
 template double SimulationT<float>::step(double);
-template void SimulationT<float>::report_instability(const std::string&);
+template void SimulationT<float>::report_instability(const std::string&, WatchMeasure);
+template double SimulationT<float>::knit_stable_dt(const MotionBounds<float>*);
 template double SimulationT<double>::stable_dt();
 template void SimulationT<double>::job_bounds(MotionBounds<double>*, int) const;
 template FluidStepRule SimulationT<double>::fluid_step_rule() const;
 template bool SimulationT<double>::plans_step_on_device() const;
 template void SimulationT<double>::settle_step();
 template double SimulationT<double>::step(double);
-template void SimulationT<double>::report_instability(const std::string&);
+template void SimulationT<double>::report_instability(const std::string&, WatchMeasure);
+template double SimulationT<double>::knit_stable_dt(const MotionBounds<double>*);
 
 } // namespace kf

@@ -2,7 +2,8 @@
 // SimulationT<T>: the pipeline in precision T on one backend, behind Simulation. Its members are
 // defined by phase: SimulationT.cpp (set-up and the pipeline's stages), SimulationFluid.cpp (the
 // fluid and boundary passes with the halos each reads), SimulationStep.cpp (the step size and the
-// step), SimulationSnapshot.cpp (frames and restart), SimulationDiagnostics.cpp.
+// step), SimulationSnapshot.cpp (frames and restart), SimulationDiagnostics.cpp,
+// SimulationWatch.cpp (the watchdog's reading).
 #include "core/Error.hpp"
 #include "domain/AbsorptionRanks.hpp"
 #include "domain/FrameFields.hpp"
@@ -25,6 +26,7 @@
 #include "kernels/grid/NeighbourList.hpp"
 #include "kernels/integrate/StepSize.hpp"
 #include "kernels/integrate/Verlet.hpp"
+#include "kernels/integrate/Watch.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/particles/Outflow.hpp"
 #include "kernels/sph/Sph.hpp"
@@ -55,6 +57,8 @@ public:
   io::Frame frame() const override;
   void restore(const io::Frame& frame) override;
   Diagnostics diagnostics() const override;
+  WatchReading watch() override;
+  std::string describe_worst(WatchMeasure measure) const override;
   const Pipeline& pipeline() const override { return pipeline_; }
   const Scene& scene() const override { return scene_; }
   exec::Backend backend() const override { return ex_.backend; }
@@ -104,7 +108,13 @@ private:
                ? static_cast<T>(std::exp(-0.5 * s.damping * h))
                : T(1);
   }
-  [[noreturn]] void report_instability(const std::string& why);
+  /// Throws InstabilityError naming the step, the time, why, and the worst particle by the
+  /// measure. Collective on N ranks: every instability is found from the job's bounds.
+  [[noreturn]] void report_instability(const std::string& why,
+                                       WatchMeasure worst = WatchMeasure::FluidSpeed);
+  /// The knit's stable dt (from bounds already read, or read now), its instability reported
+  /// with its worst point.
+  double knit_stable_dt(const MotionBounds<T>* bounds);
 
   Scene scene_;
   exec::Exec ex_;
@@ -200,6 +210,13 @@ private:
   // kept, with the fluid's order and grid, over steps (SphLists).
   std::optional<SphLists<T>> fluid_list_;
   double skin_ = 0;
+  // The watchdog's sums (fluid, knit) and, on N ranks with fluid ghosts in the set, which rows
+  // are owned (SimulationWatch.cpp).
+  exec::DeviceBuffer<WatchSums> watch_sums_;
+  /// This rank's particle with the largest measure (non-finite first): its description ("" if
+  /// none) and *value (-1 if none). Not collective (report_instability's, describe_worst's).
+  std::string local_worst(WatchMeasure measure, double* value) const;
+  exec::DeviceBuffer<std::uint8_t> watch_owned_;
   MotionBounds<T> fluid_bounds_{}; // the fluid's speed and acceleration bounds at step start
   double fluid_step_motion() const;
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
