@@ -161,8 +161,8 @@ TEST(WatchReading, IsTheBruteForceSumOverTheFrame) {
 
 // The limits as defined in domain/Watchdog.hpp, from a reading made up for the purpose: the
 // energy's is the start's (elastic included) times 1 + watchdog_energy_rise, plus a hundredth
-// of the mass lifted through the domain's height, plus what a moving handle can give (a bounce
-// at twice its speed, a lift as far as it has moved, which stops when it stops).
+// of the mass lifted through the domain's height, plus what a moving handle can give once it
+// moves (a bounce at twice its speed, a lift to the domain's top).
 TEST(Watchdog, LimitsAreTheScenesAndTripJustPastThem) {
   Scene scene = falling_scene();
   scene.knit.pins.push_back({"lift", {-1, -1, -1}, {1, 1, 1}, {0, 0, 0.5}, 0.2});
@@ -174,10 +174,13 @@ TEST(Watchdog, LimitsAreTheScenesAndTripJustPastThem) {
   const Watchdog dog(scene, start, elastic, 0.0);
   auto limit = [&](double t) {
     return 1.1 * (0.3 + 1.2 + elastic) + 0.01 * 2.0 * g * height +
-           2.0 * (2 * u * u + g * u * std::min(t, 0.2));
+           (t > 0 ? 2.0 * (2 * u * u + g * height) : 0.0);
   };
   for (double t : {0.0, 0.1, 0.2, 0.7})
     EXPECT_NEAR(dog.energy_limit(t), limit(t), 1e-12) << "t = " << t;
+  // Starting after the handle stopped: nothing moves, nothing is given.
+  EXPECT_NEAR(Watchdog(scene, start, elastic, 0.3).energy_limit(0.5),
+              1.1 * (0.3 + 1.2 + elastic) + 0.01 * 2.0 * g * height, 1e-12);
   EXPECT_EQ(dog.fluid_speed_limit(), 10.0); // the speed of sound
   // The knit's: ten times a fall through the domain, twice the handle's and the fluid's start
   // speed, or the fluid's limit where that is higher.

@@ -7,6 +7,12 @@
 
 namespace kf {
 
+/// max(s, t) that lets NaN win, so a blown-up value cannot hide in a reduction's maximum.
+template <typename T>
+KF_HD KF_INLINE T nan_max(T s, T t) {
+  return (s != s || t != t) ? (s != s ? s : t) : (s < t ? t : s);
+}
+
 KF_HD KF_INLINE float ksqrt(float x) {
 #if defined(__CUDA_ARCH__)
   return sqrtf(x);

@@ -58,6 +58,7 @@ Watchdog::Watchdog(const Scene& scene, const WatchReading& start, double start_s
   // A floor for a run that starts with almost no energy: a hundredth of its mass lifted through
   // the domain's height.
   floor_ = 0.01 * mass_ * gravity_ * height;
+  height_ = height;
   if (scene.has(Module::Capillary) && scene.knit.mass_per_area > 0) {
     // Suction releases at most the surface energy of the wetted pores: sigma times the fibres'
     // area, about the sheet's area (dry knit mass / areal mass) times its layers and both faces.
@@ -67,10 +68,14 @@ Watchdog::Watchdog(const Scene& scene, const WatchReading& start, double start_s
 }
 
 double Watchdog::energy_limit(double t) const {
-  double moved = 0; // the farthest a mover has gone since the start
+  // A mover gives at most a bounce at twice its speed and a lift to the domain's top (a piston
+  // raises fluid farther than it moves itself: the corner piston's fluid rose 1.15 times what a
+  // lift by the piston's travel allows, measured). Coarse, until the movers' work is measured.
+  bool moving = false;
   for (const auto& m : movers_)
-    moved = std::max(moved, m.speed * std::max(0.0, std::min(t, m.until) - start_time_));
-  const double given = mass_ * (2 * move_speed_ * move_speed_ + gravity_ * moved) + capillary_;
+    moving = moving || std::min(t, m.until) > start_time_;
+  const double given =
+      (moving ? mass_ * (2 * move_speed_ * move_speed_ + gravity_ * height_) : 0.0) + capillary_;
   return (1 + rise_) * start_energy_ + given + floor_;
 }
 

@@ -44,7 +44,7 @@ public:
 private:
   double fluid_speed_ = 0, knit_speed_ = 0, max_density_ = 0, density_error_ = 0;
   double start_energy_ = 0, rise_ = 0, floor_ = 0, capillary_ = 0;
-  double mass_ = 0, move_speed_ = 0, gravity_ = 0, start_time_ = 0;
+  double mass_ = 0, move_speed_ = 0, gravity_ = 0, start_time_ = 0, height_ = 0;
   struct Mover {
     double speed, until; // [m/s], [s]
   };

@@ -1,5 +1,7 @@
 #include "kernels/integrate/Verlet.hpp"
 
+#include "core/Math.hpp"
+
 namespace kf {
 
 template <typename T>
@@ -29,8 +31,7 @@ struct NanMaxOp {
   template <typename T>
   KF_HD KF_INLINE MotionBounds<T> operator()(const MotionBounds<T>& p,
                                              const MotionBounds<T>& q) const {
-    auto m = [](T s, T t) { return (s != s || t != t) ? (s != s ? s : t) : (s < t ? t : s); };
-    return {m(p.v2, q.v2), m(p.a2, q.a2)};
+    return {nan_max(p.v2, q.v2), nan_max(p.a2, q.a2)};
   }
 };
 

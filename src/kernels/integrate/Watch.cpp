@@ -1,13 +1,12 @@
 #include "kernels/integrate/Watch.hpp"
 
+#include "core/Math.hpp"
+
 namespace kf {
 
 namespace {
 
 struct WatchOp {
-  KF_HD KF_INLINE static double nan_max(double s, double t) {
-    return (s != s || t != t) ? (s != s ? s : t) : (s < t ? t : s);
-  }
   KF_HD KF_INLINE WatchSums operator()(const WatchSums& p, const WatchSums& q) const {
     return {p.mass + q.mass, p.kinetic + q.kinetic, p.potential + q.potential,
             nan_max(p.max_speed2, q.max_speed2), nan_max(p.max_density, q.max_density)};
