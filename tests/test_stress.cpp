@@ -52,9 +52,10 @@ struct StressCase {
   std::vector<std::string> ci; // overrides at CI size
   Bound density_error;         // bound on (rho - rho0) / rho0
   double rest_after = -1;      // >= 0: from this time on the fluid must rest ...
-  Bound rest_speed = Bound(); // ... below this speed [m/s]
+  Bound rest_speed = Bound();  // ... below this speed [m/s]
   double jitter = 0;           // start positions moved by up to jitter * spacing (seeded)
   int seeds = 1;
+  bool folds = false; // the knit folds in the x-z plane: its profiles there must not cross
 };
 
 exec::Backend device() {
@@ -93,12 +94,36 @@ void perturb(Simulation& sim, double jitter, std::uint32_t seed) {
   sim.restore(fr);
 }
 
+/// The most times a profile of the middle layer along the courses turns back along x (a fold
+/// in the x-z plane), steps under a quarter of the rest spacing ignored.
+int profile_turns(const std::vector<Vec3d>& x, const KnitPieceLayout& L) {
+  int most = 0;
+  for (int i = 0; i < L.nu; ++i) {
+    int turns = 0, dir = 0;
+    double anchor = x[L.index(1, i, 0)].x;
+    const double step = 0.25 * norm(x[L.index(1, i, 1)] - x[L.index(1, i, 0)]);
+    for (int j = 1; j < L.nv; ++j) {
+      const double d = x[L.index(1, i, j)].x - anchor;
+      if (std::abs(d) < step)
+        continue;
+      const int sign = d > 0 ? 1 : -1;
+      turns += dir != 0 && sign != dir;
+      dir = sign;
+      anchor = x[L.index(1, i, j)].x;
+    }
+    most = std::max(most, turns);
+  }
+  return most;
+}
+
 struct Measured {
   double worst_energy_ratio = 0; // largest (kinetic + gravitational) / budget
   double worst_density_error = 0;
   double closest_fluid = 1e30, closest_knit = 1e30; // signed distance to a solid [m]
   double rest_speed = 0;                            // largest fluid speed while resting
   std::size_t layer_swaps = 0;
+  std::size_t crossings = 0; // a fold through another (the profiles in the x-z plane)
+  int turns = 0;             // the most times a middle-layer profile turns back along x
   std::int64_t lost_particles = 0;
   double lost_mass = 0;
   std::uint64_t steps = 0;
@@ -169,21 +194,29 @@ Measured run_case(const StressCase& c, std::uint32_t seed) {
         const auto x = xf.type == io::DType::F32 ? test::as_points(xf.as<float>())
                                                  : test::as_points(xf.as<double>());
         for (const auto& piece : mesh.pieces)
-          if (piece.grid)
+          if (piece.grid) {
             m.layer_swaps = std::max(m.layer_swaps, test::layer_order_violations(x, mesh.x, piece));
+            if (c.folds) { // a planar fold: a draped piece's profiles cross in projection
+              m.crossings =
+                  std::max(m.crossings, test::profile_crossings(x, piece, {1, 0, 0}, {0, 0, 1}));
+              m.turns = std::max(m.turns, profile_turns(x, piece));
+            }
+          }
       }
     }
     if (done)
       break;
   }
   m.steps = sim->steps();
-  std::printf("%s (seed %u): %llu steps to t = %.4g s; energy at most %.4f of its budget; density "
-              "error at most %.3g%%; closest to a solid: fluid %.3g m, knit %.3g m; rest speed "
-              "%.3g m/s; layer swaps %zu; particles lost %lld, mass %.2e; guard corrections %llu\n",
-              c.name, seed, static_cast<unsigned long long>(m.steps), sim->time(),
-              m.worst_energy_ratio, 100 * m.worst_density_error, m.closest_fluid, m.closest_knit,
-              m.rest_speed, m.layer_swaps, static_cast<long long>(m.lost_particles), m.lost_mass,
-              static_cast<unsigned long long>(m.guard_corrections));
+  std::printf(
+      "%s (seed %u): %llu steps to t = %.4g s; energy at most %.4f of its budget; density "
+      "error at most %.3g%%; closest to a solid: fluid %.3g m, knit %.3g m; rest speed "
+      "%.3g m/s; layer swaps %zu, fold crossings %zu (turns %d); particles lost %lld, mass %.2e; "
+      "guard corrections %llu\n",
+      c.name, seed, static_cast<unsigned long long>(m.steps), sim->time(), m.worst_energy_ratio,
+      100 * m.worst_density_error, m.closest_fluid, m.closest_knit, m.rest_speed, m.layer_swaps,
+      m.crossings, m.turns, static_cast<long long>(m.lost_particles), m.lost_mass,
+      static_cast<unsigned long long>(m.guard_corrections));
   return m;
 }
 
@@ -196,6 +229,10 @@ void check(const StressCase& c) {
     EXPECT_GE(m.closest_fluid, 0.0) << "a fluid particle inside a solid";
     EXPECT_GE(m.closest_knit, 0.0) << "a knit point inside a solid";
     EXPECT_EQ(m.layer_swaps, 0u) << "the knit's layers swapped";
+    if (c.folds) {
+      EXPECT_EQ(m.crossings, 0u) << "the knit passed through itself";
+      EXPECT_GE(m.turns, 1) << "the knit never folded: the case tests little";
+    }
     EXPECT_EQ(m.lost_particles, 0) << "fluid particles appeared or vanished";
     EXPECT_LE(m.lost_mass, 1e-6) << "fluid mass appeared or vanished";
     if (c.rest_after >= 0) {
@@ -243,4 +280,11 @@ TEST(Stress, FluidSpawnedOverlappingAnObstacleAndTheKnit) {
 // Squeezed at 0.5 m/s into the corner: 3.74% (CI), 4.17% (full).
 TEST(Stress, FluidPiledIntoACornerUnderAMovingSolid) {
   check({"corner_piston", {"fluid.spacing=0.01"}, 0.05});
+}
+
+// Layers and folds: none may swap or cross (exact); the knit outside the box.
+TEST(Stress, HeavySoakedPieceFoldsOverASharpEdge) {
+  StressCase c{"soaked_fold", {"knit.piece.0.wales=24", "knit.piece.0.courses=24"}, 0};
+  c.folds = true;
+  check(c);
 }
