@@ -7,9 +7,9 @@
 #include "domain/Watchdog.hpp"
 #include "io/SnapshotReader.hpp"
 #include "support/Backends.hpp"
-#include "support/CouplingScenes.hpp"
 #include "support/RunKnitflow.hpp"
 #include "support/TestPaths.hpp"
+#include "support/WatchSums.hpp"
 
 #include <gtest/gtest.h>
 
@@ -102,60 +102,28 @@ TEST(Watchdog, RollbackWithoutACheckpointStops) {
   EXPECT_EQ(r.output.find("rollback 1"), std::string::npos) << r.output;
 }
 
-namespace {
-
-/// The coupling tests' patch and fluid block under gravity, in double precision.
-Scene falling_scene() {
-  std::string text = test::scene_text(R"("fluid", "boundary", "knit", "contact")",
-                                      "min = [-0.02, -0.02, 0.07]\nmax = [0.02, 0.02, 0.11]", -0.5);
-  text.replace(text.find("gravity = [0, 0, 0]"), 19, "gravity = [0, 0, -9.81]");
-  return parse_scene(text, "watch");
-}
-
-} // namespace
-
 // The reading (one pass a set on the device) against the frame's rows summed on the host: the
 // sums to rounding (1e-12: another order of the same double terms), the maxima exactly (the
 // same values compared), the heights from the domain's lowest corner (z = -0.05).
 TEST(WatchReading, IsTheBruteForceSumOverTheFrame) {
   for (const auto b : test::backends()) {
     SCOPED_TRACE(b == exec::Backend::Cuda ? "cuda" : "cpu");
-    const Scene scene = falling_scene();
+    const Scene scene = test::falling_coupled_scene();
     auto sim = Simulation::create(scene, b);
     for (int i = 0; i < 40; ++i)
       sim->step(1.0);
     const WatchReading r = sim->watch();
-    const io::Frame fr = sim->frame();
-    double mass = 0, knit_mass = 0, kinetic = 0, potential = 0, vf = 0, vk = 0, rho = 0;
-    for (const char* phase : {"fluid", "knit"}) {
-      const io::Phase& ph = *fr.find(phase);
-      const auto x = ph.find("position")->as<double>();
-      const auto v = ph.find("velocity")->as<double>();
-      const auto m = ph.find("mass")->as<double>();
-      ASSERT_GT(m.size(), 0u);
-      for (std::size_t i = 0; i < m.size(); ++i) {
-        const double v2 =
-            v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2];
-        mass += m[i];
-        kinetic += 0.5 * m[i] * v2;
-        potential += m[i] * 9.81 * (x[3 * i + 2] + 0.05);
-        (phase[0] == 'f' ? vf : vk) = std::max(phase[0] == 'f' ? vf : vk, std::sqrt(v2));
-      }
-      if (phase[0] == 'k')
-        for (double mi : m)
-          knit_mass += mi;
-      else
-        for (double d : ph.find("density")->as<double>())
-          rho = std::max(rho, d);
-    }
-    EXPECT_GT(kinetic, 0.0);
-    EXPECT_NEAR(r.mass, mass, 1e-12 * mass);
-    EXPECT_NEAR(r.knit_mass, knit_mass, 1e-12 * knit_mass);
-    EXPECT_NEAR(r.kinetic, kinetic, 1e-12 * kinetic);
-    EXPECT_NEAR(r.potential, potential, 1e-12 * potential);
-    EXPECT_EQ(r.fluid_max_speed, vf);
-    EXPECT_EQ(r.knit_max_speed, vk);
-    EXPECT_EQ(r.fluid_max_density, rho);
+    const test::FrameSums f = test::frame_sums(sim->frame(), 9.81, -0.05);
+    ASSERT_GT(f.fluid_rows, 0u);
+    ASSERT_GT(f.knit_rows, 0u);
+    EXPECT_GT(f.kinetic, 0.0);
+    EXPECT_NEAR(r.mass, f.mass, 1e-12 * f.mass);
+    EXPECT_NEAR(r.knit_mass, f.knit_mass, 1e-12 * f.knit_mass);
+    EXPECT_NEAR(r.kinetic, f.kinetic, 1e-12 * f.kinetic);
+    EXPECT_NEAR(r.potential, f.potential, 1e-12 * f.potential);
+    EXPECT_EQ(r.fluid_max_speed, f.fluid_max_speed);
+    EXPECT_EQ(r.knit_max_speed, f.knit_max_speed);
+    EXPECT_EQ(r.fluid_max_density, f.fluid_max_density);
   }
 }
 
@@ -164,7 +132,7 @@ TEST(WatchReading, IsTheBruteForceSumOverTheFrame) {
 // of the mass lifted through the domain's height, plus what a moving handle can give once it
 // moves (a bounce at twice its speed, a lift to the domain's top).
 TEST(Watchdog, LimitsAreTheScenesAndTripJustPastThem) {
-  Scene scene = falling_scene();
+  Scene scene = test::falling_coupled_scene();
   scene.knit.pins.push_back({"lift", {-1, -1, -1}, {1, 1, 1}, {0, 0, 0.5}, 0.2});
   WatchReading start;
   start.mass = 2.0;
@@ -217,7 +185,7 @@ TEST(Watchdog, LimitsAreTheScenesAndTripJustPastThem) {
 // A knit blown up by hand (one point's velocity NaN in a restored frame) is named by the step's
 // own check: the worst point's id, its neighbourhood, and that the knit's size control found it.
 TEST(Watchdog, AnInstabilityNamesTheWorstPointAndItsNeighbourhood) {
-  const Scene scene = falling_scene();
+  const Scene scene = test::falling_coupled_scene();
   auto sim = Simulation::create(scene, exec::Backend::Cpu);
   sim->step(1.0);
   io::Frame fr = sim->frame();

@@ -4,8 +4,14 @@
 #include "core/HostDevice.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace kf {
+
+/// NaN read as +infinity, on the host (a bound an MPI_MAX reduction must not lose).
+inline double nan_as_inf(double v) {
+  return std::isnan(v) ? std::numeric_limits<double>::infinity() : v;
+}
 
 /// max(s, t) that lets NaN win, so a blown-up value cannot hide in a reduction's maximum.
 template <typename T>

@@ -229,7 +229,8 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
           at << "watchdog at step " << sim->steps() << ", t = " << sim->time()
              << " s (between steps): " << trip.why;
           if (trip.worst)
-            at << "; worst " << sim->describe_worst(*trip.worst);
+            if (const std::string w = sim->describe_worst(*trip.worst); !w.empty())
+              at << "; worst " << w;
           trouble(at.str());
           continue;
         }

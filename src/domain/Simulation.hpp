@@ -121,7 +121,8 @@ public:
   virtual WatchReading watch() = 0;
   /// The particle with the largest measure (NaN counts as largest), the job's: its phase, id,
   /// position, speed (and density), and its neighbourhood within the support radius (how many,
-  /// their speeds and densities). For the watchdog's report; collective, the text on every rank.
+  /// their speeds and densities). For the watchdog's report; collective, the text on every rank
+  /// ("" when no rank holds a particle of that set).
   virtual std::string describe_worst(WatchMeasure measure) const = 0;
   virtual const Pipeline& pipeline() const = 0;
   virtual const Scene& scene() const = 0;

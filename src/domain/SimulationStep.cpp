@@ -51,7 +51,7 @@ void SimulationT<T>::job_bounds(MotionBounds<T>* mb, int n) const {
     b[2 * k + 1] = double(mb[k].a2);
   }
   for (double& v : b)
-    v = std::isnan(v) ? std::numeric_limits<double>::infinity() : v;
+    v = nan_as_inf(v);
   MPI_Allreduce(MPI_IN_PLACE, b.data(), 2 * n, MPI_DOUBLE, MPI_MAX, ranks_->mpi().comm());
   for (int k = 0; k < n; ++k) {
     mb[k].v2 = static_cast<T>(b[2 * k]);
@@ -143,7 +143,7 @@ void SimulationT<T>::report_instability(const std::string& why, WatchMeasure wor
   } catch (const Error& e) { // the report matters more than its details
     w = std::string("not found (") + e.what() + ")";
   }
-  if (!w.empty() && w != "no particle")
+  if (!w.empty())
     msg << "; worst " << w;
   throw InstabilityError(msg.str());
 }

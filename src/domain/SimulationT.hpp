@@ -112,6 +112,9 @@ private:
   /// measure. Collective on N ranks: every instability is found from the job's bounds.
   [[noreturn]] void report_instability(const std::string& why,
                                        WatchMeasure worst = WatchMeasure::FluidSpeed);
+  /// This rank's particle with the largest measure (non-finite first): its description ("" if
+  /// none) and *value (-1 if none). Not collective (report_instability's, describe_worst's).
+  std::string local_worst(WatchMeasure measure, double* value) const;
   /// The knit's stable dt (from bounds already read, or read now), its instability reported
   /// with its worst point.
   double knit_stable_dt(const MotionBounds<T>* bounds);
@@ -213,9 +216,6 @@ private:
   // The watchdog's sums (fluid, knit) and, on N ranks with fluid ghosts in the set, which rows
   // are owned (SimulationWatch.cpp).
   exec::DeviceBuffer<WatchSums> watch_sums_;
-  /// This rank's particle with the largest measure (non-finite first): its description ("" if
-  /// none) and *value (-1 if none). Not collective (report_instability's, describe_worst's).
-  std::string local_worst(WatchMeasure measure, double* value) const;
   exec::DeviceBuffer<std::uint8_t> watch_owned_;
   MotionBounds<T> fluid_bounds_{}; // the fluid's speed and acceleration bounds at step start
   double fluid_step_motion() const;

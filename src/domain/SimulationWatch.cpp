@@ -15,21 +15,18 @@ Vec3d lowest_corner(const Scene& s) {
           g.z < 0 ? s.domain.min.z : s.domain.max.z};
 }
 
-double nan_as_inf(double v) {
-  return std::isnan(v) ? std::numeric_limits<double>::infinity() : v;
-}
-
 } // namespace
 
 template <typename T>
 WatchReading SimulationT<T>::watch() {
-  if (watch_sums_.size() != 2)
+  if (watch_sums_.size() != 2) { // made at the first reading: most runs read before they step
     watch_sums_ = exec::DeviceBuffer<WatchSums>(ex_.backend, 2, "watchdog");
+    watch_owned_ = exec::DeviceBuffer<std::uint8_t>(ex_.backend, 0, "watchdog");
+  }
   const Vec3<T> g = vec_cast<T>(scene_.gravity), ref = vec_cast<T>(lowest_corner(scene_));
   if (fluid_on_) {
     const std::uint8_t* owned = nullptr;
     if (ranks_ && fluid_->size() != ranks_->fluid_owned_count()) { // ghosts follow the fluid
-      watch_owned_ = exec::DeviceBuffer<std::uint8_t>(ex_.backend, 0, "watchdog");
       watch_owned_.assign(fluid_owned_rows());
       owned = watch_owned_.data();
     }
@@ -164,7 +161,7 @@ std::string SimulationT<T>::describe_worst(WatchMeasure measure) const {
     text.resize(n);
     MPI_Bcast(text.data(), int(n), MPI_CHAR, worst.rank, ranks_->mpi().comm());
   }
-  return text.empty() ? "no particle" : text;
+  return text;
 }
 
 template WatchReading SimulationT<float>::watch();

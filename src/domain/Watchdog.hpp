@@ -8,7 +8,7 @@
 // - a fluid density error past its bound;
 // - kinetic plus gravitational energy past what the run started with (the energy stored in its
 //   springs and penalty contacts included) and what could have been given to it since: the scene's
-//   moving solids and handles (a bounce off one at twice its speed, a lift as far as it has moved)
+//   moving solids and handles (a bounce off one at twice its speed, a lift to the domain's top)
 //   and the capillary suction's surface energy. Nothing else adds energy; dissipation only takes it
 //   away.
 #include "domain/Scene.hpp"

@@ -4,8 +4,8 @@
 #include "comm/MpiContext.hpp"
 #include "domain/Runner.hpp"
 #include "domain/Simulation.hpp"
-#include "support/CouplingScenes.hpp"
 #include "support/TestPaths.hpp"
+#include "support/WatchSums.hpp"
 
 #include <gtest/gtest.h>
 #include <mpi.h>
@@ -33,46 +33,22 @@ double job_max(double v) {
 // The coupled patch and block split over the ranks: the reading against the sums over each
 // rank's owned rows of the collective frame (1e-12: the same terms in another order).
 TEST(WatchReadingMpi, CountsEachParticleOnce) {
-  std::string text = test::scene_text(R"("fluid", "boundary", "knit", "contact")",
-                                      "min = [-0.02, -0.02, 0.07]\nmax = [0.02, 0.02, 0.11]", -0.5);
-  text.replace(text.find("gravity = [0, 0, 0]"), 19, "gravity = [0, 0, -9.81]");
-  const Scene scene = parse_scene(text, "watch");
+  const Scene scene = test::falling_coupled_scene();
   comm::MpiContext mpi;
   auto sim = Simulation::create(scene, exec::Backend::Cpu, &mpi);
   for (int i = 0; i < 40; ++i)
     sim->step(1.0);
   const WatchReading r = sim->watch();
-  const io::Frame fr = sim->frame(); // each rank's owned rows
-  double mass = 0, kinetic = 0, potential = 0, vmax = 0, rho = 0;
-  std::size_t rows = 0;
-  for (const char* phase : {"fluid", "knit"}) {
-    const io::Phase& ph = *fr.find(phase);
-    const auto x = ph.find("position")->as<double>();
-    const auto v = ph.find("velocity")->as<double>();
-    const auto m = ph.find("mass")->as<double>();
-    rows += m.size();
-    for (std::size_t i = 0; i < m.size(); ++i) {
-      const double v2 =
-          v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2];
-      mass += m[i];
-      kinetic += 0.5 * m[i] * v2;
-      potential += m[i] * 9.81 * (x[3 * i + 2] + 0.05);
-      if (phase[0] == 'f')
-        vmax = std::max(vmax, std::sqrt(v2));
-    }
-    if (phase[0] == 'f')
-      for (double d : ph.find("density")->as<double>())
-        rho = std::max(rho, d);
-  }
-  EXPECT_GT(rows, 0u) << "a rank owns nothing: the split is not tested";
-  mass = job_sum(mass);
-  kinetic = job_sum(kinetic);
-  potential = job_sum(potential);
+  // Each rank's owned rows of the collective frame, summed over the ranks.
+  const test::FrameSums f = test::frame_sums(sim->frame(), 9.81, -0.05);
+  EXPECT_GT(f.rows, 0u) << "a rank owns nothing: the split is not tested";
+  const double mass = job_sum(f.mass), kinetic = job_sum(f.kinetic),
+               potential = job_sum(f.potential);
   EXPECT_NEAR(r.mass, mass, 1e-12 * mass);
   EXPECT_NEAR(r.kinetic, kinetic, 1e-12 * kinetic);
   EXPECT_NEAR(r.potential, potential, 1e-12 * potential);
-  EXPECT_EQ(r.fluid_max_speed, job_max(vmax));
-  EXPECT_EQ(r.fluid_max_density, job_max(rho));
+  EXPECT_EQ(r.fluid_max_speed, job_max(f.fluid_max_speed));
+  EXPECT_EQ(r.fluid_max_density, job_max(f.fluid_max_density));
 }
 
 // An instability after step 150 (KF_FAULT, found on every rank as a real one is, from the job's
