@@ -1,6 +1,7 @@
 // The knitflow command: broken scenes fail with their message and exit code 2 and write nothing;
 // plan prints the pipeline without running; run writes snapshots and an XDMF index.
 #include "io/PngImage.hpp"
+#include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
 #include "support/RunKnitflow.hpp"
 #include "support/TestPaths.hpp"
@@ -84,6 +85,21 @@ TEST(Cli, RunWritesSnapshotsAndIndex) {
           " --set simulation.end_time=0.01 --set output.interval=0.005 --quiet --output " +
           out.string() + " --restart " + (out / "frame_000001.h5").string());
   EXPECT_EQ(r2.code, 0) << r2.output;
+  // Restart under another output interval: the frames go on at that interval's times from the
+  // restart's (frame k at k * 0.001 s), never back in time (the next output time was once
+  // behind the restart's and the first step ran backwards).
+  const auto out3 = test::scratch_dir("cli_run_interval") / "out";
+  const Result r3 =
+      run("run " + (test::source_dir() / "scenes/hydrostatic.toml").string() +
+          " --set simulation.end_time=0.008 --set output.interval=0.001 --quiet --output " +
+          out3.string() + " --restart " + (out / "frame_000001.h5").string());
+  ASSERT_EQ(r3.code, 0) << r3.output;
+  EXPECT_FALSE(fs::exists(out3 / "frame_000002.h5")) << "frames before the restart's time";
+  for (int k = 6; k <= 8; ++k) {
+    const auto f = out3 / ("frame_00000" + std::to_string(k) + ".h5");
+    ASSERT_TRUE(fs::exists(f)) << f;
+    EXPECT_NEAR(io::read_snapshot(MPI_COMM_SELF, f.string()).time, 0.001 * k, 1e-12);
+  }
 }
 
 // render draws the chosen frames of a run as PNGs of the asked size, with something drawn on

@@ -14,7 +14,7 @@ namespace kf {
 
 template <typename T>
 KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoupling<T>* coupling,
-                      double skin)
+                      double skin, double min_width)
     : ranks_(ranks), knit_(knit), coupling_(coupling), mesh_points_(knit.size()),
       local_of_id_(knit.set().x.backend(), 0, "knit.halo.local") {
   const exec::Backend b = knit.set().x.backend();
@@ -38,7 +38,7 @@ KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoup
     partner_.insert(partner_.end(), r.begin(), r.end());
     partner_start_.push_back(static_cast<std::uint32_t>(partner_.size()));
   }
-  base_width_ = base_width(knit, coupling);
+  base_width_ = base_width(knit, coupling, min_width);
   skin_ = skin > 0 ? skin : 0.5 * base_width_;
   const comm::MpiContext& mpi = ranks_.mpi();
   const auto job_max = [&mpi](T m2) { return static_cast<T>(mpi.max(double(m2))); };
@@ -50,7 +50,8 @@ KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoup
 }
 
 template <typename T>
-double KnitHalo<T>::base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* coupling) {
+double KnitHalo<T>::base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* coupling,
+                               double min_width) {
   double reach = 0;
   const auto x = knit.set().x_rest.to_host();
   for (const Spring& sp : knit.mesh_springs())
@@ -64,7 +65,7 @@ double KnitHalo<T>::base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* 
     w = std::max(w, 3.5 * double(self->cell()) + 2 * double(self->skin()));
   if (coupling)
     w = std::max(w, 3.5 * double(coupling->cell()) + 2 * double(coupling->skin()));
-  return w;
+  return std::max(w, min_width);
 }
 
 template <typename T>

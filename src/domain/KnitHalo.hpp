@@ -35,14 +35,17 @@ public:
   /// self-contact's: sorted in id order, its reference positions carried with the points).
   /// skin: how far points may move before the ghosts are chosen anew (0: half the base width).
   /// An owned point may be that far outside this rank's region until then.
+  /// min_width: a width the ghosts must reach at least (the tunnelling guard's faces).
   KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoupling<T>* coupling = nullptr,
-           double skin = 0);
+           double skin = 0, double min_width = 0);
 
   /// The ghost width before any step: the longest spring or volume cell at rest, stretched by
   /// half, and the self-contact's reach (lists and cell walks: 3.5 cells) plus its skin.
   /// With the coupling: also the reach of a fluid particle's knit candidates (two of its grid's
   /// cells a side) plus its skin.
-  static double base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* coupling = nullptr);
+  /// At least min_width.
+  static double base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* coupling = nullptr,
+                           double min_width = 0);
 
   /// At the start (every rank built the whole knit, the decomposition is made): keeps this
   /// rank's points. The states: the self-contact's and the coupling's reference positions per

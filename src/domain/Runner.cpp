@@ -44,6 +44,19 @@ RunOptions::Fault parse_fault(const std::string& text) {
 
 namespace {
 
+/// The last frame index written at or before a restart's state, for an output interval that may
+/// differ from the one that wrote it: the snapshot's own index while its time falls in that
+/// frame's interval, else the new interval's count of whole intervals (frame k at k * interval).
+/// Taking the snapshot's index under another interval put the next output time behind the
+/// restart's, and the first step ran backwards.
+std::uint64_t restart_frame_index(const io::Frame& fr, double interval) {
+  const double eps = 1e-9 * std::max(1.0, fr.time);
+  const double at = double(fr.index) * interval;
+  if (at <= fr.time + eps && fr.time < at + interval - eps)
+    return fr.index;
+  return static_cast<std::uint64_t>(std::floor((fr.time + eps) / interval));
+}
+
 void inject(const RunOptions::Fault& f, int rank, std::uint64_t steps) {
   // An instability is the job's (every rank finds it, from reduced bounds or readings): the
   // injected one fires on every rank, named by the rank given.
@@ -100,7 +113,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
     const std::string from = opt.restart == "latest" ? latest_state(scene, mpi) : opt.restart;
     io::Frame fr = io::read_snapshot(mpi.comm(), from);
     sim->restore(fr);
-    frame_index = fr.index;
+    frame_index = restart_frame_index(fr, scene.output.interval);
   }
   const double end = opt.stop_time >= 0 ? std::min(opt.stop_time, scene.end_time) : scene.end_time;
   const double interval = scene.output.interval;
@@ -199,7 +212,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
       sim->set_profiling(opt.profile);
       io::Frame fr = io::read_snapshot(mpi.comm(), sum.last_checkpoint);
       sim->restore(fr);
-      frame_index = fr.index;
+      frame_index = restart_frame_index(fr, interval);
       next_out = (frame_index + 1) * interval;
       if (watching) // the energy's bound from the state it goes back to
         dog.emplace(scene, sim->watch(), stored_energy(sim->diagnostics()), sim->time());
@@ -355,6 +368,12 @@ std::string format_summary(const RunSummary& s) {
         static_cast<unsigned long long>(d.coupling_contacts), d.coupling_energy, d.absorbed_mass,
         d.max_saturation, d.mean_saturation, static_cast<unsigned long long>(d.wet_points));
     o << buf;
+    if (d.sheet_corrections) {
+      std::snprintf(buf, sizeof buf,
+                    "sheet guard: %llu fluid steps through the knit's sheet put back\n",
+                    static_cast<unsigned long long>(d.sheet_corrections));
+      o << buf;
+    }
     if (d.absorbed_particles || d.emitted_particles) {
       std::snprintf(buf, sizeof buf,
                     "absorption: %llu particles absorbed, %llu drops emitted, %.4g kg moved inside "

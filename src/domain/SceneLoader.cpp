@@ -114,8 +114,14 @@ void read_simulation(const TableReader& t, Scene& s) {
 }
 
 void read_coupling(const TableReader& t, Scene& s) {
-  t.allow_only({"fluid_radius", "knit_radius", "stiffness", "damping_ratio", "friction"});
+  t.allow_only(
+      {"fluid_radius", "knit_radius", "stiffness", "damping_ratio", "friction", "sheet_guard"});
   auto& c = s.coupling;
+  constexpr std::array kGuards{
+      Choice<Scene::Coupling::SheetGuard>{"auto", Scene::Coupling::SheetGuard::Auto},
+      Choice<Scene::Coupling::SheetGuard>{"on", Scene::Coupling::SheetGuard::On},
+      Choice<Scene::Coupling::SheetGuard>{"off", Scene::Coupling::SheetGuard::Off}};
+  t.read("sheet_guard", c.sheet_guard, kGuards);
   t.read("fluid_radius", c.fluid_radius, Range::at_least(0));
   t.read("knit_radius", c.knit_radius, Range::at_least(0));
   t.read("stiffness", c.stiffness, Range::at_least(0));

@@ -25,6 +25,7 @@ struct Diagnostics {
   double mean_density_error = 0;
   double min_rigid_distance = 0;       // smallest signed distance of a fluid particle to any solid
   std::uint64_t guard_corrections = 0; // particles put back by the boundary guard, whole run
+  std::uint64_t sheet_corrections = 0; // put back on their side of the knit's sheet, whole run
   std::uint64_t outflow_particles =
       0;                         // fluid removed after leaving through an open side, whole run
   double outflow_mass = 0;       // their mass [kg]

@@ -7,6 +7,7 @@ template <typename T>
 Diagnostics SimulationT<T>::diagnostics() const {
   Diagnostics d;
   d.guard_corrections = guard_corrections();
+  d.sheet_corrections = sheet_corrections();
   d.fluid_sorts = fluid_sorts_;
   if (fluid_list_ && skin_ > 0) {
     const auto& e = fluid_list_->ends();
@@ -130,6 +131,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.mean_density_error = d.fluid ? mpi.sum(sum_err) / double(d.fluid) : 0.0;
     d.min_rigid_distance = mpi.min(d.min_rigid_distance);
     d.guard_corrections = mpi.sum(d.guard_corrections);
+    d.sheet_corrections = mpi.sum(d.sheet_corrections);
     d.outflow_particles = mpi.sum(d.outflow_particles);
     d.outflow_mass = mpi.sum(d.outflow_mass);
     d.imbalance = ranks_->last_imbalance();

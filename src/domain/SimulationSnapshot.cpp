@@ -102,6 +102,8 @@ io::Frame SimulationT<T>::frame() const {
   // On N ranks the counters are the job's (each rank counts its own particles).
   const auto job = [this](double v) { return ranks_ ? ranks_->mpi().sum(v) : v; };
   fr.scalars.push_back({"guard_corrections", job(static_cast<double>(guard_corrections()))});
+  if (sheet_guard_on_)
+    fr.scalars.push_back({"sheet_corrections", job(static_cast<double>(sheet_corrections()))});
   fr.scalars.push_back({"outflow_particles", job(static_cast<double>(outflow_particles_))});
   fr.scalars.push_back({"outflow_mass", job(outflow_mass())});
   fr.scalars.push_back({"next_fluid_id", static_cast<double>(next_fluid_id_)});
@@ -216,7 +218,11 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   for (const auto& [k, v] : fr.scalars)
     if (k == "guard_corrections")
       guard_count_.assign(std::vector<std::uint64_t>{counters ? static_cast<std::uint64_t>(v) : 0});
-    else if (k == "outflow_particles")
+    else if (k == "sheet_corrections") {
+      if (sheet_guard_on_)
+        sheet_count_.assign(
+            std::vector<std::uint64_t>{counters ? static_cast<std::uint64_t>(v) : 0});
+    } else if (k == "outflow_particles")
       outflow_particles_ = counters ? static_cast<std::uint64_t>(v) : 0;
     else if (k == "outflow_mass") {
       outflow_mass_ = counters ? v : 0.0;

@@ -3,6 +3,7 @@
 #include "domain/SimulationT.hpp"
 
 #include "domain/PoreNetwork.hpp"
+#include "domain/SheetFaces.hpp"
 
 namespace kf {
 
@@ -11,9 +12,10 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
                             const comm::MpiContext* mpi)
     : scene_(scene), ex_{backend}, guard_count_(backend, 0, "boundary.guard_count"),
       sorted_outflow_mass_(backend, 0, "fluid.outflow"),
-      boundary_near_(backend, 0, "boundary.near"), fluid_near_(backend, 0, "fluid.near"),
-      bounds_(backend, 2, "integrate.dt"), plan_(backend, 1, "integrate.dt"),
-      solids_(scene, backend), shapes_(backend, 0, "rigid.shapes") {
+      sheet_count_(backend, 0, "sheet_guard.count"), boundary_near_(backend, 0, "boundary.near"),
+      fluid_near_(backend, 0, "fluid.near"), bounds_(backend, 2, "integrate.dt"),
+      plan_(backend, 1, "integrate.dt"), solids_(scene, backend),
+      shapes_(backend, 0, "rigid.shapes") {
   guard_count_.assign(std::vector<std::uint64_t>{0});
   sorted_outflow_mass_.assign(std::vector<double>{0.0});
   fluid_on_ = scene.has(Module::Fluid);
@@ -21,6 +23,14 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   knit_on_ = scene.has(Module::Knit);
   coupling_on_ =
       fluid_on_ && knit_on_ && (scene.has(Module::Contact) || scene.has(Module::Capillary));
+  {
+    using G = Scene::Coupling::SheetGuard;
+    const G g = scene.coupling.sheet_guard;
+    const bool paper =
+        scene.has(Module::Capillary) && scene.capillary.model == Scene::AbsorptionModel::Paper;
+    sheet_guard_on_ =
+        coupling_on_ && scene.has(Module::Contact) && (g == G::On || (g == G::Auto && !paper));
+  }
   h_ = scene.support_radius();
   if (scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet)
     skin_ = scene.solver.neighbour_skin * h_;
@@ -55,7 +65,8 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     // outside the region it is owned by until its ghosts are chosen anew: the fluid's ghosts
     // reach that much farther.
     const double knit_skin = c ? h_ : 0.0;
-    ranks_.emplace(*mpi, scene_, backend, knit_ ? KnitHalo<T>::base_width(*knit_, c) : 0.0,
+    ranks_.emplace(*mpi, scene_, backend,
+                   knit_ ? KnitHalo<T>::base_width(*knit_, c, sheet_guard_width_) : 0.0,
                    c ? reach + 0.5 * knit_skin : 0.0, skin_);
     if (fluid_list_) // every rank keeps or builds its lists at the same steps
       fluid_list_->combine_readings([this](T* m, int k) {
@@ -65,7 +76,8 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     ranks_->distribute(fluid_ ? &*fluid_ : nullptr, boundary_ ? &*boundary_ : nullptr,
                        all_knit_positions());
     if (knit_) {
-      knit_halo_.emplace(*ranks_, *knit_, coupling_ ? &*coupling_ : nullptr, knit_skin);
+      knit_halo_.emplace(*ranks_, *knit_, coupling_ ? &*coupling_ : nullptr, knit_skin,
+                         sheet_guard_width_);
       if (absorption_)
         absorption_ranks_.emplace(*ranks_, *knit_halo_, *knit_, *absorption_);
       knit_halo_->distribute();
@@ -196,11 +208,33 @@ void SimulationT<T>::init_coupling() {
                     NeighbourGrid<T>::cover(scene_.domain.min, scene_.domain.max, 1.5 * reach));
   if (p.capillary && scene_.capillary.model == Scene::AbsorptionModel::Conserving)
     init_absorption(p);
+  if (sheet_guard_on_)
+    init_sheet_guard();
   if (!p.contact)
     return;
   const CouplingLimits lim = coupling_limits(scene_, double(p.dem.k), knit_->min_free_mass());
   knit_->set_substep_limit(lim.knit_substep);
   coupling_fluid_limit_ = lim.fluid_step;
+}
+
+template <typename T>
+void SimulationT<T>::init_sheet_guard() {
+  const KnitMesh mesh = build_knit(scene_);
+  const SheetFaces sheet = build_sheet_faces(mesh);
+  double longest = 0;
+  for (const auto& f : sheet.faces)
+    for (int e = 0; e < 3; ++e)
+      longest = std::max(longest, norm(mesh.x[f[e]] - mesh.x[f[(e + 1) % 3]]));
+  // On N ranks the ghosts hold every face with a corner within the guard's reach of an owned
+  // particle (its other corners within one longest edge of that one), the faces stretched by up
+  // to half (the knit halo's allowance for springs), a step of twice the CFL's share of the
+  // support, the fluid straying a skin.
+  sheet_guard_width_ =
+      1.5 * longest * (1 + 1 / std::sqrt(3.0)) + 2 * scene_.solver.cfl * h_ + skin_;
+  sheet_guard_.emplace(ex_.backend, sheet.faces, sheet.offsets, sheet.ids,
+                       static_cast<T>(0.1 * scene_.fluid.spacing));
+  sheet_count_.assign(std::vector<std::uint64_t>{0});
+  sheet_x0_ = exec::DeviceBuffer<Vec3<T>>(ex_.backend, 0, "sheet_guard.knit_x0");
 }
 
 template <typename T>
@@ -268,6 +302,10 @@ void SimulationT<T>::build_pipeline() {
               ranks_->balance(steps_, nullptr, nullptr, &knit_->set().x, knit_->owned());
             knit_halo_->begin(knit_->expected_motion(dt_));
           }
+          if (sheet_guard_on_) { // the faces' start, for the guard after the fluid's drift
+            sheet_x0_.resize(knit_->set().size());
+            sheet_x0_.copy_from(knit_->set().x, sheet_x0_.size());
+          }
           {
             const LocalWork work(ranks_ ? &*ranks_ : nullptr, Phase::Knit);
             knit_->advance(time_, dt_, keep, move, shapes_.data(), shapes_.size(), couple);
@@ -293,7 +331,8 @@ void SimulationT<T>::build_pipeline() {
                                        shapes_.size(), static_cast<T>(margin_), T(0),
                                        guard_count_.data(), "integrate.kick_drift", planned_dt(),
                                        kept_ghosts_flags());
-                    after_drift();
+                    if (!sheet_guard_on_) // else after the sheet's guard
+                      after_drift();
                     settle_step();
                   });
   else if (fluid_on_)
@@ -302,9 +341,18 @@ void SimulationT<T>::build_pipeline() {
       auto f = fluid_->view();
       kick_drift(ex_, f.x, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_),
                  "integrate.kick_drift", {}, planned_dt());
-      after_drift();
+      if (!sheet_guard_on_) // else after the sheet's guard
+        after_drift();
       settle_step();
     });
+  if (sheet_guard_on_)
+    pipeline_.add("coupling.sheet_guard", "contact",
+                  "put back fluid particles whose step crossed a face of the knit's sheet "
+                  "(tunnelling between the knit's points; counted)",
+                  [this] {
+                    guard_sheet();
+                    after_drift();
+                  });
   if (boundary_on_ && moving_) {
     pipeline_.add("boundary.move", "boundary", "translate moving obstacles", [this] {
       update_shapes(time_ + dt_);

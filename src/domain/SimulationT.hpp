@@ -21,6 +21,7 @@
 #include "kernels/boundary/Boundary.hpp"
 #include "kernels/coupling/Absorption.hpp"
 #include "kernels/coupling/KnitFluidCoupling.hpp"
+#include "kernels/coupling/SheetGuard.hpp"
 #include "kernels/exec/PendingRead.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/grid/NeighbourList.hpp"
@@ -36,6 +37,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -144,6 +146,25 @@ private:
   std::optional<KnitSystem<T>> knit_;
   std::optional<KnitFluidCoupling<T>> coupling_;
   std::optional<ConservingAbsorption<T>> absorption_; // capillary.model = "conserving"
+  // The tunnelling guard (coupling.sheet_guard) and its count of particles put back, whole run
+  // (device memory, read with the diagnostics).
+  bool sheet_guard_on_ = false;
+  double sheet_guard_width_ = 0; // the knit ghosts' width the guard needs on N ranks
+  std::optional<SheetGuard<T>> sheet_guard_;
+  exec::DeviceBuffer<std::uint64_t> sheet_count_{exec::Backend::Cpu, 0, "sheet_guard.count"};
+  // The knit's positions at the step's start (its faces' motion over the step).
+  exec::DeviceBuffer<Vec3<T>> sheet_x0_{exec::Backend::Cpu, 0, "sheet_guard.knit_x0"};
+  std::uint64_t sheet_corrections() const {
+    return sheet_count_.size() ? sheet_count_.to_host()[0] : 0;
+  }
+  void init_sheet_guard();
+  /// After the fluid's drift: fluid whose step crossed the knit's sheet goes back to its side
+  /// (the knit's ghosts' positions are current on N ranks: refreshed after every substep).
+  void guard_sheet() {
+    sheet_guard_->apply(ex_, fluid_->view(), static_cast<T>(dt_), knit_->set(), sheet_x0_,
+                        *coupling_, knit_halo_ ? knit_halo_->local_of_id().data() : nullptr,
+                        kept_ghosts_flags(), sheet_count_.data());
+  }
   std::uint64_t next_fluid_id_ = 0;
   PoreMass<T> pores() const { return absorption_ ? absorption_->pores() : PoreMass<T>{}; }
   void begin_coupling() {

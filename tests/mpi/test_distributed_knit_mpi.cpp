@@ -346,8 +346,10 @@ double largest_gap(const KnitRows& a, const KnitRows& b, bool doubles) {
 /// on, the split run must stay as close to the one-rank run as a one-rank run summing in
 /// another order (solver.cell_order = 0: a cell's particles by id, not by sub-cell) stays to it,
 /// both run to the same time; the books are checked throughout.
-void expect_same_coupled_run(const Scene& s, int steps, int every, const std::string& what,
-                             bool may_part = false, exec::Backend backend = exec::Backend::Cpu) {
+/// Returns the tunnelling guard's corrections over the split job's run.
+std::uint64_t expect_same_coupled_run(const Scene& s, int steps, int every, const std::string& what,
+                                      bool may_part = false,
+                                      exec::Backend backend = exec::Backend::Cpu) {
   comm::MpiContext mpi;
   auto one = Simulation::create(s, backend);
   auto split = Simulation::create(s, backend, &mpi);
@@ -361,7 +363,9 @@ void expect_same_coupled_run(const Scene& s, int steps, int every, const std::st
     one->step(1e9);
     split->step(1e9);
     if (one->time() != split->time()) {
-      ASSERT_TRUE(may_part) << what << ": the ranks took another dt, step " << k;
+      EXPECT_TRUE(may_part) << what << ": the ranks took another dt, step " << k;
+      if (!may_part)
+        return 0;
       parted = k;
       break;
     }
@@ -375,7 +379,9 @@ void expect_same_coupled_run(const Scene& s, int steps, int every, const std::st
     drift = std::max(drift, std::abs(books(d2) - m0) / m0);
     contacts = std::max(contacts, d2.coupling_contacts);
     wet = std::max(wet, d2.max_saturation);
-    ASSERT_EQ(k1.id, k2.id) << what << ": a knit point is owned by no rank or by two";
+    EXPECT_EQ(k1.id, k2.id) << what << ": a knit point is owned by no rank or by two";
+    if (k1.id != k2.id)
+      return 0;
     if (may_part && !(same_rows(k1, k2) && same_rows(w1, w2))) {
       parted = k;
       break;
@@ -384,6 +390,7 @@ void expect_same_coupled_run(const Scene& s, int steps, int every, const std::st
     expect_same_rows(w1, w2, what + ", fluid");
     EXPECT_EQ(d1.fluid, d2.fluid);
     EXPECT_EQ(d1.coupling_contacts, d2.coupling_contacts);
+    EXPECT_EQ(d1.sheet_corrections, d2.sheet_corrections);
     EXPECT_EQ(d1.wet_points, d2.wet_points);
     EXPECT_EQ(d1.max_saturation, d2.max_saturation);
     // Sums over ranks in another order: a few ulps of the total.
@@ -440,6 +447,9 @@ void expect_same_coupled_run(const Scene& s, int steps, int every, const std::st
                 static_cast<unsigned long long>(contacts), wet,
                 static_cast<unsigned long long>(d.absorbed_particles),
                 static_cast<unsigned long long>(d.emitted_particles), drift);
+    if (d.sheet_corrections)
+      std::printf("%llu steps through the sheet put back; ",
+                  static_cast<unsigned long long>(d.sheet_corrections));
     if (parted)
       std::printf("parted at step %d, largest gap %.3g m at the end against %.3g m between two "
                   "summation orders on one rank (%d ranks)\n",
@@ -447,6 +457,7 @@ void expect_same_coupled_run(const Scene& s, int steps, int every, const std::st
     else
       std::printf("identical on %d ranks\n", mpi.size());
   }
+  return d.sheet_corrections;
 }
 
 /// test_absorption's hammock: the conserving model under a block three times what the knit
@@ -542,6 +553,21 @@ TEST(DistributedKnit, ConservingAbsorptionIsTheOneRankRun) {
                                    {"output.enabled=false", "parallel.block_cells=1",
                                     "parallel.imbalance=1.0", "parallel.check_every=20"});
   expect_same_coupled_run(wicking, 600, 100, "wicking");
+}
+
+// The tunnelling guard on N ranks (scenes/stress/jet.toml: a block at 10 m/s onto a pinned
+// patch, thousands of steps put back): a face is tested where its particle is owned, its corners
+// found through the knit's ids (ghosts included), and the split job is the one-rank run bit for
+// bit, its count of corrections the same. Measured: identical on 2 and 3 ranks over 1,000 steps
+// (2,585 put back); CI runs 2 ranks (3 on its two cores: 342 s).
+TEST(DistributedKnit, TunnellingGuardIsTheOneRankRun) {
+  if (comm::MpiContext().size() > 2)
+    GTEST_SKIP() << "two ranks in CI (three oversubscribe its two cores)";
+  const Scene jet =
+      fixed(load_scene((test::source_dir() / "scenes" / "stress" / "jet.toml").string(),
+                       {"output.enabled=false", "parallel.block_cells=1"}));
+  EXPECT_GT(expect_same_coupled_run(jet, 1000, 100, "jet"), 100u)
+      << "the guard hardly acted: the case tests little";
 }
 
 // The knit on the GPU backend (where a GPU is visible; the ranks may share one): the points stay

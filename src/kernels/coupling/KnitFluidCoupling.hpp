@@ -114,6 +114,11 @@ public:
   /// The set's index of the point in each of the grid's slots.
   const exec::DeviceBuffer<std::uint32_t>& perm() const { return grid_.permutation(); }
   const exec::DeviceBuffer<Vec3<T>>& sorted_x() const { return x_; }
+  /// begin_step's flags (1: a knit point in the particle's 27 knit-grid cells then), while the
+  /// fluid still holds the n particles it flagged in that order (else null).
+  const std::uint32_t* near_flags(std::size_t n) const {
+    return near_flag_.size() == n ? near_flag_.data() : nullptr;
+  }
   /// Flags the fluid particles with a knit point in their knit-grid cells (public: nvcc's
   /// device lambdas may not live in private members).
   void find_fluid_near_knit(const exec::Exec& ex, const FluidSide<T>& fluid);
