@@ -254,14 +254,14 @@ struct SheetGuardEvaluator {
       return 0;
     const T reach2 = reach * reach;
     // The grid's points moved up to `moved` since its sort: the walk reaches that much farther.
-    CellView<T> near = cells;
+    CellView<T> walk = cells; // (`near` is the flags)
     const T spans = (reach + moved) / g.cell;
-    near.span = spans < T(1) ? 1 : (spans < T(8) ? int(spans) + 1 : 8);
+    walk.span = spans < T(1) ? 1 : (spans < T(8) ? int(spans) + 1 : 8);
     const Vec3<T> p0 = p1 - vj * dt; // where the drift started
     T best_t = T(2);
     std::uint32_t best = kSheetAbsent, ba = 0, bb = 0, bc = 0;
     SheetMeeting<T> bm;
-    near.for_each_candidate(p1, [&](std::uint32_t slot) {
+    walk.for_each_candidate(p1, [&](std::uint32_t slot) {
       const std::uint32_t k = perm[slot];
       if (!(norm2(kx[k] - p1) <= reach2))
         return;
