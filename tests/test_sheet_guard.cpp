@@ -212,20 +212,169 @@ TEST(SheetGuard, ATriangleAtRestMeetsWhereTheSegmentCrosses) {
   EXPECT_GT(crossings, 1000);
 }
 
-// A particle put back keeps or loses speed along the face's normal, never gains it: the value
-// between its own and the face's nearest zero.
-TEST(SheetGuard, PutBackNeverSpeedsAParticleUp) {
-  EXPECT_EQ(guarded_normal_speed(-3.0, 2.0), 0.0);   // into a face coming at it: stopped
-  EXPECT_EQ(guarded_normal_speed(-3.0, -1.0), -1.0); // a face moving away slower: its speed
-  EXPECT_EQ(guarded_normal_speed(-1.0, -3.0), -1.0); // faster: its own
-  EXPECT_EQ(guarded_normal_speed(2.0, 5.0), 2.0);    // a face sweeping into it: no more than it had
-  EXPECT_EQ(guarded_normal_speed(0.0, 5.0), 0.0);
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> u(-10.0, 10.0);
-  for (int k = 0; k < 10000; ++k) {
-    const double un = u(rng), fn = u(rng), g = guarded_normal_speed(un, fn);
-    EXPECT_LE(std::abs(g), std::abs(un));
-    EXPECT_LE(std::min(un, fn), g);
-    EXPECT_LE(g, std::max(un, fn));
+namespace {
+
+/// A small reaction problem: knit points, faces over them (one normal each), particles that met
+/// a face at given weights. Runs the reaction's two evaluators as the guard does (counts, then
+/// each particle, then each point) on the host.
+struct Reaction {
+  std::vector<Vec3d> kv, v;
+  std::vector<double> km, m;
+  std::vector<std::uint32_t> handle, vertex, face;
+  std::vector<Vec3d> w, n;
+  std::vector<std::uint64_t> sums;
+  double quantum = std::ldexp(20.0, -40); // a speed of sound of 20 m/s, as the guard takes it
+
+  void run() {
+    sums.assign(kSheetSumWidth * kv.size(), 0);
+    for (std::uint32_t f : face)
+      for (int e = 0; e < 3; ++e)
+        sums[kSheetSumWidth * vertex[3 * f + e]] += 1;
+    const SheetFacesView sheet{vertex.data(), nullptr, nullptr, nullptr};
+    const SheetHits<double> hits{face.data(), w.data(), n.data()};
+    const SheetReactionEvaluator<double> react{v.data(),    m.data(),     nullptr,       hits,
+                                               kv.data(),   km.data(),    handle.data(), sheet,
+                                               sums.data(), 1.0 / quantum};
+    for (std::size_t j = 0; j < v.size(); ++j)
+      react(j);
+    const SheetKickEvaluator<double> kick{kv.data(), handle.data(), sums.data(), quantum};
+    for (std::size_t i = 0; i < kv.size(); ++i)
+      kick(i);
   }
+  Vec3d momentum() const {
+    Vec3d p{0, 0, 0};
+    for (std::size_t i = 0; i < kv.size(); ++i)
+      p = p + kv[i] * km[i];
+    for (std::size_t j = 0; j < v.size(); ++j)
+      p = p + v[j] * m[j];
+    return p;
+  }
+  double energy() const {
+    double e = 0;
+    for (std::size_t i = 0; i < kv.size(); ++i)
+      e += 0.5 * km[i] * norm2(kv[i]);
+    for (std::size_t j = 0; j < v.size(); ++j)
+      e += 0.5 * m[j] * norm2(v[j]);
+    return e;
+  }
+};
+
+} // namespace
+
+// k equal particles meeting a free face at its centre, the face at rest: the mass splitting
+// makes the reaction one perfectly inelastic collision of them all with the three corners, so
+// every particle and every corner ends at k m u / (k m + 3 M) along the normal (momentum
+// balance), and nothing moves across it.
+TEST(SheetGuard, ReactionOfManyParticlesOnOneFaceIsOneInelasticCollision) {
+  for (int k : {1, 2, 5, 40}) {
+    Reaction r;
+    r.kv.assign(3, Vec3d{0, 0, 0});
+    r.km.assign(3, 2e-4); // kg, a knit point
+    r.handle.assign(3, kNoHandle);
+    r.vertex = {0, 1, 2};
+    const double mf = 1e-6, u = -10.0; // a fluid particle (1 mm water) at 10 m/s into the face
+    for (int j = 0; j < k; ++j) {
+      r.v.push_back(Vec3d{0.3, -0.2, u});
+      r.m.push_back(mf);
+      r.face.push_back(0);
+      r.w.push_back(Vec3d{1.0 / 3, 1.0 / 3, 1.0 / 3});
+      r.n.push_back(Vec3d{0, 0, 1}); // it came from above
+    }
+    const Vec3d p0 = r.momentum();
+    const double e0 = r.energy();
+    r.run();
+    const double common = k * mf * u / (k * mf + 3 * 2e-4);
+    for (int j = 0; j < k; ++j) {
+      EXPECT_NEAR(r.v[j].z, common, 1e-12 * std::abs(u)) << k << " particles";
+      EXPECT_EQ(r.v[j].x, 0.3); // along the face: untouched
+      EXPECT_EQ(r.v[j].y, -0.2);
+    }
+    for (int i = 0; i < 3; ++i) {
+      // The corners' sums resolve 2^-40 of 20 m/s (1.8e-11 m/s) per particle.
+      EXPECT_NEAR(r.kv[i].z, common, 2e-11 * k) << k << " particles, corner " << i;
+      EXPECT_EQ(r.kv[i].x, 0.0);
+    }
+    const Vec3d p1 = r.momentum();
+    EXPECT_NEAR(p1.z, p0.z, 2e-11 * k * 2e-4 * 3) << k;
+    EXPECT_LT(r.energy(), e0);
+  }
+}
+
+// Random problems (faces sharing corners at random normals, particles at random weights and
+// speeds, some moving away from their face, a few corners pinned at rest): the kinetic energy
+// never rises, and momentum is kept when no corner is pinned; a particle moving away from its
+// face, or any particle on a face of pinned corners at rest, ends with no normal speed toward it.
+TEST(SheetGuard, ReactionKeepsMomentumAndNeverAddsEnergy) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0), pos(0.0, 1.0);
+  int approaching = 0, stopped = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const bool pinned = trial % 2 == 1;
+    Reaction r;
+    const int points = 6, faces = 4;
+    for (int i = 0; i < points; ++i) {
+      r.kv.push_back(Vec3d{u(rng), u(rng), u(rng)} * 2.0);
+      r.km.push_back(1e-4 * (0.2 + pos(rng)));
+      // Pinned: points 0 and 3 (no face wholly pinned), or 0, 2, 4 (faces 0 and 2 wholly).
+      const bool pin = trial % 4 == 3 ? i % 2 == 0 : i % 3 == 0;
+      r.handle.push_back(pinned && pin ? 0u : kNoHandle);
+      if (r.handle.back() != kNoHandle)
+        r.kv.back() = Vec3d{0, 0, 0};
+    }
+    std::vector<Vec3d> normal;
+    for (int f = 0; f < faces; ++f) {
+      for (int e = 0; e < 3; ++e) // three distinct corners
+        r.vertex.push_back(static_cast<std::uint32_t>((f + 2 * e) % points));
+      Vec3d nn{u(rng), u(rng), u(rng)};
+      normal.push_back(nn * (1.0 / std::sqrt(norm2(nn))));
+    }
+    const int particles = 1 + int(pos(rng) * 30);
+    for (int j = 0; j < particles; ++j) {
+      const auto f = static_cast<std::uint32_t>(pos(rng) * faces) % faces;
+      double a = pos(rng), b = pos(rng);
+      if (a + b > 1) {
+        a = 1 - a;
+        b = 1 - b;
+      }
+      r.face.push_back(f);
+      r.w.push_back(Vec3d{1 - a - b, a, b});
+      r.n.push_back(normal[f]);
+      r.v.push_back(Vec3d{u(rng), u(rng), u(rng)} * 10.0);
+      r.m.push_back(1e-6 * (0.5 + pos(rng)));
+    }
+    const auto before = r.v;
+    const Vec3d p0 = r.momentum();
+    const double e0 = r.energy();
+    r.run();
+    // Energy: no rise past the sums' rounding (2^-40 of 20 m/s a particle on a corner).
+    EXPECT_LE(r.energy(), e0 * (1 + 1e-9)) << "trial " << trial;
+    if (!pinned) {
+      const Vec3d p1 = r.momentum();
+      EXPECT_NEAR(p1.x, p0.x, 1e-13 + 1e-12 * particles) << "trial " << trial;
+      EXPECT_NEAR(p1.y, p0.y, 1e-13 + 1e-12 * particles) << "trial " << trial;
+      EXPECT_NEAR(p1.z, p0.z, 1e-13 + 1e-12 * particles) << "trial " << trial;
+    }
+    for (int j = 0; j < particles; ++j) {
+      const Vec3d d = r.v[j] - before[j];
+      // Only along the face's normal, and only ever away from the face.
+      EXPECT_NEAR(norm2(d - r.n[j] * dot(d, r.n[j])), 0.0, 1e-20);
+      EXPECT_GE(dot(d, r.n[j]), 0.0);
+      const std::uint32_t f = r.face[j];
+      bool all_pinned = true;
+      double uf = 0;
+      for (int e = 0; e < 3; ++e) {
+        const std::uint32_t c = r.vertex[3 * f + e];
+        all_pinned = all_pinned && r.handle[c] != kNoHandle;
+        uf += (&r.w[j].x)[e] * dot(r.kv[c], r.n[j]);
+      }
+      if (dot(before[j], r.n[j]) < 0)
+        ++approaching;
+      if (all_pinned && dot(before[j], r.n[j]) < 0) {
+        ++stopped;
+        EXPECT_NEAR(dot(r.v[j], r.n[j]), 0.0, 1e-12); // stopped by a face at rest
+      }
+    }
+  }
+  EXPECT_GT(approaching, 5000); // the random cases do exercise the reaction
+  EXPECT_GT(stopped, 500);
 }

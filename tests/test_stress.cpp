@@ -337,9 +337,10 @@ TEST(Stress, HeavySoakedPieceFoldsOverASharpEdge) {
 // A block fired at 10 m/s onto a patch pinned across the box (1,500 N/m, 50 kPa through the
 // thickness). Without the tunnelling guard the fluid passes between the knit's points (the
 // contact acts between points: its reach, 3.27 mm, is under their 5.8 mm diagonal); with it none.
-// The density: 8.52% at the impact on the CPU, 10.6% on an H200, the water hammer's
-// rho c v = 1 MPa giving 7.9% by the Tait equation (c = 100 m/s); the peak's excess over it
-// depends on rounding (where the block's corners first close on the sheet).
+// The density: 7.76% at the impact on the CPU, 7.89% on an H200 (8.52% / 10.6% before the
+// guard's reaction on the knit), the water hammer's rho c v = 1 MPa giving 7.9% by the Tait
+// equation (c = 100 m/s); the peak's excess over it depends on rounding (where the block's
+// corners first close on the sheet).
 TEST(Stress, FastJetOntoAPinnedPatch) {
   StressCase c{"jet", {}, 0.12};
   c.sheet_splits_box = true;

@@ -97,6 +97,36 @@ void HaloExchange::remap(Column new_of_old, std::size_t first_ghost) {
   recv_slot_.set(std::move(slots));
 }
 
+void HaloExchange::add_to_owners(std::span<std::uint64_t> values, std::size_t width,
+                                 std::size_t first_ghost) const {
+  const std::size_t rows_held = width ? values.size() / width : 0;
+  if (width == 0 || values.size() % width != 0 || rows_held < first_ghost + recv_total_)
+    throw Error("halo exchange: sums of " + std::to_string(values.size()) + " values, " +
+                std::to_string(width) + " a row, for " + std::to_string(first_ghost) +
+                " owned rows and " + std::to_string(recv_total_) + " ghosts");
+  std::vector<std::vector<std::uint64_t>> out(peers_.size()), in(peers_.size());
+  std::vector<SendBuffer> sends(peers_.size());
+  std::vector<RecvBuffer> recvs(peers_.size());
+  for (std::size_t k = 0; k < peers_.size(); ++k) {
+    out[k].resize(recv_count_[k] * width);
+    for (std::size_t i = 0; i < recv_count_[k]; ++i) {
+      const std::size_t g = recv_offset_[k] + i;
+      const std::size_t row = recv_slot_.size() ? recv_slot_.rows[g] : first_ghost + g;
+      std::copy_n(values.begin() + row * width, width, out[k].begin() + i * width);
+    }
+    in[k].resize(send_[k].size() * width);
+    sends[k] = {peers_[k], out[k].data(), out[k].size() * sizeof(std::uint64_t)};
+    recvs[k] = {peers_[k], in[k].data(), in[k].size() * sizeof(std::uint64_t)};
+  }
+  transport_.exchange_host(sends, recvs);
+  for (std::size_t k = 0; k < peers_.size(); ++k)
+    for (std::size_t i = 0; i < send_[k].size(); ++i) {
+      const std::size_t row = send_[k].rows[i];
+      for (std::size_t c = 0; c < width; ++c)
+        values[row * width + c] += in[k][i * width + c];
+    }
+}
+
 Departures Departures::of(std::span<const int> destination, int me) {
   Departures d;
   d.n = destination.size();

@@ -45,6 +45,13 @@ public:
     start(columns, first_ghost);
     finish();
   }
+  /// The reverse of an exchange, summing: each ghost's `width` values (host memory, rows of
+  /// `values` from first_ghost on, as exchange() wrote them) go back to the peer that sent the
+  /// ghost, which adds them to the row it sent (a row sent to several peers gets each one's).
+  /// Wrapping integer sums: exact, in any order. Over MPI, host buffers (Transport::
+  /// exchange_host); the ghosts' rows are left as they were. Collective over the peers.
+  void add_to_owners(std::span<std::uint64_t> values, std::size_t width,
+                     std::size_t first_ghost) const;
   /// Bytes sent by the last exchange (all peers).
   std::size_t last_bytes() const { return last_bytes_; }
 

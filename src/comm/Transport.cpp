@@ -20,6 +20,9 @@ namespace {
 // Sizes go on their own tag so that exchange_sizes never matches data of an exchange in flight
 // (MpiTransport's data tags start at 1).
 constexpr int kSizesTag = 0;
+// exchange_host's messages: a tag every MPI has (MPI_TAG_UB >= 32767) and above the data tags one
+// exchange uses (one a buffer to a peer).
+constexpr int kHostTag = 32767;
 
 } // namespace
 
@@ -168,6 +171,37 @@ Transport::exchange_sizes(std::span<const int> peers,
   if (rc != MPI_SUCCESS)
     throw Error(who + ": waiting for the sizes: " + mpi_error_string(rc));
   return recv;
+}
+
+void Transport::exchange_host(std::span<const SendBuffer> sends,
+                              std::span<const RecvBuffer> receives) const {
+  const std::string who = "exchange_host on rank " + std::to_string(rank_);
+  if (in_flight_)
+    throw Error(who + ": an exchange is in flight");
+  std::vector<MPI_Request> requests(receives.size() + sends.size(), MPI_REQUEST_NULL);
+  std::size_t posted = 0;
+  auto fail = [&](const std::string& what, int rc) {
+    MPI_Waitall(int(posted), requests.data(), MPI_STATUSES_IGNORE);
+    throw Error(who + ": " + what + ": " + mpi_error_string(rc));
+  };
+  for (const RecvBuffer& r : receives) {
+    const int rc =
+        MPI_Irecv(r.data, int(r.bytes), MPI_BYTE, r.peer, kHostTag, comm_, &requests[posted]);
+    if (rc != MPI_SUCCESS)
+      fail("receiving " + std::to_string(r.bytes) + " bytes from rank " + std::to_string(r.peer),
+           rc);
+    ++posted;
+  }
+  for (const SendBuffer& sb : sends) {
+    const int rc =
+        MPI_Isend(sb.data, int(sb.bytes), MPI_BYTE, sb.peer, kHostTag, comm_, &requests[posted]);
+    if (rc != MPI_SUCCESS)
+      fail("sending " + std::to_string(sb.bytes) + " bytes to rank " + std::to_string(sb.peer), rc);
+    ++posted;
+  }
+  const int rc = MPI_Waitall(int(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
+  if (rc != MPI_SUCCESS)
+    throw Error(who + ": waiting: " + mpi_error_string(rc));
 }
 
 // ---- factory ------------------------------------------------------------------------------------

@@ -74,6 +74,12 @@ public:
   std::vector<std::uint64_t> exchange_sizes(std::span<const int> peers,
                                             std::span<const std::uint64_t> send_bytes) const;
 
+  /// Moves host buffers between neighbours and waits (sends[i] and receives[i] name peers; the
+  /// sizes agreed beforehand): always over MPI, on a tag of its own, whatever the transport, for
+  /// small host-side exchanges (the knit ghosts' sums back to their owners). Not while an
+  /// exchange is in flight; collective over the peers named.
+  void exchange_host(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives) const;
+
   int rank() const { return rank_; }
   int size() const { return size_; }
 

@@ -255,6 +255,21 @@ void KnitHalo<T>::refresh(std::span<const comm::Column> columns) {
 }
 
 template <typename T>
+void KnitHalo<T>::add_to_owners(exec::DeviceBuffer<std::uint64_t>& sums, std::size_t width,
+                                bool back) {
+  if (!halo_)
+    return;
+  const auto timed = ranks_.time_exchange();
+  std::vector<std::uint64_t> host = sums.to_host();
+  halo_->add_to_owners(host, width, owned_);
+  sums.assign(host);
+  if (back) {
+    const comm::Column c[] = {{sums.data(), width * sizeof(std::uint64_t)}};
+    halo_->exchange(c, owned_);
+  }
+}
+
+template <typename T>
 typename SkinWatch<T>::State
 KnitHalo<T>::carried(const Reference& ref,
                      const std::optional<typename SkinWatch<T>::State>& kept) const {

@@ -72,6 +72,10 @@ public:
   }
   /// Ghost values of per-point columns (the set's order) from their owners.
   void refresh(std::span<const comm::Column> columns);
+  /// Per-point sums (`width` unsigned 64-bit values a point, the set's order; collective): the
+  /// ghosts' rows added into their owners' (wrapping integer sums, exact in any order); `back`:
+  /// then the owners' totals copied to their ghosts. Staged through the host.
+  void add_to_owners(exec::DeviceBuffer<std::uint64_t>& sums, std::size_t width, bool back);
   /// Ghosts present for the blocks' current owners (chosen when there are none or after a
   /// re-partition; collective), without the motion check of begin().
   void ready() {

@@ -219,11 +219,11 @@ struct Scene {
     double damping_ratio = 0.5;
     double friction = 0.3;
     // The tunnelling guard (P8): fluid whose step crosses a face of the knit's sheet goes back
-    // to its side. auto: on with contact alone and with the conserving absorption (fluid
-    // reaches the other side only as absorbed fluid and drops); off with the paper's capillary
-    // model, whose suction draws the fluid into the fabric's thickness (the guard's faces would
-    // hold it out, and its corrections, having no reaction on the knit, would break the
-    // coupling's momentum balance: 25% of |p| in test_coupling's isolated case).
+    // to its side and meets the face inelastically (the knit takes the reaction). auto: on with
+    // contact alone and with the conserving absorption (fluid reaches the other side only as
+    // absorbed fluid and drops); off with the paper's capillary model, whose suction draws the
+    // fluid into the fabric's thickness (the guard's faces would hold it out; it also costs the
+    // pour 44% on the GPU).
     enum class SheetGuard { Auto, On, Off } sheet_guard = SheetGuard::Auto;
   } coupling;
 

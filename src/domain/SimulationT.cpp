@@ -232,7 +232,8 @@ void SimulationT<T>::init_sheet_guard() {
   sheet_guard_width_ =
       1.5 * longest * (1 + 1 / std::sqrt(3.0)) + 2 * scene_.solver.cfl * h_ + skin_;
   sheet_guard_.emplace(ex_.backend, sheet.faces, sheet.offsets, sheet.ids,
-                       static_cast<T>(0.1 * scene_.fluid.spacing));
+                       static_cast<T>(0.1 * scene_.fluid.spacing),
+                       static_cast<T>(scene_.fluid.speed_of_sound));
   sheet_count_.assign(std::vector<std::uint64_t>{0});
   sheet_x0_ = exec::DeviceBuffer<Vec3<T>>(ex_.backend, 0, "sheet_guard.knit_x0");
 }

@@ -159,11 +159,23 @@ private:
   }
   void init_sheet_guard();
   /// After the fluid's drift: fluid whose step crossed the knit's sheet goes back to its side
-  /// (the knit's ghosts' positions are current on N ranks: refreshed after every substep).
+  /// and meets the face inelastically, the knit taking the reaction (on N ranks the knit's
+  /// ghosts' positions are current, refreshed after every substep's drift; the reaction's sums
+  /// go from ghosts to owners and back).
   void guard_sheet() {
+    typename SheetGuard<T>::GhostSums sums;
+    if (knit_halo_) {
+      // The knit step's closing half kick left its ghosts' velocities half a kick behind (they
+      // were refreshed after the drift); the reaction reads the corners' velocities.
+      const comm::Column v[] = {column(knit_->set().v)};
+      knit_halo_->refresh(v);
+      sums = [this](exec::DeviceBuffer<std::uint64_t>& s, bool back) {
+        knit_halo_->add_to_owners(s, kSheetSumWidth, back);
+      };
+    }
     sheet_guard_->apply(ex_, fluid_->view(), static_cast<T>(dt_), knit_->set(), sheet_x0_,
                         *coupling_, knit_halo_ ? knit_halo_->local_of_id().data() : nullptr,
-                        kept_ghosts_flags(), sheet_count_.data());
+                        kept_ghosts_flags(), sheet_count_.data(), sums);
   }
   std::uint64_t next_fluid_id_ = 0;
   PoreMass<T> pores() const { return absorption_ ? absorption_->pores() : PoreMass<T>{}; }

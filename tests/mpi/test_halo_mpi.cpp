@@ -3,6 +3,8 @@
 // - every particle is owned by exactly one rank;
 // - the ghosts a rank receives are exactly the particles of other ranks within the ghost width of
 //   its region, by a brute-force distance to each of its blocks, with their values;
+// - the reverse of a refresh (add_to_owners) adds each ghost's values into its owner's row,
+//   against a brute-force count over every rank's ghosts;
 // - after the particles move, migration keeps the count, the ids, the masses and every other
 //   column, and leaves each particle on the rank that owns its block;
 // - a skewed start (all particles in one corner of a partition made for a uniform load) is
@@ -15,6 +17,7 @@
 #include "comm/HaloExchange.hpp"
 #include "comm/MpiContext.hpp"
 #include "comm/Transport.hpp"
+#include "core/Error.hpp"
 #include "domain/Decomposition.hpp"
 #include "domain/DeviceRows.hpp"
 #include "domain/ExchangeColumns.hpp"
@@ -152,6 +155,58 @@ TEST_F(Halo, GhostsAreExactlyTheParticlesWithinTheWidthOfTheRegion) {
       std::printf("width %.3f: rank 0 owns %zu, receives %zu ghosts from %zu peer(s)\n", width, n,
                   ng, gl.peers.size());
   }
+}
+
+// The reverse of a refresh, summing (the tunnelling guard's reaction on the knit's corners):
+// every row, owned or ghost, holds (1, 31 id + rank + 1); after add_to_owners each owned row
+// holds its own plus, for every rank holding it as a ghost, that rank's, by a brute-force count
+// over the ranks' ghost lists; and the ghosts' rows are left as they were.
+TEST_F(Halo, SumsFromGhostsReachTheirOwners) {
+  const Vec3d lo{0, 0, 0}, hi{0.6, 0.3, 0.4};
+  const BlockGrid g(lo, hi, 0.05);
+  const Particles all = global_set(6000, lo, hi, 13);
+  const Decomposition d =
+      Decomposition::partition(g, counts_of(g, all.x), PhaseCosts{}, mpi.size(), 0.02);
+  const Particles mine = owned_part(all, d, mpi.rank());
+  const GhostLists gl = select_ghosts(d, mpi.rank(), mine.x, 0.05);
+  comm::HaloExchange ex(*t, gl.peers, gl.send);
+  const std::size_t n = mine.x.size(), ng = ex.received();
+  std::vector<std::uint64_t> id(n + ng, ~0ull);
+  std::copy(mine.id.begin(), mine.id.end(), id.begin());
+  const comm::Column cols[] = {{id.data(), sizeof(std::uint64_t)}};
+  ex.exchange(cols, n);
+  const auto me = static_cast<std::uint64_t>(mpi.rank());
+  std::vector<std::uint64_t> sums(2 * (n + ng));
+  for (std::size_t k = 0; k < n + ng; ++k) {
+    sums[2 * k] = 1;
+    sums[2 * k + 1] = 31 * id[k] + me + 1;
+  }
+  const std::vector<std::uint64_t> before = sums;
+  ex.add_to_owners(sums, 2, n);
+  // Every rank's ghosts, as id * 8 + rank.
+  std::vector<std::uint64_t> held;
+  for (std::size_t k = n; k < n + ng; ++k)
+    held.push_back(id[k] * 8 + me);
+  const std::vector<std::uint64_t> ghosts = test::allgather(held);
+  std::size_t shared = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    std::uint64_t count = 1, value = 31 * id[k] + me + 1;
+    for (std::uint64_t g8 : ghosts)
+      if (g8 / 8 == id[k]) {
+        ++count;
+        value += 31 * id[k] + g8 % 8 + 1;
+      }
+    shared += count > 1;
+    EXPECT_EQ(sums[2 * k], count) << "particle " << id[k] << " on rank " << me;
+    EXPECT_EQ(sums[2 * k + 1], value) << "particle " << id[k] << " on rank " << me;
+  }
+  for (std::size_t k = n; k < n + ng; ++k)
+    EXPECT_EQ(sums[2 * k + 1], before[2 * k + 1]) << "ghost " << id[k];
+  EXPECT_GT(shared, 0u) << "no owned particle is another rank's ghost: the case tests nothing";
+  // Sums too short for the rows are refused, naming them.
+  std::vector<std::uint64_t> short_sums(2 * n);
+  if (ng > 0)
+    EXPECT_THROW(ex.add_to_owners(short_sums, 2, n), Error);
 }
 
 TEST_F(Halo, MigrationKeepsEveryParticleAndItsColumnsOnItsNewOwner) {

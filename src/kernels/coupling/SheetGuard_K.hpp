@@ -7,6 +7,7 @@
 #include "core/Vec3.hpp"
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/GridGeometry.hpp"
+#include "kernels/integrate/Verlet.hpp"
 
 #include <cstdint>
 #include <limits>
@@ -182,18 +183,6 @@ KF_HD KF_INLINE bool boxes_overlap(const Vec3<T>& p0, const Vec3<T>& p1, const V
          axis(p0.z, p1.z, a0.z, a1.z, b0.z, b1.z, c0.z, c1.z);
 }
 
-/// A particle put back on its side of a face: its velocity along the face's normal (un, the
-/// face's fn) goes toward the face's, but never grows: the value between un and fn nearest zero.
-/// The guard acts on the fluid alone (the knit feels the fluid through the contact), so it
-/// must not give the fluid energy: a face sweeping into a resting particle moves it (the
-/// position goes back to its side every step) without lending it the face's speed.
-template <typename T>
-KF_HD KF_INLINE T guarded_normal_speed(T un, T fn) {
-  if ((un <= T(0) && fn >= T(0)) || (un >= T(0) && fn <= T(0)))
-    return T(0);
-  return un > T(0) ? (un < fn ? un : fn) : (un > fn ? un : fn);
-}
-
 /// The sheet's faces as the guard reads them: per face its three knit points by mesh index, per
 /// mesh index its faces (CSR), and each mesh index's local point (null: the identity, one rank;
 /// kSheetAbsent: not on this rank, and a face with such a point is not tested here).
@@ -208,12 +197,41 @@ struct SheetFacesView {
   }
 };
 
-/// One fluid particle after its drift: its step, in the frame of each face near it (the face
-/// moving with its points' mean velocity over the step), against the faces of the knit points near
-/// it; at the earliest crossing (ties: the lowest face) it goes back to its side, `gap` off the
-/// face, its normal velocity as guarded_normal_speed says. Returns 1 when it was put back. Every
-/// face is tested by each of its points found: the earliest crossing does not depend on the order
-/// the grid gives them (N ranks find what one rank finds).
+/// The guard's reaction sums (per knit point, kSheetSumWidth unsigned 64-bit values): how many
+/// particles met one of its faces, then its velocity change in fixed point (x, y, z). Integer sums
+/// are exact in any order: the threads' order, and how many ranks add to a point, change nothing.
+inline constexpr unsigned kSheetSumWidth = 4;
+/// Fixed point: value / quantum rounded, two's complement in 64 bits (NaN reads as 0: the fluid
+/// particle it came from is then NaN itself, which the watchdog reports).
+template <typename T>
+KF_HD KF_INLINE std::uint64_t sheet_fixed(T value, T inv_quantum) {
+  double q = double(value) * double(inv_quantum);
+  const double most = 4.0e18; // under 2^63
+  q = q == q ? (q > most ? most : (q < -most ? -most : q)) : 0.0;
+  return static_cast<std::uint64_t>(static_cast<std::int64_t>(llrint(q)));
+}
+template <typename T>
+KF_HD KF_INLINE T sheet_unfixed(std::uint64_t value, T quantum) {
+  return T(double(static_cast<std::int64_t>(value)) * double(quantum));
+}
+
+/// Where a particle met the sheet (the detection's output, per fluid particle): the face
+/// (kSheetAbsent: none, or a face collapsed to a line), its corners' weights there (a, b, c: non-
+/// negative, summing to 1) and the face's unit normal toward the side the particle came from.
+template <typename T>
+struct SheetHits {
+  std::uint32_t* face;
+  Vec3<T>* w;
+  Vec3<T>* n;
+};
+
+/// One fluid particle after its drift: its step against the faces of the knit points near it,
+/// each face's corners moving linearly over the step (point_meets_moving_triangle); at the
+/// earliest meeting (ties: the lowest face) it goes back to its side, `gap` off the face, and
+/// the meeting is recorded (hits) with a count on each corner (sums[kSheetSumWidth k], particles
+/// `counted` flags, or all) for the reaction that follows. Returns 1 when it was put back (and
+/// counted). Every face is tested by each of its points found: the earliest meeting does not
+/// depend on the order the grid gives them (N ranks find what one rank finds).
 template <typename T>
 struct SheetGuardEvaluator {
   Vec3<T>* x; // fluid, after the drift
@@ -229,9 +247,12 @@ struct SheetGuardEvaluator {
   // The coupling's flags from the step's start (null: none): a particle with no knit point in
   // its 27 cells then had none within a cell of where its step began.
   const std::uint32_t* near;
+  SheetHits<T> hits;
+  std::uint64_t* sums; // kSheetSumWidth per local knit point, zero before the pass
   T dt, moved, gap;
 
   KF_HD std::uint64_t operator()(std::size_t j) const {
+    hits.face[j] = kSheetAbsent;
     const Vec3<T> p1 = x[j];
     const Vec3<T> vj = v[j];
     // Where it met a face at time t it was within |v| dt of p1, and the face's corners within
@@ -292,22 +313,112 @@ struct SheetGuardEvaluator {
     });
     if (best == kSheetAbsent)
       return 0;
+    const std::uint64_t counts = counted && !counted[j] ? 0 : 1;
     // Back to the side it came from, a gap off the face where it met it (at the step's end).
-    const T wa = T(1) - bm.wb - bm.wc;
     const Vec3<T> e1 = kx[bb] - kx[ba], e2 = kx[bc] - kx[ba];
     Vec3<T> n = cross(e1, e2);
     const T nn = norm2(n);
-    if (!(nn > T(0))) { // the face collapsed: back where the drift started
+    if (!(nn > T(0))) { // the face collapsed: back where the drift started, no reaction
       x[j] = p0;
-      return counted && !counted[j] ? 0 : 1;
+      return counts;
     }
     n = n * (bm.side / ksqrt(nn));
     x[j] = kx[ba] + e1 * bm.wb + e2 * bm.wc + n * gap;
-    const Vec3<T> vf =
-        ((kx[ba] - kx0[ba]) * wa + (kx[bb] - kx0[bb]) * bm.wb + (kx[bc] - kx0[bc]) * bm.wc) *
-        (T(1) / dt);
-    v[j] = vj + n * (guarded_normal_speed(dot(vj, n), dot(vf, n)) - dot(vj, n));
-    return counted && !counted[j] ? 0 : 1;
+    // The weights within the face's closed bounds (the meeting's slack lets them stray by 1e-5).
+    T wb = kmax(bm.wb, T(0)), wc = kmax(bm.wc, T(0));
+    if (wb + wc > T(1)) {
+      const T s = T(1) / (wb + wc);
+      wb *= s;
+      wc *= s;
+    }
+    hits.face[j] = best;
+    hits.w[j] = Vec3<T>{T(1) - wb - wc, wb, wc};
+    hits.n[j] = n;
+    if (counts) {
+      exec::atomic_add(sums + kSheetSumWidth * ba, 1);
+      exec::atomic_add(sums + kSheetSumWidth * bb, 1);
+      exec::atomic_add(sums + kSheetSumWidth * bc, 1);
+    }
+    return counts;
+  }
+};
+
+/// The reaction (after the detection, the counts complete on every rank): a particle that met a
+/// face and approaches it (normal speeds u of the particle, uf of the face's point, the corners'
+/// velocities now) meets it inelastically: its normal speed becomes the common one of itself
+/// (mass m) and the face's point, whose mass is the corners' by their weights, each corner's
+/// mass split among the k particles meeting its faces (Jacobi with mass splitting): 1/M = sum
+/// w_i^2 k_i / m_i over free corners (a pinned one is immovable). The particle's impulse J goes
+/// to the corners as -w_i J, as a velocity change -w_i J / m_i summed in fixed point (counted
+/// particles only: a ghost's owner adds its share). The split makes k equal particles on one
+/// corner end at the speed of one inelastic collision of them all with it; each contact loses
+/// energy in its split system and the corner takes the mean of its copies, so the kinetic
+/// energy never rises (with immovable corners the particle takes the face's normal speed).
+template <typename T>
+struct SheetReactionEvaluator {
+  Vec3<T>* v;
+  const T* m;
+  const std::uint32_t* counted;
+  SheetHits<T> hits;
+  const Vec3<T>* kv; // knit, local order
+  const T* km;
+  const std::uint32_t* handle; // kNoHandle: free
+  SheetFacesView sheet;
+  std::uint64_t* sums;
+  T inv_quantum;
+
+  KF_HD void operator()(std::size_t j) const {
+    const std::uint32_t f = hits.face[j];
+    if (f == kSheetAbsent)
+      return;
+    const std::uint32_t c[3] = {sheet.local(sheet.vertex[3 * f]),
+                                sheet.local(sheet.vertex[3 * f + 1]),
+                                sheet.local(sheet.vertex[3 * f + 2])};
+    const Vec3<T> wv = hits.w[j], n = hits.n[j];
+    const T w[3] = {wv.x, wv.y, wv.z};
+    const Vec3<T> vj = v[j];
+    T uf = T(0), inv_mass = T(0);
+    for (int e = 0; e < 3; ++e) {
+      uf += w[e] * dot(kv[c[e]], n);
+      if (handle[c[e]] == kNoHandle) {
+        const std::uint64_t k = sums[kSheetSumWidth * c[e]];
+        inv_mass += w[e] * w[e] * T(k > 0 ? k : 1) / km[c[e]];
+      }
+    }
+    const T closing = dot(vj, n) - uf; // < 0: approaching the face (n points to its side)
+    if (!(closing < T(0)))
+      return;
+    const T mj = m[j];
+    const T du = -closing / (T(1) + mj * inv_mass);
+    v[j] = vj + n * du;
+    if (counted && !counted[j])
+      return;
+    for (int e = 0; e < 3; ++e) {
+      if (handle[c[e]] != kNoHandle || w[e] == T(0))
+        continue;
+      const Vec3<T> dv = n * (-w[e] * mj * du / km[c[e]]);
+      std::uint64_t* s = sums + kSheetSumWidth * c[e];
+      exec::atomic_add(s + 1, sheet_fixed(dv.x, inv_quantum));
+      exec::atomic_add(s + 2, sheet_fixed(dv.y, inv_quantum));
+      exec::atomic_add(s + 3, sheet_fixed(dv.z, inv_quantum));
+    }
+  }
+};
+
+/// The knit's side of the reaction (each owned point, after the sums reached it from every
+/// rank): its summed velocity change.
+template <typename T>
+struct SheetKickEvaluator {
+  Vec3<T>* kv;
+  const std::uint32_t* handle;
+  const std::uint64_t* sums;
+  T quantum;
+  KF_HD void operator()(std::size_t i) const {
+    const std::uint64_t* s = sums + kSheetSumWidth * i;
+    if (s[0] == 0 || handle[i] != kNoHandle)
+      return;
+    kv[i] = kv[i] + Vec3<T>{sheet_unfixed(s[1], quantum), sheet_unfixed(s[2], quantum),
+                            sheet_unfixed(s[3], quantum)};
   }
 };
 

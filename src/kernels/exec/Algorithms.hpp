@@ -494,6 +494,16 @@ void transform_reduce_into(const Exec& ex, std::size_t n, Op op, const F& f, R* 
   *acc = host_transform_reduce(n, *acc, op, f); // init applied once: same as op(*acc, total)
 }
 
+/// *p += v atomically, on either backend (a CUDA atomic, or a relaxed host atomic inside an OpenMP
+/// loop). Integer sums are exact, so their result does not depend on the order of the adds.
+KF_HD KF_INLINE void atomic_add(std::uint64_t* p, std::uint64_t v) {
+#if defined(__CUDA_ARCH__)
+  atomicAdd(reinterpret_cast<unsigned long long*>(p), static_cast<unsigned long long>(v));
+#else
+  __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
+#endif
+}
+
 #if defined(__CUDACC__)
 __device__ KF_INLINE void atomic_max_nonnegative(float* p, float v) {
   atomicMax(reinterpret_cast<unsigned*>(p), __float_as_uint(v));
