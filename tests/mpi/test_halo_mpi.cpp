@@ -100,15 +100,27 @@ protected:
   comm::MpiContext mpi;
   std::unique_ptr<comm::Transport> t =
       comm::make_transport(mpi, comm::TransportKind::Mpi, comm::MemorySpace::Host);
+
+  /// 6,000 particles spread over a 0.6 x 0.3 x 0.4 box of 0.05 blocks, split over the ranks by
+  /// their counts: the decomposition and this rank's part.
+  struct Uniform {
+    Particles all;
+    Decomposition d;
+    Particles mine;
+  };
+  Uniform uniform(std::uint32_t seed) const {
+    const Vec3d lo{0, 0, 0}, hi{0.6, 0.3, 0.4};
+    const BlockGrid g(lo, hi, 0.05);
+    Particles all = global_set(6000, lo, hi, seed);
+    Decomposition d =
+        Decomposition::partition(g, counts_of(g, all.x), PhaseCosts{}, mpi.size(), 0.02);
+    Particles mine = owned_part(all, d, mpi.rank());
+    return {std::move(all), std::move(d), std::move(mine)};
+  }
 };
 
 TEST_F(Halo, GhostsAreExactlyTheParticlesWithinTheWidthOfTheRegion) {
-  const Vec3d lo{0, 0, 0}, hi{0.6, 0.3, 0.4};
-  const BlockGrid g(lo, hi, 0.05);
-  const Particles all = global_set(6000, lo, hi, 11);
-  const Decomposition d =
-      Decomposition::partition(g, counts_of(g, all.x), PhaseCosts{}, mpi.size(), 0.02);
-  const Particles mine = owned_part(all, d, mpi.rank());
+  const auto [all, d, mine] = uniform(11);
   // Owned once: the ids over all ranks are the global ids, each once.
   EXPECT_EQ(all_ids(mine.id), std::vector<std::uint64_t>(all.id));
   for (double width : {0.013, 0.05, 0.08}) {
@@ -162,12 +174,7 @@ TEST_F(Halo, GhostsAreExactlyTheParticlesWithinTheWidthOfTheRegion) {
 // holds its own plus, for every rank holding it as a ghost, that rank's, by a brute-force count
 // over the ranks' ghost lists; and the ghosts' rows are left as they were.
 TEST_F(Halo, SumsFromGhostsReachTheirOwners) {
-  const Vec3d lo{0, 0, 0}, hi{0.6, 0.3, 0.4};
-  const BlockGrid g(lo, hi, 0.05);
-  const Particles all = global_set(6000, lo, hi, 13);
-  const Decomposition d =
-      Decomposition::partition(g, counts_of(g, all.x), PhaseCosts{}, mpi.size(), 0.02);
-  const Particles mine = owned_part(all, d, mpi.rank());
+  const auto [all, d, mine] = uniform(13);
   const GhostLists gl = select_ghosts(d, mpi.rank(), mine.x, 0.05);
   comm::HaloExchange ex(*t, gl.peers, gl.send);
   const std::size_t n = mine.x.size(), ng = ex.received();
@@ -205,8 +212,9 @@ TEST_F(Halo, SumsFromGhostsReachTheirOwners) {
   EXPECT_GT(shared, 0u) << "no owned particle is another rank's ghost: the case tests nothing";
   // Sums too short for the rows are refused, naming them.
   std::vector<std::uint64_t> short_sums(2 * n);
-  if (ng > 0)
+  if (ng > 0) {
     EXPECT_THROW(ex.add_to_owners(short_sums, 2, n), Error);
+  }
 }
 
 TEST_F(Halo, MigrationKeepsEveryParticleAndItsColumnsOnItsNewOwner) {
