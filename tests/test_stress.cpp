@@ -62,7 +62,8 @@ struct StressCase {
   double jitter = 0;           // start positions moved by up to jitter * spacing (seeded)
   int seeds = 1;
   bool folds = false; // the knit folds in the x-z plane: its profiles there must not cross
-  bool sheet_splits_box = false; // no fluid particle may change sides of the knit's sheet
+  bool sheet_splits_box = false;        // no fluid particle may change sides of the knit's sheet
+  std::vector<std::string> always = {}; // overrides at every size (the case's own settings)
 };
 
 exec::Backend device() {
@@ -164,6 +165,7 @@ Measured run_case(const StressCase& c, std::uint32_t seed) {
   std::vector<std::string> over{"output.enabled=false"};
   if (!full_size())
     over.insert(over.end(), c.ci.begin(), c.ci.end());
+  over.insert(over.end(), c.always.begin(), c.always.end());
   if (const char* e = std::getenv("KF_STRESS_SET")) { // more overrides, ';' between them
     std::string rest = e;
     for (std::size_t at; !rest.empty(); rest = at == std::string::npos ? "" : rest.substr(at + 1)) {
@@ -349,7 +351,8 @@ TEST(Stress, FastJetOntoAPinnedPatch) {
 
 // The check above can fail: the same jet without the guard, to 0.02 s, has fluid on the far side.
 TEST(Stress, TheJetTunnelsWithoutTheGuard) {
-  StressCase c{"jet", {"coupling.sheet_guard=\"off\"", "simulation.end_time=0.02"}, 1.0};
+  StressCase c{"jet", {}, 1.0};
+  c.always = {"coupling.sheet_guard=\"off\"", "simulation.end_time=0.02"};
   c.sheet_splits_box = true;
   const Measured m = run_case(c, 1);
   EXPECT_GT(m.changed_sides, 100u) << "the jet no longer tests the guard";
