@@ -149,27 +149,13 @@ Transport::exchange_sizes(std::span<const int> peers,
       throw Error(who + ": peer " + std::to_string(sorted[i]) + " is listed twice");
   }
   std::vector<std::uint64_t> recv(peers.size(), 0);
-  std::vector<MPI_Request> requests(2 * peers.size(), MPI_REQUEST_NULL);
+  std::vector<SendBuffer> sends(peers.size());
+  std::vector<RecvBuffer> receives(peers.size());
   for (std::size_t i = 0; i < peers.size(); ++i) {
-    const int rc = MPI_Irecv(&recv[i], 1, MPI_UINT64_T, peers[i], kSizesTag, comm_, &requests[i]);
-    if (rc != MPI_SUCCESS) {
-      MPI_Waitall(int(i), requests.data(), MPI_STATUSES_IGNORE);
-      throw Error(who + ": receiving the size from rank " + std::to_string(peers[i]) + ": " +
-                  mpi_error_string(rc));
-    }
+    sends[i] = {peers[i], &send_bytes[i], sizeof(std::uint64_t)};
+    receives[i] = {peers[i], &recv[i], sizeof(std::uint64_t)};
   }
-  for (std::size_t i = 0; i < peers.size(); ++i) {
-    const int rc = MPI_Isend(&send_bytes[i], 1, MPI_UINT64_T, peers[i], kSizesTag, comm_,
-                             &requests[peers.size() + i]);
-    if (rc != MPI_SUCCESS) {
-      MPI_Waitall(int(peers.size() + i), requests.data(), MPI_STATUSES_IGNORE);
-      throw Error(who + ": sending the size to rank " + std::to_string(peers[i]) + ": " +
-                  mpi_error_string(rc));
-    }
-  }
-  const int rc = MPI_Waitall(int(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
-  if (rc != MPI_SUCCESS)
-    throw Error(who + ": waiting for the sizes: " + mpi_error_string(rc));
+  post_and_wait(sends, receives, kSizesTag, who);
   return recv;
 }
 
@@ -178,6 +164,12 @@ void Transport::exchange_host(std::span<const SendBuffer> sends,
   const std::string who = "exchange_host on rank " + std::to_string(rank_);
   if (in_flight_)
     throw Error(who + ": an exchange is in flight");
+  post_and_wait(sends, receives, kHostTag, who);
+}
+
+void Transport::post_and_wait(std::span<const SendBuffer> sends,
+                              std::span<const RecvBuffer> receives, int tag,
+                              const std::string& who) const {
   std::vector<MPI_Request> requests(receives.size() + sends.size(), MPI_REQUEST_NULL);
   std::size_t posted = 0;
   auto fail = [&](const std::string& what, int rc) {
@@ -185,8 +177,7 @@ void Transport::exchange_host(std::span<const SendBuffer> sends,
     throw Error(who + ": " + what + ": " + mpi_error_string(rc));
   };
   for (const RecvBuffer& r : receives) {
-    const int rc =
-        MPI_Irecv(r.data, int(r.bytes), MPI_BYTE, r.peer, kHostTag, comm_, &requests[posted]);
+    const int rc = MPI_Irecv(r.data, int(r.bytes), MPI_BYTE, r.peer, tag, comm_, &requests[posted]);
     if (rc != MPI_SUCCESS)
       fail("receiving " + std::to_string(r.bytes) + " bytes from rank " + std::to_string(r.peer),
            rc);
@@ -194,7 +185,7 @@ void Transport::exchange_host(std::span<const SendBuffer> sends,
   }
   for (const SendBuffer& sb : sends) {
     const int rc =
-        MPI_Isend(sb.data, int(sb.bytes), MPI_BYTE, sb.peer, kHostTag, comm_, &requests[posted]);
+        MPI_Isend(sb.data, int(sb.bytes), MPI_BYTE, sb.peer, tag, comm_, &requests[posted]);
     if (rc != MPI_SUCCESS)
       fail("sending " + std::to_string(sb.bytes) + " bytes to rank " + std::to_string(sb.peer), rc);
     ++posted;

@@ -92,6 +92,10 @@ protected:
   MPI_Comm comm() const { return comm_; }
   /// Throws a kf::Error "<name> transport: <what>: <MPI error string>" unless rc is MPI_SUCCESS.
   void check_mpi(int rc, const std::string& what) const;
+  /// Posts every receive, then every send, on `tag`, and waits for all (host buffers); a failure
+  /// is a kf::Error beginning with `who`.
+  void post_and_wait(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives,
+                     int tag, const std::string& who) const;
 
   virtual void do_start(std::span<const SendBuffer> sends,
                         std::span<const RecvBuffer> receives) = 0;
