@@ -4,8 +4,9 @@
 // checked every few dozen steps against what no hard case may break:
 // - every value finite (the watchdog's reading: energies, speeds, densities);
 // - the kinetic plus gravitational energy within the start's (its springs' and contacts' stored
-//   energy included) and what the movers could give (domain/Watchdog's budget, 2% for rounding
-//   and the floor): nothing else does work, dissipation only takes;
+//   energy included) and the work the moving solids and handles did, measured as the run goes
+//   (domain/Watchdog's budget, 2% for rounding and the floor): nothing else does work,
+//   dissipation only takes;
 // - the fluid's density error within the case's bound;
 // - no particle inside a solid (fluid and knit: signed distance to every solid, walls included,
 //   not negative);
@@ -208,7 +209,7 @@ Measured run_case(const StressCase& c, std::uint32_t seed) {
     if (!std::isfinite(r.kinetic + r.potential))
       break;
     m.worst_energy_ratio =
-        std::max(m.worst_energy_ratio, (r.kinetic + r.potential) / dog.energy_limit(sim->time()));
+        std::max(m.worst_energy_ratio, (r.kinetic + r.potential) / dog.energy_limit(r));
     if (scene.has(Module::Fluid))
       m.worst_density_error = std::max(m.worst_density_error, r.fluid_max_density / rho0 - 1);
     if (c.rest_after >= 0 && sim->time() >= c.rest_after)

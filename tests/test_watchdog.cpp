@@ -128,9 +128,9 @@ TEST(WatchReading, IsTheBruteForceSumOverTheFrame) {
 }
 
 // The limits as defined in domain/Watchdog.hpp, from a reading made up for the purpose: the
-// energy's is the start's (elastic included) times 1 + watchdog_energy_rise, plus a hundredth
-// of the mass lifted through the domain's height, plus what a moving handle can give once it
-// moves (a bounce at twice its speed, a lift to the domain's top).
+// energy's is the start's (elastic included) plus the work done from outside since the start
+// (the reading's work less the start's), times 1 + watchdog_energy_rise, plus a hundredth of the
+// mass lifted through the domain's height.
 TEST(Watchdog, LimitsAreTheScenesAndTripJustPastThem) {
   Scene scene = test::falling_coupled_scene();
   scene.knit.pins.push_back({"lift", {-1, -1, -1}, {1, 1, 1}, {0, 0, 0.5}, 0.2});
@@ -138,17 +138,17 @@ TEST(Watchdog, LimitsAreTheScenesAndTripJustPastThem) {
   start.mass = 2.0;
   start.kinetic = 0.3;
   start.potential = 1.2;
+  start.work = 0.25; // work measured before the watchdog's start: not the budget's
   const double elastic = 0.1, g = 9.81, height = 0.25, u = 0.5;
   const Watchdog dog(scene, start, elastic, 0.0);
-  auto limit = [&](double t) {
-    return 1.1 * (0.3 + 1.2 + elastic) + 0.01 * 2.0 * g * height +
-           (t > 0 ? 2.0 * (2 * u * u + g * height) : 0.0);
+  auto limit = [&](double work) {
+    return 1.1 * (0.3 + 1.2 + elastic + work - 0.25) + 0.01 * 2.0 * g * height;
   };
-  for (double t : {0.0, 0.1, 0.2, 0.7})
-    EXPECT_NEAR(dog.energy_limit(t), limit(t), 1e-12) << "t = " << t;
-  // Starting after the handle stopped: nothing moves, nothing is given.
-  EXPECT_NEAR(Watchdog(scene, start, elastic, 0.3).energy_limit(0.5),
-              1.1 * (0.3 + 1.2 + elastic) + 0.01 * 2.0 * g * height, 1e-12);
+  for (double work : {0.25, 0.0, 0.7, 3.0}) {
+    WatchReading r = start;
+    r.work = work;
+    EXPECT_NEAR(dog.energy_limit(r), limit(work), 1e-12) << "work = " << work;
+  }
   EXPECT_EQ(dog.fluid_speed_limit(), 10.0); // the speed of sound
   // The knit's: ten times a fall through the domain, twice the handle's and the fluid's start
   // speed, or the fluid's limit where that is higher.
@@ -159,26 +159,27 @@ TEST(Watchdog, LimitsAreTheScenesAndTripJustPastThem) {
   scene.fluid.speed_of_sound = 10;
 
   WatchReading r = start;
+  r.work = 0.7;
   r.fluid_max_density = 1000.0;
-  EXPECT_EQ(dog.check(r, 0.5).why, "");
-  r.kinetic = limit(0.5) - r.potential + 1e-9; // just past
-  auto trip = dog.check(r, 0.5);
+  EXPECT_EQ(dog.check(r).why, "");
+  r.kinetic = limit(0.7) - r.potential + 1e-9; // just past
+  auto trip = dog.check(r);
   EXPECT_NE(trip.why.find("energy rose"), std::string::npos) << trip.why;
   EXPECT_NE(trip.why.find("solver.watchdog_energy_rise"), std::string::npos) << trip.why;
-  r.kinetic = limit(0.5) - r.potential - 1e-9; // just short
-  EXPECT_EQ(dog.check(r, 0.5).why, "");
+  r.kinetic = limit(0.7) - r.potential - 1e-9; // just short
+  EXPECT_EQ(dog.check(r).why, "");
 
   r.fluid_max_density = 1000.0 * 1.3 * (1 + 1e-9);
-  trip = dog.check(r, 0.5);
+  trip = dog.check(r);
   EXPECT_NE(trip.why.find("30% off rest"), std::string::npos) << trip.why;
   EXPECT_EQ(trip.worst, WatchMeasure::FluidDensity);
   r.fluid_max_density = 1000.0;
   r.knit_max_speed = dog.knit_speed_limit() * (1 + 1e-9);
-  trip = dog.check(r, 0.5);
+  trip = dog.check(r);
   EXPECT_NE(trip.why.find("a knit point moves at"), std::string::npos) << trip.why;
   EXPECT_EQ(trip.worst, WatchMeasure::KnitSpeed);
   r.knit_max_speed = std::numeric_limits<double>::quiet_NaN();
-  trip = dog.check(r, 0.5);
+  trip = dog.check(r);
   EXPECT_EQ(trip.why, "a knit speed is not finite");
 }
 

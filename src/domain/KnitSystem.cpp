@@ -171,6 +171,14 @@ void KnitSystem<T>::set_handle_velocities(double t) {
 }
 
 template <typename T>
+bool KnitSystem<T>::handles_move() const {
+  for (const auto& u : handle_v_host_)
+    if (u.x != T(0) || u.y != T(0) || u.z != T(0))
+      return true;
+  return false;
+}
+
+template <typename T>
 void KnitSystem<T>::compute_forces() {
   internal_forces();
 }
@@ -195,6 +203,8 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
     auto p = owned_view();
     set_handle_velocities(t + s * h);
     const Prescribed<T> fixed{p.handle, handle_v_.data()};
+    ContactWork<T> contact = contact_work_;
+    contact.m = p.m;
     {
       // One kernel: the previous substep's closing half kick (a is unchanged since), this
       // substep's half kick and drift, and the contact with solids (kick_drift_contact).
@@ -202,13 +212,17 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
       if (n_shapes && set_shapes)
         set_shapes(t + (s + 1) * h);
       kick_drift_contact(ex_, p.x, p.v, p.a, p.n, static_cast<T>(h), keep, s > 0, fixed, shapes,
-                         n_shapes, radius, friction, collisions_.data(), "knit.kick_drift");
+                         n_shapes, radius, friction, collisions_.data(), "knit.kick_drift", nullptr,
+                         nullptr, contact);
     }
     if (refresh_ghosts_) {
       stage_parts::Scope part("knit.step: ghosts' positions and velocities from their owners");
       refresh_ghosts_();
     }
     internal_forces();
+    if (handle_work_ && handles_move()) // these forces act for h: the closing half, the next
+      knit_handle_work(ex_, p, springs_.view(), volumes_.view(), gravity_, handle_v_.data(),
+                       static_cast<T>(h), handle_work_);
     if (couple) {
       stage_parts::Scope part("knit.step: fluid coupling (both sides)");
       couple(static_cast<T>(s + 1 < n ? h : 0.5 * h));

@@ -5,6 +5,7 @@
 #include "domain/KnitBuilder.hpp"
 #include "domain/Scene.hpp"
 #include "io/Frame.hpp"
+#include "kernels/boundary/RigidContact_K.hpp"
 #include "kernels/boundary/RigidShape.hpp"
 #include "kernels/integrate/Verlet.hpp"
 #include "kernels/knit/SelfContact.hpp"
@@ -38,6 +39,14 @@ public:
   void advance(double t, double dt, T keep, const std::function<void(double)>& set_shapes,
                const RigidShape<T>* shapes, std::size_t n_shapes,
                const std::function<void(T)>& couple = {});
+  /// The watchdog's measures of the work from outside (domain/Watchdog) in the coming advances:
+  /// the moving handles' (knit_handle_work, after each substep's forces) added to *handles, a
+  /// double on the backend; the moving solids' contact (ContactWork, its m left to the set's).
+  /// Null / no sum: not measured.
+  void measure_work(double* handles, ContactWork<T> contact) {
+    handle_work_ = handles;
+    contact_work_ = contact;
+  }
   /// A further bound on the substep (the knit-fluid contact's), applied by stable_dt.
   void set_substep_limit(double sub) { extra_limit_ = sub; }
   /// Largest step (all substeps together) the springs and the contact radius allow now.
@@ -148,6 +157,9 @@ private:
     p.n = owned();
     return p;
   }
+  double* handle_work_ = nullptr;
+  ContactWork<T> contact_work_{};
+  bool handles_move() const;
   // Point-substeps in contact with a solid, whole run; on the device, read for diagnostics only.
   exec::DeviceBuffer<std::uint64_t> collisions_;
 };

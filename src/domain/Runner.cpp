@@ -236,7 +236,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
         continue;
       }
       if (watching && sim->steps() % static_cast<std::uint64_t>(scene.solver.watchdog_steps) == 0) {
-        const Watchdog::Trip trip = dog->check(sim->watch(), sim->time());
+        const Watchdog::Trip trip = dog->check(sim->watch());
         if (!trip.why.empty()) {
           std::ostringstream at;
           at << "watchdog at step " << sim->steps() << ", t = " << sim->time()

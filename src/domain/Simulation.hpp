@@ -88,6 +88,9 @@ struct WatchReading {
   double kinetic = 0;   // fluid and knit, sum 1/2 m v^2 [J]
   double potential = 0; // fluid and knit, sum m |g| height above the domain's lowest corner [J]
   double fluid_max_speed = 0, fluid_max_density = 0, knit_max_speed = 0; // NaN: not finite
+  // The work done on the particles from outside since the Simulation was made (moving solids,
+  // moving handles) [J]; 0 where nothing moves.
+  double work = 0;
 };
 /// The measures the watchdog bounds, each of one particle.
 enum class WatchMeasure { FluidSpeed, FluidDensity, KnitSpeed };

@@ -56,6 +56,7 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     return; // the stage list is all `plan` needs
   init_particles();
   update_shapes(0.0);
+  init_work_measures();
   // On N ranks each keeps what it owns (every rank sampled the whole scene above).
   if (mpi && mpi->size() > 1) {
     const KnitFluidCoupling<T>* c = coupling_ ? &*coupling_ : nullptr;
@@ -95,6 +96,51 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   }
   if (coupling_on_)
     begin_coupling(); // saturation at t = 0, for snapshots and diagnostics before a step
+}
+
+template <typename T>
+void SimulationT<T>::init_work_measures() {
+  bool handles = false;
+  for (const auto& p : scene_.knit.pins)
+    handles = handles || (knit_on_ && norm(p.velocity) > 0);
+  if (!moving_ && !handles)
+    return;
+  work_ = exec::DeviceBuffer<double>(ex_.backend, 0, "watchdog.work");
+  work_.assign(std::vector<double>{0.0});
+  if (knit_on_)
+    knit_->measure_work(handles ? work_.data() : nullptr, {});
+  if (!moving_)
+    return;
+  // The fixed point's unit: 2^-50 of the scene's energy scale (its whole mass lifted through the
+  // domain's height, or moving at the speed of sound or the fastest solid's speed), so one
+  // correction rounds by 1e-15 of it and the sum holds 2^13 of it. Every rank sampled the whole
+  // scene (before the split).
+  double mass = 0, speed = fluid_on_ ? scene_.fluid.speed_of_sound : 0.0;
+  if (fluid_on_)
+    for (const T m : fluid_->m.to_host())
+      mass += double(m);
+  if (knit_on_)
+    for (const T m : knit_->set().m.to_host())
+      mass += double(m);
+  for (const auto& o : scene_.obstacles)
+    speed = std::max(speed, norm(o.velocity));
+  const Vec3d span = scene_.domain.max - scene_.domain.min;
+  const double energy = mass * (norm(scene_.gravity) * norm(span) + speed * speed);
+  contact_unit_ = std::ldexp(energy > 0 ? energy : 1.0, -50);
+  contact_work_ = exec::DeviceBuffer<std::uint64_t>(ex_.backend, 0, "watchdog.work");
+  contact_work_.assign(std::vector<std::uint64_t>{0});
+  if (knit_on_)
+    knit_->measure_work(handles ? work_.data() : nullptr, contact_work(nullptr));
+}
+
+template <typename T>
+void SimulationT<T>::measure_boundary_work() {
+  BoundaryNeighbours<T> b = boundary_neighbours();
+  b.obstacle = boundary_->obstacle.data();
+  b.shapes = shapes_.data();
+  const std::uint32_t* owned =
+      ranks_ && fluid_->size() != ranks_->fluid_owned_count() ? ranks_->owned_flags() : nullptr;
+  sph_mover_work(ex_, sph_, fluid_->view(), b, owned, static_cast<T>(dt_), work_.data());
 }
 
 template <typename T>
@@ -370,7 +416,7 @@ void SimulationT<T>::build_pipeline() {
                     auto f = fluid_->view();
                     enforce_rigid_shapes(ex_, f.x, f.v, f.n, shapes_.data(), shapes_.size(),
                                          static_cast<T>(margin_), T(0), nullptr,
-                                         guard_count_.data(), "boundary.guard");
+                                         guard_count_.data(), "boundary.guard", contact_work(f.m));
                   });
   const auto& walls = scene_.domain.walls;
   const bool open = !std::all_of(walls.begin(), walls.end(), [](bool w) { return w; });
@@ -433,6 +479,11 @@ void SimulationT<T>::build_pipeline() {
                                  "(continuity, delta-SPH diffusion) and the density's step"
                                : "pressure (Eq. 3), viscosity (Eq. 4), gravity",
                   [this] { fluid_forces(static_cast<T>(dt_)); });
+    if (boundary_on_ && moving_)
+      pipeline_.add("boundary.work", "boundary",
+                    "the moving solids' work on the fluid over the step (the watchdog's energy "
+                    "budget)",
+                    [this] { measure_boundary_work(); });
     if (knit_on_) // the knit's coupling changes the fluid's velocities before the next dt
       pipeline_.add("integrate.kick", "fluid", "velocity Verlet: half kick", [this] {
         auto f = fluid_->view();

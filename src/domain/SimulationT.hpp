@@ -250,6 +250,26 @@ private:
   // are owned (SimulationWatch.cpp).
   exec::DeviceBuffer<WatchSums> watch_sums_;
   exec::DeviceBuffer<std::uint8_t> watch_owned_;
+  // The work done from outside since this Simulation began, for the watchdog's energy budget
+  // (docs/ARCHITECTURE.md, the watchdog): the moving solids' boundary forces on the fluid and the
+  // moving handles' constraint in double (work_), the moving solids' contact corrections of
+  // fluid and knit in fixed point of contact_unit_ joules (contact_work_, ContactWork). Sized 1
+  // only where something moves (init_work_measures).
+  exec::DeviceBuffer<double> work_{exec::Backend::Cpu, 0, "watchdog.work"};
+  exec::DeviceBuffer<std::uint64_t> contact_work_{exec::Backend::Cpu, 0, "watchdog.work"};
+  double contact_unit_ = 1.0;
+  void init_work_measures();
+  /// The contact's work sink for a set of masses m (none where no solid moves).
+  ContactWork<T> contact_work(const T* m) {
+    if (contact_work_.size() == 0)
+      return {};
+    return {m, vec_cast<T>(scene_.gravity), contact_unit_, contact_work_.data()};
+  }
+  /// After the forces pass: the moving solids' boundary forces' work on the owned fluid over the
+  /// step (sph_mover_work).
+  void measure_boundary_work();
+  /// The work measured so far [J], this rank's (watch() sums the job's).
+  double work_done() const;
   MotionBounds<T> fluid_bounds_{}; // the fluid's speed and acceleration bounds at step start
   double fluid_step_motion() const;
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};

@@ -18,6 +18,14 @@ Vec3d lowest_corner(const Scene& s) {
 } // namespace
 
 template <typename T>
+double SimulationT<T>::work_done() const {
+  double w = work_.size() ? work_.to_host()[0] : 0.0;
+  if (contact_work_.size())
+    w += double(static_cast<std::int64_t>(contact_work_.to_host()[0])) * contact_unit_;
+  return w;
+}
+
+template <typename T>
 WatchReading SimulationT<T>::watch() {
   if (watch_sums_.size() != 2) { // made at the first reading: most runs read before they step
     watch_sums_ = exec::DeviceBuffer<WatchSums>(ex_.backend, 2, "watchdog");
@@ -46,12 +54,12 @@ WatchReading SimulationT<T>::watch() {
                      watch_sums_.data() + 1, "watchdog.knit");
   }
   const auto s = watch_sums_.to_host();
-  double sums[4] = {s[0].mass + s[1].mass, s[0].kinetic + s[1].kinetic,
-                    s[0].potential + s[1].potential, s[1].mass};
+  double sums[5] = {s[0].mass + s[1].mass, s[0].kinetic + s[1].kinetic,
+                    s[0].potential + s[1].potential, s[1].mass, work_done()};
   double maxima[3] = {nan_as_inf(s[0].max_speed2), nan_as_inf(s[0].max_density),
                       nan_as_inf(s[1].max_speed2)};
   if (ranks_) {
-    MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, ranks_->mpi().comm());
+    MPI_Allreduce(MPI_IN_PLACE, sums, 5, MPI_DOUBLE, MPI_SUM, ranks_->mpi().comm());
     MPI_Allreduce(MPI_IN_PLACE, maxima, 3, MPI_DOUBLE, MPI_MAX, ranks_->mpi().comm());
   }
   WatchReading r;
@@ -59,6 +67,7 @@ WatchReading SimulationT<T>::watch() {
   r.kinetic = sums[1];
   r.potential = sums[2];
   r.knit_mass = sums[3];
+  r.work = sums[4];
   r.fluid_max_speed = std::sqrt(maxima[0]);
   r.fluid_max_density = maxima[1];
   r.knit_max_speed = std::sqrt(maxima[2]);
@@ -164,6 +173,8 @@ std::string SimulationT<T>::describe_worst(WatchMeasure measure) const {
   return text;
 }
 
+template double SimulationT<float>::work_done() const;
+template double SimulationT<double>::work_done() const;
 template WatchReading SimulationT<float>::watch();
 template std::string SimulationT<float>::describe_worst(WatchMeasure) const;
 template std::string SimulationT<float>::local_worst(WatchMeasure, double*) const;

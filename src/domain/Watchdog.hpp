@@ -7,10 +7,9 @@
 //   speeds an order below it), a knit point faster than anything in the scene could make it;
 // - a fluid density error past its bound;
 // - kinetic plus gravitational energy past what the run started with (the energy stored in its
-//   springs and penalty contacts included) and what could have been given to it since: the scene's
-//   moving solids and handles (a bounce off one at twice its speed, a lift to the domain's top)
-//   and the capillary suction's surface energy. Nothing else adds energy; dissipation only takes it
-//   away.
+//   springs and penalty contacts included) and what was given to it since: the work of the
+//   scene's moving solids and handles, measured as the run goes (WatchReading::work), and the
+//   capillary suction's surface energy. Nothing else adds energy; dissipation only takes it away.
 #include "domain/Scene.hpp"
 #include "domain/Simulation.hpp"
 
@@ -34,21 +33,16 @@ public:
     std::string why;                   // the measure, its value, its limit, the key; "": fine
     std::optional<WatchMeasure> worst; // the measure whose worst particle the report describes
   };
-  Trip check(const WatchReading& r, double t) const;
+  Trip check(const WatchReading& r) const;
 
   double fluid_speed_limit() const { return fluid_speed_; }
   double knit_speed_limit() const { return knit_speed_; }
-  /// The most kinetic plus gravitational energy the run may hold at time t [J].
-  double energy_limit(double t) const;
+  /// The most kinetic plus gravitational energy the run may hold at reading r (its work) [J].
+  double energy_limit(const WatchReading& r) const;
 
 private:
   double fluid_speed_ = 0, knit_speed_ = 0, max_density_ = 0, density_error_ = 0;
-  double start_energy_ = 0, rise_ = 0, floor_ = 0, capillary_ = 0;
-  double mass_ = 0, move_speed_ = 0, gravity_ = 0, start_time_ = 0, height_ = 0;
-  struct Mover {
-    double speed, until; // [m/s], [s]
-  };
-  std::vector<Mover> movers_; // obstacles and handles that move
+  double start_energy_ = 0, start_work_ = 0, rise_ = 0, floor_ = 0, capillary_ = 0;
 };
 
 } // namespace kf

@@ -50,4 +50,44 @@ velocity = [2.0, 0, 0]
                      "<outflow>");
 }
 
+/// A piston sweeps a closed tank, the water column L = 0.18 m long (x), w = 0.04 m wide and
+/// d = 0.05 m deep, at u = 0.1 m/s (Froude u / sqrt(g d) = 0.14: nearly quasi-static) until
+/// end_time, the column shortening to L - u t and deepening to d L / (L - u t). Continuity
+/// density: summation's walls add energy of their own (docs/VALIDATION.md, P8). Double.
+inline Scene piston_scene(double dp, double end_time) {
+  return parse_scene(R"(
+[simulation]
+name = "piston"
+end_time = )" + std::to_string(end_time) +
+                         R"(
+precision = "double"
+modules = ["fluid", "boundary"]
+[domain]
+min = [0, 0, 0]
+max = [0.2, 0.04, 0.15]
+[output]
+enabled = false
+[solver]
+kernel = "cubic"
+cfl = 0.2
+density = "continuity"
+[fluid]
+spacing = )" + std::to_string(dp) +
+                         R"(
+eos = "tait"
+speed_of_sound = 20.0
+viscosity = 0.001
+[[fluid.block]]
+min = [0.02, 0, 0]
+max = [0.2, 0.04, 0.05]
+[[obstacle]]
+name = "piston"
+shape = "box"
+min = [-0.2, -0.1, -0.1]
+max = [0.02, 0.14, 0.3]
+velocity = [0.1, 0, 0]
+)",
+                     "<piston>");
+}
+
 } // namespace kf::test

@@ -18,12 +18,13 @@ void move_boundary(const exec::Exec& ex, BoundaryView<T> b, const RigidShape<T>*
 template <typename T>
 void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
                           const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
-                          const std::uint32_t* fixed, std::uint64_t* count, const char* label) {
+                          const std::uint32_t* fixed, std::uint64_t* count, const char* label,
+                          ContactWork<T> work) {
   // A reduction whose functor also corrects the point (each index is visited exactly once on
   // either backend); the sum stays in device memory.
-  exec::transform_reduce_into(ex, n, exec::SumOp{},
-                              RigidContact<T>{x, v, shapes, n_shapes, margin, friction, fixed},
-                              count, label);
+  exec::transform_reduce_into(
+      ex, n, exec::SumOp{}, RigidContact<T>{x, v, shapes, n_shapes, margin, friction, fixed, work},
+      count, label);
 }
 
 namespace {
@@ -60,13 +61,13 @@ void kick_drift_contact(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3
                         std::size_t n, T dt, T keep, bool close_previous, Prescribed<T> fixed,
                         const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
                         std::uint64_t* count, const char* label, const double* dt_device,
-                        const std::uint32_t* counted) {
-  exec::transform_reduce_into(
-      ex, n, exec::SumOp{},
-      KickDriftContact<T>{x, v, a, dt, keep, close_previous, fixed,
-                          RigidContact<T>{x, v, shapes, n_shapes, margin, friction, fixed.handle},
-                          dt_device, counted},
-      count, label);
+                        const std::uint32_t* counted, ContactWork<T> work) {
+  exec::transform_reduce_into(ex, n, exec::SumOp{},
+                              KickDriftContact<T>{x, v, a, dt, keep, close_previous, fixed,
+                                                  RigidContact<T>{x, v, shapes, n_shapes, margin,
+                                                                  friction, fixed.handle, work},
+                                                  dt_device, counted},
+                              count, label);
 }
 
 template <typename T>
@@ -88,13 +89,13 @@ T min_rigid_distance(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
 
 #define KF_INSTANTIATE(T)                                                                          \
   template void move_boundary<T>(const exec::Exec&, BoundaryView<T>, const RigidShape<T>*);        \
-  template void enforce_rigid_shapes<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, std::size_t,        \
-                                        const RigidShape<T>*, std::size_t, T, T,                   \
-                                        const std::uint32_t*, std::uint64_t*, const char*);        \
-  template void kick_drift_contact<T>(const exec::Exec&, Vec3<T>*, Vec3<T>*, const Vec3<T>*,       \
-                                      std::size_t, T, T, bool, Prescribed<T>,                      \
-                                      const RigidShape<T>*, std::size_t, T, T, std::uint64_t*,     \
-                                      const char*, const double*, const std::uint32_t*);           \
+  template void enforce_rigid_shapes<T>(                                                           \
+      const exec::Exec&, Vec3<T>*, Vec3<T>*, std::size_t, const RigidShape<T>*, std::size_t, T, T, \
+      const std::uint32_t*, std::uint64_t*, const char*, ContactWork<T>);                          \
+  template void kick_drift_contact<T>(                                                             \
+      const exec::Exec&, Vec3<T>*, Vec3<T>*, const Vec3<T>*, std::size_t, T, T, bool,              \
+      Prescribed<T>, const RigidShape<T>*, std::size_t, T, T, std::uint64_t*, const char*,         \
+      const double*, const std::uint32_t*, ContactWork<T>);                                        \
   template T min_rigid_distance<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                 \
                                    const RigidShape<T>*, std::size_t);
 KF_INSTANTIATE(float)

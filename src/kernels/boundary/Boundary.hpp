@@ -1,5 +1,5 @@
 #pragma once
-#include "kernels/boundary/RigidShape.hpp"
+#include "kernels/boundary/RigidContact_K.hpp"
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/integrate/Verlet.hpp"
 #include "kernels/particles/FluidSet.hpp"
@@ -21,11 +21,13 @@ void move_boundary(const exec::Exec& ex, BoundaryView<T> b, const RigidShape<T>*
 template <typename T>
 void enforce_rigid_shapes(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, std::size_t n,
                           const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
-                          const std::uint32_t* fixed, std::uint64_t* count, const char* label);
+                          const std::uint32_t* fixed, std::uint64_t* count, const char* label,
+                          ContactWork<T> work = {});
 
 /// One kernel for what a substep of velocity Verlet does between two force evaluations: with
 /// close_previous, the previous substep's closing half kick (the same a); then kick_drift; then
-/// enforce_rigid_shapes (margin, friction, counting into *count). The same arithmetic as the
+/// enforce_rigid_shapes (margin, friction, counting into *count; `work`: the moving solids' work,
+/// RigidContact_K.hpp). The same arithmetic as the
 /// three calls in a row (bit for bit): a prescribed point's velocity is set by the second kick
 /// whatever the first left, so `fixed` may already hold this substep's velocities. With
 /// dt_device, dt is T(*dt_device), read on the device (a step planned there, StepSize_K.hpp).
@@ -36,7 +38,7 @@ void kick_drift_contact(const exec::Exec& ex, Vec3<T>* x, Vec3<T>* v, const Vec3
                         std::size_t n, T dt, T keep, bool close_previous, Prescribed<T> fixed,
                         const RigidShape<T>* shapes, std::size_t n_shapes, T margin, T friction,
                         std::uint64_t* count, const char* label, const double* dt_device = nullptr,
-                        const std::uint32_t* counted = nullptr);
+                        const std::uint32_t* counted = nullptr, ContactWork<T> work = {});
 
 /// Smallest signed distance of any of the n points to any shape (negative: inside a solid),
 /// used by tests and diagnostics.

@@ -13,6 +13,14 @@ template <typename T>
 void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Vec3<T> gravity,
                  const VolumeView<T>& vol = {});
 
+/// Adds to *work (memory on ex.backend; nothing waits) the work the moving handles' constraint
+/// does over a time h at the current forces (HandleWorkEvaluator): handle_v holds each handle's
+/// velocity. The watchdog's energy budget (domain/Watchdog).
+template <typename T>
+void knit_handle_work(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s,
+                      const VolumeView<T>& vol, Vec3<T> gravity, const Vec3<T>* handle_v, T h,
+                      double* work);
+
 /// Elastic energy of all springs and volume cells [J] (double accumulation).
 template <typename T>
 double knit_spring_energy(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s,

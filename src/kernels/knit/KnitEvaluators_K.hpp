@@ -36,6 +36,25 @@ KF_HD KF_INLINE void for_each_volume_cell(const VolumeView<T>& vol, const Vec3<T
   }
 }
 
+/// The force of point i's springs and volume cells on it (this lane's share: every stride-th
+/// from `lane` on; the caller sums the lanes).
+template <typename T>
+KF_HD KF_INLINE Vec3<T> elastic_force(const KnitView<T>& p, const SpringView<T>& s,
+                                      const VolumeView<T>& vol, std::size_t i,
+                                      std::uint32_t lane = 0, std::uint32_t stride = 1) {
+  const Vec3<T> xi = p.x[i], vi = p.v[i];
+  Vec3<T> f{T(0), T(0), T(0)};
+  s.for_each_spring(
+      i,
+      [&](const SpringEntry<T>& e) {
+        f += spring_force(p.x[e.other] - xi, p.v[e.other] - vi, e.rest, e.k, e.c);
+      },
+      lane, stride);
+  for_each_volume_cell(
+      vol, p.x, i, [&](T dv, T k, const Vec3<T>& grad) { f -= grad * (k * dv); }, lane, stride);
+  return f;
+}
+
 /// a_i = (sum of spring and volume forces) / m_i + g for every free point; points on a handle get
 /// a = 0 (their motion is prescribed).
 template <typename T>
@@ -51,19 +70,34 @@ struct SpringForceEvaluator {
         p.a[i] = {T(0), T(0), T(0)};
       return;
     }
-    const Vec3<T> xi = p.x[i], vi = p.v[i];
-    Vec3<T> f{T(0), T(0), T(0)};
-    s.for_each_spring(
-        i,
-        [&](const SpringEntry<T>& e) {
-          f += spring_force(p.x[e.other] - xi, p.v[e.other] - vi, e.rest, e.k, e.c);
-        },
-        g.lane, g.size);
-    for_each_volume_cell(
-        vol, p.x, i, [&](T dv, T k, const Vec3<T>& grad) { f -= grad * (k * dv); }, g.lane, g.size);
-    f = g.sum(f);
+    const Vec3<T> f = g.sum(elastic_force(p, s, vol, i, g.lane, g.size));
     if (g.lane == 0)
       p.a[i] = f * (T(1) / p.m[i]) + gravity;
+  }
+};
+
+/// The work a moving handle's constraint does on point i over a time h: it holds the point to
+/// the handle's velocity u against its springs, volume cells and weight, with the force
+/// -(f_elastic + m g), whose power is that force dotted with u. 0 for free and still points.
+/// (The handle's contacts, with itself and the fluid, are not counted: the handles' points
+/// skip them.)
+template <typename T>
+struct HandleWorkEvaluator {
+  KnitView<T> p;
+  SpringView<T> s;
+  VolumeView<T> vol;
+  Vec3<T> gravity;
+  const Vec3<T>* handle_v;
+  T h;
+
+  KF_HD double operator()(std::size_t i) const {
+    if (p.handle[i] == kFreePoint)
+      return 0.0;
+    const Vec3<T> u = handle_v[p.handle[i]];
+    if (u.x == T(0) && u.y == T(0) && u.z == T(0))
+      return 0.0;
+    const Vec3<T> held = elastic_force(p, s, vol, i) + gravity * p.m[i];
+    return -double(h) * double(dot(held, u));
   }
 };
 

@@ -82,6 +82,19 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
   });
 }
 
+template <typename T>
+void sph_mover_work(const exec::Exec& ex, const SphParams<T>& prm, const FluidView<T>& f,
+                    const BoundaryNeighbours<T>& b, const std::uint32_t* owned, T dt,
+                    double* work) {
+  if (b.n == 0 || !b.obstacle || !b.shapes)
+    return;
+  with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
+    exec::transform_reduce_into(ex, f.n, exec::SumOp{},
+                                MoverWorkEvaluator<T, decltype(k)>{k, prm, f, b, owned, dt}, work,
+                                "boundary.work");
+  });
+}
+
 #define KF_INSTANTIATE(T)                                                                          \
   template void sph_density<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,  \
                                const BoundaryNeighbours<T>&, const ListView<T>&);                  \
@@ -95,7 +108,9 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
   template void sph_density_predict<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, T);   \
   template void sph_forces<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,   \
                               const BoundaryNeighbours<T>&, const ListView<T>&, T,                 \
-                              const exec::Rows*);
+                              const exec::Rows*);                                                  \
+  template void sph_mover_work<T>(const exec::Exec&, const SphParams<T>&, const FluidView<T>&,     \
+                                  const BoundaryNeighbours<T>&, const std::uint32_t*, T, double*);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

@@ -105,4 +105,12 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
                 const BoundaryNeighbours<T>& b, const ListView<T>& list = {}, T dt = T(0),
                 const exec::Rows* rows = nullptr);
 
+/// Adds to *work (memory on ex.backend; nothing waits) the work the moving solids' boundary
+/// particles did on the fluid over the step dt, from the forces pass's pair forces
+/// (MoverWorkEvaluator): call after sph_forces at the same positions. b must carry obstacle and
+/// shapes. owned (null: every row): a rank's owned fluid, flagged 1.
+template <typename T>
+void sph_mover_work(const exec::Exec& ex, const SphParams<T>& prm, const FluidView<T>& f,
+                    const BoundaryNeighbours<T>& b, const std::uint32_t* owned, T dt, double* work);
+
 } // namespace kf

@@ -252,4 +252,58 @@ struct ForceEvaluator {
   }
 };
 
+/// The work the moving solids' boundary particles do on fluid particle i over a step of dt:
+/// dt sum_k F_ik . v_k over its boundary neighbours k of moving obstacles, F_ik the forces pass's
+/// pair force on i (pressure and, no-slip, viscosity) rebuilt from the copies it read (vp, vol,
+/// the boundary's xv, vp, inv_rho: valid until the next density pass), v_k the solid's velocity.
+/// The rest of the pair's effect, F_ik . (v_i - v_k), is the fluid's own compression and
+/// friction against the wall, not work from outside. Rows with owned[i] == 0 (a rank's ghosts)
+/// add nothing. The watchdog's energy budget (domain/Watchdog).
+template <typename T, typename K>
+struct MoverWorkEvaluator {
+  K kernel;
+  SphParams<T> prm;
+  FluidView<T> f;
+  BoundaryNeighbours<T> b; // with obstacle and shapes
+  const std::uint32_t* owned;
+  T dt;
+
+  KF_HD double operator()(std::size_t i) const {
+    const Vec3<T> xi = f.x[i];
+    if ((owned && !owned[i]) || !b.around(xi))
+      return 0.0;
+    const T h2 = kernel.h * kernel.h;
+    const T eta2 = T(0.01) * h2;
+    const T mi = f.m[i];
+    const T mpi = f.vp[i].w;           // m_i P_i / rho_i^2
+    const T inv_rho_i = f.vol[i] / mi; // the forces pass's 1 / rho_i
+    const Vec3<T> vi = f.v[i];
+    const T mu2 = T(2) * prm.viscosity;
+    double power = 0.0;
+    b.cells.for_each_candidate(xi, [&](std::uint32_t k) {
+      const std::uint32_t o = b.obstacle[k];
+      if (o == kWallObstacle)
+        return;
+      const Vec3<T> vw = b.shapes[o].velocity;
+      if (vw.x == T(0) && vw.y == T(0) && vw.z == T(0))
+        return;
+      const Vec4<T> xvk = b.xv[k];
+      const Vec3<T> rik = xi - xvk.xyz();
+      const T r2 = norm2(rik);
+      if (r2 >= h2 || r2 <= T(0))
+        return;
+      const Vec4<T> vpk = b.vp[k];
+      const T inv_r = krsqrt(r2);
+      const T dw = kernel.dWdr(r2 * inv_r) * inv_r;
+      const T mk = prm.eos.rho0 * xvk.w;
+      Vec3<T> force = rik * (-dw * mk * (mpi + mi * vpk.w));
+      if (b.no_slip)
+        force +=
+            (vi - vpk.xyz()) * (mi * mk * mu2 * inv_rho_i * b.inv_rho[k] * (r2 * dw) / (r2 + eta2));
+      power += double(dot(force, vw));
+    });
+    return double(dt) * power;
+  }
+};
+
 } // namespace kf
