@@ -398,7 +398,7 @@ void check_sph_chunk_builder(exec::Backend backend, int span) {
 }
 
 /// SphLists::stale_after's local rule (SphLists.hpp). Its bound must equal a brute-force union
-/// of the displacement boxes of the cells within 2 of each cell; a smooth displacement field that
+/// of the displacement boxes of the cells within 2 of each cell, over the whole grid; a smooth displacement field that
 /// the global rules reject (2 max |d| and the box diagonal over s) must keep the lists, which
 /// must still hold every pair within h; a slip plane (relative displacement 1.8 s) and a
 /// translation past s (the grid's walks) must rebuild.
@@ -419,7 +419,10 @@ void check_local_rule(exec::Backend backend) {
   f.resize(n);
   f.x.assign(pts);
   f.m.assign(std::vector<T>(n, T(1)));
-  NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(lo, hi, h + s));
+  // The grid reaches past the particles on every side (as the pour's domain past its fluid):
+  // the pass runs over the box of the filled cells only, and must find the whole grid's bound.
+  NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(lo - Vec3d{0.5, 0.3, 0.3},
+                                                         hi + Vec3d{0.6, 0.4, 0.5}, h + s));
   grid.build(ex, f.x.data(), n);
   f.reorder(ex, grid.permutation());
   SphLists<T> lists(backend, T(s));
@@ -518,6 +521,15 @@ void check_local_rule(exec::Backend backend) {
   EXPECT_FALSE(lists.stale_after(ex, f, inf, false)) << "a translation within s keeps the lists";
   EXPECT_NEAR(lists.last_pair_bound(), 0.8 * s, tol);
   EXPECT_TRUE(std::isinf(lists.last_local()));
+
+  // 5. The largest local shear at the filled box's edge (the first 0.06 m moved 0.9 s along x,
+  // the last 0.1 m back 0.3 s): the pass must reach the box's first cells.
+  x = move([&](const Vec3d& p) {
+    return Vec3d{p.x < 0.06 ? 0.9 * s : p.x > 1.9 ? -0.3 * s : 0.0, 0, 0};
+  });
+  EXPECT_FALSE(lists.stale_after(ex, f, inf, false));
+  EXPECT_NEAR(lists.last_local(), local_reference(x), tol);
+  EXPECT_NEAR(lists.last_local(), 0.9 * s, tol);
 }
 
 // The staged appender against the plain one (RowAppender, entry by entry): random hit masks

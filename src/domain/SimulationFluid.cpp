@@ -46,7 +46,9 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size(), fluid_->id.data());
     fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
   }
-  if (boundary_on_) // for boundary.pressure, which walks this grid until the next sort
+  // For boundary.pressure and the coupling's knit side, which walk this grid until the next
+  // sort: a walk from a cell without fluid around is skipped.
+  if (boundary_on_ || coupling_on_)
     fluid_grid_->occupied_around(ex_, fluid_near_);
   if (fluid_list_)
     fluid_list_->build(ex_, *fluid_, fluid_grid_->view(), boundary_neighbours(), static_cast<T>(h_),

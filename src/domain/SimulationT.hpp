@@ -126,7 +126,11 @@ private:
   bool fluid_on_ = false, boundary_on_ = false, knit_on_ = false, moving_ = false;
   bool coupling_on_ = false;
   double coupling_fluid_limit_ = 1e30; // fluid step bound from the knit-fluid contact
-  FluidSide<T> fluid_side() { return {fluid_->view(), fluid_grid_->view()}; }
+  FluidSide<T> fluid_side() {
+    const auto cells = fluid_grid_->view();
+    const bool near = fluid_near_.size() == cells.geo.cells(); // sort_fluid's, with the grid's
+    return {fluid_->view(), cells, near ? fluid_near_.data() : nullptr};
+  }
   SphParams<T> sph_;
   double h_ = 0, margin_ = 0;
   double time_ = 0, dt_ = 0;

@@ -56,6 +56,7 @@ struct SaturationEvaluator {
   const Vec3<T>* fluid_x;
   const T* fluid_m;
   CellView<T> fluid_cells;
+  const std::uint8_t* fluid_near; // FluidSide::near
   T* saturation;
   T* pressure;
   T* fluid_mass;
@@ -64,11 +65,12 @@ struct SaturationEvaluator {
     const Vec3<T> xi = knit_x[i];
     const T h2 = kernel.h * kernel.h;
     T rho = T(0);
-    fluid_cells.for_each_candidate(xi, [&](std::uint32_t j) {
-      const T r2 = norm2(xi - fluid_x[j]);
-      if (r2 < h2)
-        rho += fluid_m[j] * kernel.W(ksqrt(r2));
-    });
+    if (fluid_cells.may_find(fluid_near, xi))
+      fluid_cells.for_each_candidate(xi, [&](std::uint32_t j) {
+        const T r2 = norm2(xi - fluid_x[j]);
+        if (r2 < h2)
+          rho += fluid_m[j] * kernel.W(ksqrt(r2));
+      });
     const T s = rho / (prm.porosity * prm.rho0);
     saturation[i] = s;
     pressure[i] = prm.pressure_scale * leverett_j(s);
@@ -190,18 +192,20 @@ struct KnitCouplingEvaluator {
   const T* fluid_m;
   const T* fluid_rho;
   CellView<T> fluid_cells;
+  const std::uint8_t* fluid_near; // FluidSide::near
 
   KF_HD void operator()(std::size_t i, exec::Lanes g = {}) const {
     if (p.handle[i] != kFreePoint)
       return;
     const KnitPairSide<T> side{p.x[i], p.v[i], p.m[i], pressure[i]};
     Vec3<T> sum{T(0), T(0), T(0)};
-    fluid_cells.for_each_candidate(side.x, g.lane, g.size, [&](std::uint32_t j) {
-      Vec3<T> fji;
-      if (coupling_pair_force(kernel, prm, fluid_x[j], fluid_v[j], fluid_m[j], fluid_rho[j], side,
-                              fji))
-        sum += fji;
-    });
+    if (fluid_cells.may_find(fluid_near, side.x)) // the same for the group's lanes
+      fluid_cells.for_each_candidate(side.x, g.lane, g.size, [&](std::uint32_t j) {
+        Vec3<T> fji;
+        if (coupling_pair_force(kernel, prm, fluid_x[j], fluid_v[j], fluid_m[j], fluid_rho[j], side,
+                                fji))
+          sum += fji;
+      });
     Vec3<T> force = g.sum(sum) * T(-1);
     if (fluid_mass)
       force += prm.gravity * fluid_mass[i];

@@ -93,8 +93,9 @@ void KnitFluidCoupling<T>::update_saturation(const exec::Exec& ex, KnitSet<T>& k
       using K = decltype(k);
       exec::for_each(ex, n,
                      SaturationEvaluator<T, K>{k, params_, knit.x.data(), knit.m.data(), fluid.f.x,
-                                               fluid.f.m, fluid.cells, saturation_.data(),
-                                               pressure_.data(), fluid_mass_.data()},
+                                               fluid.f.m, fluid.cells, fluid.near,
+                                               saturation_.data(), pressure_.data(),
+                                               fluid_mass_.data()},
                      "coupling.saturation");
     });
   } else if (fresh) { // contact only: no saturation, zero once
@@ -159,7 +160,8 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
                             KnitCouplingEvaluator<T, K>{
                                 k, params_, kv, pressure_.data(),
                                 params_.capillary && !conserving_ ? fluid_mass_.data() : nullptr,
-                                fluid.f.x, fluid.f.v, fluid.f.m, fluid.f.rho, fluid.cells},
+                                fluid.f.x, fluid.f.v, fluid.f.m, fluid.f.rho, fluid.cells,
+                                fluid.near},
                             "coupling.knit");
   });
 }

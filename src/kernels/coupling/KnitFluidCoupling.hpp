@@ -27,6 +27,9 @@ template <typename T>
 struct FluidSide {
   FluidView<T> f;
   CellView<T> cells;
+  // NeighbourGrid::occupied_around of `cells` (null: unknown): a knit point whose cell has no
+  // fluid around skips its walk, which would find nothing (most of a sheet is dry).
+  const std::uint8_t* near = nullptr;
 };
 
 struct CouplingStats {

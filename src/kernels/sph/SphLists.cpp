@@ -11,22 +11,43 @@ namespace kf {
 namespace {
 
 /// What the rule needs of particle i's displacement d since the build: |d|^2 and the six
-/// one-sided components (a NaN reads as the largest value, so it rebuilds and then shows).
+/// one-sided components (a NaN reads as the largest value, so it rebuilds and then shows); then
+/// the cell of its build position, as (cx, cy, cz, nx - 1 - cx, ny - 1 - cy, nz - 1 - cz): their
+/// maxima give the box of the cells the build filled (exact in T: cell counts stay below 2^24).
 template <typename T>
 struct Displacement {
   const Vec3<T>* x;
   const Vec3<T>* x0;
-  KF_HD KF_INLINE exec::Maxima<T, 7> operator()(std::size_t i) const {
+  GridGeometry<T> geo;
+  KF_HD KF_INLINE exec::Maxima<T, 13> operator()(std::size_t i) const {
     const Vec3<T> d = x[i] - x0[i];
     const T d2 = norm2(d);
-    if (!(d2 == d2))
-      return {{std::numeric_limits<T>::max(), std::numeric_limits<T>::max(),
-               std::numeric_limits<T>::max(), std::numeric_limits<T>::max(),
-               std::numeric_limits<T>::max(), std::numeric_limits<T>::max(),
-               std::numeric_limits<T>::max()}};
+    int cx, cy, cz;
+    geo.coords(x0[i], cx, cy, cz);
+    const T c[6] = {
+        T(cx), T(cy), T(cz), T(geo.nx - 1 - cx), T(geo.ny - 1 - cy), T(geo.nz - 1 - cz)};
+    if (!(d2 == d2)) {
+      const T big = std::numeric_limits<T>::max();
+      return {{big, big, big, big, big, big, big, c[0], c[1], c[2], c[3], c[4], c[5]}};
+    }
     const T zero = T(0);
     return {{d2, d.x > zero ? d.x : zero, d.x < zero ? -d.x : zero, d.y > zero ? d.y : zero,
-             d.y < zero ? -d.y : zero, d.z > zero ? d.z : zero, d.z < zero ? -d.z : zero}};
+             d.y < zero ? -d.y : zero, d.z > zero ? d.z : zero, d.z < zero ? -d.z : zero, c[0],
+             c[1], c[2], c[3], c[4], c[5]}};
+  }
+};
+
+/// A box of cells [lo, lo + n) of a grid, walked by a linear index k (x fastest).
+struct CellRegion {
+  int lo[3], n[3];
+  KF_HD KF_INLINE std::size_t count() const {
+    return std::size_t(n[0]) * std::size_t(n[1]) * std::size_t(n[2]);
+  }
+  template <typename T>
+  KF_HD KF_INLINE std::size_t cell(std::size_t k, const GridGeometry<T>& geo) const {
+    const std::size_t nx = std::size_t(n[0]), nxy = nx * std::size_t(n[1]);
+    return geo.linear(lo[0] + int(k % nx), lo[1] + int(k / nx % std::size_t(n[1])),
+                      lo[2] + int(k / nxy));
   }
 };
 
@@ -40,10 +61,12 @@ using Box = typename SphLists<T>::Box;
 template <typename T>
 struct CellDisplacementBox {
   CellView<T> cells;
+  CellRegion region; // the cells computed (index k: region.cell(k))
   const Vec3<T>* x;
   const Vec3<T>* x0;
   Box<T>* out;
-  KF_HD void operator()(std::size_t c, exec::Lanes g) const {
+  KF_HD void operator()(std::size_t k, exec::Lanes g) const {
+    const std::size_t c = region.cell(k, cells.geo);
     Box<T> b = Box<T>::empty();
     const std::uint32_t r = cells.rank[c];
     for (std::uint32_t k = cells.start[r] + g.lane; k < cells.end[r]; k += g.size)
@@ -56,10 +79,12 @@ struct CellDisplacementBox {
 };
 
 /// The union of the boxes of the cells within `reach` of cell c along one axis (0, 1, 2): three
-/// passes, one an axis, give the union over the (2 reach + 1)^3 cells around c.
+/// passes, one an axis, give the union over the (2 reach + 1)^3 cells around c. Only the cells
+/// of `region` are read and written: the cells outside it hold no particle of the build.
 template <typename T>
 struct SpreadBoxes {
   GridGeometry<T> geo;
+  CellRegion region;
   int axis;
   int reach;
   const Box<T>* in;
@@ -68,9 +93,10 @@ struct SpreadBoxes {
     const int at = axis == 0   ? int(c % nx)
                    : axis == 1 ? int(c / nx % std::size_t(geo.ny))
                                : int(c / nxy);
-    const int n = axis == 0 ? geo.nx : axis == 1 ? geo.ny : geo.nz;
+    const int first = region.lo[axis], last = region.lo[axis] + region.n[axis] - 1;
     const std::size_t stride = axis == 0 ? 1 : axis == 1 ? nx : nxy;
-    const int k0 = at > reach ? at - reach : 0, k1 = at + reach < n ? at + reach : n - 1;
+    const int k0 = at - reach > first ? at - reach : first,
+              k1 = at + reach < last ? at + reach : last;
     Box<T> u = in[c - std::size_t(at - k0) * stride];
     for (int k = k0 + 1; k <= k1; ++k)
       u.add(in[c + std::size_t(k) * stride - std::size_t(at) * stride]);
@@ -82,15 +108,18 @@ template <typename T>
 struct SpreadInto {
   SpreadBoxes<T> s;
   Box<T>* out;
-  KF_HD void operator()(std::size_t c) const { out[c] = s.around(c); }
+  KF_HD void operator()(std::size_t k) const {
+    const std::size_t c = s.region.cell(k, s.geo);
+    out[c] = s.around(c);
+  }
 };
 
 /// The last axis's pass, reduced: the squared diagonal of cell c's union box (0 when empty).
 template <typename T>
 struct SpreadDiagonal {
   SpreadBoxes<T> s;
-  KF_HD KF_INLINE exec::Maxima<T, 1> operator()(std::size_t c) const {
-    const Box<T> u = s.around(c);
+  KF_HD KF_INLINE exec::Maxima<T, 1> operator()(std::size_t k) const {
+    const Box<T> u = s.around(s.region.cell(k, s.geo));
     const T zero = T(0);
     const T dx = u.hi.x - u.lo.x, dy = u.hi.y - u.lo.y, dz = u.hi.z - u.lo.z;
     const T ex = dx > zero ? dx : zero, ey = dy > zero ? dy : zero, ez = dz > zero ? dz : zero;
@@ -116,8 +145,9 @@ bool same_geometry(const GridGeometry<T>& a, const GridGeometry<T>& b) {
 
 template <typename T>
 SphLists<T>::SphLists(exec::Backend b, T skin)
-    : skin_(skin), lists_(b), walls_(b), x0_(b, 0, "fluid.listed_x"), moved_(b, 8, "fluid.moved"),
-      read_(b, 8, "fluid.moved"), box_(b, 0, "fluid.moved_box"), spread_(b, 0, "fluid.moved_box") {}
+    : skin_(skin), lists_(b), walls_(b), x0_(b, 0, "fluid.listed_x"), moved_(b, 14, "fluid.moved"),
+      read_(b, 14, "fluid.moved"), box_(b, 0, "fluid.moved_box"), spread_(b, 0, "fluid.moved_box") {
+}
 
 template <typename T>
 void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>& cells,
@@ -184,8 +214,8 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
     return false; // the rules hold on the host's bounds alone: no need to look
   const std::size_t n = f.size();
   exec::fill(ex, moved_, T(0), "fluid.moved");
-  exec::max_into_each<T, 7>(ex, n, Displacement<T>{f.x.data(), x0_.data()}, moved_.data(),
-                            "fluid.moved");
+  exec::max_into_each<T, 13>(ex, n, Displacement<T>{f.x.data(), x0_.data(), cells_.geo},
+                             moved_.data(), "fluid.moved");
   read_.start(moved_.data());
   if (meanwhile)
     meanwhile();
@@ -203,19 +233,30 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
   // The local bound only when the global ones fail and could be rescued (a second reading:
   // its four passes over the cells cost more than the pour's whole step saves otherwise).
   if (largest <= s && pair > s) {
-    const std::size_t cells = cells_.geo.cells();
     const int reach = cells_.span; // around the pair's midpoint cell (SphLists.hpp)
-    exec::for_each_lanes<8>(ex, cells,
-                            CellDisplacementBox<T>{cells_, f.x.data(), x0_.data(), box_.data()},
-                            "fluid.moved_box");
-    exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 0, reach, box_.data()}, spread_.data()},
+    // Over the box of the cells the build filled, widened by the reach: outside it every cell's
+    // union is empty, so the largest diagonal is the whole grid's (the pour's fluid fills a
+    // fraction of its domain's cells once it has run off).
+    const GridGeometry<T>& geo = cells_.geo;
+    const int dims[3] = {geo.nx, geo.ny, geo.nz};
+    CellRegion region{};
+    for (int a = 0; a < 3; ++a) {
+      const int lo = dims[a] - 1 - int(reading[10 + a]), hi = int(reading[7 + a]);
+      region.lo[a] = std::max(lo - reach, 0);
+      region.n[a] = std::min(hi + reach, dims[a] - 1) - region.lo[a] + 1;
+    }
+    const std::size_t cells = n > 0 ? region.count() : 0;
+    exec::for_each_lanes<8>(
+        ex, cells, CellDisplacementBox<T>{cells_, region, f.x.data(), x0_.data(), box_.data()},
+        "fluid.moved_box");
+    exec::for_each(ex, cells, SpreadInto<T>{{geo, region, 0, reach, box_.data()}, spread_.data()},
                    "fluid.moved_box");
-    exec::for_each(ex, cells, SpreadInto<T>{{cells_.geo, 1, reach, spread_.data()}, box_.data()},
+    exec::for_each(ex, cells, SpreadInto<T>{{geo, region, 1, reach, spread_.data()}, box_.data()},
                    "fluid.moved_box");
-    exec::max_into_each<T, 1>(ex, cells, SpreadDiagonal<T>{{cells_.geo, 2, reach, box_.data()}},
-                              moved_.data() + 7, "fluid.moved_box");
+    exec::max_into_each<T, 1>(ex, cells, SpreadDiagonal<T>{{geo, region, 2, reach, box_.data()}},
+                              moved_.data() + 13, "fluid.moved_box");
     read_.start(moved_.data());
-    m[7] = read_.wait()[7];
+    m[7] = read_.wait()[13];
     if (combine_)
       combine_(m.data() + 7, 1);
     local = std::sqrt(double(m[7]));
