@@ -91,12 +91,12 @@ void KnitFluidCoupling<T>::update_saturation(const exec::Exec& ex, KnitSet<T>& k
   } else if (params_.capillary) {
     with_kernel<T>(kernel_, params_.h, [&](auto k) {
       using K = decltype(k);
-      exec::for_each(ex, n,
-                     SaturationEvaluator<T, K>{k, params_, knit.x.data(), knit.m.data(), fluid.f.x,
-                                               fluid.f.m, fluid.cells, fluid.near,
-                                               saturation_.data(), pressure_.data(),
-                                               fluid_mass_.data()},
-                     "coupling.saturation");
+      exec::for_each_lanes<4>(ex, n,
+                              SaturationEvaluator<T, K>{k, params_, knit.x.data(), knit.m.data(),
+                                                        fluid.f.x, fluid.f.m, fluid.cells,
+                                                        fluid.near, saturation_.data(),
+                                                        pressure_.data(), fluid_mass_.data()},
+                              "coupling.saturation");
     });
   } else if (fresh) { // contact only: no saturation, zero once
     exec::fill(ex, saturation_, T(0), "coupling.saturation");
