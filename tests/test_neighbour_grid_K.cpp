@@ -398,10 +398,11 @@ void check_sph_chunk_builder(exec::Backend backend, int span) {
 }
 
 /// SphLists::stale_after's local rule (SphLists.hpp). Its bound must equal a brute-force union
-/// of the displacement boxes of the cells within 2 of each cell, over the whole grid; a smooth displacement field that
-/// the global rules reject (2 max |d| and the box diagonal over s) must keep the lists, which
-/// must still hold every pair within h; a slip plane (relative displacement 1.8 s) and a
-/// translation past s (the grid's walks) must rebuild.
+/// of the displacement boxes of the cells within 2 of each cell, over the whole grid; a smooth
+/// displacement field that the global rules reject (2 max |d| and the box diagonal over s) must
+/// keep the lists, which must still hold every pair within h; a slip plane (relative
+/// displacement 1.8 s) and a translation past s (the grid's walks) must rebuild; a shear at the
+/// edge of the filled cells (the pass runs over their box only) must be found.
 template <typename T>
 void check_local_rule(exec::Backend backend) {
   const double h = 0.1, s = 0.02, dp = 0.03;
