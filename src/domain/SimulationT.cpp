@@ -107,10 +107,14 @@ void SimulationT<T>::init_work_measures() {
     return;
   work_ = exec::DeviceBuffer<double>(ex_.backend, 0, "watchdog.work");
   work_.assign(std::vector<double>{0.0});
+  if (moving_)
+    init_contact_work();
   if (knit_on_)
-    knit_->measure_work(handles ? work_.data() : nullptr, {});
-  if (!moving_)
-    return;
+    knit_->measure_work(handles ? work_.data() : nullptr, contact_work(nullptr));
+}
+
+template <typename T>
+void SimulationT<T>::init_contact_work() {
   // The fixed point's unit: 2^-50 of the scene's energy scale (its whole mass lifted through the
   // domain's height, or moving at the speed of sound or the fastest solid's speed), so one
   // correction rounds by 1e-15 of it and the sum holds 2^13 of it. Every rank sampled the whole
@@ -129,8 +133,6 @@ void SimulationT<T>::init_work_measures() {
   contact_unit_ = std::ldexp(energy > 0 ? energy : 1.0, -50);
   contact_work_ = exec::DeviceBuffer<std::uint64_t>(ex_.backend, 0, "watchdog.work");
   contact_work_.assign(std::vector<std::uint64_t>{0});
-  if (knit_on_)
-    knit_->measure_work(handles ? work_.data() : nullptr, contact_work(nullptr));
 }
 
 template <typename T>

@@ -263,6 +263,7 @@ private:
   exec::DeviceBuffer<std::uint64_t> contact_work_{exec::Backend::Cpu, 0, "watchdog.work"};
   double contact_unit_ = 1.0;
   void init_work_measures();
+  void init_contact_work(); // contact_work_ and its unit, where a solid moves
   /// The contact's work sink for a set of masses m (none where no solid moves).
   ContactWork<T> contact_work(const T* m) {
     if (contact_work_.size() == 0)

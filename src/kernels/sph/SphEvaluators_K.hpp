@@ -132,6 +132,31 @@ struct BoundaryPressureEvaluator {
   }
 };
 
+/// What fluid particle i brings to the forces pass's pairs with boundary particles: its velocity,
+/// P_i / rho_i^2, 1 / rho_i, 2 mu, the viscous term's eta^2, and whether walls hold the fluid.
+template <typename T>
+struct WallPairSide {
+  Vec3<T> v;
+  T p_rho2, inv_rho, mu2, eta2;
+  bool no_slip;
+};
+
+/// The acceleration of fluid particle i by boundary particle k (a fluid particle of mass
+/// psi_k = rho0 V_k and pressure P_k), added to acc in the forces pass's two updates: pressure
+/// (Eq. 3) and, no-slip, viscosity (Eq. 4, against the wall's ghost velocity). rik = x_i - x_k,
+/// 0 < r2 = |rik|^2 < h^2, dw = dW/dr / r; xvk = (x_k, V_k), vpk = (ghost v_k, P_k / rho_k^2).
+/// ForceEvaluator's, and MoverWorkEvaluator's for the moving walls' work.
+template <typename T>
+KF_HD KF_INLINE void add_wall_pair(Vec3<T>& acc, const WallPairSide<T>& i, const Vec3<T>& rik, T r2,
+                                   T dw, T rho0, const Vec4<T>& xvk, const Vec4<T>& vpk,
+                                   T inv_rho_k) {
+  const T mk = rho0 * xvk.w;
+  acc -= rik * (dw * mk * (i.p_rho2 + vpk.w));
+  if (i.no_slip)
+    acc += (i.v - vpk.xyz()) *
+           (mk * i.mu2 * i.inv_rho * inv_rho_k * (r2 * dw) * krcp_fast(r2 + i.eta2));
+}
+
 // Continuity: the same pass also sums drho_i/dt (see operator()) and ends the density's step.
 template <typename T, typename K, typename N, bool Continuity = false>
 struct ForceEvaluator {
@@ -229,14 +254,10 @@ struct ForceEvaluator {
           if (r2 >= h2 || r2 <= T(0))
             return;
           const Vec4<T> vpk = b.vp[k]; // (v_k, P_k / rho_k^2)
-          const T inv_rho_k = b.inv_rho[k];
           const T inv_r = krsqrt(r2);
           const T dw = kernel.dWdr(r2 * inv_r) * inv_r;
-          const T mk = rho0 * xvk.w;
-          acc -= rik * (dw * mk * (pi + vpk.w));
-          if (b.no_slip)
-            acc += (vi - vpk.xyz()) *
-                   (mk * mu2 * inv_rho_i * inv_rho_k * (r2 * dw) * krcp_fast(r2 + eta2));
+          add_wall_pair(acc, {vi, pi, inv_rho_i, mu2, eta2, b.no_slip}, rik, r2, dw, rho0, xvk, vpk,
+                        b.inv_rho[k]);
           if constexpr (Continuity)
             rate += xvk.w * dw * dot(vi - b.wall_velocity(k), rik);
         });
@@ -254,8 +275,8 @@ struct ForceEvaluator {
 
 /// The work the moving solids' boundary particles do on fluid particle i over a step of dt:
 /// dt sum_k F_ik . v_k over its boundary neighbours k of moving obstacles, F_ik the forces pass's
-/// pair force on i (pressure and, no-slip, viscosity) rebuilt from the copies it read (vp, vol,
-/// the boundary's xv, vp, inv_rho: valid until the next density pass), v_k the solid's velocity.
+/// pair force on i (add_wall_pair) rebuilt from the copies it read (p, vol, the boundary's xv,
+/// vp, inv_rho: valid until the next density pass), v_k the solid's velocity.
 /// The rest of the pair's effect, F_ik . (v_i - v_k), is the fluid's own compression and
 /// friction against the wall, not work from outside. Rows with owned[i] == 0 (a rank's ghosts)
 /// add nothing. The watchdog's energy budget (domain/Watchdog).
@@ -273,12 +294,11 @@ struct MoverWorkEvaluator {
     if ((owned && !owned[i]) || !b.around(xi))
       return 0.0;
     const T h2 = kernel.h * kernel.h;
-    const T eta2 = T(0.01) * h2;
     const T mi = f.m[i];
-    const T mpi = f.vp[i].w;           // m_i P_i / rho_i^2
     const T inv_rho_i = f.vol[i] / mi; // the forces pass's 1 / rho_i
-    const Vec3<T> vi = f.v[i];
-    const T mu2 = T(2) * prm.viscosity;
+    const WallPairSide<T> side{f.v[i],       f.p[i] * inv_rho_i * inv_rho_i,
+                               inv_rho_i,    T(2) * prm.viscosity,
+                               T(0.01) * h2, b.no_slip};
     double power = 0.0;
     b.cells.for_each_candidate(xi, [&](std::uint32_t k) {
       const std::uint32_t o = b.obstacle[k];
@@ -292,17 +312,13 @@ struct MoverWorkEvaluator {
       const T r2 = norm2(rik);
       if (r2 >= h2 || r2 <= T(0))
         return;
-      const Vec4<T> vpk = b.vp[k];
       const T inv_r = krsqrt(r2);
       const T dw = kernel.dWdr(r2 * inv_r) * inv_r;
-      const T mk = prm.eos.rho0 * xvk.w;
-      Vec3<T> force = rik * (-dw * mk * (mpi + mi * vpk.w));
-      if (b.no_slip)
-        force +=
-            (vi - vpk.xyz()) * (mi * mk * mu2 * inv_rho_i * b.inv_rho[k] * (r2 * dw) / (r2 + eta2));
-      power += double(dot(force, vw));
+      Vec3<T> a{T(0), T(0), T(0)};
+      add_wall_pair(a, side, rik, r2, dw, prm.eos.rho0, xvk, b.vp[k], b.inv_rho[k]);
+      power += double(dot(a, vw));
     });
-    return double(dt) * power;
+    return double(dt) * double(mi) * power;
   }
 };
 

@@ -241,7 +241,7 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
     const int dims[3] = {geo.nx, geo.ny, geo.nz};
     CellRegion region{};
     for (int a = 0; a < 3; ++a) {
-      const int lo = dims[a] - 1 - int(reading[10 + a]), hi = int(reading[7 + a]);
+      const int lo = dims[a] - 1 - int(m[10 + a]), hi = int(m[7 + a]); // this rank's box
       region.lo[a] = std::max(lo - reach, 0);
       region.n[a] = std::min(hi + reach, dims[a] - 1) - region.lo[a] + 1;
     }

@@ -65,9 +65,9 @@ public:
   /// replaces k readings by their largest over the job (in place, collective; stale_after then
   /// is too), so that every rank takes the same decision at the same step, the one a single rank
   /// holding all the fluid would take from the first seven (largest displacement, the
-  /// displacements' box). The eighth, the local bound, is the largest over the ranks of each rank's
-  /// own: a bound for the pairs each rank lists (all their partners are its owned or ghost
-  /// particles).
+  /// displacements' box). The local bound (the eighth value combined) is the largest over the
+  /// ranks of each rank's own: a bound for the pairs each rank lists (all their partners are its
+  /// owned or ghost particles).
   void combine_readings(std::function<void(T*, int)> combine) { combine_ = std::move(combine); }
   /// The fluid's arrays were replaced (a restart): the next stale_after says so.
   void forget() {
@@ -146,8 +146,9 @@ private:
   NeighbourList<T> walls_;
   bool walls_listed_ = false;
   exec::DeviceBuffer<Vec3<T>> x0_;
-  // Since the build: max |d|^2, then max(d_c, 0) and max(-d_c, 0) for c = x, y, z, then the
-  // local bound squared.
+  // Since the build: [0] max |d|^2, [1-6] max(d_c, 0) and max(-d_c, 0) for c = x, y, z; [7-12]
+  // the box of the cells the build filled, max c_a and max (n_a - 1 - c_a) for a = x, y, z (the
+  // local pass runs over it); [13] the local bound squared.
   exec::DeviceBuffer<T> moved_;
   exec::PendingRead<T> read_; // moved_ on the host
   // What the last build listed, for settle() to build again when a row overflowed.
