@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -141,7 +142,8 @@ enum class Motion {
 };
 
 template <typename T>
-void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t list_capacity = 256) {
+void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t list_capacity = 256,
+           std::uint32_t knit_capacity = 0) {
   const Cloud c0 = make_cloud(5);   // saturation and pressure come from here (begin_step)
   Cloud c = c0;                     // the pair forces from here
   const double skin = 0.2 * kH / 3; // the knit grid's below: a third of its cells' margin
@@ -162,7 +164,7 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
   Fixture<T> fx(backend, c0);
   KnitFluidCoupling<T> cp(backend, KernelType::Spiky, pt,
                           NeighbourGrid<T>::cover({0, 0, 0}, {0.1, 0.1, 0.1}, 1.2 * kH),
-                          list_capacity);
+                          list_capacity, knit_capacity);
   // The kernel adds to a (the springs' forces come first) and leaves pinned points alone, so a
   // NaN fill would only propagate: start from a distinct non-zero a instead. A free point must
   // end at its own start plus the coupling (not overwritten, not skipped when wet), a pinned one
@@ -181,6 +183,21 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
   const T weight = T(0.25);
   cp.add_forces(fx.ex, fx.knit, fx.side(), weight);
   EXPECT_EQ(cp.sorts(), 1u) << "the forces must come from the grid sorted at begin_step";
+  if (knit_capacity) { // the premise: some knit points read their listed pairs, some walk
+    const ListView<T> rows = cp.knit_rows().view();
+    std::vector<std::uint32_t> count(c.kx.size());
+    exec::copy_bytes(count.data(), exec::Backend::Cpu, rows.count, backend, count.size() * 4);
+    const auto over = std::count_if(count.begin(), count.end(),
+                                    [&](std::uint32_t k) { return k > rows.capacity; });
+    const auto listed = std::count_if(count.begin(), count.end(),
+                                      [&](std::uint32_t k) { return k > 0 && k <= rows.capacity; });
+    // Measured: 969 walk, 231 read their lists.
+    EXPECT_GT(over, 800) << "too few knit points walk";
+    EXPECT_GT(listed, 150) << "too few knit points read their lists";
+    std::uint32_t flag = 1;
+    exec::copy_bytes(&flag, exec::Backend::Cpu, cp.knit_rows().incomplete(), backend, 4);
+    EXPECT_EQ(flag, 0u) << "every fluid row must fit: only the knit's rows overflow";
+  }
   const auto a = fx.knit.a.to_host();
   const auto s = cp.saturation().to_host();
   const auto mfl = cp.fluid_mass().to_host();
@@ -367,6 +384,17 @@ TEST(CouplingKernels, OverflowingListsWalkTheirCellsCuda) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
   check<float>(exec::Backend::Cuda, Motion::None, 16);
+}
+// Knit rows of 128 fluid particles: the sheet's inner points have more within the lists' radius
+// and walk the fluid grid (computing their pairs again), its edges read the pairs the fluid side
+// kept; the fluid's rows all fit.
+TEST(CouplingKernels, OverflowingKnitRowsWalkTheirCellsCpu) {
+  check<double>(exec::Backend::Cpu, Motion::None, 256, 128);
+}
+TEST(CouplingKernels, OverflowingKnitRowsWalkTheirCellsCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check<float>(exec::Backend::Cuda, Motion::None, 256, 128);
 }
 // The knit moved within its substeps after begin_step sorted its grid: within the skin the kept
 // grid and near flags find every pair; past it (no read on the host) the fluid side sees the

@@ -4,6 +4,7 @@
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/grid/NeighbourList.hpp"
 #include "kernels/grid/StagedRowAppender.hpp"
+#include "kernels/grid/TransposedList.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/sph/SphLists.hpp"
 #include "kernels/sph/SphNeighbours_K.hpp"
@@ -13,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <random>
 #include <set>
 #include <vector>
@@ -608,6 +610,141 @@ TEST(NeighbourList, BuildForInLanesWritesTheOneLaneRowsCuda) {
     GTEST_SKIP() << "no CUDA device";
   check_lane_build_for<float>(exec::Backend::Cuda);
   check_lane_build_for<double>(exec::Backend::Cuda);
+}
+
+// The transpose against a host one: random source rows (some inactive, some over their capacity)
+// of entries mapped through a permutation to targets; some targets meet more sources than their
+// capacity. Each target row must hold exactly the slots of the active source rows listing it,
+// in ascending order of row, on every backend and thread count; a source row past its capacity
+// must flag the transpose.
+// The buffers are filled first by a dense transpose of other rows, so that a slot the second
+// build does not write shows as a stale entry.
+namespace {
+
+struct TransposeCase {
+  std::size_t sources = 0, targets = 0;
+  std::uint32_t src_capacity = 0, capacity = 0;
+  std::vector<std::uint32_t> count, list, active, map; // source rows in ListView's layout
+};
+
+TransposeCase transpose_case(unsigned seed, std::size_t sources, std::size_t targets,
+                             std::uint32_t src_capacity, std::uint32_t capacity,
+                             bool overflow_source) {
+  std::mt19937 rng(seed);
+  TransposeCase c{sources, targets, src_capacity, capacity, {}, {}, {}, {}};
+  c.count.assign(sources, 0);
+  c.list.assign(sources * src_capacity, 0xDEADBEEFu);
+  c.active.resize(sources);
+  c.map.resize(targets);
+  std::iota(c.map.begin(), c.map.end(), 0u);
+  std::shuffle(c.map.begin(), c.map.end(), rng);
+  const ListView<float> layout{nullptr, nullptr, src_capacity, sources};
+  for (std::size_t j = 0; j < sources; ++j) {
+    c.active[j] = rng() % 5 != 0;
+    // Distinct entries, clustered so that some targets meet many sources.
+    std::set<std::uint32_t> row;
+    const std::uint32_t want = rng() % (src_capacity + 1);
+    // A tenth of the rows near target 0: there the rows overflow, elsewhere ~27 a row.
+    const std::uint32_t base =
+        static_cast<std::uint32_t>(rng() % 10 == 0 ? rng() % 16 : rng() % targets);
+    while (row.size() < want)
+      row.insert(static_cast<std::uint32_t>((base + rng() % 64) % targets));
+    std::uint32_t k = 0;
+    for (std::uint32_t e : row)
+      c.list[layout.slot(j, k++)] = e;
+    c.count[j] = want;
+  }
+  if (overflow_source) // an active row that counted more than it could hold
+    for (std::size_t j = 0; j < sources; ++j)
+      if (c.active[j] && c.count[j] > 0) {
+        c.count[j] = src_capacity + 3;
+        break;
+      }
+  return c;
+}
+
+struct TransposeResult {
+  std::vector<std::uint32_t> count, list;
+  std::uint32_t incomplete = 0;
+  std::size_t capacity = 0;
+};
+
+TransposeResult run_transpose(exec::Backend b, TransposedList<float>& tl, const TransposeCase& c) {
+  exec::Exec ex{b};
+  exec::DeviceBuffer<std::uint32_t> count(b), list(b), active(b), map(b);
+  count.assign(c.count);
+  list.assign(c.list);
+  active.assign(c.active);
+  map.assign(c.map);
+  tl.build(ex, ListView<float>{count.data(), list.data(), c.src_capacity, c.sources}, active.data(),
+           map.data(), c.targets, c.capacity);
+  const ListView<float> v = tl.view();
+  TransposeResult r;
+  r.capacity = v.capacity;
+  r.count.resize(c.targets);
+  r.list.resize(c.targets * v.capacity);
+  exec::copy_bytes(r.count.data(), exec::Backend::Cpu, v.count, b,
+                   c.targets * sizeof(std::uint32_t));
+  exec::copy_bytes(r.list.data(), exec::Backend::Cpu, v.list, b, r.list.size() * 4);
+  exec::copy_bytes(&r.incomplete, exec::Backend::Cpu, tl.incomplete(), b, 4);
+  return r;
+}
+
+void check_transpose(exec::Backend b) {
+  for (const bool overflow_source : {false, true}) {
+    const TransposeCase c = transpose_case(11, 1200, 700, 40, 48, overflow_source);
+    // Every target met by every source of a dense case first: all slots written.
+    TransposeCase dense = transpose_case(12, 3000, 700, 40, 48, false);
+    TransposedList<float> tl(b);
+    run_transpose(b, tl, dense);
+    const TransposeResult got = run_transpose(b, tl, c);
+    // The host's transpose.
+    std::vector<std::vector<std::uint32_t>> want(c.targets);
+    const ListView<float> layout{nullptr, nullptr, c.src_capacity, c.sources};
+    bool flagged = false;
+    for (std::size_t j = 0; j < c.sources; ++j) {
+      if (!c.active[j])
+        continue;
+      if (c.count[j] > c.src_capacity) {
+        flagged = true;
+        continue;
+      }
+      for (std::uint32_t k = 0; k < c.count[j]; ++k)
+        want[c.map[c.list[layout.slot(j, k)]]].push_back(
+            static_cast<std::uint32_t>(layout.slot(j, k)));
+    }
+    EXPECT_EQ(got.incomplete != 0, flagged);
+    EXPECT_EQ(got.capacity, 48u);
+    const ListView<float> out{nullptr, nullptr, got.capacity, c.targets};
+    std::size_t full = 0, over = 0, pairs = 0;
+    for (std::size_t t = 0; t < c.targets; ++t) {
+      ASSERT_EQ(got.count[t], want[t].size()) << "target " << t;
+      pairs += want[t].size();
+      if (want[t].size() > got.capacity) {
+        ++over;
+        continue;
+      }
+      full += want[t].size() > got.capacity / 2;
+      for (std::size_t k = 0; k < want[t].size(); ++k) // rows ascending by construction
+        ASSERT_EQ(got.list[out.slot(t, k)], want[t][k]) << "target " << t << " slot " << k;
+    }
+    // The case must test something (measured: 375 rows over half full, 33 over, 19.1k pairs).
+    EXPECT_GT(full, 300u);
+    EXPECT_GT(over, 20u);
+    EXPECT_GT(pairs, 15000u);
+  }
+}
+
+} // namespace
+
+TEST(TransposedList, RowsAreTheHostTransposeAscendingCpu) {
+  check_transpose(exec::Backend::Cpu);
+}
+
+TEST(TransposedList, RowsAreTheHostTransposeAscendingCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check_transpose(exec::Backend::Cuda);
 }
 
 TEST(StagedRowAppender, MatchesEntryByEntryAppends) {

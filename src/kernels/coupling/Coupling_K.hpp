@@ -154,6 +154,8 @@ struct FluidCouplingEvaluator {
   const T* moved2;
   T skin2;
   std::uint32_t n_knit;
+  Vec3<T>* pair_force; // per slot of `list`: the pair's force on j (zero out of reach), kept for
+                       // the knit side of the same substep
 
   /// g: the lanes sharing particle j (for_each_lanes): a coarse fluid's particle may meet
   /// hundreds of a fine knit's points, and one lane's walk over them was the pass's latency.
@@ -171,7 +173,13 @@ struct FluidCouplingEvaluator {
         sum += fij;
     };
     if (!stale && list.complete(j))
-      list.for_each_neighbour(j, xj, g.lane, g.size, pair);
+      list.for_each_slot(j, g.lane, g.size, [&](std::size_t s, std::uint32_t i) {
+        Vec3<T> fij{T(0), T(0), T(0)};
+        if (coupling_pair_force(kernel, prm, xj, vj, mj, rhoj,
+                                KnitPairSide<T>{knit.x[i], knit.v[i], knit.m[i], knit.p[i]}, fij))
+          sum += fij;
+        pair_force[s] = fij;
+      });
     else if (!stale)
       knit_cells.for_each_candidate(xj, g.lane, g.size, pair);
     else
@@ -184,7 +192,10 @@ struct FluidCouplingEvaluator {
 };
 
 /// Knit side: a_i += (weight of its absorbed fluid - sum over fluid particles of the pair force
-/// on them) / m_i, for free points.
+/// on them) / m_i, for free points: the forces the fluid side kept for the pairs its lists hold
+/// (those lists transposed: the fluid particles in ascending order), or computed again over
+/// the point's fluid-grid cells where the lists may miss a pair (the knit moved past the watch's
+/// skin, a fluid row or the point's own overflowed).
 template <typename T, typename K>
 struct KnitCouplingEvaluator {
   K kernel;
@@ -198,19 +209,29 @@ struct KnitCouplingEvaluator {
   const T* fluid_rho;
   CellView<T> fluid_cells;
   const std::uint8_t* fluid_near; // FluidSide::near
+  ListView<T> rows;               // per knit point: its pairs' slots (TransposedList)
+  const std::uint32_t* rows_incomplete;
+  const Vec3<T>* pair_force; // the fluid side's, per slot of its lists
+  const T* moved2;
+  T skin2;
 
   KF_HD void operator()(std::size_t i, exec::Lanes g = {}) const {
     if (p.handle[i] != kFreePoint)
       return;
     const KnitPairSide<T> side{p.x[i], p.v[i], p.m[i], pressure[i]};
     Vec3<T> sum{T(0), T(0), T(0)};
-    if (fluid_cells.may_find(fluid_near, side.x)) // the same for the group's lanes
-      fluid_cells.for_each_candidate(side.x, g.lane, g.size, [&](std::uint32_t j) {
-        Vec3<T> fji;
-        if (coupling_pair_force(kernel, prm, fluid_x[j], fluid_v[j], fluid_m[j], fluid_rho[j], side,
-                                fji))
-          sum += fji;
-      });
+    auto pair = [&](std::uint32_t j) {
+      Vec3<T> fji;
+      if (coupling_pair_force(kernel, prm, fluid_x[j], fluid_v[j], fluid_m[j], fluid_rho[j], side,
+                              fji))
+        sum += fji;
+    };
+    // The same decisions for the group's lanes (they read the point's words only).
+    if (*moved2 <= skin2 && *rows_incomplete == 0u && rows.complete(i))
+      rows.for_each_neighbour(i, side.x, g.lane, g.size,
+                              [&](std::uint32_t s) { sum += pair_force[s]; });
+    else if (fluid_cells.may_find(fluid_near, side.x))
+      fluid_cells.for_each_candidate(side.x, g.lane, g.size, pair);
     Vec3<T> force = g.sum(sum) * T(-1);
     if (fluid_mass)
       force += prm.gravity * fluid_mass[i];

@@ -9,15 +9,17 @@ namespace kf {
 template <typename T>
 KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
                                         const CouplingParams<T>& params,
-                                        const GridGeometry<T>& grid, std::uint32_t list_capacity)
+                                        const GridGeometry<T>& grid, std::uint32_t list_capacity,
+                                        std::uint32_t knit_capacity)
     : kernel_(kernel), params_(params), grid_(b, grid),
       watch_(b, (grid.cell - coupling_reach(params)) / T(3), "coupling.moved"),
       saturation_(b, 0, "coupling.saturation"), pressure_(b, 0, "coupling.pressure"),
       fluid_mass_(b, 0, "coupling.fluid_mass"), x_(b, 0, "coupling.knit_x"),
       v_(b, 0, "coupling.knit_v"), m_(b, 0, "coupling.knit_m"), p_(b, 0, "coupling.knit_p"),
       impulse_(b, 0, "coupling.impulse"), near_flag_(b, 0, "coupling.near_flag"), list_(b),
+      knit_rows_(b), pair_force_(b, 0, "coupling.pair_force"),
       list_skin_(T(2) * (grid.cell - coupling_reach(params)) / T(3)), list_capacity_(list_capacity),
-      cell_(grid.cell) {
+      knit_capacity_(knit_capacity ? knit_capacity : list_capacity), cell_(grid.cell) {
   const T reach = coupling_reach(params);
   if (!(grid.cell > reach))
     throw Error("knit-fluid coupling: grid cell " + std::to_string(double(grid.cell)) +
@@ -127,6 +129,10 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
   const T r = coupling_reach(params_) + list_skin_;
   list_.template build_for<kFluidSideLanes>(ex, fluid.f.x, near_flag_.data(), fluid.f.n, x_.data(),
                                             grid_.view(), r * r, list_capacity_);
+  // The same pairs seen from the knit, for its side of every substep (the lists' rows hold
+  // grid slots: perm maps them to the knit's points).
+  knit_rows_.build(ex, list_.view(), near_flag_.data(), perm().data(), n, knit_capacity_);
+  pair_force_.resize(list_.view().capacity * fluid.f.n);
 }
 
 template <typename T>
@@ -152,7 +158,7 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
         FluidCouplingEvaluator<T, K>{
             k, params_, fluid.f, SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()},
             grid_.view(), weight, impulse_.data(), near_flag_.data(), list_.view(), watch_.moved2(),
-            watch_.skin2(), static_cast<std::uint32_t>(x_.size())},
+            watch_.skin2(), static_cast<std::uint32_t>(x_.size()), pair_force_.data()},
         "coupling.fluid");
     auto kv = knit.view();
     kv.n = active(knit);
@@ -161,7 +167,8 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
                                 k, params_, kv, pressure_.data(),
                                 params_.capillary && !conserving_ ? fluid_mass_.data() : nullptr,
                                 fluid.f.x, fluid.f.v, fluid.f.m, fluid.f.rho, fluid.cells,
-                                fluid.near},
+                                fluid.near, knit_rows_.view(), knit_rows_.incomplete(),
+                                pair_force_.data(), watch_.moved2(), watch_.skin2()},
                             "coupling.knit");
   });
 }
@@ -227,8 +234,9 @@ CouplingStats KnitFluidCoupling<T>::stats(const exec::Exec& ex, KnitSet<T>& knit
 template <typename T>
 std::size_t KnitFluidCoupling<T>::bytes() const {
   return grid_.bytes() + watch_.bytes() + near_flag_.capacity_bytes() + list_.bytes() +
-         saturation_.capacity_bytes() + pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() +
-         x_.capacity_bytes() + v_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
+         knit_rows_.bytes() + pair_force_.capacity_bytes() + saturation_.capacity_bytes() +
+         pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() + x_.capacity_bytes() +
+         v_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
          impulse_.capacity_bytes();
 }
 

@@ -10,6 +10,7 @@
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/grid/NeighbourList.hpp"
 #include "kernels/grid/SkinWatch.hpp"
+#include "kernels/grid/TransposedList.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
@@ -55,9 +56,12 @@ public:
   /// margin (cell - r) is split into the lists' skin (2/3) and the grid's (1/3).
   /// list_capacity: knit points listed per fluid particle; a fuller row walks its cells (exact,
   /// slower). A sheet of three layers holds ~31 points within a reach of 2 fluid spacings, ~55
-  /// within the list's radius.
+  /// within the list's radius. knit_capacity: fluid particles listed per knit point (0: the
+  /// same); a fuller point walks the fluid grid's cells. A point in water on both sides has
+  /// ~80 within the list's radius.
   KnitFluidCoupling(exec::Backend b, KernelType kernel, const CouplingParams<T>& params,
-                    const GridGeometry<T>& grid, std::uint32_t list_capacity = 96);
+                    const GridGeometry<T>& grid, std::uint32_t list_capacity = 96,
+                    std::uint32_t knit_capacity = 0);
 
   /// Saturation, capillary pressure and absorbed mass of every knit point (when capillary), the
   /// knit grid sorted again if a point moved farther than its skin, fluid impulses zeroed.
@@ -114,6 +118,8 @@ public:
   /// The knit grid sorted for the current positions and the sorted positions gathered.
   void sync_knit(const exec::Exec& ex, KnitSet<T>& knit);
   const NeighbourGrid<T>& knit_grid() const { return grid_; }
+  /// The pairs of the step per knit point (begin_step): its side's rows.
+  const TransposedList<T>& knit_rows() const { return knit_rows_; }
   /// The set's index of the point in each of the grid's slots.
   const exec::DeviceBuffer<std::uint32_t>& perm() const { return grid_.permutation(); }
   const exec::DeviceBuffer<Vec3<T>>& sorted_x() const { return x_; }
@@ -155,8 +161,13 @@ private:
   // per step; valid while no knit point moved farther than the watch's skin since the grid's
   // sort (docs/ARCHITECTURE.md "Knit-fluid coupling on the GPU" derives the skins).
   NeighbourList<T> list_;
+  // list_ transposed: per knit point (the set's order), the slots of the fluid rows that hold
+  // it, in the fluid's order; its side of each substep sums the forces the fluid side kept per
+  // slot (pair_force_) instead of walking the fluid grid and computing them again.
+  TransposedList<T> knit_rows_;
+  exec::DeviceBuffer<Vec3<T>> pair_force_;
   T list_skin_;
-  std::uint32_t list_capacity_;
+  std::uint32_t list_capacity_, knit_capacity_;
   // N ranks (distribute): as KnitSelfContact's.
   std::size_t active(const KnitSet<T>& knit) const { return std::min(active_, knit.size()); }
   bool ties_by_id_ = false;

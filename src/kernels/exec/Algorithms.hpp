@@ -504,6 +504,16 @@ KF_HD KF_INLINE void atomic_add(std::uint64_t* p, std::uint64_t v) {
 #endif
 }
 
+/// The same for a 32-bit count, returning the value before the add: where an item appended by
+/// many threads goes (the order of the appends is not fixed; sort after if it matters).
+KF_HD KF_INLINE std::uint32_t atomic_fetch_add(std::uint32_t* p, std::uint32_t v) {
+#if defined(__CUDA_ARCH__)
+  return atomicAdd(p, v);
+#else
+  return __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
+#endif
+}
+
 #if defined(__CUDACC__)
 __device__ KF_INLINE void atomic_max_nonnegative(float* p, float v) {
   atomicMax(reinterpret_cast<unsigned*>(p), __float_as_uint(v));

@@ -92,9 +92,17 @@ struct ListView {
   template <typename F>
   KF_HD KF_INLINE void for_each_neighbour(std::size_t i, const Vec3<T>&, std::uint32_t lane,
                                           std::uint32_t stride, F&& f) const {
+    for_each_slot(i, lane, stride, [&](std::size_t, std::uint32_t j) { f(j); });
+  }
+  /// The same with each entry's slot: f(slot(i, k), entry), for values kept per listed pair.
+  template <typename F>
+  KF_HD KF_INLINE void for_each_slot(std::size_t i, std::uint32_t lane, std::uint32_t stride,
+                                     F&& f) const {
     const std::uint32_t c = count[i];
-    for (std::uint32_t k = lane; k < c; k += stride)
-      f(list[slot(i, k)]);
+    for (std::uint32_t k = lane; k < c; k += stride) {
+      const std::size_t s = slot(i, k);
+      f(s, list[s]);
+    }
   }
 };
 
