@@ -166,17 +166,19 @@ struct FluidCouplingEvaluator {
     const Vec3<T> xj = f.x[j], vj = f.v[j];
     const T mj = f.m[j], rhoj = f.rho[j];
     Vec3<T> sum{T(0), T(0), T(0)};
+    auto force = [&](std::uint32_t i, Vec3<T>& fij) {
+      return coupling_pair_force(kernel, prm, xj, vj, mj, rhoj,
+                                 KnitPairSide<T>{knit.x[i], knit.v[i], knit.m[i], knit.p[i]}, fij);
+    };
     auto pair = [&](std::uint32_t i) {
       Vec3<T> fij;
-      if (coupling_pair_force(kernel, prm, xj, vj, mj, rhoj,
-                              KnitPairSide<T>{knit.x[i], knit.v[i], knit.m[i], knit.p[i]}, fij))
+      if (force(i, fij))
         sum += fij;
     };
     if (!stale && list.complete(j))
       list.for_each_slot(j, g.lane, g.size, [&](std::size_t s, std::uint32_t i) {
         Vec3<T> fij{T(0), T(0), T(0)};
-        if (coupling_pair_force(kernel, prm, xj, vj, mj, rhoj,
-                                KnitPairSide<T>{knit.x[i], knit.v[i], knit.m[i], knit.p[i]}, fij))
+        if (force(i, fij))
           sum += fij;
         pair_force[s] = fij;
       });
