@@ -114,16 +114,27 @@ double KnitSystem<T>::min_free_mass() const {
 }
 
 template <typename T>
-void KnitSystem<T>::internal_forces() {
-  {
-    stage_parts::Scope part("knit.step: springs, volume cells, gravity");
-    knit_forces(ex_, owned_view(), springs_.view(), gravity_, volumes_.view());
-  }
+KnitForceTerms<T> KnitSystem<T>::own_terms() {
+  KnitForceTerms<T> own{{owned_view(), springs_.view(), volumes_.view(), gravity_}};
   if (self_) {
-    stage_parts::Scope part("knit.step: self-contact (grid check/sort, gathers, forces)");
+    stage_parts::Scope part("knit.step: self-contact's copies (grid check/sort, gathers)");
     self_->update(ex_, set_);
-    self_->add_forces(ex_, set_);
+    own.self = self_->evaluator(set_);
+    own.with_self = true;
   }
+  return own;
+}
+
+template <typename T>
+void KnitSystem<T>::internal_forces(const Couple& couple, T weight) {
+  const KnitForceTerms<T> own = own_terms();
+  if (couple) {
+    stage_parts::Scope part("knit.step: fluid coupling (both sides), with the knit's forces");
+    couple(weight, own);
+    return;
+  }
+  stage_parts::Scope part("knit.step: springs, volume cells, gravity, self-contact");
+  knit_forces(ex_, owned(), own);
 }
 
 template <typename T>
@@ -187,16 +198,13 @@ template <typename T>
 void KnitSystem<T>::advance(double t, double dt, T keep,
                             const std::function<void(double)>& set_shapes,
                             const RigidShape<T>* shapes, std::size_t n_shapes,
-                            const std::function<void(T)>& couple) {
+                            const Couple& couple) {
   const int n = scene_.knit.substeps;
   const double h = dt / n;
   if (self_) // how far a point may go this step, from the bounds stable_dt() read
     self_->begin_step(ex_, set_, static_cast<T>(expected_motion(dt)));
-  if (couple) {
-    internal_forces();
-    stage_parts::Scope part("knit.step: fluid coupling (both sides)");
-    couple(static_cast<T>(0.5 * h));
-  }
+  if (couple)
+    internal_forces(couple, static_cast<T>(0.5 * h));
   const T radius = static_cast<T>(scene_.knit.radius());
   const T friction = static_cast<T>(scene_.knit.friction);
   for (int s = 0; s < n; ++s) {
@@ -219,14 +227,10 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
       stage_parts::Scope part("knit.step: ghosts' positions and velocities from their owners");
       refresh_ghosts_();
     }
-    internal_forces();
+    internal_forces(couple, static_cast<T>(s + 1 < n ? h : 0.5 * h));
     if (handle_work_ && handles_move()) // these forces act for h: the closing half, the next
       knit_handle_work(ex_, p, springs_.view(), volumes_.view(), gravity_, handle_v_.data(),
                        static_cast<T>(h), handle_work_);
-    if (couple) {
-      stage_parts::Scope part("knit.step: fluid coupling (both sides)");
-      couple(static_cast<T>(s + 1 < n ? h : 0.5 * h));
-    }
     if (s + 1 == n) {
       stage_parts::Scope part("knit.step: kick");
       kick(ex_, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick", fixed);

@@ -8,6 +8,7 @@
 #include "kernels/boundary/RigidContact_K.hpp"
 #include "kernels/boundary/RigidShape.hpp"
 #include "kernels/integrate/Verlet.hpp"
+#include "kernels/knit/KnitForces_K.hpp"
 #include "kernels/knit/SelfContact.hpp"
 #include "kernels/knit/SpringTopology.hpp"
 #include "kernels/particles/KnitSet.hpp"
@@ -32,13 +33,14 @@ public:
   /// is the velocity factor of one substep's half kick (global damping).
   /// set_shapes(t) moves the solids to time t (called before each substep's collisions when
   /// solids move); shapes and n_shapes are the device array it updates.
-  /// couple(weight), when set, adds forces from outside (the fluid) to a after each force
-  /// evaluation; weight is the time over which that a acts (h/2 at the step's ends, h between),
-  /// so the partner can take the opposite impulse. With couple set the step starts by
-  /// evaluating the forces afresh (the partner has moved since the last).
+  /// couple(weight, own), when set, evaluates the forces with those from outside (the fluid):
+  /// it sets a = (own + outside) / m + g in one pass (KnitFluidCoupling::add_forces with own);
+  /// weight is the time over which that a acts (h/2 at the step's ends, h between), so the
+  /// partner can take the opposite impulse. With couple set the step starts by evaluating the
+  /// forces afresh (the partner has moved since the last).
+  using Couple = std::function<void(T, const KnitForceTerms<T>&)>;
   void advance(double t, double dt, T keep, const std::function<void(double)>& set_shapes,
-               const RigidShape<T>* shapes, std::size_t n_shapes,
-               const std::function<void(T)>& couple = {});
+               const RigidShape<T>* shapes, std::size_t n_shapes, const Couple& couple = {});
   /// The watchdog's measures of the work from outside (domain/Watchdog) in the coming advances:
   /// the moving handles' (knit_handle_work, after each substep's forces) added to *handles, a
   /// double on the backend; the moving solids' contact (ContactWork, its m left to the set's).
@@ -132,7 +134,11 @@ private:
   std::vector<Vec3<T>> handle_v_host_;
   std::vector<KnitPieceLayout> pieces_;
   Vec3<T> gravity_;
-  void internal_forces();
+  /// The springs', volume cells', gravity's and self-contact's terms for a force pass, after
+  /// the self-contact's copies are brought up to date (they read the points as they are now).
+  KnitForceTerms<T> own_terms();
+  /// a from the knit's own terms, or with couple's (weight: see advance).
+  void internal_forces(const Couple& couple = {}, T weight = T(0));
   void setup_self_contact(const KnitMesh& mesh);
   double spring_limit_ = 0;     // min sqrt(m / sum k), m / sum c over free points (cached: fixed)
   double contact_limit_ = 1e30; // spring_factor sqrt(m_min / (kMaxContacts k_self))

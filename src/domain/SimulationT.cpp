@@ -341,10 +341,10 @@ void SimulationT<T>::build_pipeline() {
           std::function<void(double)> move;
           if (moving_)
             move = [this](double t) { update_shapes(t); };
-          std::function<void(T)> couple;
+          typename KnitSystem<T>::Couple couple;
           if (coupling_on_)
-            couple = [this](T weight) {
-              coupling_->add_forces(ex_, knit_->set(), fluid_side(), weight);
+            couple = [this](T weight, const KnitForceTerms<T>& own) {
+              coupling_->add_forces(ex_, knit_->set(), fluid_side(), weight, &own);
             };
           if (knit_halo_ && !coupling_on_) { // else coupling.begin did
             if (!fluid_on_)                  // else the fluid's sort checks the balance

@@ -220,6 +220,14 @@ struct KnitCouplingEvaluator {
   KF_HD void operator()(std::size_t i, exec::Lanes g = {}) const {
     if (p.handle[i] != kFreePoint)
       return;
+    const Vec3<T> f = force(i, g);
+    if (g.lane == 0)
+      p.a[i] += f * (T(1) / p.m[i]);
+  }
+
+  /// The fluid's force on free point i (and its absorbed fluid's weight), summed over the
+  /// group's lanes (KnitPointForces).
+  KF_HD KF_INLINE Vec3<T> force(std::size_t i, exec::Lanes g) const {
     const KnitPairSide<T> side{p.x[i], p.v[i], p.m[i], pressure[i]};
     Vec3<T> sum{T(0), T(0), T(0)};
     auto pair = [&](std::uint32_t j) {
@@ -237,8 +245,7 @@ struct KnitCouplingEvaluator {
     Vec3<T> force = g.sum(sum) * T(-1);
     if (fluid_mass)
       force += prm.gravity * fluid_mass[i];
-    if (g.lane == 0)
-      p.a[i] += force * (T(1) / side.m);
+    return force;
   }
 };
 

@@ -149,7 +149,8 @@ void KnitFluidCoupling<T>::find_fluid_near_knit(const exec::Exec& ex, const Flui
 
 template <typename T>
 void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
-                                      const FluidSide<T>& fluid, T weight) {
+                                      const FluidSide<T>& fluid, T weight,
+                                      const KnitForceTerms<T>* own) {
   watch_.observe_gather(ex, knit.x, knit.v, perm(), x_, v_);
   with_kernel<T>(kernel_, params_.h, [&](auto k) {
     using K = decltype(k);
@@ -162,14 +163,27 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
         "coupling.fluid");
     auto kv = knit.view();
     kv.n = active(knit);
-    exec::for_each_lanes<4>(ex, kv.n,
-                            KnitCouplingEvaluator<T, K>{
-                                k, params_, kv, pressure_.data(),
-                                params_.capillary && !conserving_ ? fluid_mass_.data() : nullptr,
-                                fluid.f.x, fluid.f.v, fluid.f.m, fluid.f.rho, fluid.cells,
-                                fluid.near, knit_rows_.view(), knit_rows_.incomplete(),
-                                pair_force_.data(), watch_.moved2(), watch_.skin2()},
-                            "coupling.knit");
+    const T* absorbed = params_.capillary && !conserving_ ? fluid_mass_.data() : nullptr;
+    const auto knit_side = KnitCouplingEvaluator<T, K>{k,
+                                                       params_,
+                                                       kv,
+                                                       pressure_.data(),
+                                                       absorbed,
+                                                       fluid.f.x,
+                                                       fluid.f.v,
+                                                       fluid.f.m,
+                                                       fluid.f.rho,
+                                                       fluid.cells,
+                                                       fluid.near,
+                                                       knit_rows_.view(),
+                                                       knit_rows_.incomplete(),
+                                                       pair_force_.data(),
+                                                       watch_.moved2(),
+                                                       watch_.skin2()};
+    if (own) // after the fluid side: the knit's side reads the pair forces it kept
+      knit_forces_with(ex, kv.n, *own, knit_side, "knit.forces");
+    else
+      exec::for_each_lanes<4>(ex, kv.n, knit_side, "coupling.knit");
   });
 }
 

@@ -11,6 +11,7 @@
 #include "kernels/grid/NeighbourList.hpp"
 #include "kernels/grid/SkinWatch.hpp"
 #include "kernels/grid/TransposedList.hpp"
+#include "kernels/knit/KnitForces_K.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
@@ -96,8 +97,10 @@ public:
   std::array<exec::DeviceBuffer<T>*, 3> knit_values() {
     return {&saturation_, &pressure_, &fluid_mass_};
   }
-  /// Knit a += coupling / m; fluid impulse += weight * (the opposite forces).
-  void add_forces(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid, T weight);
+  /// Knit a += coupling / m; fluid impulse += weight * (the opposite forces). With `own`, the
+  /// knit's own forces in the same knit pass: a = (own + coupling) / m + g (knit_forces_with).
+  void add_forces(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid, T weight,
+                  const KnitForceTerms<T>* own = nullptr);
   /// Fluid v += impulse / m.
   void apply_impulses(const exec::Exec& ex, FluidView<T> f);
 

@@ -7,6 +7,7 @@
 #include "kernels/exec/DeviceBuffer.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -144,6 +145,7 @@ struct KernelTimes {
   std::vector<cudaEvent_t> free_events;
   std::vector<Pending> pending;
   std::vector<Total> totals;
+  std::vector<Total> waits; // the host blocked on the device: reads of results, by label
   cudaEvent_t first = nullptr, last = nullptr; // the span: first start, latest end
   double busy_ms = 0;
   int depth = 0; // nested scopes (a reduction inside a timed stage) are counted once, outermost
@@ -182,6 +184,16 @@ struct KernelTimes {
     }
     pending.clear();
   }
+  void note_wait(const char* label, double ms) {
+    auto it =
+        std::find_if(waits.begin(), waits.end(), [&](const Total& t) { return t.label == label; });
+    if (it == waits.end()) {
+      waits.push_back({label});
+      it = waits.end() - 1;
+    }
+    ++it->launches;
+    it->ms += ms;
+  }
   void report() {
     resolve();
     if (totals.empty() || !first || !last)
@@ -199,6 +211,15 @@ struct KernelTimes {
       std::fprintf(stderr, "  %-34s %10llu %10.2f %9.2f %5.1f%%\n", t.label.c_str(),
                    static_cast<unsigned long long>(t.launches), t.ms, 1e3 * t.ms / t.launches,
                    busy_ms > 0 ? 100.0 * t.ms / busy_ms : 0.0);
+    // Each wait drains the queue: the kernels after it start only once the host has launched
+    // them, so waits per step bound how well launches overlap the GPU's work.
+    std::sort(waits.begin(), waits.end(),
+              [](const Total& a, const Total& b) { return a.launches > b.launches; });
+    std::fprintf(stderr, "host waits on the device (reads of results):\n  %-34s %10s %10s\n",
+                 "label", "waits", "host ms");
+    for (const Total& t : waits)
+      std::fprintf(stderr, "  %-34s %10llu %10.2f\n", t.label.c_str(),
+                   static_cast<unsigned long long>(t.launches), t.ms);
   }
 };
 
@@ -219,6 +240,27 @@ KernelTimes* kernel_times() {
   }();
   return times;
 }
+
+// Times a host wait for the report when KF_KERNEL_TIMES=1; nothing otherwise.
+class HostWaitScope {
+public:
+  explicit HostWaitScope(const char* label) : label_(label) {
+    if (kernel_times())
+      t0_ = std::chrono::steady_clock::now();
+  }
+  ~HostWaitScope() {
+    if (KernelTimes* t = kernel_times())
+      t->note_wait(label_,
+                   std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0_)
+                       .count());
+  }
+  HostWaitScope(const HostWaitScope&) = delete;
+  HostWaitScope& operator=(const HostWaitScope&) = delete;
+
+private:
+  const char* label_;
+  std::chrono::steady_clock::time_point t0_{};
+};
 
 } // namespace
 
@@ -413,6 +455,7 @@ void cuda_copy_to_host_async(void* dst, const void* src, std::size_t bytes, void
 }
 
 void cuda_event_wait(void* e, const char* label) {
+  HostWaitScope waited(label);
   KF_CUDA(cudaEventSynchronize(static_cast<cudaEvent_t>(e)),
           std::string(label) +
               ": waiting for a read from the device (a kernel queued earlier may have failed; "
@@ -469,6 +512,7 @@ void cuda_read_result(void* dst, const void* device_src, std::size_t bytes, cons
            "KF_CUDA_SYNC_CHECK=1 to name it)";
   };
   KF_CUDA(cudaMemcpyAsync(staging, device_src, bytes, cudaMemcpyDeviceToHost, 0), ctx());
+  HostWaitScope waited(label);
   KF_CUDA(cudaStreamSynchronize(0), ctx());
   std::memcpy(dst, staging, bytes);
 }

@@ -13,6 +13,11 @@ void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Ve
 }
 
 template <typename T>
+void knit_forces(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& own) {
+  knit_forces_with(ex, n, own, NoKnitTerm{}, "knit.forces");
+}
+
+template <typename T>
 void knit_handle_work(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s,
                       const VolumeView<T>& vol, Vec3<T> gravity, const Vec3<T>* handle_v, T h,
                       double* work) {
@@ -65,6 +70,7 @@ void knit_spring_limits(const exec::Exec& ex, KnitView<T> p, const SpringView<T>
 #define KF_INSTANTIATE(T)                                                                          \
   template void knit_forces<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&, Vec3<T>,      \
                                const VolumeView<T>&);                                              \
+  template void knit_forces<T>(const exec::Exec&, std::size_t, const KnitForceTerms<T>&);          \
   template void knit_handle_work<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&,          \
                                     const VolumeView<T>&, Vec3<T>, const Vec3<T>*, T, double*);    \
   template double knit_spring_energy<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&,      \

@@ -2,6 +2,7 @@
 // Knit stages (paper §3): damped springs and gravity, and the quantities the step-size control
 // and the tests need. Integration (kick_drift/kick with Prescribed points) and contact with
 // solids (enforce_rigid_shapes) are the shared kernels.
+#include "kernels/knit/KnitForces_K.hpp"
 #include "kernels/knit/SpringTopology.hpp"
 #include "kernels/knit/VolumeTopology.hpp"
 #include "kernels/particles/KnitSet.hpp"
@@ -12,6 +13,11 @@ namespace kf {
 template <typename T>
 void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Vec3<T> gravity,
                  const VolumeView<T>& vol = {});
+
+/// a = (springs + volume cells + self-contact, when own.with_self) / m + g on points [0, n) in
+/// one pass (KnitPointForces); 0 on a handle's points.
+template <typename T>
+void knit_forces(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& own);
 
 /// Adds to *work (memory on ex.backend; nothing waits) the work the moving handles' constraint
 /// does over a time h at the current forces (HandleWorkEvaluator): handle_v holds each handle's

@@ -64,13 +64,18 @@ struct SpringForceEvaluator {
   VolumeView<T> vol;
   Vec3<T> gravity;
 
+  /// The elastic force on free point i, summed over the group's lanes (KnitPointForces).
+  KF_HD KF_INLINE Vec3<T> force(std::size_t i, exec::Lanes g) const {
+    return g.sum(elastic_force(p, s, vol, i, g.lane, g.size));
+  }
+
   KF_HD void operator()(std::size_t i, exec::Lanes g = {}) const {
     if (p.handle[i] != kFreePoint) {
       if (g.lane == 0)
         p.a[i] = {T(0), T(0), T(0)};
       return;
     }
-    const Vec3<T> f = g.sum(elastic_force(p, s, vol, i, g.lane, g.size));
+    const Vec3<T> f = force(i, g);
     if (g.lane == 0)
       p.a[i] = f * (T(1) / p.m[i]) + gravity;
   }

@@ -110,13 +110,17 @@ SortedKnitView<T> KnitSelfContact<T>::sorted() const {
 }
 
 template <typename T>
+SelfContactEvaluator<T> KnitSelfContact<T>::evaluator(KnitSet<T>& set) const {
+  return {set.view(),       set.x_rest.data(),
+          set.piece.data(), sorted(),
+          grid_.view(),     params_,
+          list_.view(),     watch_.moved2(),
+          watch_.skin2(),   static_cast<std::uint32_t>(x_.size())};
+}
+
+template <typename T>
 void KnitSelfContact<T>::add_forces(const exec::Exec& ex, KnitSet<T>& set) const {
-  exec::for_each_lanes<4>(ex, active(set),
-                          SelfContactEvaluator<T>{set.view(), set.x_rest.data(), set.piece.data(),
-                                                  sorted(), grid_.view(), params_, list_.view(),
-                                                  watch_.moved2(), watch_.skin2(),
-                                                  static_cast<std::uint32_t>(x_.size())},
-                          "knit.self_contact");
+  exec::for_each_lanes<4>(ex, active(set), evaluator(set), "knit.self_contact");
 }
 
 template <typename T>

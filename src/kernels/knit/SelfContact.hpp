@@ -52,6 +52,9 @@ public:
   bool checks_on_host() const { return host_checks_; }
   /// a += self-contact force / m on every free point (a already holds springs and gravity).
   void add_forces(const exec::Exec& ex, KnitSet<T>& set) const;
+  /// The pass's evaluator, for a pass that adds it to others (KnitPointForces), over the first
+  /// active(set) points.
+  SelfContactEvaluator<T> evaluator(KnitSet<T>& set) const;
   /// Contacts, penalty energy and closest approach at the last update.
   SelfContactStats stats(const exec::Exec& ex, KnitSet<T>& set) const;
 

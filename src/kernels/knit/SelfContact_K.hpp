@@ -71,6 +71,13 @@ struct SelfContactEvaluator {
   KF_HD void operator()(std::size_t i, exec::Lanes g = {}) const {
     if (p.handle[i] != kFreePoint)
       return;
+    const Vec3<T> f = force(i, g);
+    if (g.lane == 0)
+      p.a[i] += f * (T(1) / p.m[i]);
+  }
+
+  /// The self-contact force on free point i, summed over the group's lanes (KnitPointForces).
+  KF_HD KF_INLINE Vec3<T> force(std::size_t i, exec::Lanes g) const {
     const Vec3<T> xi = p.x[i], vi = p.v[i], ri = rest[i];
     const T mi = p.m[i];
     const std::uint16_t pi = piece[i];
@@ -93,9 +100,7 @@ struct SelfContactEvaluator {
     else
       for (std::uint32_t j = g.lane; j < n; j += g.size)
         pair(j);
-    f = g.sum(f);
-    if (g.lane == 0)
-      p.a[i] += f * (T(1) / mi);
+    return g.sum(f);
   }
 };
 
