@@ -2,7 +2,8 @@
 // self-contact and the fluid's coupling) against the separate passes it replaces, run one after
 // the other on the same state: the knit's accelerations and the fluid's impulses bit for bit
 // (the one pass does each term's arithmetic in the same order), every point written (a NaN
-// fill). On the CPU, and on the GPU when one is present.
+// fill); with the coupling, the self-contact's copies gathered in the coupling's pass. On the CPU,
+// and on the GPU when one is present.
 #include "kernels/coupling/KnitFluidCoupling.hpp"
 #include "kernels/knit/Knit.hpp"
 #include "kernels/knit/SelfContact.hpp"
@@ -10,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -148,8 +150,7 @@ void check(exec::Backend backend) {
   const T weight = T(0.25);
   const T nan = std::numeric_limits<T>::quiet_NaN();
   const std::vector<Vec3<T>> poison(n, Vec3<T>{nan, nan, nan});
-  const auto own = [&] {
-    self.update(ex, knit);
+  const auto terms = [&] {
     return KnitForceTerms<T>{{knit.view(), springs.view(), {}, g}, self.evaluator(knit), true};
   };
 
@@ -160,7 +161,8 @@ void check(exec::Backend backend) {
   self.add_forces(ex, knit);
   const auto a_two = knit.a.to_host();
   knit.a.assign(poison);
-  knit_forces(ex, n, own());
+  self.update(ex, knit);
+  knit_forces(ex, n, terms());
   const auto a_one = knit.a.to_host();
   // The premise: the fold's sheets touch.
   const SelfContactStats st = self.stats(ex, knit);
@@ -171,15 +173,34 @@ void check(exec::Backend backend) {
         << "point " << i << " not written";
 
   // With the coupling: the separate passes (springs, self-contact, the coupling adding its
-  // share), then the coupling's pass taking the knit's own terms. Each from begin_step's state
-  // (it clears the impulses).
+  // share), then the coupling's pass taking the knit's own terms and gathering both structures'
+  // copies. Each from the same state: both structures sorted and gathered at x0, the knit then
+  // moved within their skins (so copies left ungathered would give other forces), begin_step's
+  // impulses cleared.
+  self.begin_step(ex, knit, T(0)); // no motion expected: the substeps watch on the device
+  ASSERT_FALSE(self.checks_on_host()) << "the premise: the self-contact's copies gathered on the "
+                                         "device, in the coupling's pass";
+  std::vector<Vec3<T>> x1 = cast<T>(sc.x);
+  {
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> u(-1, 1);
+    // Under half of both skins: the self-contact's 0.5 R, the coupling's (1.2 h - h) / 3.
+    const double step = 0.4 * std::min(0.5 * kR, 0.2 * kH / 3);
+    for (auto& q : x1)
+      q += vec_cast<T>(Vec3d{u(rng), u(rng), u(rng)} * step);
+  }
   auto coupled = [&](bool one_pass, std::vector<Vec3<T>>& a, std::vector<Vec3<T>>& v) {
     fluid.v.assign(cast<T>(sc.fv)); // in grid order below: only compared with itself
+    knit.x.assign(cast<T>(sc.x));
     cp.begin_step(ex, knit, side, {}, T(0));
+    self.update(ex, knit); // the copies at x0
+    knit.x.assign(x1);
     knit.a.assign(poison);
     if (one_pass) {
-      const KnitForceTerms<T> terms = own();
-      cp.add_forces(ex, knit, side, weight, &terms);
+      const WatchedCopies<T> copies = self.update_copies(ex, knit);
+      EXPECT_NE(copies.watch, nullptr);
+      const KnitForceTerms<T> own = terms();
+      cp.add_forces(ex, knit, side, weight, &own, copies);
     } else {
       knit_forces(ex, knit.view(), springs.view(), g);
       self.update(ex, knit);
@@ -199,6 +220,8 @@ void check(exec::Backend backend) {
   EXPECT_TRUE(same_bits(a_fused, a_sep)) << "springs + self-contact + coupling in one pass";
   EXPECT_TRUE(same_bits(v_fused, v_sep)) << "the fluid's impulses";
   EXPECT_FALSE(same_bits(a_fused, a_one)) << "the coupling added nothing: the test sees nothing";
+  EXPECT_EQ(cp.sorts(), 1u) << "the coupling's grid must stay as begin_step first sorted it";
+  EXPECT_EQ(self.sorts(), 1u) << "the self-contact's grid must stay as first sorted";
   std::size_t held = 0;
   for (std::size_t i = 0; i < n; ++i) {
     ASSERT_TRUE(std::isfinite(a_fused[i].x) && std::isfinite(a_fused[i].y) &&

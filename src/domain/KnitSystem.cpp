@@ -117,8 +117,6 @@ template <typename T>
 KnitForceTerms<T> KnitSystem<T>::own_terms() {
   KnitForceTerms<T> own{{owned_view(), springs_.view(), volumes_.view(), gravity_}};
   if (self_) {
-    stage_parts::Scope part("knit.step: self-contact's copies (grid check/sort, gathers)");
-    self_->update(ex_, set_);
     own.self = self_->evaluator(set_);
     own.with_self = true;
   }
@@ -127,14 +125,17 @@ KnitForceTerms<T> KnitSystem<T>::own_terms() {
 
 template <typename T>
 void KnitSystem<T>::internal_forces(const Couple& couple, T weight) {
-  const KnitForceTerms<T> own = own_terms();
   if (couple) {
     stage_parts::Scope part("knit.step: fluid coupling (both sides), with the knit's forces");
-    couple(weight, own);
+    // The self-contact's copies, which its term reads, are gathered in the coupling's pass.
+    const WatchedCopies<T> copies = self_ ? self_->update_copies(ex_, set_) : WatchedCopies<T>{};
+    couple(weight, own_terms(), copies);
     return;
   }
   stage_parts::Scope part("knit.step: springs, volume cells, gravity, self-contact");
-  knit_forces(ex_, owned(), own);
+  if (self_)
+    self_->update(ex_, set_);
+  knit_forces(ex_, owned(), own_terms());
 }
 
 template <typename T>

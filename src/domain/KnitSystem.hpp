@@ -33,12 +33,13 @@ public:
   /// is the velocity factor of one substep's half kick (global damping).
   /// set_shapes(t) moves the solids to time t (called before each substep's collisions when
   /// solids move); shapes and n_shapes are the device array it updates.
-  /// couple(weight, own), when set, evaluates the forces with those from outside (the fluid):
-  /// it sets a = (own + outside) / m + g in one pass (KnitFluidCoupling::add_forces with own);
+  /// couple(weight, own, copies), when set, evaluates the forces with those from outside (the
+  /// fluid): it sets a = (own + outside) / m + g in one pass (KnitFluidCoupling::add_forces
+  /// with own), after gathering the self-contact's copies (own reads them) with its own;
   /// weight is the time over which that a acts (h/2 at the step's ends, h between), so the
   /// partner can take the opposite impulse. With couple set the step starts by evaluating the
   /// forces afresh (the partner has moved since the last).
-  using Couple = std::function<void(T, const KnitForceTerms<T>&)>;
+  using Couple = std::function<void(T, const KnitForceTerms<T>&, const WatchedCopies<T>&)>;
   void advance(double t, double dt, T keep, const std::function<void(double)>& set_shapes,
                const RigidShape<T>* shapes, std::size_t n_shapes, const Couple& couple = {});
   /// The watchdog's measures of the work from outside (domain/Watchdog) in the coming advances:
@@ -134,8 +135,8 @@ private:
   std::vector<Vec3<T>> handle_v_host_;
   std::vector<KnitPieceLayout> pieces_;
   Vec3<T> gravity_;
-  /// The springs', volume cells', gravity's and self-contact's terms for a force pass, after
-  /// the self-contact's copies are brought up to date (they read the points as they are now).
+  /// The springs', volume cells', gravity's and self-contact's terms for a force pass (the
+  /// self-contact's reads its copies: gathered before the pass).
   KnitForceTerms<T> own_terms();
   /// a from the knit's own terms, or with couple's (weight: see advance).
   void internal_forces(const Couple& couple = {}, T weight = T(0));

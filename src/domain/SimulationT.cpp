@@ -343,8 +343,9 @@ void SimulationT<T>::build_pipeline() {
             move = [this](double t) { update_shapes(t); };
           typename KnitSystem<T>::Couple couple;
           if (coupling_on_)
-            couple = [this](T weight, const KnitForceTerms<T>& own) {
-              coupling_->add_forces(ex_, knit_->set(), fluid_side(), weight, &own);
+            couple = [this](T weight, const KnitForceTerms<T>& own,
+                            const WatchedCopies<T>& self_copies) {
+              coupling_->add_forces(ex_, knit_->set(), fluid_side(), weight, &own, self_copies);
             };
           if (knit_halo_ && !coupling_on_) { // else coupling.begin did
             if (!fluid_on_)                  // else the fluid's sort checks the balance

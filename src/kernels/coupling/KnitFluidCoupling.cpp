@@ -150,8 +150,9 @@ void KnitFluidCoupling<T>::find_fluid_near_knit(const exec::Exec& ex, const Flui
 template <typename T>
 void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
                                       const FluidSide<T>& fluid, T weight,
-                                      const KnitForceTerms<T>* own) {
-  watch_.observe_gather(ex, knit.x, knit.v, perm(), x_, v_);
+                                      const KnitForceTerms<T>* own, const WatchedCopies<T>& with) {
+  observe_gather(ex, knit.x, knit.v, WatchedCopies<T>{&watch_, &perm(), &x_, &v_}, with,
+                 "knit.moved");
   with_kernel<T>(kernel_, params_.h, [&](auto k) {
     using K = decltype(k);
     exec::for_each_lanes<kFluidSideLanes>(

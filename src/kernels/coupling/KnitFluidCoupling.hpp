@@ -98,9 +98,11 @@ public:
     return {&saturation_, &pressure_, &fluid_mass_};
   }
   /// Knit a += coupling / m; fluid impulse += weight * (the opposite forces). With `own`, the
-  /// knit's own forces in the same knit pass: a = (own + coupling) / m + g (knit_forces_with).
+  /// knit's own forces in the same knit pass: a = (own + coupling) / m + g (knit_forces_with);
+  /// `with`: another structure's copies of the knit, gathered in the pass that gathers this
+  /// one's (the self-contact's, which `own` reads).
   void add_forces(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid, T weight,
-                  const KnitForceTerms<T>* own = nullptr);
+                  const KnitForceTerms<T>* own = nullptr, const WatchedCopies<T>& with = {});
   /// Fluid v += impulse / m.
   void apply_impulses(const exec::Exec& ex, FluidView<T> f);
 

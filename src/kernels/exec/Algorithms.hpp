@@ -529,6 +529,11 @@ template <typename T, unsigned K>
 struct Maxima {
   T v[K];
 };
+/// Where max_into_each puts its K maxima: a device word each (memory on the pass's backend).
+template <typename T, unsigned K>
+struct MaxTargets {
+  T* word[K];
+};
 /// Adapts a single-value functor to max_into_each.
 template <typename T, typename F>
 struct OneMaximum {
@@ -551,7 +556,8 @@ struct EachMaxOp {
 // element a thread and K reductions a block, the fluid lists' 7-value displacement reading took
 // 3x its bandwidth floor (H100, the column: ~50 us for 44 MB).
 template <typename T, unsigned K, typename F>
-__global__ void __launch_bounds__(kReduceThreads) max_into_each_kernel(std::size_t n, F f, T* acc) {
+__global__ void __launch_bounds__(kReduceThreads)
+    max_into_each_kernel(std::size_t n, F f, MaxTargets<T, K> acc) {
   await_previous_kernel();
   using BlockReduce = cub::BlockReduce<Maxima<T, K>, kReduceThreads>;
   __shared__ typename BlockReduce::TempStorage tmp;
@@ -563,14 +569,15 @@ __global__ void __launch_bounds__(kReduceThreads) max_into_each_kernel(std::size
   const Maxima<T, K> block = BlockReduce(tmp).Reduce(m, EachMaxOp{});
   if (threadIdx.x == 0)
     for (unsigned k = 0; k < K; ++k)
-      atomic_max_nonnegative(acc + k, block.v[k]);
+      atomic_max_nonnegative(acc.word[k], block.v[k]);
 }
 #endif
 
-/// max_into for K values at once: acc[k] = max(acc[k], f(i).v[k] over [0, n)), f returning
-/// Maxima<T, K> of non-negative values (NaN mapped to a large value by f). One pass.
+/// max_into for K values at once: *acc.word[k] = max(*acc.word[k], f(i).v[k] over [0, n)), f
+/// returning Maxima<T, K> of non-negative values (NaN mapped to a large value by f). One pass.
 template <typename T, unsigned K, typename F>
-void max_into_each(const Exec& ex, std::size_t n, const F& f, T* acc, const char* label) {
+void max_into_each(const Exec& ex, std::size_t n, const F& f, MaxTargets<T, K> acc,
+                   const char* label) {
   static_assert(std::is_floating_point_v<T>, "max_into_each: float or double values");
   if (n == 0)
     return;
@@ -589,10 +596,19 @@ void max_into_each(const Exec& ex, std::size_t n, const F& f, T* acc, const char
   }
   Maxima<T, K> init;
   for (unsigned k = 0; k < K; ++k)
-    init.v[k] = acc[k];
+    init.v[k] = *acc.word[k];
   const Maxima<T, K> m = host_transform_reduce(n, init, EachMaxOp{}, f);
   for (unsigned k = 0; k < K; ++k)
-    acc[k] = m.v[k];
+    *acc.word[k] = m.v[k];
+}
+
+/// max_into_each into K consecutive words acc[0, K).
+template <typename T, unsigned K, typename F>
+void max_into_each(const Exec& ex, std::size_t n, const F& f, T* acc, const char* label) {
+  MaxTargets<T, K> words;
+  for (unsigned k = 0; k < K; ++k)
+    words.word[k] = acc + k;
+  max_into_each<T, K>(ex, n, f, words, label);
 }
 
 /// *acc = max(*acc, f(i) over [0, n)) for values f(i) >= 0 (+0, never -0; f maps a NaN to a

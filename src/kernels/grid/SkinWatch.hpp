@@ -85,17 +85,25 @@ public:
                       const exec::DeviceBuffer<Vec3<T>>& v,
                       const exec::DeviceBuffer<std::uint32_t>& perm,
                       exec::DeviceBuffer<Vec3<T>>& x_out, exec::DeviceBuffer<Vec3<T>>& v_out) {
+    exec::max_into(ex, perm.size(), gathering(x, v, perm, x_out, v_out), moved2_.data(), label_);
+  }
+  /// observe_gather's per-slot functor (for a pass that serves two watches: observe_gather
+  /// below); checks the sizes.
+  GatherDisplaced<T> gathering(const exec::DeviceBuffer<Vec3<T>>& x,
+                               const exec::DeviceBuffer<Vec3<T>>& v,
+                               const exec::DeviceBuffer<std::uint32_t>& perm,
+                               exec::DeviceBuffer<Vec3<T>>& x_out,
+                               exec::DeviceBuffer<Vec3<T>>& v_out) const {
     const std::size_t n = perm.size();
     if (x0_.size() != x.size() || n != x.size() || x_out.size() != n || v_out.size() != n)
       throw Error(std::string(label_) + ": observe_gather of " + std::to_string(x.size()) +
                   " points through a permutation of " + std::to_string(n) + " into " +
                   std::to_string(x_out.size()) + " / " + std::to_string(v_out.size()) +
                   " slots, watching " + std::to_string(x0_.size()));
-    exec::max_into(
-        ex, n,
-        GatherDisplaced<T>{perm.data(), x.data(), v.data(), x0_.data(), x_out.data(), v_out.data()},
-        moved2_.data(), label_);
+    return {perm.data(), x.data(), v.data(), x0_.data(), x_out.data(), v_out.data()};
   }
+  /// The device word of the recorded squared motion (a pass that observes writes it).
+  T* record() { return moved2_.data(); }
   /// observe(), then the farthest any point has been from its reference at an observation since
   /// reset, read on the host (waits for the device). A NaN position reads as infinitely far.
   T moved(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x) {
@@ -153,5 +161,41 @@ private:
   T bound_ = std::numeric_limits<T>::infinity();
   std::function<T(T)> job_max_;
 };
+
+/// A structure's sorted copies of a point set (x[k] = the set's x[perm[k]], v likewise) and the
+/// watch of its motion: what observe_gather fills. No watch: nothing to fill.
+template <typename T>
+struct WatchedCopies {
+  SkinWatch<T>* watch = nullptr;
+  const exec::DeviceBuffer<std::uint32_t>* perm = nullptr;
+  exec::DeviceBuffer<Vec3<T>>* x = nullptr;
+  exec::DeviceBuffer<Vec3<T>>* v = nullptr;
+};
+
+/// Both structures' gathers over the same points, and their watches', in one pass.
+template <typename T>
+struct GatherDisplacedTwice {
+  GatherDisplaced<T> a, b;
+  KF_HD KF_INLINE exec::Maxima<T, 2> operator()(std::size_t k) const { return {{a(k), b(k)}}; }
+};
+
+/// observe_gather for the copies of two structures over the set (x, v): one pass where both
+/// are watched (the knit's self-contact and its coupling each keep copies in their grid's
+/// order; their gathers were a launch each in every force evaluation), else the one's.
+template <typename T>
+void observe_gather(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x,
+                    const exec::DeviceBuffer<Vec3<T>>& v, const WatchedCopies<T>& a,
+                    const WatchedCopies<T>& b, const char* label) {
+  if (!a.watch || !b.watch) {
+    for (const WatchedCopies<T>* c : {&a, &b})
+      if (c->watch)
+        c->watch->observe_gather(ex, x, v, *c->perm, *c->x, *c->v);
+    return;
+  }
+  const GatherDisplacedTwice<T> both{a.watch->gathering(x, v, *a.perm, *a.x, *a.v),
+                                     b.watch->gathering(x, v, *b.perm, *b.x, *b.v)};
+  exec::max_into_each<T, 2>(ex, x.size(), both,
+                            exec::MaxTargets<T, 2>{{a.watch->record(), b.watch->record()}}, label);
+}
 
 } // namespace kf

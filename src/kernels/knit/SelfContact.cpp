@@ -96,12 +96,17 @@ void KnitSelfContact<T>::begin_step(const exec::Exec& ex, KnitSet<T>& set, T mot
 }
 
 template <typename T>
-void KnitSelfContact<T>::update(const exec::Exec& ex, KnitSet<T>& set) {
+WatchedCopies<T> KnitSelfContact<T>::update_copies(const exec::Exec& ex, KnitSet<T>& set) {
   if (host_checks_) {
     sync(ex, set);
-    return;
+    return {};
   }
-  watch_.observe_gather(ex, set.x, set.v, perm(), x_, v_);
+  return {&watch_, &perm(), &x_, &v_};
+}
+
+template <typename T>
+void KnitSelfContact<T>::update(const exec::Exec& ex, KnitSet<T>& set) {
+  observe_gather(ex, set.x, set.v, update_copies(ex, set), {}, "knit.self.moved");
 }
 
 template <typename T>

@@ -35,6 +35,10 @@ public:
   void set_masses_vary(bool vary) { masses_vary_ = vary; }
   /// Call after the points moved, before add_forces.
   void update(const exec::Exec& ex, KnitSet<T>& set);
+  /// update() for a pass that gathers the copies itself, with another structure's
+  /// (observe_gather of two WatchedCopies): the copies and watch to fill, or none where this
+  /// step's checks are on the host (then it has synced them itself).
+  WatchedCopies<T> update_copies(const exec::Exec& ex, KnitSet<T>& set);
   /// On N ranks (the set holds owned points, then ghosts): the grid's ties go by id (within a
   /// sort key, as the one-rank run's set, which is in id order), so every pair list is the
   /// one-rank run's; the host's motion readings are the job's (job_max). add_forces and stats
