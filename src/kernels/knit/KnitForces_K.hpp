@@ -11,6 +11,13 @@
 #include <cstddef>
 #include <type_traits>
 
+// g++ (the CPU build) inlines the terms' force() calls into the one pass as into their own.
+#if defined(__GNUC__) && !defined(__CUDACC__) && !defined(__clang__)
+#define KF_FLATTEN __attribute__((flatten))
+#else
+#define KF_FLATTEN
+#endif
+
 namespace kf {
 
 /// A term the pass does not have.
@@ -25,7 +32,7 @@ struct KnitPointForces {
   Self self;
   Extra extra;
 
-  KF_HD void operator()(std::size_t i, exec::Lanes g = {}) const {
+  KF_HD KF_FLATTEN void operator()(std::size_t i, exec::Lanes g = {}) const {
     const KnitView<T>& p = springs.p;
     if (p.handle[i] != kFreePoint) {
       if (g.lane == 0)
