@@ -168,14 +168,7 @@ struct KernelTimes {
     for (const Pending& p : pending) {
       float ms = 0;
       KF_CUDA(cudaEventElapsedTime(&ms, p.start, p.end), std::string("kernel times"));
-      auto it = std::find_if(totals.begin(), totals.end(),
-                             [&](const Total& t) { return t.label == p.label; });
-      if (it == totals.end()) {
-        totals.push_back({p.label});
-        it = totals.end() - 1;
-      }
-      ++it->launches;
-      it->ms += ms;
+      add(totals, p.label, ms);
       busy_ms += ms;
       if (p.start != first)
         free_events.push_back(p.start);
@@ -184,12 +177,14 @@ struct KernelTimes {
     }
     pending.clear();
   }
-  void note_wait(const char* label, double ms) {
+  void note_wait(const char* label, double ms) { add(waits, label, ms); }
+  // One more launch (or wait) of `label` taking ms, into its entry of `list`.
+  static void add(std::vector<Total>& list, const char* label, double ms) {
     auto it =
-        std::find_if(waits.begin(), waits.end(), [&](const Total& t) { return t.label == label; });
-    if (it == waits.end()) {
-      waits.push_back({label});
-      it = waits.end() - 1;
+        std::find_if(list.begin(), list.end(), [&](const Total& t) { return t.label == label; });
+    if (it == list.end()) {
+      list.push_back({label});
+      it = list.end() - 1;
     }
     ++it->launches;
     it->ms += ms;
