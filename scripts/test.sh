@@ -18,7 +18,7 @@ rm -rf build/fuzz/corpus && mkdir -p build/fuzz/corpus
 build/fuzz/fuzz_scene -max_total_time=60 -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
   build/fuzz/corpus scenes scenes/studies scenes/bench tests/data/scenes/broken 2>&1 | tail -4
 if command -v nvcc >/dev/null 2>&1 || [ -x /usr/local/cuda/bin/nvcc ]; then
-  echo "== CUDA build (compile only: kernels, library, tests, app)"
+  echo "== CUDA build (compile only: kernels, library, app, the tests with GPU cases)"
   cmake --preset cuda -DKF_BUILD_BENCH=OFF >/dev/null
-  cmake --build --preset cuda -j"$jobs"
+  cmake --build --preset cuda -j"$jobs" --target knitflow kf_gpu_tests
 fi

@@ -37,18 +37,19 @@ class Hydrostatic : public ::testing::TestWithParam<KernelCase> {};
 
 // The paper's spiky kernel is not among these: at 2 dp its discrete gradient is 0.77 of the true
 // one and the profile misses by ~8% even at 3 dp (docs/VALIDATION.md); the study quantifies it.
-// Measured (slices averaged over the last 0.2 s), in order: profile error 2.12%, 1.07%, 0.93%,
-// 1.09%; particle density against the compressed column 0.165%, 0.121%, 0.099%, 0.007%
-// (summation's lattice error is per particle; continuity starts every particle at rho0 and keeps
-// its own). Bounds about 1.4x those; the Wendland tank from a start moved by 1e-3 dp lands within
-// 0.14% of its unmoved profile error.
-INSTANTIATE_TEST_SUITE_P(
-    Kernels, Hydrostatic,
-    ::testing::Values(
-        KernelCase{KernelType::CubicSpline, 2.0, DensityModel::Summation, 0, 0.03, 0.0025},
-        KernelCase{KernelType::WendlandC2, 3.0, DensityModel::Summation, 0, 0.016, 0.0018},
-        KernelCase{KernelType::WendlandC2, 3.0, DensityModel::Summation, 1e-3, 0.016, 0.0018},
-        KernelCase{KernelType::CubicSpline, 2.0, DensityModel::Continuity, 0, 0.016, 0.0002}));
+// Measured (slices averaged over the last 0.2 s), in order: profile error 2.12%, 0.93%, 1.09%;
+// particle density against the compressed column 0.165%, 0.099%, 0.007% (summation's lattice
+// error is per particle; continuity starts every particle at rho0 and keeps its own). Bounds
+// about 1.4x those. The Wendland tank starts moved by 1e-3 dp (a fixed pattern): unmoved it lands
+// within 0.14% of the same profile error (measured; it ran here as a fourth case until the CI
+// budget asked for its 3 minutes; test_stress's wendland_tank settles two more perturbed starts).
+INSTANTIATE_TEST_SUITE_P(Kernels, Hydrostatic,
+                         ::testing::Values(KernelCase{KernelType::CubicSpline, 2.0,
+                                                      DensityModel::Summation, 0, 0.03, 0.0025},
+                                           KernelCase{KernelType::WendlandC2, 3.0,
+                                                      DensityModel::Summation, 1e-3, 0.016, 0.0018},
+                                           KernelCase{KernelType::CubicSpline, 2.0,
+                                                      DensityModel::Continuity, 0, 0.016, 0.0002}));
 
 TEST_P(Hydrostatic, TankSettlesToHydrostaticPressure) {
   Scene s = test::tank_scene({0.15, 0.15, 0.35}, {0.15, 0.15, 0.25}, 0.01);

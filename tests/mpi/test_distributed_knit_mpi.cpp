@@ -509,6 +509,8 @@ TEST(DistributedKnit, CoupledPourIsTheOneRankRun) {
 // uninterrupted run's next step begins with, and ends where that run ends, bit for bit.
 TEST(DistributedKnit, CoupledRestartContinuesOnAnyRankCount) {
   comm::MpiContext world;
+  if (world.size() > 2) // RestartContinuesOnAnyRankCount takes 1 -> 3 -> 1 uncoupled
+    GTEST_SKIP() << "two ranks in CI (three oversubscribe its two cores: 27 s)";
   const Scene s = fixed(hammock("double"));
   const int first = 500, total = 800;
   Diagnostics next_begins; // the saturation step first + 1 begins with
@@ -545,7 +547,10 @@ TEST(DistributedKnit, CoupledRestartContinuesOnAnyRankCount) {
 // and in part across ranks, the absorbed fluid spreading along links between points of
 // different ranks, drops emitted and numbered as on one rank.
 TEST(DistributedKnit, ConservingAbsorptionIsTheOneRankRun) {
-  expect_same_coupled_run(absorbing_hammock("double"), 2500, 50, "absorbing hammock, double");
+  // On 3 ranks (CI's two cores oversubscribed: the double run alone ~65 s) the float run and the
+  // re-partitioned wicking carry the transfers between ranks; 2 ranks run all three.
+  if (comm::MpiContext().size() <= 2)
+    expect_same_coupled_run(absorbing_hammock("double"), 2500, 50, "absorbing hammock, double");
   expect_same_coupled_run(absorbing_hammock("float"), 1000, 50, "absorbing hammock, float");
   // scenes/wicking.toml: the strip dips into the pool at t = 0.01 s (step ~80) and soaks it up.
   // Re-partitioned every 20 steps (the knit migrating with its masses at the next choice).
