@@ -1,7 +1,8 @@
 // The work the moving solids and handles do, as the watchdog reads it (WatchReading::work;
 // domain/Watchdog's energy budget), against what the physics says they must have done: a piston
-// raising a column of water (the hydrostatic rise in potential energy) and a handle lifting a
-// hanging strip (the strip's energy, springs included, where nothing dissipates).
+// raising a column of water (the hydrostatic rise in potential energy), a handle lifting a
+// hanging strip (the strip's energy, springs included, where nothing dissipates) and handles
+// pushing a strip's points into a pool (the water's energy).
 #include "domain/Scene.hpp"
 #include "domain/Simulation.hpp"
 #include "kernels/boundary/Boundary.hpp"
@@ -9,6 +10,7 @@
 #include "support/Backends.hpp"
 #include "support/KnitScenes.hpp"
 #include "support/SceneFactory.hpp"
+#include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
 
@@ -101,6 +103,36 @@ TEST(MoverWork, HandleDoesTheLiftedStripsEnergy) {
       else
         EXPECT_LE(gained, r.work); // the damping takes its share
     }
+  }
+}
+
+// scenes/wicking.toml's clip and weight lowering a coarse strip (32 x 4 stitches) at 1 m/s, its
+// foot 1.5 cm into the pool by 0.025 s, contact only (no capillary suction, whose pull the
+// watchdog bounds apart). The weight's points push the water aside: the water's energy comes
+// from the handles, which hold their points against the fluid's push. Before the handles' work
+// counted that push it measured 1.26e-3 J where the run gained 8.4e-3 J (the scene with summation
+// density and its capillary: the watchdog stopped the wicking study's run at 32 stitches there).
+TEST(MoverWork, HandlesPushingTheirPointsIntoWaterDoTheWatersEnergy) {
+  Scene scene = load_scene((test::source_dir() / "scenes" / "wicking.toml").string(),
+                           {"output.enabled=false", "knit.piece.0.courses=32",
+                            "knit.piece.0.wales=4", "simulation.end_time=0.025"});
+  std::erase(scene.modules, Module::Capillary);
+  ASSERT_TRUE(scene.has(Module::Contact));
+  for (const auto b : test::backends()) {
+    SCOPED_TRACE(b == exec::Backend::Cuda ? "cuda" : "cpu");
+    auto sim = Simulation::create(scene, b);
+    const WatchReading r0 = sim->watch();
+    const double e0 = r0.kinetic + r0.potential + sim->diagnostics().knit_elastic_energy;
+    while (sim->time() < scene.end_time - 1e-12)
+      sim->step(scene.end_time);
+    const WatchReading r = sim->watch();
+    const double gained = r.kinetic + r.potential + sim->diagnostics().knit_elastic_energy - e0;
+    std::printf("strip lowered into water: work %.6e J, energy gained %.6e J\n", r.work, gained);
+    // Measured: the gain 72% of the work (CPU); the rest went into the contact's damping, the
+    // viscosity and the water's compression, which neither side counts. More than the work: an
+    // energy source the budget misses; under 0.6 of it, work counted that was not done.
+    EXPECT_LE(gained, r.work);
+    EXPECT_GE(gained, 0.6 * r.work);
   }
 }
 

@@ -17,6 +17,7 @@ template <typename T>
 KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex)
     : scene_(scene), ex_(ex), set_(ex.backend), springs_(ex.backend), volumes_(ex.backend),
       handle_v_(ex.backend, 0, "knit.handle_velocity"), gravity_(vec_cast<T>(scene.gravity)),
+      held_force_(ex.backend, 0, "knit.held_force"),
       collisions_(ex.backend, 0, "knit.contact_count") {
   collisions_.assign(std::vector<std::uint64_t>{0});
   const KnitMesh mesh = build_knit(scene);
@@ -119,6 +120,10 @@ KnitForceTerms<T> KnitSystem<T>::own_terms() {
   if (self_) {
     own.self = self_->evaluator(set_);
     own.with_self = true;
+  }
+  if (handle_work_ && handles_move()) { // the forces the handles hold their points against
+    held_force_.resize(set_.size());
+    own.held = held_force_.data();
   }
   return own;
 }
@@ -230,8 +235,8 @@ void KnitSystem<T>::advance(double t, double dt, T keep,
     }
     internal_forces(couple, static_cast<T>(s + 1 < n ? h : 0.5 * h));
     if (handle_work_ && handles_move()) // these forces act for h: the closing half, the next
-      knit_handle_work(ex_, p, springs_.view(), volumes_.view(), gravity_, handle_v_.data(),
-                       static_cast<T>(h), handle_work_);
+      knit_handle_work(ex_, p, held_force_.data(), gravity_, handle_v_.data(), static_cast<T>(h),
+                       handle_work_);
     if (s + 1 == n) {
       stage_parts::Scope part("knit.step: kick");
       kick(ex_, p.v, p.a, p.n, static_cast<T>(h), keep, "knit.kick", fixed);

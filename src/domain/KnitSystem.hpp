@@ -165,6 +165,9 @@ private:
     return p;
   }
   double* handle_work_ = nullptr;
+  // The forces on the handles' points at the last force pass, where handles move and their
+  // work is measured (own_terms); indexed as the set, written for the handles' points only.
+  exec::DeviceBuffer<Vec3<T>> held_force_;
   ContactWork<T> contact_work_{};
   bool handles_move() const;
   // Point-substeps in contact with a solid, whole run; on the device, read for diagnostics only.

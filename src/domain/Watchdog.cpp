@@ -1,5 +1,7 @@
 #include "domain/Watchdog.hpp"
 
+#include "kernels/coupling/Coupling_K.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -56,9 +58,15 @@ Watchdog::Watchdog(const Scene& scene, const WatchReading& start, double start_s
   // the domain's height.
   floor_ = 0.01 * start.mass * gravity * height;
   if (scene.has(Module::Capillary) && scene.knit.mass_per_area > 0) {
-    // Suction releases at most the surface energy of the wetted pores: sigma times the fibres'
-    // area, about the sheet's area (dry knit mass / areal mass) times its layers and both faces.
-    capillary_ = 2 * 3 * scene.capillary.sigma * start.knit_mass / scene.knit.mass_per_area;
+    // Suction does at most the capillary pressure's largest value, P_c(0) = sigma J(0) /
+    // sqrt(kappa / phi) (Eq. 10; J falls as the pores fill), times the pore volume it fills:
+    // phi times the knit's volume (its area, dry mass / areal mass, times its thickness). The
+    // bound was sigma times the sheet's 6 faces until the wicking study's coarse strip (32 x 4
+    // stitches) passed it: this is 25 sigma times its area.
+    const auto& c = scene.capillary;
+    const double pores =
+        c.porosity * scene.knit.thickness * start.knit_mass / scene.knit.mass_per_area;
+    capillary_ = c.sigma / std::sqrt(c.permeability / c.porosity) * leverett_j(0.0) * pores;
   }
   start_work_ = start.work;
 }

@@ -9,7 +9,8 @@
 // - kinetic plus gravitational energy past what the run started with (the energy stored in its
 //   springs and penalty contacts included) and what was given to it since: the work of the
 //   scene's moving solids and handles, measured as the run goes (WatchReading::work), and the
-//   capillary suction's surface energy. Nothing else adds energy; dissipation only takes it away.
+//   most capillary suction can do (its largest pressure times the pore volume). Nothing else
+//   adds energy; dissipation only takes it away.
 #include "domain/Scene.hpp"
 #include "domain/Simulation.hpp"
 

@@ -230,6 +230,15 @@ struct KnitCouplingEvaluator {
   /// The fluid's force on free point i (and its absorbed fluid's weight), summed over the
   /// group's lanes (KnitPointForces).
   KF_HD KF_INLINE Vec3<T> force(std::size_t i, exec::Lanes g) const {
+    Vec3<T> force = held_force(i, g);
+    if (fluid_mass)
+      force += prm.gravity * fluid_mass[i];
+    return force;
+  }
+
+  /// The fluid's push on point i alone, for a handle's point (KnitPointForces::held): the
+  /// weight of its absorbed fluid is the handle's to hold, and moves no energy the run counts.
+  KF_HD KF_INLINE Vec3<T> held_force(std::size_t i, exec::Lanes g) const {
     const KnitPairSide<T> side{p.x[i], p.v[i], p.m[i], pressure[i]};
     Vec3<T> sum{T(0), T(0), T(0)};
     auto pair = [&](std::uint32_t j) {
@@ -244,10 +253,7 @@ struct KnitCouplingEvaluator {
                               [&](std::uint32_t s) { sum += pair_force[s]; });
     else if (fluid_cells.may_find(fluid_near, side.x))
       fluid_cells.for_each_candidate(side.x, g.lane, g.size, pair);
-    Vec3<T> force = g.sum(sum) * T(-1);
-    if (fluid_mass)
-      force += prm.gravity * fluid_mass[i];
-    return force;
+    return g.sum(sum) * T(-1);
   }
 };
 

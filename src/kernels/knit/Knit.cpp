@@ -18,11 +18,10 @@ void knit_forces(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& o
 }
 
 template <typename T>
-void knit_handle_work(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s,
-                      const VolumeView<T>& vol, Vec3<T> gravity, const Vec3<T>* handle_v, T h,
-                      double* work) {
+void knit_handle_work(const exec::Exec& ex, KnitView<T> p, const Vec3<T>* held, Vec3<T> gravity,
+                      const Vec3<T>* handle_v, T h, double* work) {
   exec::transform_reduce_into(ex, p.n, exec::SumOp{},
-                              HandleWorkEvaluator<T>{p, s, vol, gravity, handle_v, h}, work,
+                              HandleWorkEvaluator<T>{p, held, gravity, handle_v, h}, work,
                               "knit.handle_work");
 }
 
@@ -71,8 +70,8 @@ void knit_spring_limits(const exec::Exec& ex, KnitView<T> p, const SpringView<T>
   template void knit_forces<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&, Vec3<T>,      \
                                const VolumeView<T>&);                                              \
   template void knit_forces<T>(const exec::Exec&, std::size_t, const KnitForceTerms<T>&);          \
-  template void knit_handle_work<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&,          \
-                                    const VolumeView<T>&, Vec3<T>, const Vec3<T>*, T, double*);    \
+  template void knit_handle_work<T>(const exec::Exec&, KnitView<T>, const Vec3<T>*, Vec3<T>,       \
+                                    const Vec3<T>*, T, double*);                                   \
   template double knit_spring_energy<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&,      \
                                         const VolumeView<T>&);                                     \
   template double knit_kinetic_energy<T>(const exec::Exec&, KnitView<T>);                          \

@@ -20,12 +20,12 @@ template <typename T>
 void knit_forces(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& own);
 
 /// Adds to *work (memory on ex.backend; nothing waits) the work the moving handles' constraint
-/// does over a time h at the current forces (HandleWorkEvaluator): handle_v holds each handle's
+/// does over a time h at the current forces (HandleWorkEvaluator): held, the other forces on
+/// each handle's point (the force pass's KnitForceTerms::held); handle_v, each handle's
 /// velocity. The watchdog's energy budget (domain/Watchdog).
 template <typename T>
-void knit_handle_work(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s,
-                      const VolumeView<T>& vol, Vec3<T> gravity, const Vec3<T>* handle_v, T h,
-                      double* work);
+void knit_handle_work(const exec::Exec& ex, KnitView<T> p, const Vec3<T>* held, Vec3<T> gravity,
+                      const Vec3<T>* handle_v, T h, double* work);
 
 /// Elastic energy of all springs and volume cells [J] (double accumulation).
 template <typename T>

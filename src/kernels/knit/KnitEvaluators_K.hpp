@@ -82,15 +82,15 @@ struct SpringForceEvaluator {
 };
 
 /// The work a moving handle's constraint does on point i over a time h: it holds the point to
-/// the handle's velocity u against its springs, volume cells and weight, with the force
-/// -(f_elastic + m g), whose power is that force dotted with u. 0 for free and still points.
-/// (The handle's contacts, with itself and the fluid, are not counted: the handles' points
-/// skip them.)
+/// the handle's velocity u against every other force on it, f (its springs and volume cells,
+/// the self-contact, the fluid's push: KnitPointForces' `held`) and its weight, with the force
+/// -(f + m g), whose power is that force dotted with u. 0 for free and still points. A handle's
+/// point pushes the fluid and the other points like any point (they feel it; it does not move
+/// for them): that work enters the fluid's and the knit's energy, so it is counted.
 template <typename T>
 struct HandleWorkEvaluator {
   KnitView<T> p;
-  SpringView<T> s;
-  VolumeView<T> vol;
+  const Vec3<T>* held;
   Vec3<T> gravity;
   const Vec3<T>* handle_v;
   T h;
@@ -101,8 +101,8 @@ struct HandleWorkEvaluator {
     const Vec3<T> u = handle_v[p.handle[i]];
     if (u.x == T(0) && u.y == T(0) && u.z == T(0))
       return 0.0;
-    const Vec3<T> held = elastic_force(p, s, vol, i) + gravity * p.m[i];
-    return -double(h) * double(dot(held, u));
+    const Vec3<T> f = held[i] + gravity * p.m[i];
+    return -double(h) * double(dot(f, u));
   }
 };
 

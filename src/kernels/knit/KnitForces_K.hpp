@@ -25,16 +25,28 @@ struct NoKnitTerm {};
 
 /// a_i = springs / m_i + g, then + self / m_i, then + extra / m_i for a free point (the
 /// arithmetic, term by term, of the separate passes it replaces: their sums to the bit); a = 0
-/// on a handle's points. Self and Extra: evaluators with force(i, lanes), or NoKnitTerm.
+/// on a handle's points, and where `held` is set, the forces on them there (springs + self +
+/// extra's held_force: what the handle holds its point against; HandleWorkEvaluator). Self and
+/// Extra: evaluators with force(i, lanes) (Extra also held_force(i, lanes)), or NoKnitTerm.
 template <typename T, typename Self, typename Extra>
 struct KnitPointForces {
   SpringForceEvaluator<T> springs;
   Self self;
   Extra extra;
+  Vec3<T>* held = nullptr;
 
   KF_HD KF_FLATTEN void operator()(std::size_t i, exec::Lanes g = {}) const {
     const KnitView<T>& p = springs.p;
     if (p.handle[i] != kFreePoint) {
+      if (held) { // the group's lanes alike: they read point i's words only
+        Vec3<T> f = springs.force(i, g);
+        if constexpr (!std::is_same_v<Self, NoKnitTerm>)
+          f += self.force(i, g);
+        if constexpr (!std::is_same_v<Extra, NoKnitTerm>)
+          f += extra.held_force(i, g);
+        if (g.lane == 0)
+          held[i] = f;
+      }
       if (g.lane == 0)
         p.a[i] = {T(0), T(0), T(0)};
       return;
@@ -56,6 +68,7 @@ struct KnitForceTerms {
   SpringForceEvaluator<T> springs;
   SelfContactEvaluator<T> self{};
   bool with_self = false;
+  Vec3<T>* held = nullptr; // where set, the forces on the handles' points (KnitPointForces)
 };
 
 /// a = (the knit's own forces + extra's) / m + g on points [0, n), in one pass of 4 lanes a
@@ -66,11 +79,12 @@ void knit_forces_with(const exec::Exec& ex, std::size_t n, const KnitForceTerms<
                       const Extra& extra, const char* label) {
   if (own.with_self)
     exec::for_each_lanes<4>(
-        ex, n, KnitPointForces<T, SelfContactEvaluator<T>, Extra>{own.springs, own.self, extra},
+        ex, n,
+        KnitPointForces<T, SelfContactEvaluator<T>, Extra>{own.springs, own.self, extra, own.held},
         label);
   else
-    exec::for_each_lanes<4>(ex, n, KnitPointForces<T, NoKnitTerm, Extra>{own.springs, {}, extra},
-                            label);
+    exec::for_each_lanes<4>(
+        ex, n, KnitPointForces<T, NoKnitTerm, Extra>{own.springs, {}, extra, own.held}, label);
 }
 
 } // namespace kf
