@@ -42,7 +42,7 @@ class Hydrostatic : public ::testing::TestWithParam<KernelCase> {};
 // error is per particle; continuity starts every particle at rho0 and keeps its own). Bounds
 // about 1.4x those. The Wendland tank starts moved by 1e-3 dp (a fixed pattern): unmoved it lands
 // within 0.14% of the same profile error (measured; it ran here as a fourth case until the CI
-// budget asked for its 3 minutes; test_stress's wendland_tank settles two more perturbed starts).
+// budget asked for its 3 minutes; test_stress's wendland_tank settles another perturbed start).
 INSTANTIATE_TEST_SUITE_P(Kernels, Hydrostatic,
                          ::testing::Values(KernelCase{KernelType::CubicSpline, 2.0,
                                                       DensityModel::Summation, 0, 0.03, 0.0025},
