@@ -22,8 +22,21 @@ rm -rf build/fuzz/corpus && mkdir -p build/fuzz/corpus
 build/fuzz/fuzz_scene -max_total_time=60 -rss_limit_mb=2048 -timeout=10 -print_final_stats=1 \
   build/fuzz/corpus scenes scenes/studies scenes/bench tests/data/scenes/broken 2>&1 | tail -4
 if command -v nvcc >/dev/null 2>&1 || [ -x /usr/local/cuda/bin/nvcc ]; then
-  stamp "CUDA build (compile only: kernels, library, app, the tests nvcc or KF_WITH_CUDA compile)"
+  # Compile only what the CUDA build compiles otherwise than the CPU build above: the kernels
+  # library (nvcc), the transports (NCCL), and every other source or test naming KF_WITH_CUDA or
+  # __CUDACC__, and nvcc's tests (test_*_K); the rest is the same g++ code again (`cmake --build
+  # --preset cuda` builds everything, as the GPU jobs do).
+  stamp "CUDA build (compile only: the kernels, the transports, the sources KF_WITH_CUDA changes)"
   cmake --preset cuda -DKF_BUILD_BENCH=OFF >/dev/null
-  cmake --build --preset cuda -j"$jobs" --target knitflow kf_cuda_tests
+  cmake --build --preset cuda -j"$jobs" --target kf_kernels kf_comm
+  cuda_objects() { # DIR FILE...: each file's object in the CUDA build's DIR
+    local dir=$1; shift
+    [ $# -eq 0 ] || make -s -C "build/cuda/$dir" -j"$jobs" "${@/%.cpp/.o}"
+  }
+  cuda_objects src $(cd src && grep -rl --include='*.cpp' -e KF_WITH_CUDA -e __CUDACC__ . \
+    | sed 's|^\./||' | grep -v -e '^kernels/' -e '^comm/')
+  cuda_objects apps $(cd apps && grep -l -e KF_WITH_CUDA -e __CUDACC__ ./*.cpp | sed 's|^\./||')
+  cuda_objects tests $(cd tests && { ls test_*_K.cpp; grep -rl --include='test_*.cpp' \
+    -e KF_WITH_CUDA -e __CUDACC__ . | sed 's|^\./||'; } | sort -u)
 fi
 stamp "done"

@@ -494,6 +494,8 @@ Scene fixed(Scene s) {
 } // namespace
 
 TEST(DistributedKnit, CoupledPourIsTheOneRankRun) {
+  if (comm::MpiContext().size() > 2) // the knit's split on 3: the drape, the strip, the restart
+    GTEST_SKIP() << "two ranks in CI (three oversubscribe its two cores: 47 s)";
   expect_same_coupled_run(fixed(hammock("double")), 1000, 250, "hammock pour, double");
   expect_same_coupled_run(fixed(hammock("float")), 1000, 500, "hammock pour, float");
   // "verlet" lists (the pour's own setting): with the coupling the fluid's motion bound is
