@@ -1,5 +1,6 @@
 #pragma once
 // Kernel parameters derived from a scene, shared by the simulation and `knitflow plan`.
+#include "domain/Samplers.hpp" // lattice_particle_mass
 #include "domain/Scene.hpp"
 #include "kernels/coupling/KnitFluidCoupling.hpp"
 #include "kernels/sph/Sph.hpp"
@@ -7,6 +8,11 @@
 #include <cmath>
 
 namespace kf {
+
+/// The capillary pressure's scale sigma / sqrt(kappa / phi) [Pa]: P_c = scale J(s) (Eq. 10).
+inline double capillary_pressure_scale(const Scene& s) {
+  return s.capillary.sigma / std::sqrt(s.capillary.permeability / s.capillary.porosity);
+}
 
 /// The coupling's parameters from the scene (docs/PHYSICS.md "Coupling"): contact reach
 /// R_fluid + R_knit, stiffness that stops a fluid particle arriving at a tenth of the sound
@@ -34,8 +40,7 @@ CouplingParams<T> coupling_params(const Scene& s, double knit_spacing) {
   p.h = static_cast<T>(s.support_radius());
   p.porosity = static_cast<T>(s.capillary.porosity);
   p.rho0 = static_cast<T>(s.fluid.rest_density);
-  p.pressure_scale = static_cast<T>(s.capillary.sigma /
-                                    std::sqrt(s.capillary.permeability / s.capillary.porosity));
+  p.pressure_scale = static_cast<T>(capillary_pressure_scale(s));
   p.volume_per_mass = static_cast<T>(s.knit.thickness / s.knit.mass_per_area);
   p.gravity = vec_cast<T>(s.gravity);
   return p;

@@ -1,6 +1,6 @@
 #include "domain/Watchdog.hpp"
 
-#include "kernels/coupling/Coupling_K.hpp"
+#include "domain/SceneParams.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -63,10 +63,9 @@ Watchdog::Watchdog(const Scene& scene, const WatchReading& start, double start_s
     // phi times the knit's volume (its area, dry mass / areal mass, times its thickness). The
     // bound was sigma times the sheet's 6 faces until the wicking study's coarse strip (32 x 4
     // stitches) passed it: this is 25 sigma times its area.
-    const auto& c = scene.capillary;
-    const double pores =
-        c.porosity * scene.knit.thickness * start.knit_mass / scene.knit.mass_per_area;
-    capillary_ = c.sigma / std::sqrt(c.permeability / c.porosity) * leverett_j(0.0) * pores;
+    const double pores = scene.capillary.porosity * scene.knit.thickness * start.knit_mass /
+                         scene.knit.mass_per_area;
+    capillary_ = capillary_pressure_scale(scene) * leverett_j(0.0) * pores;
   }
   start_work_ = start.work;
 }
