@@ -6,9 +6,12 @@
 A run's wall time on a device is predicted as (src/domain/CostModel.hpp)
 
     T = start + S (f (step + (support / 2)^3 fluid N_fluid + boundary N_boundary)
+                   + knit_step
                    + substeps (knit_substep + N_knit (knit + self_contact? + coupling?)
                                + coupling? coupling_substep)
-                   + coupling? coupling_step + conserving? darcy_substeps N_knit)
+                   + coupling? coupling_step
+                   + conserving? darcy_substeps (conserving_substep + N_knit conserving))
+              + knit_start + frames output (N_fluid + N_boundary + N_knit)
 
 S the run's steps, N the particles, the support and the settings that carry a factor f as
 `knitflow plan` gives them (its "model" line: S = end_time over the CFL step at the fluid's fall
@@ -20,7 +23,8 @@ least squares on relative error over the fluid's runs without such settings; eac
 factor is then the geometric mean of what its runs ask for; the knit's coefficients (a substep's
 fixed cost, a point's a substep, the self-contact's and the knit-fluid coupling's a point a
 substep where the scene has them, the coupling's fixed cost a substep and a step, the conserving
-absorption's a point a Darcy substep: the plan's "knit terms") over the runs with a knit, the
+absorption's a point and its fixed cost a Darcy substep: the plan's "knit terms"; the knit's
+fixed cost a step and a run) over the runs with a knit, the
 fluid's part of them as fitted, making the worst run's relative error smallest (minimax: the plan
 promises a bound). Every study run's prediction is printed against
 its measured time; --out writes the device's table into the model file (src/domain/CostModel.toml,
@@ -96,19 +100,27 @@ def pairs(row):
 
 
 KNIT_TERMS = ["knit_substep_s", "knit_s", "self_contact_s", "coupling_s", "coupling_step_s",
-              "conserving_s", "coupling_substep_s"]
+              "conserving_s", "coupling_substep_s", "knit_step_s", "conserving_substep_s",
+              "knit_start_s"]
 
 
 def knit_columns(row):
-    """The knit's part of a step as a sum of its coefficients (KNIT_TERMS) times these."""
+    """The knit's part of a step as a sum of its coefficients (KNIT_TERMS[:-1]) times these."""
     n, sub, terms = row["Nk"], row["substeps"], row["terms"]
     if n == 0:
         return np.zeros(len(KNIT_TERMS))
     coupled = "knit_coupling" in terms
+    darcy = max(row["darcy"], 1.0) * ("absorption_conserving" in terms)
     return np.array([sub, sub * n, sub * n * ("knit_self_contact" in terms), sub * n * coupled,
-                     coupled,
-                     n * max(row["darcy"], 1.0) * ("absorption_conserving" in terms),
-                     sub * coupled], float)
+                     coupled, n * darcy, sub * coupled, 1.0, darcy], float)
+
+
+def knit_run_columns(row):
+    """knit_columns a step times the run's steps, and the knit's start (once a run: its
+    building, the pore network, the first lists)."""
+    if row["Nk"] == 0:
+        return np.zeros(len(KNIT_TERMS))
+    return np.append(row["S"] * knit_columns(row), 1.0)
 
 
 def output_column(row):
@@ -117,8 +129,8 @@ def output_column(row):
 
 
 def predict(c, row, factors, knit):
-    return (c[0] + row["S"] * (step_factor(row, factors) * step_cost(c, row)
-                               + float(knit_columns(row) @ knit)) + c[4] * output_column(row))
+    return (c[0] + row["S"] * step_factor(row, factors) * step_cost(c, row)
+            + float(knit_run_columns(row) @ knit) + c[4] * output_column(row))
 
 
 def nonnegative_lstsq(A, y):
@@ -177,10 +189,10 @@ def fit(rows):
     knit = np.zeros(len(KNIT_TERMS))
     knitted = [r for r in rows if r["Nk"] > 0]
     if knitted:
-        A = np.array([r["S"] * knit_columns(r) for r in knitted])
         y = np.array([r["wall"] - c[0] - r["S"] * step_factor(r, factors) * step_cost(c, r)
                       - c[4] * output_column(r) for r in knitted])
         w = np.array([1.0 / r["wall"] for r in knitted])
+        A = np.array([knit_run_columns(r) for r in knitted])
         # The worst run's error, not the squares' sum: the plan's promise is a bound.
         knit = minimax_nonnegative(A * w[:, None], y * w)
     return c, factors, knit
@@ -240,7 +252,8 @@ def write_model(path, device, c, factors, knit, worst, worst_fluid, sources):
     while kept and not kept[-1].strip():
         kept.pop()
     table = [f"[{device}]",
-             f"# fitted by jobs/studies/cost_model.py to {', '.join(os.path.basename(p) for p in sources)}",
+             f"# fitted by jobs/studies/cost_model.py to "
+             f"{', '.join(os.path.relpath(os.path.abspath(p), accuracy.ROOT) for p in sources)}",
              f"start_s = {c[0]:.6g}", f"step_s = {c[1]:.6g}", f"fluid_s = {c[2]:.6g}",
              f"boundary_s = {c[3]:.6g}", f"output_s = {c[4]:.6g}"]
     table += [f"{k} = {f:.4g}" for k, f in factors.items()]

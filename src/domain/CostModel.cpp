@@ -43,10 +43,17 @@ std::vector<DeviceCost> parse_cost_model(const std::string& text, const std::str
     d.worst_off_fluid = coefficient("worst_off_fluid", false);
     // The coefficients a device may lack (a fit without knit runs, an older table): zero.
     const std::pair<const char*, double*> optional[] = {
-        {"knit_substep_s", &d.knit_substep_s},   {"knit_s", &d.knit_s},
-        {"self_contact_s", &d.self_contact_s},   {"coupling_s", &d.coupling_s},
-        {"conserving_s", &d.conserving_s},       {"output_s", &d.output_s},
-        {"coupling_step_s", &d.coupling_step_s}, {"coupling_substep_s", &d.coupling_substep_s}};
+        {"knit_substep_s", &d.knit_substep_s},
+        {"knit_s", &d.knit_s},
+        {"self_contact_s", &d.self_contact_s},
+        {"coupling_s", &d.coupling_s},
+        {"conserving_s", &d.conserving_s},
+        {"output_s", &d.output_s},
+        {"coupling_step_s", &d.coupling_step_s},
+        {"coupling_substep_s", &d.coupling_substep_s},
+        {"knit_step_s", &d.knit_step_s},
+        {"knit_start_s", &d.knit_start_s},
+        {"conserving_substep_s", &d.conserving_substep_s}};
     for (const auto& [key, at] : optional)
       *at = coefficient(key, false);
     for (const auto& [key, value] : *t) {
@@ -114,7 +121,8 @@ CostEstimate estimate_cost(const DeviceCost& device, const Scene& scene, const P
                     device.boundary_s * double(plan.boundary));
   if (plan.knit > 0) {
     const double n = double(plan.knit);
-    double point = device.knit_s, per_substep = device.knit_substep_s, per_step = 0;
+    double point = device.knit_s, per_substep = device.knit_substep_s,
+           per_step = device.knit_step_s;
     for (const std::string& term : knit_cost_terms(scene)) {
       if (term == "knit_self_contact")
         point += device.self_contact_s;
@@ -123,11 +131,13 @@ CostEstimate estimate_cost(const DeviceCost& device, const Scene& scene, const P
         per_substep += device.coupling_substep_s;
         per_step += device.coupling_step_s;
       } else if (term == "absorption_conserving")
-        per_step += device.conserving_s * n * std::max(1.0, plan.darcy_substeps);
+        per_step += std::max(1.0, plan.darcy_substeps) *
+                    (device.conserving_substep_s + device.conserving_s * n);
     }
     e.step_s += double(scene.knit.substeps) * (per_substep + n * point) + per_step;
   }
-  e.total_s = device.start_s + plan.run_steps * e.step_s +
+  e.total_s = device.start_s + (plan.knit > 0 ? device.knit_start_s : 0.0) +
+              plan.run_steps * e.step_s +
               plan.output_frames * device.output_s * double(plan.fluid + plan.boundary + plan.knit);
   return e;
 }

@@ -4,17 +4,21 @@
 // run's wall time on a device:
 //
 //   T = start + steps (f (step + (support / 2)^3 fluid N_fluid + boundary N_boundary)
+//                      + knit_step
 //                      + substeps (knit_substep + N_knit (knit + self_contact? + coupling?)
 //                                  + coupling? coupling_substep)
-//                      + coupling? coupling_step + conserving? darcy_substeps N_knit conserving)
-//         + frames output (N_fluid + N_boundary + N_knit)
+//                      + coupling? coupling_step
+//                      + conserving? darcy_substeps (conserving_substep + N_knit conserving))
+//         + knit_start + frames output (N_fluid + N_boundary + N_knit)
 //
 // steps from the plan (PlanReport::run_steps), f the product of the factors of the settings the
 // scene uses (cost_settings: the continuity density, the neighbour lists, double precision); the
 // fluid's part where the scene has fluid, the knit's where it has a knit, a knit term where the
 // scene calls for its stage (knit_cost_terms: self-collision, the knit-fluid coupling and its
-// substep's and step's fixed costs, the conserving absorption's Darcy substeps a step), and the
-// snapshots' writing (PlanReport::output_frames). A device fitted to no knit run has no knit terms.
+// substep's and step's fixed costs, the conserving absorption's Darcy substeps a step), the
+// knit's own fixed costs (a step's: its bounds and step size; a run's: building the knit, its pore
+// network and first lists), and the snapshots' writing (PlanReport::output_frames). A device
+// fitted to no knit run has no knit terms.
 #include "domain/Scene.hpp"
 #include "domain/Simulation.hpp"
 
@@ -32,10 +36,15 @@ struct DeviceCost {
   // The knit's: a substep's fixed cost, a point's a substep, the self-contact's and the
   // coupling's a point a substep, the conserving absorption's a point a Darcy substep [s].
   double knit_substep_s = 0, knit_s = 0, self_contact_s = 0, coupling_s = 0, conserving_s = 0;
-  double coupling_step_s = 0;    // the coupling's fixed cost a step [s]
-  double coupling_substep_s = 0; // and a substep (its passes' launches) [s]
-  double output_s = 0;           // a particle's a snapshot [s]
-  bool has_knit_terms() const { return knit_substep_s > 0 || knit_s > 0; }
+  double coupling_step_s = 0;      // the coupling's fixed cost a step [s]
+  double coupling_substep_s = 0;   // and a substep (its passes' launches) [s]
+  double knit_step_s = 0;          // the knit's fixed cost a step [s]
+  double knit_start_s = 0;         // and a run's [s]
+  double conserving_substep_s = 0; // the conserving absorption's fixed cost a Darcy substep [s]
+  double output_s = 0;             // a particle's a snapshot [s]
+  bool has_knit_terms() const {
+    return knit_substep_s > 0 || knit_s > 0 || knit_step_s > 0 || knit_start_s > 0;
+  }
   double worst_off = 0;       // the fit's worst relative error over its runs
   double worst_off_fluid = 0; // the same over its runs without a knit
 };
