@@ -10,8 +10,8 @@ reads each run's closing "done" and "split" lines, and writes a CSV and a PNG.
     jobs/studies/scaling.py --ranks 1,2,4 --device cuda --per-rank 4e6 --total 8e6,32e6  # P9
     jobs/studies/scaling.py --scene pour --series weak --ranks 1,2,4 --device cuda
 
-The step's communication (rank 0's exchanges, migration, ghost refreshes, rebalancing, packing)
-comes from the "split" line, in ms a step.
+The step's communication (rank 0's exchanges, migration, ghost refreshes, rebalancing, the dt
+all-reduce, packing) comes from the "split" line, in ms a step.
 
 On this 2-core machine ranks share the cores (one OpenMP thread a rank); on a cluster, run it
 inside an allocation (jobs/slurm/knitflow.sbatch shows the launch line). Efficiency is against
@@ -27,10 +27,11 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 DONE = re.compile(r"done: (\d+) steps to t = \S+ s in ([\d.]+) s wall, ([\d.e+-]+) particle-steps/s")
 SPLIT = re.compile(r"split \(rank 0 of \d+, (\w+)\): exchanges ([\d.]+) s, [\d.]+% of the wall: fluid "
                    r"migration and ghosts ([\d.]+) s, ghost refreshes ([\d.]+) s, balance ([\d.]+) s, "
-                   r"knit ghosts ([\d.]+) s; packing rows ([\d.]+) s")
+                   r"knit ghosts ([\d.]+) s, the step size's all-reduce ([\d.]+) s; "
+                   r"packing rows ([\d.]+) s")
 FLUID = re.compile(r"particles: fluid (\d+)")
 KNIT = re.compile(r"knit: (\d+) points")
-SPLIT_KEYS = ("exchange", "migration", "refresh", "balance", "knit_ghosts", "packing")
+SPLIT_KEYS = ("exchange", "migration", "refresh", "balance", "knit_ghosts", "reduction", "packing")
 
 
 def spacing_for(particles):
@@ -130,7 +131,8 @@ def main():
             print("{series:12s} ranks {ranks:3d} fluid {fluid:9d} knit {knit:8d} {ms_per_step:9.3f} ms/step "
                   "{particle_steps_per_s:.3e} particle-steps/s efficiency {efficiency:.3f} | {transport} "
                   "exchanges {exchange_ms:.3f} ms/step (migration {migration_ms:.3f}, refreshes "
-                  "{refresh_ms:.3f}, balance {balance_ms:.3f}, knit {knit_ghosts_ms:.3f}; packing "
+                  "{refresh_ms:.3f}, balance {balance_ms:.3f}, knit {knit_ghosts_ms:.3f}, dt all-reduce "
+                  "{reduction_ms:.3f}; packing "
                   "{packing_ms:.3f})".format(**rows[-1]), flush=True)
     path = os.path.join(a.out, "scaling.csv")
     with open(path, "w", newline="") as f:

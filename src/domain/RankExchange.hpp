@@ -169,12 +169,18 @@ public:
   };
   /// The split's own work outside this class (KnitHalo) counts in exchange_seconds() too.
   Timed time_exchange() { return Timed{exchange_seconds_}; }
+  /// The step size's all-reduce (the caller's): counted in exchange_seconds() and its part.
+  void add_reduction(double seconds) {
+    exchange_seconds_ += seconds;
+    parts_.reduction += seconds;
+  }
   std::uint64_t repartitions() const { return repartitions_; }
   /// The split's seconds by part (within exchange_seconds(); the knit's ghosts are the rest).
   struct Parts {
     double migration = 0; // fluid leaving, migrating, its ghosts chosen and received
     double refresh = 0;   // the fluid's and the boundary's ghost refreshes, the ghosts dropped
     double rebalance = 0; // the imbalance checks and re-partitions with their migrations
+    double reduction = 0; // the step size's all-reduce: mostly the wait for the slowest rank
     double packing = 0;   // inside all of them (the knit's too): packing and unpacking rows
   };
   Parts parts() const {

@@ -168,6 +168,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
     r.refresh_seconds -= split0.refresh_seconds;
     r.rebalance_seconds -= split0.rebalance_seconds;
     r.packing_seconds -= split0.packing_seconds;
+    r.reduction_seconds -= split0.reduction_seconds;
     return r;
   };
   // Moving particles (fluid + knit): boundary particles only follow their solids.
@@ -293,6 +294,14 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
     Pipeline::Stage copy{s.name, s.module, s.what, {}, s.seconds, s.calls};
     sum.stages.push_back(std::move(copy));
   }
+  if (opt.profile && mpi.size() > 1) { // every rank runs the same stages
+    std::vector<double> mine;
+    for (const auto& s : sum.stages)
+      mine.push_back(s.seconds);
+    sum.stage_seconds_slowest.assign(mine.size(), 0.0);
+    MPI_Reduce(mine.data(), sum.stage_seconds_slowest.data(), static_cast<int>(mine.size()),
+               MPI_DOUBLE, MPI_MAX, 0, mpi.comm());
+  }
   return sum;
 }
 
@@ -336,14 +345,15 @@ std::string format_summary(const RunSummary& s) {
   }
   if (const auto& r = s.split; r.ranks > 1) {
     const double knit = std::max(0.0, r.exchange_seconds - r.migration_seconds - r.refresh_seconds -
-                                          r.rebalance_seconds);
+                                          r.rebalance_seconds - r.reduction_seconds);
     std::snprintf(buf, sizeof buf,
                   "split (rank 0 of %d, %s): exchanges %.3f s, %.1f%% of the wall: fluid "
                   "migration and ghosts %.3f s, ghost refreshes %.3f s, balance %.3f s, knit "
-                  "ghosts %.3f s; packing rows %.3f s of it\n",
+                  "ghosts %.3f s, the step size's all-reduce %.3f s; packing rows %.3f s of it\n",
                   r.ranks, r.transport.c_str(), r.exchange_seconds,
                   100 * r.exchange_seconds / std::max(1e-9, s.wall_seconds), r.migration_seconds,
-                  r.refresh_seconds, r.rebalance_seconds, knit, r.packing_seconds);
+                  r.refresh_seconds, r.rebalance_seconds, knit, r.reduction_seconds,
+                  r.packing_seconds);
     o << buf;
   }
   if (d.knit) {
@@ -393,11 +403,19 @@ std::string format_summary(const RunSummary& s) {
   for (const auto& st : s.stages)
     total += st.seconds;
   if (total > 0) {
-    o << "stages (time, share):\n";
-    for (const auto& st : s.stages) {
-      std::snprintf(buf, sizeof buf, "  %-22s %9.3f s %6.1f%%\n", st.name.c_str(), st.seconds,
+    const bool slowest = s.stage_seconds_slowest.size() == s.stages.size();
+    o << (slowest ? "stages (rank 0's time, share; the slowest rank's time):\n"
+                  : "stages (time, share):\n");
+    for (std::size_t k = 0; k < s.stages.size(); ++k) {
+      const auto& st = s.stages[k];
+      std::snprintf(buf, sizeof buf, "  %-22s %9.3f s %6.1f%%", st.name.c_str(), st.seconds,
                     100 * st.seconds / total);
       o << buf;
+      if (slowest) {
+        std::snprintf(buf, sizeof buf, " %9.3f s", s.stage_seconds_slowest[k]);
+        o << buf;
+      }
+      o << "\n";
     }
     // Parts inside the stages (timed only with --profile), as shares of the whole step.
     for (const auto& [name, sec] : stage_parts::totals()) {

@@ -47,6 +47,8 @@ struct RunSummary {
   Diagnostics diagnostics;
   std::vector<Pipeline::Stage> stages; // with their times when profiled (run functions dropped)
   Simulation::RankReport split;        // this rank's (rank 0's in the log) on N ranks
+  std::vector<double> stage_seconds_slowest; // each stage's largest time over the ranks (rank 0,
+                                             // N ranks, profiled)
 };
 
 RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,

@@ -141,7 +141,8 @@ public:
     int ranks = 1;
     double imbalance = 0, exchange_seconds = 0;
     double migration_seconds = 0, refresh_seconds = 0, rebalance_seconds = 0, packing_seconds = 0;
-    std::string transport; // "mpi" or "nccl"
+    double reduction_seconds = 0; // the step size's all-reduce (the wait for the slowest rank)
+    std::string transport;        // "mpi" or "nccl"
   };
   virtual RankReport rank_report() const { return {}; }
   /// Measure each stage's time (synchronising the device after each stage).

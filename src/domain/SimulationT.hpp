@@ -76,6 +76,7 @@ public:
             p.refresh,
             p.rebalance,
             p.packing,
+            p.reduction,
             std::string(ranks_->transport_name())};
   }
   void set_profiling(bool on) override {
@@ -317,7 +318,7 @@ private:
     f();
   }
   /// The job's largest speed and acceleration on N ranks (max over ranks, NaN kept as inf).
-  void job_bounds(MotionBounds<T>* mb, int n) const;
+  void job_bounds(MotionBounds<T>* mb, int n);
 
   /// Every knit point this rank holds (the whole knit before distribute).
   std::span<const Vec3<T>> all_knit_positions() {
