@@ -3,6 +3,7 @@
 #include "core/Error.hpp"
 #include "domain/ExchangeColumns.hpp"
 #include "domain/GhostSelection.hpp"
+#include "domain/StageParts.hpp"
 #include "kernels/exec/RowCopy.hpp"
 #include "kernels/grid/RankSelection.hpp"
 
@@ -385,16 +386,22 @@ RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& h
   const std::size_t n = fluid.size();
   // Who leaves (to another rank, or out of the domain past an open side as the single-rank
   // sort removes it), chosen on the fluid's backend: only the leavers' indices come back.
+  std::optional<stage_parts::Scope> part_now;
+  part_now.emplace("grid.fluid: the leavers chosen (N ranks)");
   const auto leaving = select_.departures(fluid.x, fluid.m, n, lo, hi, walls);
   // Every state column the steps to come read; a where the half kick reads it before the next
   // forces pass writes it (the migrants' a was left behind before, and a drop emitted into
   // another rank's region then fell with another rank's a: the absorbing hammock parted).
   auto state = fluid_state(fluid, acceleration);
+  part_now.emplace("grid.fluid: the leavers migrated (N ranks)");
   const std::size_t owned =
       comm::migrate(*transport_, migration_peers_, leaving.leaving, state, rows());
   // The ghosts: every owned particle within the support of another rank's region goes there.
+  part_now.emplace("grid.fluid: the ghosts chosen (N ranks)");
   const GhostLists gl = select_.ghosts(fluid.x, owned, fluid_width_);
+  part_now.emplace("grid.fluid: the ghosts' halo set up (N ranks)");
   fluid_halo_.emplace(*transport_, gl.peers, gl.send, rows());
+  part_now.emplace("grid.fluid: the ghosts received (N ranks)");
   const std::size_t total = owned + fluid_halo_->received();
   fluid.resize(total);
   const comm::Column cols[] = {column(fluid.x),         column(fluid.v), column(fluid.m),

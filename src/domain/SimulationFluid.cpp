@@ -1,6 +1,7 @@
 // SimulationT<T>'s fluid and boundary passes: the sorts, density, forces and the boundary's
 // pressure, each with the halo it reads on N ranks (ghost refreshes just before the pass).
 #include "domain/SimulationT.hpp"
+#include "domain/StageParts.hpp"
 
 namespace kf {
 
@@ -15,7 +16,9 @@ void SimulationT<T>::update_shapes(double t) {
 template <typename T>
 void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry carry) {
   ++fluid_sorts_;
+  std::optional<stage_parts::Scope> part;
   if (ranks_) {
+    part.emplace("grid.fluid: the kept ghosts dropped, the balance checked (N ranks)");
     // Ghosts kept since the last sort ("verlet" lists) go: the sort chooses them anew.
     ranks_->drop_ghosts(ex_, *fluid_);
     // Every [parallel] check_every steps the measured imbalance may share the blocks out anew.
@@ -30,24 +33,29 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     std::array<bool, 6> walls = d.walls;
     if (!remove_outflow)
       walls.fill(true);
+    part.reset(); // the rebuild times its own parts
     const auto gone =
         ranks_->rebuild(*fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max), walls, carry.acceleration);
     outflow_particles_ += gone.particles;
     outflow_mass_ += gone.mass;
+    part.emplace("grid.fluid: the sort by cell");
     fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size(), fluid_->id.data());
     fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
     ranks_->fluid_sorted(fluid_grid_->permutation(), fluid_->size());
   } else if (remove_outflow) {
+    part.emplace("grid.fluid: the sort by cell");
     const auto& d = scene_.domain;
     outflow_particles_ +=
         sort_removing_outside(ex_, *fluid_grid_, *fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max),
                               sorted_outflow_mass_.data(), carry);
   } else {
+    part.emplace("grid.fluid: the sort by cell");
     fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size(), fluid_->id.data());
     fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
   }
   // For boundary.pressure and the coupling's knit side, which walk this grid until the next
   // sort: a walk from a cell without fluid around is skipped.
+  part.emplace("grid.fluid: the occupied cells and the lists");
   if (boundary_on_ || coupling_on_)
     fluid_grid_->occupied_around(ex_, fluid_near_);
   if (fluid_list_)
