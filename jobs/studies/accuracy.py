@@ -266,11 +266,14 @@ def study(a, name):
         key = json.dumps(scene, sort_keys=True)
         if key not in done:
             out = os.path.join(a.out, f"{name}_{ax}_{value_text(v)}")
-            wall, memory = run(a.exe, scene_path, overrides, out, a.device)
-            error, points, extra = case.error(out, scene)
+            wall, memory, unstable = run(a.exe, scene_path, overrides, out, a.device)
+            # A run the solver stopped as unstable: its row says so (no error to measure; its
+            # steps and time up to the stop), and the study goes on.
+            error, points, extra = (float("nan"), 0, {}) if unstable else case.error(out, scene)
             done[key] = {"particles": particles(out), "knit_points": knit_points(out),
                          "steps": steps(out), "wall_s": round(wall, 3), "error": error,
-                         "points": points, "memory_mb": round(memory, 1), **extra}
+                         "points": points, "memory_mb": round(memory, 1),
+                         "unstable": unstable, **extra}
         return done[key], scene
 
     reference = None
@@ -286,7 +289,7 @@ def study(a, name):
             result, scene = measure(ax, v)
             r = {"case": name, "axis": ax, "value": v, **result, "device": a.device,
                  "commit": version}
-            if reference is not None:
+            if reference is not None and not result["unstable"]:
                 if result["_ref"] == reference["_ref"]:
                     r["error"], r["points"] = float("nan"), 0  # the reference itself
                 else:
@@ -296,16 +299,18 @@ def study(a, name):
             rows.append(r)
             print(f"{name} {ax} = {v}: {r['particles']} particles, {r['knit_points']} knit "
                   f"points, {r['steps']} steps, {r['wall_s']:.1f} s, error {r['error']:.4g} "
-                  f"({r['points']} points)", flush=True)
+                  f"({r['points']} points)" + (f"; stopped: {r['unstable']}" if r["unstable"]
+                                                else ""), flush=True)
         if ax == "spacing" and "_curves" in rows[-1]:
             # Against our own finest run: how far each coarser one is from where refinement
             # goes (the experiment holds a floor: its scatter, the gate's release).
-            for r in rows[:-1]:
+            coarser = [r for r in rows[:-1] if "_curves" in r]
+            for r in coarser:
                 r["self_error"] = fluid_cases.self_error(r["_curves"], rows[-1]["_curves"])
-            order = observed_order([r["value"] for r in rows[:-1]],
-                                   [r["self_error"] for r in rows[:-1]])
+            order = observed_order([r["value"] for r in coarser],
+                                   [r["self_error"] for r in coarser])
             print(f"{name}: against the finest run, errors "
-                  + ", ".join(f"{r['self_error']:.4g}" for r in rows[:-1])
+                  + ", ".join(f"{r['self_error']:.4g}" for r in coarser)
                   + f"; observed order {order:.2f}")
         for r in rows:
             for k in [k for k in r if k.startswith("_")]:
