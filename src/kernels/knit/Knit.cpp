@@ -4,6 +4,11 @@
 
 namespace kf {
 
+// H200, the drape (self-contact on), us a substep, one pass against two (springs + self-contact):
+// 28k points 15.2 / 21.2, 50k 18.3 / 23.9, 77k 29.0 / 34.2, 112k 42.1 / 45.1, 152k 67.5 / 66.9,
+// 198k 175.8 / 159.8 (its self-contact walks cells there: 104 us). Past 150k, two.
+const std::size_t kKnitOnePassUpTo = 150000;
+
 template <typename T>
 void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Vec3<T> gravity,
                  const VolumeView<T>& vol) {
@@ -13,7 +18,14 @@ void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Ve
 }
 
 template <typename T>
-void knit_forces(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& own) {
+void knit_forces(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& own,
+                 std::size_t one_pass_up_to) {
+  if (own.with_self && !own.held && n > one_pass_up_to) {
+    exec::for_each_lanes<4>(ex, n, KnitPointForces<T, NoKnitTerm, NoKnitTerm>{own.springs},
+                            "knit.springs");
+    exec::for_each_lanes<4>(ex, n, own.self, "knit.self_contact");
+    return;
+  }
   knit_forces_with(ex, n, own, NoKnitTerm{}, "knit.forces");
 }
 
@@ -69,7 +81,8 @@ void knit_spring_limits(const exec::Exec& ex, KnitView<T> p, const SpringView<T>
 #define KF_INSTANTIATE(T)                                                                          \
   template void knit_forces<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&, Vec3<T>,      \
                                const VolumeView<T>&);                                              \
-  template void knit_forces<T>(const exec::Exec&, std::size_t, const KnitForceTerms<T>&);          \
+  template void knit_forces<T>(const exec::Exec&, std::size_t, const KnitForceTerms<T>&,           \
+                               std::size_t);                                                       \
   template void knit_handle_work<T>(const exec::Exec&, KnitView<T>, const Vec3<T>*, Vec3<T>,       \
                                     const Vec3<T>*, T, double*);                                   \
   template double knit_spring_energy<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&,      \

@@ -14,10 +14,17 @@ template <typename T>
 void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Vec3<T> gravity,
                  const VolumeView<T>& vol = {});
 
-/// a = (springs + volume cells + self-contact, when own.with_self) / m + g on points [0, n) in
-/// one pass (KnitPointForces); 0 on a handle's points.
+/// Up to how many points the springs and the self-contact take one pass (KnitPointForces: one
+/// launch, a written once); past it two (the springs', then the self-contact's adding to a: the
+/// same sums in the same order), whose kernels keep more threads resident (Knit.cpp: measured).
+extern const std::size_t kKnitOnePassUpTo;
+
+/// a = (springs + volume cells + self-contact, when own.with_self) / m + g on points [0, n)
+/// (KnitPointForces: one pass up to one_pass_up_to points, or where the handles' held forces are
+/// written); 0 on a handle's points.
 template <typename T>
-void knit_forces(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& own);
+void knit_forces(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& own,
+                 std::size_t one_pass_up_to = kKnitOnePassUpTo);
 
 /// Adds to *work (memory on ex.backend; nothing waits) the work the moving handles' constraint
 /// does over a time h at the current forces (HandleWorkEvaluator): held, the other forces on
