@@ -450,11 +450,12 @@ void SimulationT<T>::build_pipeline() {
                         };
                       // Moving solids are sorted every step: their list entries would not last.
                       // On N ranks all take the same answer (SphLists::combine_readings).
-                      std::optional<stage_parts::Scope> part;
-                      part.emplace("grid.fluid: the lists' check");
-                      const bool stale = fluid_list_->stale_after(
-                          ex_, *fluid_, static_cast<T>(fluid_step_motion()), moving_, meanwhile);
-                      part.reset();
+                      bool stale = false;
+                      {
+                        stage_parts::Scope part("grid.fluid: the lists' check");
+                        stale = fluid_list_->stale_after(
+                            ex_, *fluid_, static_cast<T>(fluid_step_motion()), moving_, meanwhile);
+                      }
                       if (stale) {
                         // Removing what left the domain in the same sort; the forces pass
                         // writes a before anything reads it; the predictor's copies, when it

@@ -21,8 +21,8 @@ template <typename T>
 void knit_forces(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& own,
                  std::size_t one_pass_up_to) {
   if (own.with_self && !own.held && n > one_pass_up_to) {
-    exec::for_each_lanes<4>(ex, n, KnitPointForces<T, NoKnitTerm, NoKnitTerm>{own.springs},
-                            "knit.springs");
+    // The separate passes' own evaluators, as knit_forces above and KnitSelfContact launch them.
+    exec::for_each_lanes<4>(ex, n, own.springs, "knit.springs");
     exec::for_each_lanes<4>(ex, n, own.self, "knit.self_contact");
     return;
   }
