@@ -35,6 +35,7 @@ struct Args {
   std::string output;
   bool quiet = false;
   bool profile = false;
+  bool profile_device = false;
   int threads = 0;
   int ranks = 0; // plan: ranks to partition for (0: the job's)
 };
@@ -257,6 +258,7 @@ int cmd_run(const Args& a, const kf::comm::MpiContext& mpi) {
   opt.restart = a.restart;
   opt.progress = !a.quiet;
   opt.profile = a.profile;
+  opt.profile_device = a.profile_device;
   if (const char* f = std::getenv("KF_FAULT"))
     opt.fault = kf::parse_fault(f);
   if (mpi.root() && !a.quiet)
@@ -290,6 +292,9 @@ int main(int argc, char** argv) {
     run->add_option("--threads", a.threads, "OpenMP threads for the CPU backend");
     run->add_flag("--quiet,-q", a.quiet, "no progress line or summary");
     run->add_flag("--profile", a.profile, "time every stage (synchronises the device)");
+    run->add_flag("--profile-device", a.profile_device,
+                  "time every stage on the device too, without synchronising: each stage's span "
+                  "and the device's wait before it");
     auto* plan =
         app.add_subcommand("plan", "print stages, particle counts, memory and dt; run nothing");
     add_scene_options(plan, a);

@@ -6,10 +6,13 @@
 #   match    the dam break and the pour on 1 and on 2 GPUs, snapshots matched by global id
 #   weak     dam break 4M fluid a GPU, and the pour scaled up with the GPUs, on 1, 2, 4, ... GPUs
 #   strong   dam breaks of 8M and 32M fluid on 1, 2, 4, ... GPUs
+#   steady   the dam break at 4M fluid a GPU, its step at steady state: the marginal step between
+#            runs of 300 and 1,500 steps (STEADY=A,B to change them)
 # Usage: jobs/gpu/p9_gpus.sh KNITFLOW OUTDIR PART...   (tests are found on PATH: .devrt/bin)
 # STEPS (default 300) steps a scaling run; THREADS (default 4) OpenMP threads a rank for set-up;
 # PROFILE=1 times every stage (the logs' stage tables; it synchronises the device after each).
-# STRONG_TOTAL (default 8e6,32e6) the strong series' totals.
+# STRONG_TOTAL (default 8e6,32e6) the strong series' totals. RANKS (default 1,2,4,... up to the
+# GPUs) the rank counts.
 # Every run's log is packed into OUTDIR/logs.tar.gz at the end.
 set -uo pipefail
 exe=$1 out=$2
@@ -18,6 +21,7 @@ mkdir -p "$out"
 gpus=$(nvidia-smi -L | wc -l)
 ranks=1
 for ((r = 2; r <= gpus; r *= 2)); do ranks="$ranks,$r"; done
+ranks=${RANKS:-$ranks}
 steps=${STEPS:-300} threads=${THREADS:-4}
 verlet=(--set 'solver.neighbour_list="verlet"')
 prof=()
@@ -73,6 +77,10 @@ for part in "$@"; do
   strong)
     /usr/bin/python3 jobs/studies/scaling.py --exe "$exe" --device cuda --threads "$threads" \
       --ranks "$ranks" --series strong --total "${STRONG_TOTAL:-8e6,32e6}" --steps "$steps" --out "$out/strong" "${prof[@]}" "${verlet[@]}"
+    ;;
+  steady)
+    /usr/bin/python3 jobs/studies/scaling.py --exe "$exe" --device cuda --threads "$threads" \
+      --ranks "$ranks" --series weak --per-rank 4e6 --steps "${STEADY:-300,1500}" --out "$out/steady" "${prof[@]}" "${verlet[@]}"
     ;;
   *) echo "unknown part $part" ;;
   esac

@@ -9,6 +9,11 @@ reads each run's closing "done" and "split" lines, and writes a CSV and a PNG.
     jobs/studies/scaling.py --ranks 1,2 --per-rank 20000 --total 40000 --steps 100
     jobs/studies/scaling.py --ranks 1,2,4 --device cuda --per-rank 4e6 --total 8e6,32e6  # P9
     jobs/studies/scaling.py --scene pour --series weak --ranks 1,2,4 --device cuda
+    jobs/studies/scaling.py --ranks 1,2 --device cuda --series weak --per-rank 4e6 --steps 300,1500
+
+With two step counts (--steps A,B) each case runs twice and its step is the marginal one, the wall
+difference over the B - A steps between: the start (NCCL's connections, the first lists, the first
+steps' larger sorts) cancels; the split's figures are then the longer run's.
 
 The step's communication (rank 0's exchanges, migration, ghost refreshes, rebalancing, the dt
 all-reduce, packing) comes from the "split" line, in ms a step.
@@ -68,7 +73,7 @@ def run(exe, ranks, particles, steps, device, threads, extra, scene="dambreak", 
         env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     out = subprocess.run(cmd, env=env, capture_output=True, text=True)
     text = out.stdout + out.stderr
-    with open(os.path.join(out_dir, "run_%s_%d_np%d.log" % (scene, round(particles), ranks)), "w") as f:
+    with open(os.path.join(out_dir, "run_%s_%d_np%d_%dsteps.log" % (scene, round(particles), ranks, steps)), "w") as f:
         f.write(" ".join(cmd) + "\n" + text)
     m = DONE.search(text)
     if out.returncode != 0 or not m:
@@ -92,7 +97,9 @@ def main():
                     help="time every stage (synchronises the device after each: slower, no overlap)")
     ap.add_argument("--scene", default="dambreak", choices=("dambreak", "pour"),
                     help="pour: weak series only, --per-rank is then the size over the paper's")
-    ap.add_argument("--steps", type=int, default=100)
+    ap.add_argument("--steps", default="100",
+                    help="steps a run; A,B: run each case for A and for B steps, the step the "
+                         "marginal one between")
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--threads", type=int, default=1, help="OpenMP threads a rank")
     ap.add_argument("--exe", default=os.path.join(ROOT, "build", "cpu", "apps", "knitflow"))
@@ -102,6 +109,9 @@ def main():
     extra = sum((["--set", s] for s in a.set), [])
     ranks = [int(r) for r in a.ranks.split(",")]
     os.makedirs(a.out, exist_ok=True)
+    step_counts = [int(x) for x in a.steps.split(",")]
+    if len(step_counts) not in (1, 2) or (len(step_counts) == 2 and step_counts[1] <= step_counts[0]):
+        sys.exit("--steps: one count, or two increasing (A,B), not %r" % a.steps)
     rows = []
     plan = []
     for series in a.series.split(","):
@@ -113,10 +123,20 @@ def main():
         base = None
         for r in ranks:
             n = a.per_rank * r if series == "weak" else total
-            steps, wall, rate, split, counts = run(a.exe, r, n, a.steps, a.device, a.threads, extra,
-                                                   a.scene, a.out, a.profile)
-            # The "done" line's wall has 10 ms steps; its rate has four digits.
-            per_step = (counts[0] + counts[1]) / rate if rate > 0 else wall / steps
+            walls = []
+            for s in step_counts:
+                steps, wall, rate, split, counts = run(a.exe, r, n, s, a.device, a.threads, extra,
+                                                       a.scene, a.out, a.profile)
+                # The "done" line's wall has 10 ms steps; its rate has four digits.
+                walls.append((steps, (counts[0] + counts[1]) / rate * steps if rate > 0 else wall))
+            start_ms = 0.0
+            if len(walls) == 2:
+                (s0, w0), (s1, w1) = walls
+                per_step = (w1 - w0) / (s1 - s0)
+                start_ms = 1e3 * (w0 - per_step * s0)  # what the start costs over the steady steps
+                rate = (counts[0] + counts[1]) / per_step
+            else:
+                per_step = walls[0][1] / walls[0][0]
             if base is None:
                 base = (r, rate)
             # Particle-steps a second a rank against the first run's: weak runs' counts are not
@@ -125,7 +145,8 @@ def main():
             label = series if series == "weak" else "strong %.3gM" % (total / 1e6)
             rows.append({"scene": a.scene, "series": label, "device": a.device, "ranks": r,
                          "fluid": counts[0], "knit": counts[1], "steps": steps,
-                         "wall_s": wall, "ms_per_step": 1e3 * per_step, "particle_steps_per_s": rate,
+                         "wall_s": wall, "ms_per_step": 1e3 * per_step, "start_ms": start_ms,
+                         "particle_steps_per_s": rate,
                          "efficiency": eff, "transport": split["transport"]})
             rows[-1].update({k + "_ms": split[k] for k in SPLIT_KEYS})
             print("{series:12s} ranks {ranks:3d} fluid {fluid:9d} knit {knit:8d} {ms_per_step:9.3f} ms/step "

@@ -186,4 +186,15 @@ void NcclTransport::do_finish() {
     throw_nccl(async, nccl_, "an exchange (ncclCommGetAsyncError)", __FILE__, __LINE__);
 }
 
+void NcclTransport::do_max_in_place(void* data, std::size_t n, bool is_double) {
+  if (n == 0)
+    return;
+  KF_COMM_CUDA(cudaEventRecord(filled_, cudaStreamLegacy));
+  KF_COMM_CUDA(cudaStreamWaitEvent(stream_, filled_, 0));
+  KF_COMM_NCCL(
+      ncclAllReduce(data, data, n, is_double ? ncclDouble : ncclFloat, ncclMax, nccl_, stream_));
+  KF_COMM_CUDA(cudaEventRecord(moved_, stream_));
+  KF_COMM_CUDA(cudaStreamWaitEvent(cudaStreamLegacy, moved_, 0));
+}
+
 } // namespace kf::comm

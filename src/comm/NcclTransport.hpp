@@ -31,6 +31,9 @@ private:
   /// reads device data only through copies on that stream, which are ordered after it).
   /// NCCL's asynchronous errors are checked without waiting, so one surfaces at a later finish.
   void do_finish() override;
+  /// ncclAllReduce (ncclMax) in place on the transport's stream, ordered between the legacy
+  /// default stream's work before and after it by events, as an exchange is.
+  void do_max_in_place(void* data, std::size_t n, bool is_double) override;
 
   int device_;
   cudaStream_t stream_;

@@ -112,6 +112,26 @@ void Transport::start(std::span<const SendBuffer> sends, std::span<const RecvBuf
   in_flight_ = true;
 }
 
+void Transport::max_in_place(float* data, std::size_t n) {
+  if (in_flight_)
+    throw Error(std::string(name()) + " transport on rank " + std::to_string(rank_) +
+                ": max_in_place() while an exchange is in flight");
+  do_max_in_place(data, n, false);
+}
+
+void Transport::max_in_place(double* data, std::size_t n) {
+  if (in_flight_)
+    throw Error(std::string(name()) + " transport on rank " + std::to_string(rank_) +
+                ": max_in_place() while an exchange is in flight");
+  do_max_in_place(data, n, true);
+}
+
+void Transport::do_max_in_place(void* data, std::size_t n, bool is_double) {
+  check_mpi(
+      MPI_Allreduce(MPI_IN_PLACE, data, int(n), is_double ? MPI_DOUBLE : MPI_FLOAT, MPI_MAX, comm_),
+      "the all-reduce of maxima");
+}
+
 void Transport::finish() {
   if (!in_flight_)
     return;

@@ -80,6 +80,15 @@ public:
   /// exchange is in flight; collective over the peers named.
   void exchange_host(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives) const;
 
+  /// Replaces each of the n values at `data` (in memory_space()) by its largest over the job, in
+  /// place: an all-reduce. NaN is the caller's to replace first (how NaN compares is the
+  /// transport's). NCCL queues it on its stream after the work queued before on the legacy
+  /// default stream, and orders that stream's later work after it: the host does not wait (the
+  /// step size planned on the device from the job's motion bounds). MPI: host data; it waits.
+  /// Not while an exchange is in flight; collective over the job.
+  void max_in_place(float* data, std::size_t n);
+  void max_in_place(double* data, std::size_t n);
+
   int rank() const { return rank_; }
   int size() const { return size_; }
 
@@ -100,6 +109,8 @@ protected:
   virtual void do_start(std::span<const SendBuffer> sends,
                         std::span<const RecvBuffer> receives) = 0;
   virtual void do_finish() = 0;
+  /// max_in_place's work (host data over MPI unless a transport overrides it).
+  virtual void do_max_in_place(void* data, std::size_t n, bool is_double);
   /// Called by a derived destructor: waits for an exchange in flight, never throws (the peers
   /// posted theirs at their start(), so the wait ends).
   void finish_quietly() noexcept;

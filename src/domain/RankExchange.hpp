@@ -148,6 +148,8 @@ public:
   /// particle moves less than a block a step), and the split's own time.
   comm::Transport& transport() { return *transport_; }
   std::string_view transport_name() const { return transport_->name(); }
+  /// Where the transport's buffers live (device: it all-reduces the step size's bounds there).
+  comm::MemorySpace transport_space() const { return transport_->memory_space(); }
   /// Each position's owning rank (-1 for other ranks' with others_dropped: a migration's
   /// destinations that keep only this rank's particles).
   std::vector<int> owners(std::span<const Vec3<T>> x, bool others_dropped = false) const;

@@ -108,6 +108,8 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
   Scene scene = scene_in; // a rollback makes its steps smaller
   auto sim = Simulation::create(scene, opt.backend, &mpi);
   sim->set_profiling(opt.profile);
+  if (opt.profile_device)
+    sim->profile_on_device();
   std::uint64_t frame_index = 0;
   if (!opt.restart.empty()) {
     const std::string from = opt.restart == "latest" ? latest_state(scene, mpi) : opt.restart;
@@ -211,6 +213,8 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
             << scene.knit.substeps << "\n";
       sim = Simulation::create(scene, opt.backend, &mpi);
       sim->set_profiling(opt.profile);
+      if (opt.profile_device)
+        sim->profile_on_device();
       io::Frame fr = io::read_snapshot(mpi.comm(), sum.last_checkpoint);
       sim->restore(fr);
       frame_index = restart_frame_index(fr, interval);
@@ -290,9 +294,20 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
       sum.wall_seconds > 0 ? double(sum.steps) * double(particles) / sum.wall_seconds : 0;
   sum.diagnostics = sim->diagnostics();
   sum.split = since_start(sim->rank_report());
+  if (opt.profile_device)
+    sim->collect_device_profile();
   for (const auto& s : sim->pipeline().stages()) {
-    Pipeline::Stage copy{s.name, s.module, s.what, {}, s.seconds, s.calls};
+    Pipeline::Stage copy{s.name,    s.module, s.what,           {},
+                         s.seconds, s.calls,  s.device_seconds, s.idle_before_seconds};
     sum.stages.push_back(std::move(copy));
+  }
+  if (opt.profile_device && mpi.size() > 1) {
+    std::vector<double> mine;
+    for (const auto& s : sum.stages)
+      mine.push_back(s.device_seconds);
+    sum.device_seconds_slowest.assign(mine.size(), 0.0);
+    MPI_Reduce(mine.data(), sum.device_seconds_slowest.data(), static_cast<int>(mine.size()),
+               MPI_DOUBLE, MPI_MAX, 0, mpi.comm());
   }
   if (opt.profile && mpi.size() > 1) { // every rank runs the same stages
     std::vector<double> mine;
@@ -416,6 +431,28 @@ std::string format_summary(const RunSummary& s) {
         o << buf;
       }
       o << "\n";
+    }
+    // On the device (--profile-device): each stage's span and the device's wait before it.
+    double device_total = 0;
+    for (const auto& st : s.stages)
+      device_total += st.device_seconds + st.idle_before_seconds;
+    if (device_total > 0) {
+      const bool slowest_device = s.device_seconds_slowest.size() == s.stages.size();
+      o << "stages on the device (rank 0's span from first to last work, share; its wait "
+           "before the stage"
+        << (slowest_device ? "; the slowest rank's span):\n" : "):\n");
+      for (std::size_t k = 0; k < s.stages.size(); ++k) {
+        const auto& st = s.stages[k];
+        std::snprintf(buf, sizeof buf, "  %-22s %9.3f s %6.1f%% %9.3f s", st.name.c_str(),
+                      st.device_seconds, 100 * st.device_seconds / device_total,
+                      st.idle_before_seconds);
+        o << buf;
+        if (slowest_device) {
+          std::snprintf(buf, sizeof buf, " %9.3f s", s.device_seconds_slowest[k]);
+          o << buf;
+        }
+        o << "\n";
+      }
     }
     // Parts inside the stages (timed only with --profile), as shares of the whole step.
     for (const auto& [name, sec] : stage_parts::totals()) {

@@ -19,8 +19,9 @@ struct RunOptions {
                        // complete checkpoint or frame in the scene's output directory)
   bool progress = true;
   double progress_interval_s = 1.0;
-  bool profile = false;  // time each stage (synchronises the device after each)
-  double stop_time = -1; // stop early at this simulated time (< 0: scene end time)
+  bool profile = false;        // time each stage (synchronises the device after each)
+  bool profile_device = false; // time each stage on the device too, without synchronising
+  double stop_time = -1;       // stop early at this simulated time (< 0: scene end time)
   // A fault injected on purpose (the tests of a job's failure; KF_FAULT="rank:step:kind"): on
   // rank `rank`, once `step` steps are done, "error" throws, "abort" and "segv" raise the signal.
   struct Fault {
@@ -47,8 +48,9 @@ struct RunSummary {
   Diagnostics diagnostics;
   std::vector<Pipeline::Stage> stages; // with their times when profiled (run functions dropped)
   Simulation::RankReport split;        // this rank's (rank 0's in the log) on N ranks
-  std::vector<double> stage_seconds_slowest; // each stage's largest time over the ranks (rank 0,
-                                             // N ranks, profiled)
+  std::vector<double> stage_seconds_slowest;  // each stage's largest time over the ranks (rank 0,
+                                              // N ranks, profiled)
+  std::vector<double> device_seconds_slowest; // the same for the device spans (--profile-device)
 };
 
 RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,

@@ -147,6 +147,10 @@ public:
   virtual RankReport rank_report() const { return {}; }
   /// Measure each stage's time (synchronising the device after each stage).
   virtual void set_profiling(bool on) = 0;
+  /// Time each stage on the device as well, without synchronising (Pipeline::time_on_device);
+  /// read with collect_device_profile() before the stages' times are.
+  virtual void profile_on_device() = 0;
+  virtual void collect_device_profile() = 0;
 };
 
 } // namespace kf

@@ -83,9 +83,12 @@ FluidStepRule SimulationT<T>::fluid_step_rule() const {
 template <typename T>
 bool SimulationT<T>::plans_step_on_device() const {
   // The drift must be the step's first stage (no knit or coupling stages before it, which take
-  // dt on the host), its bounds on the device already, and no damping (keep depends on dt).
+  // dt on the host), its bounds on the device already, and no damping (keep depends on dt). On
+  // N ranks the transport must reduce the bounds where they are (NCCL: device memory).
   const auto& s = scene_.solver;
-  return fluid_on_ && !knit_on_ && !coupling_on_ && fluid_bounds_ready_ && !ranks_ &&
+  const bool reducible = !ranks_ || (ex_.backend != exec::Backend::Cpu &&
+                                     ranks_->transport_space() == comm::MemorySpace::Device);
+  return fluid_on_ && !knit_on_ && !coupling_on_ && fluid_bounds_ready_ && reducible &&
          !(s.damping > 0 && time_ < s.damping_until);
 }
 
@@ -113,7 +116,15 @@ double SimulationT<T>::step(double t_limit) {
   if (plans_step_on_device()) {
     if (!plan_read_)
       plan_read_.emplace(ex_.backend, 1, "integrate.dt");
-    plan_fluid_step(ex_, fluid_step_rule(), bounds_.data() + 1, remaining, plan_.data());
+    const MotionBounds<T>* bounds = bounds_.data() + 1;
+    if (ranks_) { // one dt for the job: the largest speed and acceleration of all ranks
+      static_assert(sizeof(MotionBounds<T>) == 2 * sizeof(T), "v2, a2 reduced as two values");
+      MotionBounds<T>* job = bounds_.data() + 2;
+      bounds_for_job_max(ex_, bounds, job); // NaN read as infinite: every rank reports it
+      ranks_->transport().max_in_place(&job->v2, 2);
+      bounds = job;
+    }
+    plan_fluid_step(ex_, fluid_step_rule(), bounds, remaining, plan_.data());
     plan_read_->start(plan_.data());
     step_pending_ = true;
     dt_ = std::numeric_limits<double>::quiet_NaN(); // known once the drift is queued

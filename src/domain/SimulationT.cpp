@@ -13,7 +13,7 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     : scene_(scene), ex_{backend}, guard_count_(backend, 0, "boundary.guard_count"),
       sorted_outflow_mass_(backend, 0, "fluid.outflow"),
       sheet_count_(backend, 0, "sheet_guard.count"), boundary_near_(backend, 0, "boundary.near"),
-      fluid_near_(backend, 0, "fluid.near"), bounds_(backend, 2, "integrate.dt"),
+      fluid_near_(backend, 0, "fluid.near"), bounds_(backend, 3, "integrate.dt"),
       plan_(backend, 1, "integrate.dt"), solids_(scene, backend),
       shapes_(backend, 0, "rigid.shapes") {
   guard_count_.assign(std::vector<std::uint64_t>{0});

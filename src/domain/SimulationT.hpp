@@ -83,6 +83,8 @@ public:
     profiling_ = on;
     stage_parts::enable(on, ex_.backend);
   }
+  void profile_on_device() override { pipeline_.time_on_device(ex_.backend); }
+  void collect_device_profile() override { pipeline_.collect_device(); }
 
 private:
   void build_pipeline();
@@ -254,7 +256,6 @@ private:
   // The watchdog's sums (fluid, knit) and, on N ranks with fluid ghosts in the set, which rows
   // are owned (SimulationWatch.cpp).
   exec::DeviceBuffer<WatchSums> watch_sums_;
-  exec::DeviceBuffer<std::uint8_t> watch_owned_;
   // The work done from outside since this Simulation began, for the watchdog's energy budget
   // (docs/ARCHITECTURE.md, the watchdog): the moving solids' boundary forces on the fluid and the
   // moving handles' constraint in double (work_), the moving solids' contact corrections of
@@ -280,12 +281,15 @@ private:
   double fluid_step_motion() const;
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
   exec::DeviceBuffer<std::uint8_t> fluid_near_{exec::Backend::Cpu, 0, "fluid.near"};
-  exec::DeviceBuffer<MotionBounds<T>> bounds_{exec::Backend::Cpu, 0, "integrate.dt"}; // knit, fluid
+  // knit, fluid, the job's fluid (N ranks planning on the device)
+  exec::DeviceBuffer<MotionBounds<T>> bounds_{exec::Backend::Cpu, 0, "integrate.dt"};
   // bounds_[1] holds the fluid's bounds now, written by the last step's kick (kick_bounds): the
   // next stable_dt reads them instead of a pass of its own. Cleared when a step starts.
   bool fluid_bounds_ready_ = false;
   // A step planned on the device (fluid without knit, bounds from the last kick): the drift is
-  // queued with the device's dt and the host collects the plan while it runs (settle_step).
+  // queued with the device's dt and the host collects the plan while it runs (settle_step). On
+  // N ranks where the transport reduces device data (NCCL) the job's bounds are all-reduced
+  // there first (bounds_[2]): no rank's host waits for the step size.
   FluidStepRule fluid_step_rule() const;
   bool plans_step_on_device() const;
   void settle_step();

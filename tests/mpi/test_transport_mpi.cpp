@@ -1,7 +1,7 @@
 // Transports on 2 ranks (and 3, as test_transport_mpi_np3): rings and all-pairs patterns with
 // random sizes (zero included) and contents known on both sides, several messages between one
 // pair in one exchange, sizes learnt first, overlap of start() and finish(), ranks without peers,
-// buffers split into pieces, clear errors, and the factory's choice.
+// buffers split into pieces, clear errors, the factory's choice, and the all-reduce of maxima.
 #include "comm/MpiContext.hpp"
 #include "comm/MpiTransport.hpp"
 #include "comm/Transport.hpp"
@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <vector>
@@ -384,5 +385,67 @@ TEST(TransportMpi, FactoryChoosesByBuildAndDevices) {
     e = error_of([&] { t->start(std::vector<SendBuffer>{{ctx.rank(), host, 16}}, {}); });
     EXPECT_NE(e.find("is host memory"), std::string::npos) << e;
   }
+#endif
+}
+
+namespace {
+
+/// Value i of rank r for the all-reduce of maxima: a different rank holds the largest of each,
+/// infinity included (the step size's reduction carries NaN as +inf).
+template <typename T>
+T value_of(int r, int i) {
+  if (i == 5)
+    return r == 1 ? std::numeric_limits<T>::infinity() : T(r);
+  return T(((i + 1) * 37 + r * 11) % 13) * T(0.25) - T(1);
+}
+
+/// Every rank's values reduced by max_in_place through `t` (device memory where it wants it),
+/// checked against the largest of the formula over the job's ranks.
+template <typename T>
+void check_max_in_place(Transport& t) {
+  constexpr int n = 7;
+  std::vector<T> v(n), expected(n);
+  for (int i = 0; i < n; ++i) {
+    v[i] = value_of<T>(t.rank(), i);
+    expected[i] = value_of<T>(0, i);
+    for (int r = 1; r < t.size(); ++r)
+      expected[i] = std::max(expected[i], value_of<T>(r, i));
+  }
+  if (t.memory_space() == MemorySpace::Host) {
+    t.max_in_place(v.data(), n);
+  } else {
+#if defined(KF_WITH_CUDA)
+    T* d = nullptr;
+    ASSERT_EQ(cudaMalloc(&d, n * sizeof(T)), cudaSuccess);
+    ASSERT_EQ(cudaMemcpy(d, v.data(), n * sizeof(T), cudaMemcpyHostToDevice), cudaSuccess);
+    t.max_in_place(d, n);
+    // A copy on the legacy default stream, with no host wait between: ordered after the
+    // reduction by the transport.
+    ASSERT_EQ(cudaMemcpy(v.data(), d, n * sizeof(T), cudaMemcpyDeviceToHost), cudaSuccess);
+    cudaFree(d);
+#endif
+  }
+  for (int i = 0; i < n; ++i)
+    EXPECT_EQ(v[i], expected[i]) << "rank " << t.rank() << ", value " << i;
+}
+
+} // namespace
+
+TEST(TransportMpi, MaxInPlaceIsTheJobsLargest) {
+  MpiContext ctx;
+  MpiTransport t(ctx);
+  check_max_in_place<float>(t);
+  check_max_in_place<double>(t);
+  // Not while an exchange is in flight (its messages and the reduction would interleave).
+  t.start({}, {});
+  float x = 1;
+  const std::string e = error_of([&] { t.max_in_place(&x, 1); });
+  EXPECT_NE(e.find("in flight"), std::string::npos) << e;
+  t.finish();
+#if defined(KF_WITH_CUDA)
+  // The job's transport for device data (NCCL where every rank has a GPU: on the device).
+  const auto d = make_transport(ctx, TransportKind::Auto, MemorySpace::Device);
+  check_max_in_place<float>(*d);
+  check_max_in_place<double>(*d);
 #endif
 }

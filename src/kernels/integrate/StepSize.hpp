@@ -12,4 +12,8 @@ template <typename T>
 void plan_fluid_step(const exec::Exec& ex, const FluidStepRule& rule, const MotionBounds<T>* bounds,
                      double remaining, StepPlan<T>* plan);
 
+/// *out = *in with NaN read as +infinity (BoundsForJobMax), on ex.backend; nothing waits.
+template <typename T>
+void bounds_for_job_max(const exec::Exec& ex, const MotionBounds<T>* in, MotionBounds<T>* out);
+
 } // namespace kf

@@ -9,6 +9,7 @@
 #include "kernels/integrate/Verlet.hpp"
 
 #include <cstdint>
+#include <limits>
 
 namespace kf {
 
@@ -54,6 +55,21 @@ struct StepPlan {
   MotionBounds<T> bounds{};
   std::uint32_t lands = 0;
   std::uint32_t finite = 0;
+};
+
+/// One thread: *out = *in with NaN read as +infinity, for an all-reduce of maxima over the ranks
+/// (which must not lose a blown-up rank's bounds: the plan then finds them not finite).
+template <typename T>
+struct BoundsForJobMax {
+  const MotionBounds<T>* in;
+  MotionBounds<T>* out;
+
+  KF_HD void operator()(std::size_t) const {
+    const MotionBounds<T> b = *in;
+    const T inf = std::numeric_limits<T>::infinity();
+    out->v2 = b.v2 == b.v2 ? b.v2 : inf;
+    out->a2 = b.a2 == b.a2 ? b.a2 : inf;
+  }
 };
 
 /// One thread: the step from the fluid's motion bounds, written to *plan.

@@ -19,7 +19,7 @@ struct WatchOf {
   const Vec3<T>* v;
   const T* m;
   const T* rho;
-  const std::uint8_t* owned;
+  const std::uint32_t* owned;
   Vec3<T> g, ref;
   KF_HD KF_INLINE WatchSums operator()(std::size_t i) const {
     const double v2 = double(norm2(v[i]));
@@ -39,17 +39,17 @@ struct WatchOf {
 
 template <typename T>
 void watch_sums_to(const exec::Exec& ex, const Vec3<T>* x, const Vec3<T>* v, const T* m,
-                   const T* rho, const std::uint8_t* owned, std::size_t n, Vec3<T> g, Vec3<T> ref,
+                   const T* rho, const std::uint32_t* owned, std::size_t n, Vec3<T> g, Vec3<T> ref,
                    WatchSums* out, const char* label) {
   exec::transform_reduce_to(ex, n, WatchSums{}, WatchOp{}, WatchOf<T>{x, v, m, rho, owned, g, ref},
                             out, label);
 }
 
 template void watch_sums_to<float>(const exec::Exec&, const Vec3<float>*, const Vec3<float>*,
-                                   const float*, const float*, const std::uint8_t*, std::size_t,
+                                   const float*, const float*, const std::uint32_t*, std::size_t,
                                    Vec3<float>, Vec3<float>, WatchSums*, const char*);
 template void watch_sums_to<double>(const exec::Exec&, const Vec3<double>*, const Vec3<double>*,
-                                    const double*, const double*, const std::uint8_t*, std::size_t,
+                                    const double*, const double*, const std::uint32_t*, std::size_t,
                                     Vec3<double>, Vec3<double>, WatchSums*, const char*);
 
 } // namespace kf

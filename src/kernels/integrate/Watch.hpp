@@ -21,10 +21,11 @@ struct WatchSums {
 };
 
 /// The sums over rows [0, n) of a set (rho and owned may be null: no density; every row its
-/// own), heights measured along -g from `ref`, written to *out on ex.backend (nothing waits).
+/// own; owned: 1 for a row this rank owns, 0 for a ghost, RankExchange::owned_flags()), heights
+/// measured along -g from `ref`, written to *out on ex.backend (nothing waits).
 template <typename T>
 void watch_sums_to(const exec::Exec& ex, const Vec3<T>* x, const Vec3<T>* v, const T* m,
-                   const T* rho, const std::uint8_t* owned, std::size_t n, Vec3<T> g, Vec3<T> ref,
+                   const T* rho, const std::uint32_t* owned, std::size_t n, Vec3<T> g, Vec3<T> ref,
                    WatchSums* out, const char* label);
 
 } // namespace kf
