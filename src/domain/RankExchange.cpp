@@ -72,6 +72,12 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
                                     backend == exec::Backend::Cpu ? comm::MemorySpace::Host
                                                                   : comm::MemorySpace::Device);
   rows_ = make_rows(backend, transport_->memory_space() == comm::MemorySpace::Device);
+  // Between device buffers (NCCL) a message is short beside what splitting a pass costs (a
+  // second launch; the border's, small, leaves most of the GPU idle at its tail): only the
+  // density's refresh, the largest message, before the longest wait, keeps the overlap; the
+  // walls' pass (~40 us whole) and the forces' (a: one column) run whole, then exchange. On two
+  // H200s this took 58 us off the 4M-a-GPU dam break's step (docs/PERFORMANCE.md, P9).
+  overlap_short_ = overlap_ && transport_->memory_space() == comm::MemorySpace::Host;
   costs_.knit_substeps = scene.knit.substeps;
   // A pair within the support now was within support + skin at the sort.
   fluid_width_ = std::max(scene.support_radius(), coupling_reach) + (keeps_ghosts_ ? skin : 0.0);
@@ -430,19 +436,19 @@ void RankExchange<T>::fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm
 
 template <typename T>
 void RankExchange<T>::fluid_pass(std::span<const comm::Column> cols, std::size_t n,
-                                 const Pass& pass) {
+                                 const Pass& pass, bool overlap) {
   if (!fluid_halo_) { // collective over the peers: also where this rank received no ghost
     pass(exec::Rows{nullptr, n});
     return;
   }
-  overlapped(*fluid_halo_, overlap_ ? &fluid_rows() : nullptr, cols, fluid_owned_, n, pass);
+  overlapped(*fluid_halo_, overlap ? &fluid_rows() : nullptr, cols, fluid_owned_, n, pass);
 }
 
 template <typename T>
 void RankExchange<T>::refresh_density(FluidSet<T>& fluid, const Pass& pass) {
   const comm::Column cols[] = {column(fluid.rho), column(fluid.p), column(fluid.vp),
                                column(fluid.vol)};
-  fluid_pass(cols, fluid.size(), pass);
+  fluid_pass(cols, fluid.size(), pass, overlap_);
 }
 
 template <typename T>
@@ -452,8 +458,8 @@ void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary, const Pass& pas
     return;
   }
   const comm::Column cols[] = {column(boundary.p), column(boundary.vp), column(boundary.inv_rho)};
-  overlapped(*boundary_halo_, overlap_ ? &boundary_rows() : nullptr, cols, boundary_own_count_,
-             boundary.size(), pass);
+  overlapped(*boundary_halo_, overlap_short_ ? &boundary_rows() : nullptr, cols,
+             boundary_own_count_, boundary.size(), pass);
 }
 
 template <typename T>
@@ -475,7 +481,8 @@ template <typename T>
 void RankExchange<T>::refresh_forces(FluidSet<T>& fluid, bool continuity, const Pass& pass) {
   const comm::Column all[] = {column(fluid.a), column(fluid.rho), column(fluid.drho),
                               column(fluid.drho_prev)};
-  fluid_pass(std::span<const comm::Column>(all, continuity ? 4 : 1), fluid.size(), pass);
+  fluid_pass(std::span<const comm::Column>(all, continuity ? 4 : 1), fluid.size(), pass,
+             overlap_short_);
 }
 
 template <typename T>

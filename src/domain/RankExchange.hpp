@@ -86,7 +86,7 @@ public:
   /// be overwritten: it is not computed); without, over every row, then the exchange.
   void refresh_density(FluidSet<T>& fluid, const Pass& pass);
   /// The same for the walls' pressure pass: the boundary ghosts' p and its packed copies (vp,
-  /// inv_rho).
+  /// inv_rho); overlapped only where the messages go through the host (MPI).
   void refresh_boundary(BoundarySet<T>& boundary, const Pass& pass);
   /// After the forces pass: only the owned fluid stays.
   void drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid);
@@ -94,7 +94,7 @@ public:
   /// from their owners (the coupling reads the fluid around each knit point before the next
   /// drift).
   void refresh_motion(FluidSet<T>& fluid);
-  /// With "verlet" lists: the forces pass, as refresh_density runs it, and what it wrote (a;
+  /// With "verlet" lists: the forces pass, as refresh_boundary runs it, and what it wrote (a;
   /// under continuity also rho, drho and drho_prev) from the owners, so that the kick and the
   /// drift then move each ghost exactly as its owner moves it (its v and x follow: the same
   /// arithmetic on the same values).
@@ -225,7 +225,8 @@ private:
   SplitRows& split(const comm::HaloExchange& halo, SplitRows& out,
                    const std::function<void(exec::DeviceBuffer<std::uint32_t>&)>& owned);
   /// overlapped over the fluid's halo (or the pass over all n rows where there is none).
-  void fluid_pass(std::span<const comm::Column> cols, std::size_t n, const Pass& pass);
+  void fluid_pass(std::span<const comm::Column> cols, std::size_t n, const Pass& pass,
+                  bool overlap);
   /// pass over the owned rows and the halo's exchange of cols, overlapped where the scene asks.
   /// (rows null: over all n rows, then the exchange.)
   void overlapped(comm::HaloExchange& halo, const SplitRows* rows,
@@ -245,6 +246,7 @@ private:
   double block_scale_ = 0; // a block's edge over parallel.block_cells
   bool keeps_ghosts_ = false;
   bool overlap_ = false;          // [parallel] overlap, where it applies
+  bool overlap_short_ = false;    // the same for the walls' and forces' refreshes (host messages)
   std::uint64_t last_window_ = 0; // step / check_every at the last imbalance check
   PhaseCosts costs() const { return costs_; }
   PhaseCosts costs_;
