@@ -529,6 +529,35 @@ TEST_P(ExecTest, StepPlanIsTheHostRuleBitForBit) {
   }
 }
 
+// The bounds a job all-reduces by their maxima (N ranks, NCCL): NaN read as +infinity (a maximum
+// must not lose a blown-up rank), every other value, infinity included, as it is; and the plan
+// from them finds them not finite.
+TEST_P(ExecTest, BoundsForJobMaxReadNanAsInfinity) {
+  const float inf = std::numeric_limits<float>::infinity();
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const kf::MotionBounds<float> in[] = {{0.f, 0.f}, {27.5f, 3.1e4f}, {nan, 1.f},   {1.f, nan},
+                                        {nan, nan}, {inf, 2.f},      {-0.f, 1e30f}};
+  DeviceBuffer<kf::MotionBounds<float>> from(b(), 0, "bounds"), to(b(), 1, "job bounds");
+  for (const auto& c : in) {
+    from.assign(std::vector<kf::MotionBounds<float>>{c});
+    to.poison();
+    kf::bounds_for_job_max(ex(), from.data(), to.data());
+    const auto got = to.to_host()[0];
+    const float v2 = std::isnan(c.v2) ? inf : c.v2, a2 = std::isnan(c.a2) ? inf : c.a2;
+    EXPECT_EQ(std::memcmp(&got.v2, &v2, sizeof v2), 0) << c.v2 << " -> " << got.v2;
+    EXPECT_EQ(std::memcmp(&got.a2, &a2, sizeof a2), 0) << c.a2 << " -> " << got.a2;
+    kf::FluidStepRule rule;
+    rule.limit = 1e-3;
+    rule.cfl = 0.1;
+    rule.h = 0.01;
+    rule.sound = 30;
+    rule.force_factor = 0.25;
+    rule.dt_min = 1e-9;
+    const bool finite = std::isfinite(c.v2) && std::isfinite(c.a2);
+    EXPECT_EQ(plan_on(ex(), rule, got, 1.0).finite != 0, finite) << c.v2 << ", " << c.a2;
+  }
+}
+
 // transform_reduce_to writes what transform_reduce returns (the same tree), init included, and
 // init alone for no elements.
 TEST_P(ExecTest, TransformReduceToWritesTheReduction) {

@@ -193,10 +193,13 @@ std::size_t migrate(Transport& transport, std::span<const int> peers, const Depa
   }
   transport.start(sends, recvs);
   // Meanwhile the particles that stay close up, in order.
-  if (!leaving.index.empty())
+  std::size_t kept = n - leaving.index.size();
+  if (leaving.keep)
+    kept = rows.keep_flagged(cols, n, leaving.keep);
+  else if (!leaving.index.empty())
     rows.remove(cols, n, leaving.index);
   transport.finish();
-  const std::size_t kept = n - leaving.index.size(), total = kept + arrivals;
+  const std::size_t total = kept + arrivals;
   for (std::size_t c = 0; c < columns.size(); ++c)
     cols[c].data = columns[c].resize(total);
   const std::vector<std::size_t> arrived(arriving.begin(), arriving.end());

@@ -87,6 +87,10 @@ struct Departures {
   std::size_t n = 0;
   std::vector<std::uint32_t> index;
   std::vector<int> to;
+  /// When given, the rows that stay (one flag a row, in the RowCopier's memory): the leavers are
+  /// among the rows it leaves out, and so may be rows dropped without a message of their own (the
+  /// ghosts a rank held), whose indices then need not come to the host.
+  const std::uint32_t* keep = nullptr;
   /// From every particle's destination (this rank: it stays).
   static Departures of(std::span<const int> destination, int me);
 };

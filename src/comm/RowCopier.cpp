@@ -81,6 +81,25 @@ void RowCopier::do_remove(std::span<const Column> cols, std::size_t n,
   }
 }
 
+std::size_t RowCopier::do_keep_flagged(std::span<const Column> cols, std::size_t n,
+                                       const std::uint32_t* keep) {
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    kept += keep[i] != 0;
+  for (const Column& c : cols) {
+    auto* d = static_cast<unsigned char*>(c.data);
+    const std::size_t e = c.elem_bytes;
+    std::size_t to = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      if (keep[i]) {
+        if (to != i) // to < i: forward moves only
+          std::memcpy(d + to * e, d + i * e, e);
+        ++to;
+      }
+  }
+  return kept;
+}
+
 unsigned char* RowCopier::do_message(std::size_t slot, std::size_t bytes) {
   if (messages_.size() <= slot)
     messages_.resize(slot + 1);
@@ -126,6 +145,11 @@ void RowCopier::remove(std::span<const Column> cols, std::size_t n,
                        std::span<const std::uint32_t> gone) {
   const AddTime t{seconds_};
   do_remove(cols, n, gone);
+}
+std::size_t RowCopier::keep_flagged(std::span<const Column> cols, std::size_t n,
+                                    const std::uint32_t* keep) {
+  const AddTime t{seconds_};
+  return n ? do_keep_flagged(cols, n, keep) : 0;
 }
 
 RowCopier& host_rows() {

@@ -58,6 +58,10 @@ public:
   /// close up to rows 0, 1, ... in order: only the leavers' indices are passed, so a device
   /// backend finds the rows that stay where they are.
   void remove(std::span<const Column> cols, std::size_t n, std::span<const std::uint32_t> gone);
+  /// Of rows 0 .. n - 1 of each column, those with keep[i] != 0 close up to rows 0, 1, ... in
+  /// order; returns their count. keep: one flag a row, in the columns' memory (the backend's), so
+  /// that a device backend drops many rows without their indices crossing the bus.
+  std::size_t keep_flagged(std::span<const Column> cols, std::size_t n, const std::uint32_t* keep);
   /// Seconds spent in the calls above so far.
   double seconds() const { return seconds_; }
   /// Host memory for message `slot` of an exchange (at least `bytes`; kept and reused, its
@@ -77,6 +81,8 @@ protected:
                           std::span<const unsigned char* const> ins);
   virtual void do_remove(std::span<const Column> cols, std::size_t n,
                          std::span<const std::uint32_t> gone);
+  virtual std::size_t do_keep_flagged(std::span<const Column> cols, std::size_t n,
+                                      const std::uint32_t* keep);
   virtual unsigned char* do_message(std::size_t slot, std::size_t bytes);
   virtual void do_gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                                  unsigned char* out);

@@ -131,6 +131,20 @@ void DeviceRows::do_remove(std::span<const comm::Column> cols, std::size_t n,
   }
 }
 
+std::size_t DeviceRows::do_keep_flagged(std::span<const comm::Column> cols, std::size_t n,
+                                        const std::uint32_t* keep) {
+  const exec::Exec ex{backend_};
+  flags_.resize(n);
+  exec::copy_bytes(flags_.data(), backend_, keep, backend_, n * sizeof(std::uint32_t));
+  const std::size_t k = exec::flagged_indices(ex, flags_, offsets_, keep_, "ranks.remove");
+  for (const comm::Column& c : cols) { // through a scratch run, as do_remove
+    packed_.resize(k * c.elem_bytes);
+    exec::gather_rows(ex, packed_.data(), c.data, keep_.data(), k, c.elem_bytes, "ranks.remove");
+    exec::copy_bytes(c.data, backend_, packed_.data(), backend_, k * c.elem_bytes);
+  }
+  return k;
+}
+
 unsigned char* DeviceRows::do_message(std::size_t slot, std::size_t bytes) {
   if (device_messages_) {
     while (device_messages_slots_.size() <= slot)

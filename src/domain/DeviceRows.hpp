@@ -29,6 +29,8 @@ protected:
                   std::span<const unsigned char* const> ins) override;
   void do_remove(std::span<const comm::Column> cols, std::size_t n,
                  std::span<const std::uint32_t> gone) override;
+  std::size_t do_keep_flagged(std::span<const comm::Column> cols, std::size_t n,
+                              const std::uint32_t* keep) override;
   unsigned char* do_message(std::size_t slot, std::size_t bytes) override;
   void do_gather_to_host(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
                          unsigned char* out) override;

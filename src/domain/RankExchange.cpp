@@ -190,10 +190,9 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   Balance b;
   // At the first sort of each window of check_every steps after the one the run started in
   // (with lists kept over steps the sorts come when the fluid has moved, not every step).
-  const std::uint64_t window = step / static_cast<std::uint64_t>(scene_.parallel.check_every);
-  if (window <= last_window_)
+  if (!balance_due(step))
     return b;
-  last_window_ = window;
+  last_window_ = step / static_cast<std::uint64_t>(scene_.parallel.check_every);
   const Timed part{parts_.rebalance};
   for (int p = 0; p < kPhases; ++p) {
     const double s = clocks_[p]->collect();
@@ -394,7 +393,10 @@ RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& h
   // sort removes it), chosen on the fluid's backend: only the leavers' indices come back.
   std::optional<stage_parts::Scope> part_now;
   part_now.emplace("grid.fluid: the leavers chosen (N ranks)");
-  const auto leaving = select_.departures(fluid.x, fluid.m, n, lo, hi, walls);
+  // Ghosts kept since the last sort ("verlet" lists) go in the same compaction, on the backend.
+  const std::uint32_t* held = n != fluid_owned_ ? keep_.data() : nullptr;
+  const auto leaving = select_.departures(fluid.x, fluid.m, n, lo, hi, walls, held);
+  fluid_halo_.reset(); // the kept ghosts' halo
   // Every state column the steps to come read; a where the half kick reads it before the next
   // forces pass writes it (the migrants' a was left behind before, and a drop emitted into
   // another rank's region then fell with another rank's a: the absorbing hammock parted).

@@ -71,7 +71,9 @@ public:
     double mass = 0;
   };
   /// Before the fluid's sort: the owned fluid outside [lo, hi] on an open side is removed
-  /// (counted), the rest migrates to its owners, and the ghosts are received and appended.
+  /// (counted), the rest migrates to its owners, and the ghosts are received and appended. Kept
+  /// ghosts ("verlet" lists) still held go in the migration's compaction (flags on the backend):
+  /// one compaction of the state's columns instead of two of every column.
   /// acceleration: the migrants take their a along (FluidSet::Carry's: a sort at a step's start,
   /// after an absorption or an emission, comes before the half kick that reads it).
   Removed rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& hi,
@@ -142,6 +144,11 @@ public:
   /// (sort the boundary after, then boundary_sorted()); the knit follows at KnitHalo's next choice.
   /// knit_x: the knit's positions, the first knit_owned this rank's (read only at a
   /// re-partition).
+  /// Whether balance() at this step checks the imbalance (and may re-partition: the fluid must
+  /// then hold only what this rank owns).
+  bool balance_due(std::uint64_t step) const {
+    return step / static_cast<std::uint64_t>(scene_.parallel.check_every) > last_window_;
+  }
   Balance balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary,
                   const exec::DeviceBuffer<Vec3<T>>* knit_x = nullptr, std::size_t knit_owned = 0);
   /// What the knit's exchange shares: the transport, the ranks next to this one's blocks (a

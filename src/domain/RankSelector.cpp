@@ -13,7 +13,8 @@ RankSelector<T>::RankSelector(exec::Backend backend)
       slot_(backend, 0, "ranks.peer_slot"), dest_(backend, 0, "ranks.destination"),
       picked_dest_(backend, 0, "ranks.leaver_destination"), flags_(backend, 0, "ranks.flags"),
       offsets_(backend, 0, "ranks.offsets"), idx_(backend, 0, "ranks.indices"),
-      mask_(backend, 0, "ranks.ghost_mask"), picked_m_(backend, 0, "ranks.leaver_mass") {}
+      stay_(backend, 0, "ranks.stay"), mask_(backend, 0, "ranks.ghost_mask"),
+      picked_m_(backend, 0, "ranks.leaver_mass") {}
 
 template <typename T>
 void RankSelector<T>::set(const Decomposition& d, int rank) {
@@ -37,15 +38,18 @@ template <typename T>
 typename RankSelector<T>::Departures
 RankSelector<T>::departures(const exec::DeviceBuffer<Vec3<T>>& x, const exec::DeviceBuffer<T>& m,
                             std::size_t n, const Vec3<T>& lo, const Vec3<T>& hi,
-                            const std::array<bool, 6>& walls) {
+                            const std::array<bool, 6>& walls, const std::uint32_t* owned) {
   const exec::Exec ex{backend_};
   dest_.resize(n);
   flags_.resize(n);
+  if (owned)
+    stay_.resize(n);
   block_destinations(ex, x.data(), n, BlockOwners{grid_, owner_.data()}, lo, hi, walls, rank_,
-                     dest_.data(), flags_.data());
+                     dest_.data(), flags_.data(), owned, owned ? stay_.data() : nullptr);
   const std::size_t k = exec::flagged_indices(ex, flags_, offsets_, idx_, "ranks.leavers");
   Departures d;
   d.leaving.n = n;
+  d.leaving.keep = owned ? stay_.data() : nullptr;
   d.leaving.index = indices(k);
   d.leaving.to.resize(k);
   std::vector<T> mass(k);

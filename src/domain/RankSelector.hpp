@@ -28,10 +28,13 @@ public:
     double removed_mass = 0;
   };
   /// Of the first n particles (positions x, masses m): those whose block another rank owns and
-  /// those past [lo, hi] on a side without a wall (walls: low x, high x, low y, ...).
+  /// those past [lo, hi] on a side without a wall (walls: low x, high x, low y, ...). Where
+  /// `owned` is given (1 owned, 0 a ghost held, on the backend) the ghosts are dropped too: the
+  /// departures then carry the flags of the rows that stay (Departures::keep, valid until the
+  /// next call), the ghosts' indices staying on the device.
   Departures departures(const exec::DeviceBuffer<Vec3<T>>& x, const exec::DeviceBuffer<T>& m,
                         std::size_t n, const Vec3<T>& lo, const Vec3<T>& hi,
-                        const std::array<bool, 6>& walls);
+                        const std::array<bool, 6>& walls, const std::uint32_t* owned = nullptr);
   /// For the first n positions (owned by this rank): the local indices each neighbouring rank
   /// needs as ghosts, those within `width` of its blocks (select_ghosts' lists, ascending).
   GhostLists ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width);
@@ -45,7 +48,7 @@ private:
   int rank_ = 0;
   BlockGridView grid_;
   exec::DeviceBuffer<int> owner_, slot_, dest_, picked_dest_;
-  exec::DeviceBuffer<std::uint32_t> flags_, offsets_, idx_;
+  exec::DeviceBuffer<std::uint32_t> flags_, offsets_, idx_, stay_;
   exec::DeviceBuffer<std::uint64_t> mask_;
   exec::DeviceBuffer<T> picked_m_;
   // The neighbours within a width, found over the blocks once a partition and width.

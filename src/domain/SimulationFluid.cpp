@@ -18,10 +18,12 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
   ++fluid_sorts_;
   std::optional<stage_parts::Scope> part;
   if (ranks_) {
-    part.emplace("grid.fluid: the kept ghosts dropped, the balance checked (N ranks)");
-    // Ghosts kept since the last sort ("verlet" lists) go: the sort chooses them anew.
-    ranks_->drop_ghosts(ex_, *fluid_);
-    // Every [parallel] check_every steps the measured imbalance may share the blocks out anew.
+    part.emplace("grid.fluid: the balance checked (N ranks)");
+    // Every [parallel] check_every steps the measured imbalance may share the blocks out anew,
+    // from the fluid this rank owns: the ghosts kept since the last sort ("verlet" lists) go
+    // first. Otherwise they go in the rebuild's migration (one compaction less).
+    if (ranks_->balance_due(steps_))
+      ranks_->drop_ghosts(ex_, *fluid_);
     if (ranks_
             ->balance(steps_, &*fluid_, boundary_on_ ? &*boundary_ : nullptr,
                       knit_halo_ ? &knit_->set().x : nullptr, knit_halo_ ? knit_->owned() : 0)

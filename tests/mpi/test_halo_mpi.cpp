@@ -11,9 +11,9 @@
 //   re-partitioned by the measured counts and migrated below the default threshold of 1.1;
 // - a device backend's copier (DeviceRows: packing by kernels, staged through the host) moves
 //   the same bytes as the host's, for refreshes into contiguous and into remapped ghost slots and
-//   for a migration (on the CPU backend here and in CI, and on CUDA where a GPU is visible:
-//   staged through page-locked host messages for MPI, and kept in device memory for NCCL where
-//   every rank has a GPU of its own).
+//   for a migration, also one dropping rows by flags on the backend (on the CPU backend here
+//   and in CI, and on CUDA where a GPU is visible: staged through page-locked host messages for
+//   MPI, and kept in device memory for NCCL where every rank has a GPU of its own).
 #include "comm/HaloExchange.hpp"
 #include "comm/MpiContext.hpp"
 #include "comm/Transport.hpp"
@@ -398,6 +398,52 @@ TEST_F(Halo, DeviceRowsMoveTheSameBytesAsTheHost) {
     EXPECT_EQ(bytes_of(dx.to_host()), bx);
     EXPECT_EQ(bytes_of(did.to_host()), bid);
     EXPECT_EQ(all_ids(from_bytes<std::uint64_t>(bid)), std::vector<std::uint64_t>(all.id));
+    // The same migration dropping, besides, every fifth staying particle without a message (a
+    // ghost held: Departures::keep, the flags on the backend, the dropped rows' indices never
+    // listed): as the host's migration with those particles sent to -1.
+    std::vector<int> dropping(dest);
+    std::vector<std::uint32_t> stay(n);
+    comm::Departures leaving;
+    leaving.n = n;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (dest[i] == mpi.rank() && i % 5 == 1)
+        dropping[i] = -1;
+      stay[i] = dropping[i] == mpi.rank() ? 1u : 0u;
+      if (dest[i] != mpi.rank()) {
+        leaving.index.push_back(static_cast<std::uint32_t>(i));
+        leaving.to.push_back(dest[i]);
+      }
+    }
+    auto bx2 = bytes_of(mine.x), bid2 = bytes_of(mine.id);
+    const comm::ByteColumn hcols2[] = {{&bx2, sizeof(Vec3d)}, {&bid2, 8}};
+    const std::size_t nh2 = comm::migrate(*t, peers, dropping, hcols2);
+    dx.assign(mine.x);
+    did.assign(mine.id);
+    exec::DeviceBuffer<std::uint32_t> dstay(b, 0, "test.stay");
+    dstay.assign(stay);
+    leaving.keep = dstay.data();
+    auto dcols2 = ExchangeColumns::of(dx, did).migration;
+    const std::size_t nd2 = comm::migrate(*way.transport, peers, leaving, dcols2, rows);
+    ASSERT_EQ(nh2, nd2);
+    EXPECT_LT(nd2, nd); // some were dropped
+    EXPECT_EQ(bytes_of(dx.to_host()), bx2);
+    EXPECT_EQ(bytes_of(did.to_host()), bid2);
+    // And the host's copier dropping by the same flags (a CPU run's path).
+    std::vector<Vec3d> kx(mine.x);
+    std::vector<std::uint64_t> kid(mine.id);
+    std::vector<comm::MigrationColumn> kcols{{sizeof(Vec3d),
+                                              [&](std::size_t m) {
+                                                kx.resize(m);
+                                                return reinterpret_cast<unsigned char*>(kx.data());
+                                              }},
+                                             {8, [&](std::size_t m) {
+                                                kid.resize(m);
+                                                return reinterpret_cast<unsigned char*>(kid.data());
+                                              }}};
+    leaving.keep = stay.data();
+    EXPECT_EQ(comm::migrate(*t, peers, leaving, kcols), nh2);
+    EXPECT_EQ(bytes_of(kx), bx2);
+    EXPECT_EQ(bytes_of(kid), bid2);
     if (mpi.root())
       std::printf("%s: %zu ghosts, %zu after migration, same bytes as the host's\n", name.c_str(),
                   ng, nd);

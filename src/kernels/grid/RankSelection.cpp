@@ -13,6 +13,8 @@ struct Destination {
   int me;
   int* dest;
   std::uint32_t* leaving;
+  const std::uint32_t* owned;
+  std::uint32_t* stay;
   KF_HD KF_INLINE void operator()(std::size_t i) const {
     const Vec3<T> p = x[i];
     bool out = false;
@@ -20,9 +22,13 @@ struct Destination {
       const T c = (&p.x)[d];
       out = out || (!walls[2 * d] && c < (&lo.x)[d]) || (!walls[2 * d + 1] && c > (&hi.x)[d]);
     }
-    const int o = out ? -1 : owners.owner[owners.grid.block_of(vec_cast<double>(p))];
+    const int o = owned && !owned[i] ? kGhostDropped
+                  : out              ? -1
+                                     : owners.owner[owners.grid.block_of(vec_cast<double>(p))];
     dest[i] = o;
-    leaving[i] = o != me ? 1u : 0u;
+    leaving[i] = o != me && o != kGhostDropped ? 1u : 0u;
+    if (stay)
+      stay[i] = o == me ? 1u : 0u;
   }
 };
 
@@ -81,9 +87,9 @@ struct Below {
 template <typename T>
 void block_destinations(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                         const BlockOwners& owners, const Vec3<T>& lo, const Vec3<T>& hi,
-                        const std::array<bool, 6>& walls, int me, int* dest,
-                        std::uint32_t* leaving) {
-  Destination<T> f{x, owners, lo, hi, {}, me, dest, leaving};
+                        const std::array<bool, 6>& walls, int me, int* dest, std::uint32_t* leaving,
+                        const std::uint32_t* owned, std::uint32_t* stay) {
+  Destination<T> f{x, owners, lo, hi, {}, me, dest, leaving, owned, stay};
   for (int k = 0; k < 6; ++k)
     f.walls[k] = walls[k];
   exec::for_each(ex, n, f, "ranks.destinations");
@@ -115,7 +121,8 @@ void flag_below(const exec::Exec& ex, const std::uint32_t* perm, std::size_t n, 
 #define KF_INSTANTIATE(T)                                                                          \
   template void block_destinations<T>(const exec::Exec&, const Vec3<T>*, std::size_t,              \
                                       const BlockOwners&, const Vec3<T>&, const Vec3<T>&,          \
-                                      const std::array<bool, 6>&, int, int*, std::uint32_t*);      \
+                                      const std::array<bool, 6>&, int, int*, std::uint32_t*,       \
+                                      const std::uint32_t*, std::uint32_t*);                       \
   template void ghost_peer_masks<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                \
                                     const BlockOwners&, double, int, const int*, int,              \
                                     std::uint64_t*);

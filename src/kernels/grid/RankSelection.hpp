@@ -19,14 +19,19 @@ struct BlockOwners {
   const int* owner = nullptr;
 };
 
-/// For i < n: dest[i] = -1 where x[i] lies past [lo, hi] on a side without a wall (walls: low x,
-/// high x, low y, ...; a NaN counts as inside), else the owner of x[i]'s block; leaving[i] = 1
-/// where dest[i] != me, else 0.
+/// A departure's destination for a ghost this rank held (kept between sorts): dropped here, sent
+/// nowhere, not counted as fluid that left the domain (-1).
+constexpr int kGhostDropped = -2;
+
+/// For i < n: dest[i] = kGhostDropped where `owned` is given and owned[i] is 0, else -1 where x[i]
+/// lies past [lo, hi] on a side without a wall (walls: low x, high x, low y, ...; a NaN counts as
+/// inside), else the owner of x[i]'s block; leaving[i] = 1 where dest[i] is another rank or -1,
+/// else 0; stay[i] (where given) = 1 where dest[i] == me, else 0.
 template <typename T>
 void block_destinations(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                         const BlockOwners& owners, const Vec3<T>& lo, const Vec3<T>& hi,
-                        const std::array<bool, 6>& walls, int me, int* dest,
-                        std::uint32_t* leaving);
+                        const std::array<bool, 6>& walls, int me, int* dest, std::uint32_t* leaving,
+                        const std::uint32_t* owned = nullptr, std::uint32_t* stay = nullptr);
 
 /// For i < n: bit s of mask[i] is set where x[i] lies within `width` of a block of the rank whose
 /// peer slot (slot_of_rank[rank], -1 for none) is first_slot + s, s < 64: a window of 64 peers a
