@@ -256,6 +256,18 @@ kf::StepPlan<float> plan_on(const Exec& ex, const kf::FluidStepRule& rule,
   return plan.to_host()[0];
 }
 
+/// A fluid step rule with every limit active (the plan's tests).
+kf::FluidStepRule test_step_rule() {
+  kf::FluidStepRule rule;
+  rule.limit = 1e-3;
+  rule.cfl = 0.1;
+  rule.h = 0.0121;
+  rule.sound = 34.3;
+  rule.force_factor = 0.25;
+  rule.dt_min = 1e-9;
+  return rule;
+}
+
 } // namespace kf_exec_test
 
 namespace {
@@ -484,13 +496,7 @@ TEST_P(ExecTest, PendingReadSeesTheBufferAsItWasWhenStarted) {
 // dt = min(limit, cfl h / (c + vmax), F sqrt(h / amax)), landed on the remainder; dt 0 (and
 // not landing) when the bounds are not finite or the stable step is below dt_min. Bit for bit.
 TEST_P(ExecTest, StepPlanIsTheHostRuleBitForBit) {
-  kf::FluidStepRule rule;
-  rule.limit = 1e-3;
-  rule.cfl = 0.1;
-  rule.h = 0.0121;
-  rule.sound = 34.3;
-  rule.force_factor = 0.25;
-  rule.dt_min = 1e-9;
+  const kf::FluidStepRule rule = test_step_rule();
   const float inf = std::numeric_limits<float>::infinity();
   const float nan = std::numeric_limits<float>::quiet_NaN();
   struct Case {
@@ -546,15 +552,9 @@ TEST_P(ExecTest, BoundsForJobMaxReadNanAsInfinity) {
     const float v2 = std::isnan(c.v2) ? inf : c.v2, a2 = std::isnan(c.a2) ? inf : c.a2;
     EXPECT_EQ(std::memcmp(&got.v2, &v2, sizeof v2), 0) << c.v2 << " -> " << got.v2;
     EXPECT_EQ(std::memcmp(&got.a2, &a2, sizeof a2), 0) << c.a2 << " -> " << got.a2;
-    kf::FluidStepRule rule;
-    rule.limit = 1e-3;
-    rule.cfl = 0.1;
-    rule.h = 0.01;
-    rule.sound = 30;
-    rule.force_factor = 0.25;
-    rule.dt_min = 1e-9;
     const bool finite = std::isfinite(c.v2) && std::isfinite(c.a2);
-    EXPECT_EQ(plan_on(ex(), rule, got, 1.0).finite != 0, finite) << c.v2 << ", " << c.a2;
+    EXPECT_EQ(plan_on(ex(), test_step_rule(), got, 1.0).finite != 0, finite)
+        << c.v2 << ", " << c.a2;
   }
 }
 

@@ -113,17 +113,18 @@ void Transport::start(std::span<const SendBuffer> sends, std::span<const RecvBuf
 }
 
 void Transport::max_in_place(float* data, std::size_t n) {
-  if (in_flight_)
-    throw Error(std::string(name()) + " transport on rank " + std::to_string(rank_) +
-                ": max_in_place() while an exchange is in flight");
-  do_max_in_place(data, n, false);
+  checked_max(data, n, false);
 }
 
 void Transport::max_in_place(double* data, std::size_t n) {
+  checked_max(data, n, true);
+}
+
+void Transport::checked_max(void* data, std::size_t n, bool is_double) {
   if (in_flight_)
     throw Error(std::string(name()) + " transport on rank " + std::to_string(rank_) +
                 ": max_in_place() while an exchange is in flight");
-  do_max_in_place(data, n, true);
+  do_max_in_place(data, n, is_double);
 }
 
 void Transport::do_max_in_place(void* data, std::size_t n, bool is_double) {

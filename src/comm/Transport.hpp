@@ -116,6 +116,7 @@ protected:
   void finish_quietly() noexcept;
 
 private:
+  void checked_max(void* data, std::size_t n, bool is_double);
   MPI_Comm comm_ = MPI_COMM_NULL;
   int rank_ = 0, size_ = 1;
   bool in_flight_ = false;

@@ -8,9 +8,10 @@
 
 namespace kf {
 
-/// NaN read as +infinity, on the host (a bound an MPI_MAX reduction must not lose).
-inline double nan_as_inf(double v) {
-  return std::isnan(v) ? std::numeric_limits<double>::infinity() : v;
+/// NaN read as +infinity (a bound a reduction of maxima over ranks must not lose).
+template <typename T>
+KF_HD KF_INLINE T nan_as_inf(T v) {
+  return v == v ? v : std::numeric_limits<T>::infinity();
 }
 
 /// max(s, t) that lets NaN win, so a blown-up value cannot hide in a reduction's maximum.

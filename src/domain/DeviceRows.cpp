@@ -122,6 +122,11 @@ void DeviceRows::do_remove(std::span<const comm::Column> cols, std::size_t n,
   flags_.resize(n);
   rows_.assign(gone.data(), gone.size());
   exec::flag_all_but(ex, flags_.data(), n, rows_.data(), gone.size(), "ranks.remove");
+  compact_flagged(cols);
+}
+
+std::size_t DeviceRows::compact_flagged(std::span<const comm::Column> cols) {
+  const exec::Exec ex{backend_};
   const std::size_t k = exec::flagged_indices(ex, flags_, offsets_, keep_, "ranks.remove");
   // Through a scratch run: the rows move forward, which in parallel would overwrite unread ones.
   for (const comm::Column& c : cols) {
@@ -129,20 +134,15 @@ void DeviceRows::do_remove(std::span<const comm::Column> cols, std::size_t n,
     exec::gather_rows(ex, packed_.data(), c.data, keep_.data(), k, c.elem_bytes, "ranks.remove");
     exec::copy_bytes(c.data, backend_, packed_.data(), backend_, k * c.elem_bytes);
   }
+  return k;
 }
 
 std::size_t DeviceRows::do_keep_flagged(std::span<const comm::Column> cols, std::size_t n,
                                         const std::uint32_t* keep) {
-  const exec::Exec ex{backend_};
+  // Into the compaction's own buffer (its scan takes one): a device copy of 4 bytes a row.
   flags_.resize(n);
   exec::copy_bytes(flags_.data(), backend_, keep, backend_, n * sizeof(std::uint32_t));
-  const std::size_t k = exec::flagged_indices(ex, flags_, offsets_, keep_, "ranks.remove");
-  for (const comm::Column& c : cols) { // through a scratch run, as do_remove
-    packed_.resize(k * c.elem_bytes);
-    exec::gather_rows(ex, packed_.data(), c.data, keep_.data(), k, c.elem_bytes, "ranks.remove");
-    exec::copy_bytes(c.data, backend_, packed_.data(), backend_, k * c.elem_bytes);
-  }
-  return k;
+  return compact_flagged(cols);
 }
 
 unsigned char* DeviceRows::do_message(std::size_t slot, std::size_t bytes) {

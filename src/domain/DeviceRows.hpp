@@ -40,6 +40,8 @@ private:
   bool device_messages_ = false;
   /// The columns as the kernels take them (a scratch list).
   const std::vector<exec::RowColumn>& columns(std::span<const comm::Column> cols);
+  /// The rows flagged 1 in flags_ close up in every column, in order; returns their count.
+  std::size_t compact_flagged(std::span<const comm::Column> cols);
   std::vector<exec::RowColumn> columns_;
   std::vector<exec::RowMessage> batch_;
   /// Writes the batch's messages (rows null: consecutive from first) into the rows, one launch:

@@ -94,7 +94,7 @@ template <typename T>
 void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
                                  std::span<const Vec3<T>> knit, std::uint64_t step) {
   const int me = rank();
-  last_window_ = step / static_cast<std::uint64_t>(scene_.parallel.check_every);
+  last_window_ = window_of(step);
   std::vector<Vec3<T>> fx, bx;
   if (fluid)
     fx = fluid->x.to_host();

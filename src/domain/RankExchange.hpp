@@ -136,6 +136,9 @@ public:
     double imbalance = 0; // slowest rank's compute over the mean since the last check (0: none)
     bool repartitioned = false;
   };
+  /// Whether balance() at this step checks the imbalance (and may re-partition: the fluid must
+  /// then hold only what this rank owns).
+  bool balance_due(std::uint64_t step) const { return window_of(step) > last_window_; }
   /// At the first sort [parallel] check_every steps or more after the last check (call before a
   /// rebuild, the fluid holding only what this rank owns): when the measured imbalance passes
   /// [parallel] imbalance, the blocks are partitioned anew by the particles' current counts, each
@@ -144,11 +147,6 @@ public:
   /// (sort the boundary after, then boundary_sorted()); the knit follows at KnitHalo's next choice.
   /// knit_x: the knit's positions, the first knit_owned this rank's (read only at a
   /// re-partition).
-  /// Whether balance() at this step checks the imbalance (and may re-partition: the fluid must
-  /// then hold only what this rank owns).
-  bool balance_due(std::uint64_t step) const {
-    return step / static_cast<std::uint64_t>(scene_.parallel.check_every) > last_window_;
-  }
   Balance balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary,
                   const exec::DeviceBuffer<Vec3<T>>* knit_x = nullptr, std::size_t knit_owned = 0);
   /// What the knit's exchange shares: the transport, the ranks next to this one's blocks (a
@@ -254,7 +252,10 @@ private:
   bool keeps_ghosts_ = false;
   bool overlap_ = false;          // [parallel] overlap, where it applies
   bool overlap_short_ = false;    // the same for the walls' and forces' refreshes (host messages)
-  std::uint64_t last_window_ = 0; // step / check_every at the last imbalance check
+  std::uint64_t last_window_ = 0; // window_of(step) at the last imbalance check
+  std::uint64_t window_of(std::uint64_t step) const {
+    return step / static_cast<std::uint64_t>(scene_.parallel.check_every);
+  }
   PhaseCosts costs() const { return costs_; }
   PhaseCosts costs_;
   std::array<double, kPhases> phase_seconds_{};

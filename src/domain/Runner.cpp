@@ -106,10 +106,13 @@ std::string latest_state(const Scene& scene, const comm::MpiContext& mpi) {
 RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::MpiContext& mpi,
                      std::ostream& log) {
   Scene scene = scene_in; // a rollback makes its steps smaller
+  const auto profiled = [&opt](Simulation& s) {
+    s.set_profiling(opt.profile);
+    if (opt.profile_device)
+      s.profile_on_device();
+  };
   auto sim = Simulation::create(scene, opt.backend, &mpi);
-  sim->set_profiling(opt.profile);
-  if (opt.profile_device)
-    sim->profile_on_device();
+  profiled(*sim);
   std::uint64_t frame_index = 0;
   if (!opt.restart.empty()) {
     const std::string from = opt.restart == "latest" ? latest_state(scene, mpi) : opt.restart;
@@ -212,9 +215,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
             << scene.solver.cfl << ", dt_max " << scene.solver.dt_max << " s, knit substeps "
             << scene.knit.substeps << "\n";
       sim = Simulation::create(scene, opt.backend, &mpi);
-      sim->set_profiling(opt.profile);
-      if (opt.profile_device)
-        sim->profile_on_device();
+      profiled(*sim);
       io::Frame fr = io::read_snapshot(mpi.comm(), sum.last_checkpoint);
       sim->restore(fr);
       frame_index = restart_frame_index(fr, interval);
@@ -301,22 +302,19 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
                          s.seconds, s.calls,  s.device_seconds, s.idle_before_seconds};
     sum.stages.push_back(std::move(copy));
   }
-  if (opt.profile_device && mpi.size() > 1) {
-    std::vector<double> mine;
+  // Each stage's largest time over the ranks, on rank 0 (every rank runs the same stages).
+  const auto slowest = [&](double Pipeline::Stage::*field) {
+    std::vector<double> mine, most(sum.stages.size(), 0.0);
     for (const auto& s : sum.stages)
-      mine.push_back(s.device_seconds);
-    sum.device_seconds_slowest.assign(mine.size(), 0.0);
-    MPI_Reduce(mine.data(), sum.device_seconds_slowest.data(), static_cast<int>(mine.size()),
-               MPI_DOUBLE, MPI_MAX, 0, mpi.comm());
-  }
-  if (opt.profile && mpi.size() > 1) { // every rank runs the same stages
-    std::vector<double> mine;
-    for (const auto& s : sum.stages)
-      mine.push_back(s.seconds);
-    sum.stage_seconds_slowest.assign(mine.size(), 0.0);
-    MPI_Reduce(mine.data(), sum.stage_seconds_slowest.data(), static_cast<int>(mine.size()),
-               MPI_DOUBLE, MPI_MAX, 0, mpi.comm());
-  }
+      mine.push_back(s.*field);
+    MPI_Reduce(mine.data(), most.data(), static_cast<int>(mine.size()), MPI_DOUBLE, MPI_MAX, 0,
+               mpi.comm());
+    return most;
+  };
+  if (opt.profile_device && mpi.size() > 1)
+    sum.device_seconds_slowest = slowest(&Pipeline::Stage::device_seconds);
+  if (opt.profile && mpi.size() > 1)
+    sum.stage_seconds_slowest = slowest(&Pipeline::Stage::seconds);
   return sum;
 }
 

@@ -9,7 +9,6 @@
 #include "kernels/integrate/Verlet.hpp"
 
 #include <cstdint>
-#include <limits>
 
 namespace kf {
 
@@ -66,9 +65,8 @@ struct BoundsForJobMax {
 
   KF_HD void operator()(std::size_t) const {
     const MotionBounds<T> b = *in;
-    const T inf = std::numeric_limits<T>::infinity();
-    out->v2 = b.v2 == b.v2 ? b.v2 : inf;
-    out->a2 = b.a2 == b.a2 ? b.a2 : inf;
+    out->v2 = nan_as_inf(b.v2);
+    out->a2 = nan_as_inf(b.a2);
   }
 };
 
