@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <set>
 #include <vector>
@@ -148,13 +149,68 @@ TEST(Decomposition, EachPhaseIsBalancedOnItsOwn) {
     const double all = Decomposition::imbalance(d.rank_costs(counts, costs));
     const double f = Decomposition::imbalance(d.rank_costs(counts, only(Phase::Fluid)));
     const double kn = Decomposition::imbalance(d.rank_costs(counts, only(Phase::Knit)));
-    std::printf("%d ranks: imbalance %.4f, fluid alone %.4f, knit alone %.4f\n", ranks, all, f,
-                kn);
+    std::printf("%d ranks: imbalance %.4f, fluid alone %.4f, knit alone %.4f\n", ranks, all, f, kn);
     // METIS's tolerance is 3% on each constraint; a block holds ~1/400 of a phase.
     EXPECT_LT(all, 1.05) << ranks << " ranks";
     EXPECT_LT(f, 1.05) << ranks << " ranks: the fluid's stages";
     EXPECT_LT(kn, 1.05) << ranks << " ranks: the knit's substeps";
   }
+}
+
+// A dam break's tank: the walls far from the fluid cost the walls' pass next to nothing (it skips
+// cells without fluid around), so only the walls beside fluid weigh. Weighed all alike, the
+// empty tank's walls (here 3x the column's fluid at 0.1 each: 30% of the cost) take fluid off
+// the rank that holds them: the fluid's stages, most of the step, then run unevenly (the 8M dam
+// break on 2 ranks: 4.01M / 3.90M fluid, 2.7% apart).
+TEST(Decomposition, OnlyTheWallsBesideFluidWeigh) {
+  const Vec3d lo{0, 0, 0}, hi{1.0, 0.2, 0.6};
+  const BlockGrid g(lo, hi, 0.04);
+  const auto fluid = uniform_points(20000, lo, {0.2, 0.2, 0.4}, 8);
+  // Walls: a shell of points over the floor and the two long sides of the whole tank.
+  std::vector<Vec3d> walls = uniform_points(40000, lo, {1.0, 0.2, 0.01}, 9);
+  for (const Vec3d& q : uniform_points(20000, lo, {1.0, 0.01, 0.6}, 10))
+    walls.push_back(q);
+  Counts counts = count_points(g, fluid, Phase::Fluid);
+  const Counts w = count_points(g, walls, Phase::Boundary);
+  for (int b = 0; b < g.count(); ++b)
+    counts[b][static_cast<int>(Phase::Boundary)] = w[b][static_cast<int>(Phase::Boundary)];
+  const Counts working = Decomposition::working_counts(g, counts);
+  // Brute force: a wall point weighs where fluid lies within one block of its block's box.
+  std::set<std::array<int, 3>> fluid_blocks;
+  for (const Vec3d& f : fluid)
+    fluid_blocks.insert(g.coords_of(f));
+  std::vector<char> near(walls.size(), 0);
+  for (std::size_t i = 0; i < walls.size(); ++i) {
+    const auto c = g.coords_of(walls[i]);
+    for (const auto& d : fluid_blocks)
+      near[i] = near[i] || (std::abs(c[0] - d[0]) <= 1 && std::abs(c[1] - d[1]) <= 1 &&
+                            std::abs(c[2] - d[2]) <= 1);
+  }
+  double counted = 0;
+  for (const auto& c : working)
+    counted += c[static_cast<int>(Phase::Boundary)];
+  const double near_count = std::count(near.begin(), near.end(), 1);
+  EXPECT_EQ(counted, near_count);
+  EXPECT_LT(near_count, 0.35 * walls.size()) << "most walls are far from the column";
+  for (int ranks : {2, 4}) {
+    const Decomposition d = Decomposition::partition(g, counts, PhaseCosts{}, ranks, 0.02);
+    // Each rank's cost, by hand: its fluid, and 0.1 for each of its walls' points beside fluid.
+    std::vector<double> want(ranks, 0.0);
+    for (const Vec3d& f : fluid)
+      want[d.owner(f)] += 1.0;
+    for (std::size_t i = 0; i < walls.size(); ++i)
+      want[d.owner(walls[i])] += near[i] ? 0.1 : 0.0;
+    const auto got = d.rank_costs(counts, PhaseCosts{});
+    for (int r = 0; r < ranks; ++r)
+      EXPECT_NEAR(got[r], want[r], 1e-9 * want[r]) << ranks << " ranks, rank " << r;
+    const double all = Decomposition::imbalance(got);
+    std::printf("%d ranks: the working cost's imbalance %.4f\n", ranks, all);
+    // METIS's 3% tolerance plus a block's share (~1/150 of the column).
+    EXPECT_LT(all, 1.05) << ranks << " ranks";
+  }
+  // Without fluid every boundary particle counts (a rigid body's own scene).
+  const Counts only_walls = count_points(g, walls, Phase::Boundary);
+  EXPECT_EQ(Decomposition::working_counts(g, only_walls), only_walls);
 }
 
 TEST(Decomposition, TheSamePartitionEveryTime) {

@@ -10,12 +10,22 @@ namespace kf::comm {
 
 HaloExchange::HaloExchange(Transport& transport, std::vector<int> peers,
                            std::vector<std::vector<std::uint32_t>> send, RowCopier& rows)
-    : transport_(transport), rows_(rows), peers_(std::move(peers)) {
-  if (send.size() != peers_.size())
-    throw Error("halo exchange: " + std::to_string(send.size()) + " send lists for " +
+    : HaloExchange(
+          transport, std::move(peers),
+          [&send] {
+            std::vector<RowList> lists;
+            for (auto& list : send)
+              lists.emplace_back(std::move(list));
+            return lists;
+          }(),
+          rows) {}
+
+HaloExchange::HaloExchange(Transport& transport, std::vector<int> peers, std::vector<RowList> send,
+                           RowCopier& rows)
+    : transport_(transport), rows_(rows), peers_(std::move(peers)), send_(std::move(send)) {
+  if (send_.size() != peers_.size())
+    throw Error("halo exchange: " + std::to_string(send_.size()) + " send lists for " +
                 std::to_string(peers_.size()) + " peers");
-  for (auto& list : send)
-    send_.emplace_back(std::move(list));
   // Counts of particles, not bytes: the columns are chosen per refresh.
   std::vector<std::uint64_t> counts(peers_.size());
   for (std::size_t k = 0; k < peers_.size(); ++k)
@@ -40,9 +50,18 @@ std::size_t HaloExchange::sent() const {
 std::vector<std::uint32_t> HaloExchange::sent_rows() const {
   std::vector<std::uint32_t> rows;
   rows.reserve(sent());
-  for (const auto& s : send_)
-    rows.insert(rows.end(), s.rows.begin(), s.rows.end());
+  for (const auto& s : send_) {
+    const auto& r = rows_.rows_of(s);
+    rows.insert(rows.end(), r.begin(), r.end());
+  }
   return rows;
+}
+
+void HaloExchange::copy_sent_rows(std::uint32_t* out) const {
+  for (const auto& s : send_) {
+    rows_.copy_rows(s, out);
+    out += s.size();
+  }
 }
 
 void HaloExchange::start(std::span<const Column> columns, std::size_t first_ghost) {
@@ -76,25 +95,12 @@ void HaloExchange::finish() {
 }
 
 void HaloExchange::remap(Column new_of_old, std::size_t first_ghost) {
-  if (new_of_old.elem_bytes != sizeof(std::uint32_t))
-    throw Error("halo exchange: a remap needs a column of 32-bit indices");
-  const Column map[] = {new_of_old};
   for (auto& list : send_)
-    if (list.size() > 0) {
-      std::vector<std::uint32_t> moved(list.size());
-      rows_.gather_to_host(map, list.rows, reinterpret_cast<unsigned char*>(moved.data()));
-      list.set(std::move(moved));
-    }
-  std::vector<std::uint32_t> at = recv_slot_.rows;
-  if (at.empty()) {
-    at.resize(recv_total_);
-    for (std::size_t k = 0; k < recv_total_; ++k)
-      at[k] = static_cast<std::uint32_t>(first_ghost + k);
-  }
-  std::vector<std::uint32_t> slots(recv_total_);
-  if (recv_total_)
-    rows_.gather_to_host(map, at, reinterpret_cast<unsigned char*>(slots.data()));
-  recv_slot_.set(std::move(slots));
+    rows_.remap(list, new_of_old);
+  if (recv_slot_.size() == 0) // contiguous from first_ghost until now
+    recv_slot_ = rows_.remapped_range(new_of_old, first_ghost, recv_total_);
+  else
+    rows_.remap(recv_slot_, new_of_old);
 }
 
 void HaloExchange::add_to_owners(std::span<std::uint64_t> values, std::size_t width,
@@ -107,11 +113,13 @@ void HaloExchange::add_to_owners(std::span<std::uint64_t> values, std::size_t wi
   std::vector<std::vector<std::uint64_t>> out(peers_.size()), in(peers_.size());
   std::vector<SendBuffer> sends(peers_.size());
   std::vector<RecvBuffer> recvs(peers_.size());
+  const std::vector<std::uint32_t>* slots =
+      recv_slot_.size() ? &rows_.rows_of(recv_slot_) : nullptr;
   for (std::size_t k = 0; k < peers_.size(); ++k) {
     out[k].resize(recv_count_[k] * width);
     for (std::size_t i = 0; i < recv_count_[k]; ++i) {
       const std::size_t g = recv_offset_[k] + i;
-      const std::size_t row = recv_slot_.size() ? recv_slot_.rows[g] : first_ghost + g;
+      const std::size_t row = slots ? (*slots)[g] : first_ghost + g;
       std::copy_n(values.begin() + row * width, width, out[k].begin() + i * width);
     }
     in[k].resize(send_[k].size() * width);
@@ -121,7 +129,7 @@ void HaloExchange::add_to_owners(std::span<std::uint64_t> values, std::size_t wi
   transport_.exchange_host(sends, recvs);
   for (std::size_t k = 0; k < peers_.size(); ++k)
     for (std::size_t i = 0; i < send_[k].size(); ++i) {
-      const std::size_t row = send_[k].rows[i];
+      const std::size_t row = rows_.rows_of(send_[k])[i];
       for (std::size_t c = 0; c < width; ++c)
         values[row * width + c] += in[k][i * width + c];
     }

@@ -24,6 +24,9 @@ public:
   /// outlive the exchange).
   HaloExchange(Transport& transport, std::vector<int> peers,
                std::vector<std::vector<std::uint32_t>> send, RowCopier& rows = host_rows());
+  /// The same with lists the copier holds (RowCopier::adopt: chosen on a device, kept there).
+  HaloExchange(Transport& transport, std::vector<int> peers, std::vector<RowList> send,
+               RowCopier& rows);
 
   const std::vector<int>& peers() const { return peers_; }
   /// Ghosts received in all, and where peer k's start among them (peers in the given order).
@@ -34,6 +37,8 @@ public:
   /// The local indices sent to any peer, peer after peer (a row sent to two peers is listed
   /// twice): the border of this rank's region, what a pass must have computed before start().
   std::vector<std::uint32_t> sent_rows() const;
+  /// The same written at `out` (sent() rows, memory of the copier's kind: no host round trip).
+  void copy_sent_rows(std::uint32_t* out) const;
 
   /// Packs the columns' values of the listed particles and posts the exchange; returns at once.
   /// Every rank must pass the same columns (count and element sizes) in the same order.
@@ -58,7 +63,8 @@ public:
   /// After the arrays were reordered (new_of_old: a column of uint32, element i where element i
   /// went, over owned and ghosts, in the copier's memory): the send lists follow their
   /// particles, and the ghosts, received at first_ghost + k, are scattered to where they went
-  /// from then on. Reads only the listed elements (through the copier).
+  /// from then on. Reads only the listed elements, through the copier (a device copier maps its
+  /// copies of the lists on the device: nothing crosses the bus).
   void remap(Column new_of_old, std::size_t first_ghost);
 
 private:

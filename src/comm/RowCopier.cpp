@@ -1,5 +1,8 @@
 #include "comm/RowCopier.hpp"
 
+#include "core/Error.hpp"
+
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 
@@ -21,7 +24,7 @@ void gather_one(std::span<const Column> cols, std::span<const std::uint32_t> row
 void RowCopier::do_gather(std::span<const Column> cols, std::span<const RowList> lists,
                           std::span<unsigned char* const> outs) {
   for (std::size_t k = 0; k < lists.size(); ++k)
-    gather_one(cols, lists[k].rows, outs[k]);
+    gather_one(cols, rows_of(lists[k]), outs[k]);
 }
 
 void RowCopier::do_gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
@@ -34,7 +37,7 @@ void RowCopier::do_scatter(std::span<const Column> cols, const RowList& slots,
                            std::span<const unsigned char* const> ins) {
   std::size_t first = 0;
   for (std::size_t k = 0; k < counts.size(); ++k) {
-    const std::span<const std::uint32_t> rows(slots.rows.data() + first, counts[k]);
+    const std::span<const std::uint32_t> rows(rows_of(slots).data() + first, counts[k]);
     const unsigned char* in = ins[k];
     for (const Column& c : cols) {
       auto* dst = static_cast<unsigned char*>(c.data);
@@ -109,6 +112,33 @@ unsigned char* RowCopier::do_message(std::size_t slot, std::size_t bytes) {
   return m.data();
 }
 
+void RowCopier::do_remap(RowList& list, Column new_of_old) {
+  const auto* map = static_cast<const std::uint32_t*>(new_of_old.data);
+  std::vector<std::uint32_t> moved(list.size());
+  const auto& rows = rows_of(list);
+  for (std::size_t k = 0; k < moved.size(); ++k)
+    moved[k] = map[rows[k]];
+  list.set(std::move(moved));
+}
+
+RowList RowCopier::do_remapped_range(Column new_of_old, std::size_t first, std::size_t n) {
+  const auto* map = static_cast<const std::uint32_t*>(new_of_old.data);
+  return RowList(std::vector<std::uint32_t>(map + first, map + first + n));
+}
+
+void RowCopier::do_rows_to_host(const RowList&) {
+  throw Error("row copier: a list's rows are held by another copier");
+}
+
+void RowCopier::do_copy_rows(const RowList& list, std::uint32_t* out) {
+  const auto& rows = rows_of(list);
+  std::copy(rows.begin(), rows.end(), out);
+}
+
+RowList RowCopier::do_adopt(const std::uint32_t* rows, std::size_t n) {
+  return RowList(std::vector<std::uint32_t>(rows, rows + n));
+}
+
 namespace {
 struct AddTime {
   double& sum;
@@ -150,6 +180,34 @@ std::size_t RowCopier::keep_flagged(std::span<const Column> cols, std::size_t n,
                                     const std::uint32_t* keep) {
   const AddTime t{seconds_};
   return n ? do_keep_flagged(cols, n, keep) : 0;
+}
+
+void RowCopier::remap(RowList& list, Column new_of_old) {
+  if (new_of_old.elem_bytes != sizeof(std::uint32_t))
+    throw Error("row copier: a remap needs a column of 32-bit indices");
+  const AddTime t{seconds_};
+  if (list.size())
+    do_remap(list, new_of_old);
+}
+RowList RowCopier::remapped_range(Column new_of_old, std::size_t first, std::size_t n) {
+  if (new_of_old.elem_bytes != sizeof(std::uint32_t))
+    throw Error("row copier: a remap needs a column of 32-bit indices");
+  const AddTime t{seconds_};
+  return n ? do_remapped_range(new_of_old, first, n) : RowList();
+}
+const std::vector<std::uint32_t>& RowCopier::rows_of(const RowList& list) {
+  if (!list.on_host) {
+    do_rows_to_host(list);
+    list.on_host = true;
+  }
+  return list.rows;
+}
+RowList RowCopier::adopt(const std::uint32_t* rows, std::size_t n) {
+  return n ? do_adopt(rows, n) : RowList();
+}
+void RowCopier::copy_rows(const RowList& list, std::uint32_t* out) {
+  if (list.size())
+    do_copy_rows(list, out);
 }
 
 RowCopier& host_rows() {

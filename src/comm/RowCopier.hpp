@@ -19,17 +19,32 @@ struct Column {
 
 /// A list of rows used over many calls (a halo's send list, its ghosts' slots): a copier may
 /// keep its own copy in `cache` (a device copier: the list uploaded once, not at every refresh).
-/// Change the rows only through set(), which drops the copy.
+/// A copier's remap may leave the rows in its copy alone (`on_host` false, `rows` empty):
+/// RowCopier::rows_of() brings them to the host when asked. Change the rows only through set()
+/// and set_cached().
 struct RowList {
-  std::vector<std::uint32_t> rows;
+  mutable std::vector<std::uint32_t> rows;
+  mutable bool on_host = true;
   mutable std::shared_ptr<void> cache;
   RowList() = default;
-  explicit RowList(std::vector<std::uint32_t> r) : rows(std::move(r)) {}
+  explicit RowList(std::vector<std::uint32_t> r) { set(std::move(r)); }
   void set(std::vector<std::uint32_t> r) {
     rows = std::move(r);
+    count_ = rows.size();
+    on_host = true;
     cache.reset();
   }
-  std::size_t size() const { return rows.size(); }
+  /// n rows held only in a copier's copy.
+  void set_cached(std::size_t n, std::shared_ptr<void> copy) {
+    rows.clear();
+    count_ = n;
+    on_host = false;
+    cache = std::move(copy);
+  }
+  std::size_t size() const { return count_; }
+
+private:
+  std::size_t count_ = 0;
 };
 
 /// Packed buffers (messages) are host memory, or device memory where a device copier feeds a
@@ -62,6 +77,19 @@ public:
   /// order; returns their count. keep: one flag a row, in the columns' memory (the backend's), so
   /// that a device backend drops many rows without their indices crossing the bus.
   std::size_t keep_flagged(std::span<const Column> cols, std::size_t n, const std::uint32_t* keep);
+  /// After the rows were reordered (new_of_old: element i where row i went, in the copier's
+  /// memory): each listed row becomes where it went. A device copier maps its own copy of the
+  /// list on the device and leaves the host's copy to rows_of().
+  void remap(RowList& list, Column new_of_old);
+  /// The list new_of_old[first], ..., new_of_old[first + n - 1] (where n consecutive rows went).
+  RowList remapped_range(Column new_of_old, std::size_t first, std::size_t n);
+  /// A list of the n rows at `rows` (memory of the copier's kind: a list chosen on a device
+  /// stays there).
+  RowList adopt(const std::uint32_t* rows, std::size_t n);
+  /// The list's rows in host memory (brought from the copier's copy where only it holds them).
+  const std::vector<std::uint32_t>& rows_of(const RowList& list);
+  /// The list's rows written at `out`, memory of the copier's kind (device memory on a device).
+  void copy_rows(const RowList& list, std::uint32_t* out);
   /// Seconds spent in the calls above so far.
   double seconds() const { return seconds_; }
   /// Host memory for message `slot` of an exchange (at least `bytes`; kept and reused, its
@@ -84,6 +112,12 @@ protected:
   virtual std::size_t do_keep_flagged(std::span<const Column> cols, std::size_t n,
                                       const std::uint32_t* keep);
   virtual unsigned char* do_message(std::size_t slot, std::size_t bytes);
+  virtual void do_remap(RowList& list, Column new_of_old);
+  virtual RowList do_remapped_range(Column new_of_old, std::size_t first, std::size_t n);
+  /// Fills list.rows from the copier's copy (called where !list.on_host).
+  virtual void do_rows_to_host(const RowList& list);
+  virtual void do_copy_rows(const RowList& list, std::uint32_t* out);
+  virtual RowList do_adopt(const std::uint32_t* rows, std::size_t n);
   virtual void do_gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
                                  unsigned char* out);
 

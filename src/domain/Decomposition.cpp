@@ -83,13 +83,41 @@ void metis_check(int rc, const char* what) {
 
 } // namespace
 
+std::vector<std::array<double, kPhases>>
+Decomposition::working_counts(const BlockGrid& grid,
+                              const std::vector<std::array<double, kPhases>>& counts) {
+  constexpr int fl = static_cast<int>(Phase::Fluid), bd = static_cast<int>(Phase::Boundary);
+  std::vector<std::array<double, kPhases>> out = counts;
+  bool fluid = false;
+  for (const auto& c : counts)
+    fluid = fluid || c[fl] > 0;
+  if (!fluid)
+    return out;
+  for (int b = 0; b < grid.count(); ++b) {
+    if (counts[b][bd] == 0)
+      continue;
+    const auto c = grid.coords(b);
+    bool near = false;
+    for (int dz = -1; dz <= 1 && !near; ++dz)
+      for (int dy = -1; dy <= 1 && !near; ++dy)
+        for (int dx = -1; dx <= 1 && !near; ++dx) {
+          const int i = c[0] + dx, j = c[1] + dy, k = c[2] + dz;
+          near = i >= 0 && j >= 0 && k >= 0 && i < grid.nx() && j < grid.ny() && k < grid.nz() &&
+                 counts[grid.index(i, j, k)][fl] > 0;
+        }
+    if (!near)
+      out[b][bd] = 0;
+  }
+  return out;
+}
+
 Decomposition Decomposition::partition(const BlockGrid& grid,
-                                       const std::vector<std::array<double, kPhases>>& counts,
+                                       const std::vector<std::array<double, kPhases>>& all_counts,
                                        const PhaseCosts& costs, int ranks, double ghost_width,
                                        double tolerance) {
   const int nb = grid.count();
-  if (static_cast<int>(counts.size()) != nb)
-    throw Error("decomposition: " + std::to_string(counts.size()) + " block counts for " +
+  if (static_cast<int>(all_counts.size()) != nb)
+    throw Error("decomposition: " + std::to_string(all_counts.size()) + " block counts for " +
                 std::to_string(nb) + " blocks");
   if (ranks < 1)
     throw Error("decomposition: at least one rank, got " + std::to_string(ranks));
@@ -97,6 +125,7 @@ Decomposition Decomposition::partition(const BlockGrid& grid,
   d.ranks_ = ranks;
   if (ranks == 1)
     return d;
+  const auto counts = working_counts(grid, all_counts);
   if (ranks > nb)
     throw Error("decomposition: " + std::to_string(ranks) + " ranks but only " +
                 std::to_string(nb) + " blocks; make [parallel] block_cells smaller");
@@ -139,7 +168,7 @@ Decomposition Decomposition::partition(const BlockGrid& grid,
     const auto c = grid.coords(b);
     double nb_particles = 0;
     for (int p = 0; p < kPhases; ++p)
-      nb_particles += counts[b][p];
+      nb_particles += all_counts[b][p];
     for (int dz = -1; dz <= 1; ++dz)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
@@ -151,7 +180,7 @@ Decomposition Decomposition::partition(const BlockGrid& grid,
           const int o = grid.index(i, j, k);
           double no = 0;
           for (int p = 0; p < kPhases; ++p)
-            no += counts[o][p];
+            no += all_counts[o][p];
           const int zeros = (dx == 0) + (dy == 0) + (dz == 0); // 2: face, 1: edge, 0: corner
           const double area = zeros == 2 ? 1.0 : (zeros == 1 ? w : w * w);
           const double exchanged = 0.5 * (nb_particles + no) * w * area;
@@ -221,8 +250,9 @@ double Decomposition::distance_to_region(const Vec3d& x, int r) const {
 }
 
 std::vector<double>
-Decomposition::rank_costs(const std::vector<std::array<double, kPhases>>& counts,
+Decomposition::rank_costs(const std::vector<std::array<double, kPhases>>& all_counts,
                           const PhaseCosts& costs) const {
+  const auto counts = working_counts(grid_, all_counts);
   std::vector<double> per(ranks_, 0.0);
   for (int b = 0; b < grid_.count(); ++b)
     for (int p = 0; p < kPhases; ++p)

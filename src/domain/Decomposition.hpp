@@ -94,7 +94,14 @@ public:
   /// blocks. Brute force over every block: for tests and reports.
   double distance_to_region(const Vec3d& x, int r) const;
 
-  /// Cost per rank of the given per-block counts.
+  /// The counts a block's cost is taken from: where the job holds fluid, a block's boundary
+  /// particles count only with fluid in it or a block next to it (the walls' pass skips the
+  /// cells without fluid around; the dam break's empty tank, most of its walls, weighed as much
+  /// as the walls under the column and took fluid off the rank that held it). Without fluid
+  /// every boundary particle counts.
+  static std::vector<std::array<double, kPhases>>
+  working_counts(const BlockGrid& grid, const std::vector<std::array<double, kPhases>>& counts);
+  /// Cost per rank of the given per-block counts (their working_counts).
   std::vector<double> rank_costs(const std::vector<std::array<double, kPhases>>& counts,
                                  const PhaseCosts& costs) const;
   /// Slowest rank over the mean (1: perfect balance).

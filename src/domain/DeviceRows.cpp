@@ -48,13 +48,82 @@ void DeviceRows::unpack(std::span<const comm::Column> cols, std::span<const std:
                          "ranks.unpack");
 }
 
+std::shared_ptr<DeviceRows::ListBuffer> DeviceRows::list_buffer(std::size_t n) {
+  auto& spare = pool_->spare;
+  // The smallest spare that holds n, else the largest (grown).
+  const std::size_t want = n * sizeof(std::uint32_t);
+  auto pick = spare.end();
+  for (auto it = spare.begin(); it != spare.end(); ++it) {
+    if (pick == spare.end()) {
+      pick = it;
+      continue;
+    }
+    const std::size_t have = it->capacity_bytes(), best = pick->capacity_bytes();
+    if (have >= want ? (best < want || have < best) : (best < want && have > best))
+      pick = it;
+  }
+  ListBuffer b(backend_, 0, "ranks.list");
+  if (pick != spare.end()) {
+    b = std::move(*pick);
+    spare.erase(pick);
+  }
+  b.resize(n);
+  const std::weak_ptr<ListPool> pool = pool_;
+  return std::shared_ptr<ListBuffer>(new ListBuffer(std::move(b)), [pool](ListBuffer* p) {
+    if (const auto live = pool.lock())
+      live->spare.push_back(std::move(*p));
+    delete p;
+  });
+}
+
 const std::uint32_t* DeviceRows::device_list(const comm::RowList& list) {
   if (!list.cache) {
-    auto copy = std::make_shared<exec::DeviceBuffer<std::uint32_t>>(backend_, 0, "ranks.list");
+    auto copy = list_buffer(list.rows.size());
     copy->assign(list.rows);
     list.cache = copy;
   }
   return static_cast<const exec::DeviceBuffer<std::uint32_t>*>(list.cache.get())->data();
+}
+
+template <typename Fill>
+comm::RowList DeviceRows::device_only(std::size_t n, Fill fill) {
+  auto copy = list_buffer(n);
+  fill(copy->data());
+  comm::RowList list;
+  list.set_cached(n, std::move(copy));
+  return list;
+}
+
+void DeviceRows::do_remap(comm::RowList& list, comm::Column new_of_old) {
+  const std::uint32_t* rows = device_list(list);
+  list = device_only(list.size(), [&](std::uint32_t* dst) {
+    exec::gather_rows({backend_}, dst, new_of_old.data, rows, list.size(), sizeof(std::uint32_t),
+                      "ranks.remap");
+  });
+}
+
+comm::RowList DeviceRows::do_remapped_range(comm::Column new_of_old, std::size_t first,
+                                            std::size_t n) {
+  return device_only(n, [&](std::uint32_t* dst) {
+    exec::copy_bytes(dst, backend_, static_cast<const std::uint32_t*>(new_of_old.data) + first,
+                     backend_, n * sizeof(std::uint32_t));
+  });
+}
+
+comm::RowList DeviceRows::do_adopt(const std::uint32_t* rows, std::size_t n) {
+  return device_only(n, [&](std::uint32_t* dst) {
+    exec::copy_bytes(dst, backend_, rows, backend_, n * sizeof(std::uint32_t));
+  });
+}
+
+void DeviceRows::do_rows_to_host(const comm::RowList& list) {
+  list.rows.resize(list.size());
+  exec::copy_bytes(list.rows.data(), exec::Backend::Cpu, device_list(list), backend_,
+                   list.size() * sizeof(std::uint32_t));
+}
+
+void DeviceRows::do_copy_rows(const comm::RowList& list, std::uint32_t* out) {
+  exec::copy_bytes(out, backend_, device_list(list), backend_, list.size() * sizeof(std::uint32_t));
 }
 
 void DeviceRows::do_gather(std::span<const comm::Column> cols, std::span<const comm::RowList> lists,

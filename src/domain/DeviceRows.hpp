@@ -34,6 +34,14 @@ protected:
   unsigned char* do_message(std::size_t slot, std::size_t bytes) override;
   void do_gather_to_host(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
                          unsigned char* out) override;
+  // The lists' copies mapped, filled and read on the device (a rebuild's lists never cross the
+  // bus: P9, the halo's remap after each sort went through the host).
+  void do_remap(comm::RowList& list, comm::Column new_of_old) override;
+  comm::RowList do_remapped_range(comm::Column new_of_old, std::size_t first,
+                                  std::size_t n) override;
+  void do_rows_to_host(const comm::RowList& list) override;
+  void do_copy_rows(const comm::RowList& list, std::uint32_t* out) override;
+  comm::RowList do_adopt(const std::uint32_t* rows, std::size_t n) override;
 
 private:
   exec::Backend backend_;
@@ -51,6 +59,17 @@ private:
               std::size_t first);
   /// A kept list's rows in device memory, uploaded at its first use.
   const std::uint32_t* device_list(const comm::RowList& list);
+  /// A list of n rows held only on the device, its copy filled by `fill(dst)`.
+  template <typename Fill>
+  comm::RowList device_only(std::size_t n, Fill fill);
+  /// The lists' device copies come from a pool and go back to it when their last RowList lets
+  /// go: a rebuild's new lists take the last one's memory (cudaFree waits for the device).
+  using ListBuffer = exec::DeviceBuffer<std::uint32_t>;
+  struct ListPool {
+    std::vector<ListBuffer> spare;
+  };
+  std::shared_ptr<ListBuffer> list_buffer(std::size_t n);
+  std::shared_ptr<ListPool> pool_ = std::make_shared<ListPool>();
   std::vector<exec::DeviceBuffer<unsigned char>> device_messages_slots_;
   exec::DeviceBuffer<std::uint32_t> rows_, flags_, offsets_, keep_;
   exec::DeviceBuffer<unsigned char> packed_;

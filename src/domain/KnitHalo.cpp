@@ -191,8 +191,8 @@ void KnitHalo<T>::rebuild() {
   for (;;) {
     // On the backend, as the fluid's (a host loop over the points cost 7-24 ms a choice on 2
     // GPUs, for the pour's 27k points a rank).
-    const GhostLists gl = ranks_.ghost_lists(set.x, owned_, width);
-    halo_.emplace(ranks_.transport(), gl.peers, gl.send, ranks_.rows());
+    auto gl = ranks_.ghost_rows(set.x, owned_, width);
+    halo_.emplace(ranks_.transport(), std::move(gl.peers), std::move(gl.send), ranks_.rows());
     resize(owned_ + halo_->received());
     const auto received = state();
     halo_->exchange(received.halo, owned_);

@@ -170,8 +170,8 @@ template <typename T>
 void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t n) {
   // The ghosts come from their owners (not from this rank's copy of the scene), so their order
   // is the one the owners' refreshes will send in.
-  const GhostLists gl = select_.ghosts(boundary.x, n, boundary_width_);
-  boundary_halo_.emplace(*transport_, gl.peers, gl.send, rows());
+  auto gl = select_.ghost_rows(boundary.x, n, boundary_width_, rows());
+  boundary_halo_.emplace(*transport_, std::move(gl.peers), std::move(gl.send), rows());
   const std::size_t total = n + boundary_halo_->received();
   boundary.resize(total);
   const comm::Column cols[] = {column(boundary.x), column(boundary.x0), column(boundary.obstacle),
@@ -316,7 +316,8 @@ RankExchange<T>::split(const comm::HaloExchange& halo, SplitRows& out,
   // Flags on the backend, not a sorted union on the host: with lists off this runs every step.
   const exec::Exec ex{backend_};
   owned(out.flags);
-  out.sent.assign(halo.sent_rows());
+  out.sent.resize(halo.sent());
+  halo.copy_sent_rows(out.sent.data());
   exec::set_listed(ex, out.flags.data(), out.sent.data(), out.sent.size(), 0u, "ranks.interior");
   flagged_indices(ex, out.flags, out.scratch, out.interior, "ranks.interior");
   exec::flag_only(ex, out.flags.data(), out.flags.size(), out.sent.data(), out.sent.size(),
@@ -406,9 +407,9 @@ RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& h
       comm::migrate(*transport_, migration_peers_, leaving.leaving, state, rows());
   // The ghosts: every owned particle within the support of another rank's region goes there.
   part_now.emplace("grid.fluid: the ghosts chosen (N ranks)");
-  const GhostLists gl = select_.ghosts(fluid.x, owned, fluid_width_);
+  auto gl = select_.ghost_rows(fluid.x, owned, fluid_width_, rows());
   part_now.emplace("grid.fluid: the ghosts' halo set up (N ranks)");
-  fluid_halo_.emplace(*transport_, gl.peers, gl.send, rows());
+  fluid_halo_.emplace(*transport_, std::move(gl.peers), std::move(gl.send), rows());
   part_now.emplace("grid.fluid: the ghosts received (N ranks)");
   const std::size_t total = owned + fluid_halo_->received();
   fluid.resize(total);

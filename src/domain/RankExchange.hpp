@@ -160,8 +160,10 @@ public:
   std::vector<int> owners(std::span<const Vec3<T>> x, bool others_dropped = false) const;
   /// Of the first n positions (this rank's), those each neighbour needs as ghosts: within `width`
   /// of its blocks (select_ghosts' lists), chosen on the positions' backend.
-  GhostLists ghost_lists(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width) {
-    return select_.ghosts(x, n, width);
+  /// Held by the copier rows() (on a device: the lists stay there).
+  typename RankSelector<T>::GhostRows ghost_rows(const exec::DeviceBuffer<Vec3<T>>& x,
+                                                 std::size_t n, double width) {
+    return select_.ghost_rows(x, n, width, rows());
   }
   /// Every rank but this one (the peers of a migration after a re-partition).
   std::vector<int> other_ranks() const;

@@ -72,11 +72,11 @@ RankSelector<T>::departures(const exec::DeviceBuffer<Vec3<T>>& x, const exec::De
 }
 
 template <typename T>
-GhostLists RankSelector<T>::ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n,
-                                   double width) {
+template <typename Each>
+std::vector<int> RankSelector<T>::choose_ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n,
+                                                double width, Each each) {
   if (!decomposition_)
     throw Error("internal: ghosts chosen before the blocks' owners were set");
-  GhostLists g;
   // The fluid's and the boundary's widths are fixed; the knit's changes at each choice of its
   // ghosts: the widths used last are kept (the latest at the back), the least recent dropped.
   auto it =
@@ -88,28 +88,51 @@ GhostLists RankSelector<T>::ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::si
   } else {
     std::rotate(it, it + 1, peers_.end());
   }
-  it = peers_.end() - 1;
-  g.peers = it->second;
-  g.send.resize(g.peers.size());
-  if (g.peers.empty())
-    return g;
+  const std::vector<int> peers = peers_.back().second;
+  if (peers.empty())
+    return peers;
   std::vector<int> slot(decomposition_->ranks(), -1);
-  for (std::size_t s = 0; s < g.peers.size(); ++s)
-    slot[g.peers[s]] = static_cast<int>(s);
+  for (std::size_t s = 0; s < peers.size(); ++s)
+    slot[peers[s]] = static_cast<int>(s);
   slot_.assign(slot);
   const exec::Exec ex{backend_};
   const int reach = decomposition_->grid().reach(width);
   mask_.resize(n);
   flags_.resize(n);
   // 64 peers a pass (a rank in the middle of a 3-D split has 26).
-  for (std::size_t first = 0; first < g.peers.size(); first += 64) {
+  for (std::size_t first = 0; first < peers.size(); first += 64) {
     ghost_peer_masks(ex, x.data(), n, BlockOwners{grid_, owner_.data()}, width, reach, slot_.data(),
                      static_cast<int>(first), mask_.data());
-    for (std::size_t s = first; s < std::min(g.peers.size(), first + 64); ++s) {
+    for (std::size_t s = first; s < std::min(peers.size(), first + 64); ++s) {
       mask_bit_flags(ex, mask_.data(), n, static_cast<int>(s - first), flags_.data());
-      g.send[s] = indices(exec::flagged_indices(ex, flags_, offsets_, idx_, "ranks.ghosts"));
+      // (the count first: the call may grow idx_)
+      const std::size_t k = exec::flagged_indices(ex, flags_, offsets_, idx_, "ranks.ghosts");
+      each(s, idx_.data(), k);
     }
   }
+  return peers;
+}
+
+template <typename T>
+GhostLists RankSelector<T>::ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n,
+                                   double width) {
+  GhostLists g;
+  std::vector<std::vector<std::uint32_t>> send;
+  g.peers = choose_ghosts(x, n, width, [&](std::size_t, const std::uint32_t*, std::size_t k) {
+    send.push_back(indices(k));
+  });
+  g.send = std::move(send);
+  return g;
+}
+
+template <typename T>
+typename RankSelector<T>::GhostRows
+RankSelector<T>::ghost_rows(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width,
+                            comm::RowCopier& rows) {
+  GhostRows g;
+  g.peers = choose_ghosts(x, n, width, [&](std::size_t, const std::uint32_t* idx, std::size_t k) {
+    g.send.push_back(rows.adopt(idx, k));
+  });
   return g;
 }
 

@@ -38,8 +38,21 @@ public:
   /// For the first n positions (owned by this rank): the local indices each neighbouring rank
   /// needs as ghosts, those within `width` of its blocks (select_ghosts' lists, ascending).
   GhostLists ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width);
+  /// The same lists held by `rows` (a device copier keeps them on the device: P9, their trip
+  /// through the host at every rebuild).
+  struct GhostRows {
+    std::vector<int> peers;
+    std::vector<comm::RowList> send;
+  };
+  GhostRows ghost_rows(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width,
+                       comm::RowCopier& rows);
 
 private:
+  /// The peers within `width`, and for each in turn `each(slot, rows, count)` with its rows
+  /// (ascending, in the backend's memory, valid until the next call).
+  template <typename Each>
+  std::vector<int> choose_ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width,
+                                 Each each);
   /// The first n elements of idx, on the host.
   std::vector<std::uint32_t> indices(std::size_t n) const;
 

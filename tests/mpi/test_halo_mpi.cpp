@@ -379,6 +379,31 @@ TEST_F(Halo, DeviceRowsMoveTheSameBytesAsTheHost) {
     dev.exchange(dc1, n);
     EXPECT_EQ(bytes_of(hx), bytes_of(expect_x));
     EXPECT_EQ(bytes_of(dx.to_host()), bytes_of(expect_x));
+    // The device copier mapped its own copies of the lists (nothing through the host): they come
+    // back as the host's, and a second reordering (a rotation by a third) maps them again.
+    EXPECT_EQ(dev.sent_rows(), host.sent_rows());
+    exec::DeviceBuffer<std::uint32_t> dsent(b, host.sent(), "test.sent");
+    dev.copy_sent_rows(dsent.data());
+    EXPECT_EQ(dsent.to_host(), host.sent_rows());
+    std::vector<std::uint32_t> rot(n + ng);
+    for (std::size_t k = 0; k < rot.size(); ++k)
+      rot[k] = static_cast<std::uint32_t>((k + rot.size() / 3) % rot.size());
+    std::vector<Vec3d> turned(hx.size());
+    for (std::size_t k = 0; k < hx.size(); ++k)
+      turned[rot[k]] = hx[k];
+    std::copy(turned.begin(), turned.end(), hx.begin()); // hc1 points at hx's storage
+    const auto expect_turned = hx;
+    for (std::size_t k = 0; k < ng; ++k) // the ghosts' slots, where they went twice
+      hx[rot[rev[n + k]]] = Vec3d{std::nan(""), 0, 0};
+    dx.assign(hx);
+    drev.assign(rot);
+    host.remap({rot.data(), sizeof(std::uint32_t)}, n);
+    dev.remap(column(drev), n);
+    host.exchange(hc1, n);
+    dev.exchange(dc1, n);
+    EXPECT_EQ(bytes_of(hx), bytes_of(expect_turned));
+    EXPECT_EQ(bytes_of(dx.to_host()), bytes_of(expect_turned));
+    EXPECT_EQ(dev.sent_rows(), host.sent_rows());
     // A migration: every third particle to the next rank, the rest stay.
     std::vector<int> dest(n);
     for (std::size_t i = 0; i < n; ++i)
