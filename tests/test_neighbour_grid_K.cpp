@@ -974,6 +974,41 @@ static void check_build_keeping(exec::Backend backend) {
       inside[i] = i;
     outside.clear();
   }
+  // Rows flagged out (KeepBox::rows, a rebuild's on N ranks: every third point, and with the box
+  // the points outside it too) sort last in their order, as outside points do.
+  {
+    std::vector<std::uint32_t> flags(all.size()), in_idx, out_idx;
+    for (std::uint32_t i = 0; i < all.size(); ++i)
+      flags[i] = i % 3 == 0 ? 0u : 1u;
+    exec::DeviceBuffer<std::uint32_t> dflags(backend, 0, "test.flags");
+    dflags.assign(flags);
+    for (const bool box : {false, true}) {
+      KeepBox<float> k = KeepBox<float>::everywhere(dflags.data());
+      if (box) {
+        k.lo = keep.lo;
+        k.hi = keep.hi;
+      }
+      in_idx.clear();
+      out_idx.clear();
+      for (std::uint32_t i = 0; i < all.size(); ++i)
+        (flags[i] && !(box && keep.outside(all[i])) ? in_idx : out_idx).push_back(i);
+      x.assign(all);
+      grid.build_keeping(ex, x.data(), all.size(), k);
+      ASSERT_EQ(grid.kept(), in_idx.size()) << "box " << box;
+      std::vector<Vec3<float>> in;
+      for (std::uint32_t i : in_idx)
+        in.push_back(all[i]);
+      xin.assign(in);
+      alone.build(ex, xin.data(), in.size());
+      const auto perm = grid.permutation().to_host();
+      const auto perm_in = alone.permutation().to_host();
+      for (std::size_t j = 0; j < in_idx.size(); ++j)
+        ASSERT_EQ(perm[j], in_idx[perm_in[j]]) << "box " << box << ", k " << j;
+      for (std::size_t j = in_idx.size(); j < perm.size(); ++j)
+        ASSERT_EQ(perm[j], out_idx[j - in_idx.size()]) << "box " << box << ", k " << j;
+      same_cells(grid, alone, "rows flagged out against the kept alone");
+    }
+  }
   // A keeping build left as it is (its keys name the outside), then a plain one: the tables
   // are a fresh grid's.
   x.assign(all);

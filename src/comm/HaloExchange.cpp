@@ -159,6 +159,8 @@ std::size_t migrate(Transport& transport, std::span<const int> peers, const Depa
   if (leaving.to.size() != leaving.index.size())
     throw Error("migration: " + std::to_string(leaving.index.size()) + " leavers with " +
                 std::to_string(leaving.to.size()) + " destinations");
+  if (leaving.in_place && !leaving.keep && n > 0)
+    throw Error("migration: rows left in place need the flags of those that stay");
   std::vector<std::vector<std::uint32_t>> out_rows(peers.size());
   for (std::size_t k = 0; k < leaving.index.size(); ++k) {
     const std::uint32_t i = leaving.index[k];
@@ -202,7 +204,9 @@ std::size_t migrate(Transport& transport, std::span<const int> peers, const Depa
   transport.start(sends, recvs);
   // Meanwhile the particles that stay close up, in order.
   std::size_t kept = n - leaving.index.size();
-  if (leaving.keep)
+  if (leaving.in_place)
+    kept = n;
+  else if (leaving.keep)
     kept = rows.keep_flagged(cols, n, leaving.keep);
   else if (!leaving.index.empty())
     rows.remove(cols, n, leaving.index);

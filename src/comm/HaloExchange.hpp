@@ -97,6 +97,10 @@ struct Departures {
   /// among the rows it leaves out, and so may be rows dropped without a message of their own (the
   /// ghosts a rank held), whose indices then need not come to the host.
   const std::uint32_t* keep = nullptr;
+  /// With `keep`: nothing closes up; every row keeps its place and the arrivals follow row n-1.
+  /// The caller drops the rows `keep` leaves out later (the sort after a rebuild, which moves
+  /// every row anyway: one pass over the columns fewer).
+  bool in_place = false;
   /// From every particle's destination (this rank: it stays).
   static Departures of(std::span<const int> destination, int me);
 };
@@ -104,8 +108,9 @@ struct Departures {
 /// Moves particles to the ranks that now own them (DESIGN §6: at a rebuild, with every field).
 /// Only the leavers are packed; the particles that stay close up in place (keeping their order)
 /// while the messages are in flight, and the arrivals follow them, by sending rank, in the
-/// sender's order. `peers` as for HaloExchange (every rank a particle may go to or come from).
-/// `rows` reads and writes the columns' data. Returns the new count.
+/// sender's order (Departures::in_place: nothing closes up, the arrivals follow all n rows).
+/// `peers` as for HaloExchange (every rank a particle may go to or come from). `rows` reads and
+/// writes the columns' data. Returns the new count (of rows, with in_place).
 std::size_t migrate(Transport& transport, std::span<const int> peers, const Departures& leaving,
                     std::span<MigrationColumn> columns, RowCopier& rows = host_rows());
 /// The same from every particle's destination (this rank: it stays; -1: it is dropped).

@@ -48,7 +48,8 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
                               exec::Backend backend, double knit_width, double coupling_reach,
                               double skin)
     : mpi_(mpi), backend_(backend), scene_(scene), select_(backend),
-      keep_(backend, 0, "ranks.owned"), inverse_(backend, 0, "ranks.inverse") {
+      keep_(backend, 0, "ranks.owned"), inverse_(backend, 0, "ranks.inverse"),
+      alive_(backend, 0, "ranks.alive") {
   for (auto& c : clocks_)
     c = std::make_unique<exec::Stopwatch>(backend);
   for (SplitRows* r : {&fluid_split_, &boundary_split_}) {
@@ -293,10 +294,11 @@ std::vector<int> RankExchange<T>::other_ranks() const {
 
 template <typename T>
 void RankExchange<T>::remap(comm::HaloExchange& halo, const exec::DeviceBuffer<std::uint32_t>& perm,
-                            std::size_t n, std::size_t owned) {
-  inverse_.resize(n);
-  invert_permutation({backend_}, perm.data(), n, inverse_.data());
-  halo.remap(column(inverse_), owned);
+                            std::size_t rows, std::size_t kept, std::size_t first_ghost) {
+  // The dropped rows' entries stay unwritten: no list names them.
+  inverse_.resize(rows);
+  invert_permutation({backend_}, perm.data(), kept, inverse_.data());
+  halo.remap(column(inverse_), first_ghost);
 }
 
 template <typename T>
@@ -378,7 +380,7 @@ void RankExchange<T>::boundary_sorted(const exec::DeviceBuffer<std::uint32_t>& p
                                       std::size_t n) {
   if (!boundary_halo_)
     return;
-  remap(*boundary_halo_, perm_buffer, n, boundary_own_count_);
+  remap(*boundary_halo_, perm_buffer, n, n, boundary_own_count_);
   const HostValues<std::uint32_t> perm(perm_buffer, n); // at the start and re-partitions only
   boundary_owned_ = pick(boundary_owned_, perm.span());
   boundary_split_.current = false;
@@ -390,50 +392,61 @@ RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& h
                          const std::array<bool, 6>& walls, bool acceleration) {
   const Timed timed{exchange_seconds_}, part{parts_.migration};
   const std::size_t n = fluid.size();
+  const exec::Exec ex{backend_};
   // Who leaves (to another rank, or out of the domain past an open side as the single-rank
-  // sort removes it), chosen on the fluid's backend: only the leavers' indices come back.
+  // sort removes it), chosen on the fluid's backend: only the leavers' indices come back. The
+  // ghosts kept since the last sort ("verlet" lists) are dropped by the same flags (keep_: 1 for
+  // every row where none are held).
   std::optional<stage_parts::Scope> part_now;
   part_now.emplace("grid.fluid: the leavers chosen (N ranks)");
-  // Ghosts kept since the last sort ("verlet" lists) go in the same compaction, on the backend.
-  const std::uint32_t* held = n != fluid_owned_ ? keep_.data() : nullptr;
-  const auto leaving = select_.departures(fluid.x, fluid.m, n, lo, hi, walls, held);
+  auto leaving = select_.departures(fluid.x, fluid.m, n, lo, hi, walls, keep_.data());
+  leaving.leaving.in_place = true;
   fluid_halo_.reset(); // the kept ghosts' halo
   // Every state column the steps to come read; a where the half kick reads it before the next
   // forces pass writes it (the migrants' a was left behind before, and a drop emitted into
   // another rank's region then fell with another rank's a: the absorbing hammock parted).
   auto state = fluid_state(fluid, acceleration);
   part_now.emplace("grid.fluid: the leavers migrated (N ranks)");
-  const std::size_t owned =
+  const std::size_t rows_now =
       comm::migrate(*transport_, migration_peers_, leaving.leaving, state, rows());
+  // The rows to keep: those that stayed, then every arrival (and below, every ghost).
+  alive_.resize(rows_now);
+  exec::copy_bytes(alive_.data(), backend_, leaving.leaving.keep, backend_,
+                   n * sizeof(std::uint32_t));
+  flag_below(ex, nullptr, rows_now - n, rows_now - n, alive_.data() + n);
   // The ghosts: every owned particle within the support of another rank's region goes there.
   part_now.emplace("grid.fluid: the ghosts chosen (N ranks)");
-  auto gl = select_.ghost_rows(fluid.x, owned, fluid_width_, rows());
+  auto gl = select_.ghost_rows(fluid.x, rows_now, fluid_width_, rows(), alive_.data());
   part_now.emplace("grid.fluid: the ghosts' halo set up (N ranks)");
   fluid_halo_.emplace(*transport_, std::move(gl.peers), std::move(gl.send), rows());
   part_now.emplace("grid.fluid: the ghosts received (N ranks)");
-  const std::size_t total = owned + fluid_halo_->received();
+  const std::size_t received = fluid_halo_->received(), total = rows_now + received;
   fluid.resize(total);
   const comm::Column cols[] = {column(fluid.x),         column(fluid.v), column(fluid.m),
                                column(fluid.rho),       column(fluid.p), column(fluid.drho),
                                column(fluid.drho_prev), column(fluid.id)};
-  fluid_halo_->exchange(cols, owned);
-  fluid_owned_ = owned;
+  fluid_halo_->exchange(cols, rows_now);
+  alive_.resize(total);
+  flag_below(ex, nullptr, received, received, alive_.data() + rows_now);
+  // Until the sort: the rows before the ghosts (the dropped among them) count as owned.
+  fluid_owned_ = rows_now;
   keep_.resize(total);
-  flag_below({backend_}, nullptr, total, owned, keep_.data());
+  flag_below(ex, nullptr, total, rows_now, keep_.data());
   fluid_split_.current = false;
   return Removed{leaving.removed, leaving.removed_mass};
 }
 
 template <typename T>
 void RankExchange<T>::fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm_buffer,
-                                   std::size_t n) {
+                                   std::size_t rows, std::size_t kept) {
   const Timed timed{exchange_seconds_}, part{parts_.migration};
-  if (!fluid_halo_)
-    return;
-  remap(*fluid_halo_, perm_buffer, n, fluid_owned_);
-  // The owned were the first fluid_owned_ before the sort.
-  keep_.resize(n);
-  flag_below({backend_}, perm_buffer.data(), n, fluid_owned_, keep_.data());
+  const std::size_t received = fluid_halo_ ? fluid_halo_->received() : 0;
+  if (fluid_halo_)
+    remap(*fluid_halo_, perm_buffer, rows, kept, fluid_owned_);
+  // The owned were the rows before the ghosts; the dropped ones are gone.
+  keep_.resize(kept);
+  flag_below({backend_}, perm_buffer.data(), kept, fluid_owned_, keep_.data());
+  fluid_owned_ = kept - received;
   fluid_split_.current = false;
 }
 

@@ -71,15 +71,22 @@ public:
     double mass = 0;
   };
   /// Before the fluid's sort: the owned fluid outside [lo, hi] on an open side is removed
-  /// (counted), the rest migrates to its owners, and the ghosts are received and appended. Kept
-  /// ghosts ("verlet" lists) still held go in the migration's compaction (flags on the backend):
-  /// one compaction of the state's columns instead of two of every column.
+  /// (counted), the rest migrates to its owners, and the ghosts are received. Nothing closes up:
+  /// the rows that went (leavers, the kept ghosts still held from the last sort) keep their
+  /// places, the arrivals and then the new ghosts follow them, and rebuilt_rows() flags the rows
+  /// to keep; the sort drops the others (NeighbourGrid::build_keeping, KeepBox::everywhere): one
+  /// pass over the columns fewer than a compaction before the sort.
   /// acceleration: the migrants take their a along (FluidSet::Carry's: a sort at a step's start,
   /// after an absorption or an emission, comes before the half kick that reads it).
   Removed rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& hi,
                   const std::array<bool, 6>& walls, bool acceleration);
-  /// After the fluid's sort (perm[k]: where the particle now at k was; its first n).
-  void fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n);
+  /// After rebuild(): 1 for each of the fluid's rows the sort keeps, 0 for those it drops (on the
+  /// backend; valid until the sort).
+  const std::uint32_t* rebuilt_rows() const { return alive_.data(); }
+  /// After the fluid's sort of the rebuild's `rows` rows: perm[k] is where the particle now at k
+  /// was, for the first `kept` (the dropped ones sorted after them and gone).
+  void fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t rows,
+                    std::size_t kept);
   /// A pass over the particles `rows` names (the caller's kernels, its own timing).
   using Pass = std::function<void(const exec::Rows&)>;
   /// The density pass, and the ghosts' rho, P and the packed copies it writes (vp, vol) from
@@ -216,9 +223,10 @@ private:
   /// ghosts dropped and received anew.
   void migrate_boundary(BoundarySet<T>& boundary, std::span<const Vec3<T>> x,
                         const std::vector<int>& peers);
-  /// After a sort (perm: its first n), the halo's lists follow their particles.
-  void remap(comm::HaloExchange& halo, const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n,
-             std::size_t owned);
+  /// After a sort of `rows` rows that kept the first `kept` of perm, the halo's lists (of kept
+  /// rows) follow their particles; its ghosts were received at row `first_ghost`.
+  void remap(comm::HaloExchange& halo, const exec::DeviceBuffer<std::uint32_t>& perm,
+             std::size_t rows, std::size_t kept, std::size_t first_ghost);
   /// The fluid holds only what this rank owns: every flag 1.
   void all_owned();
   /// A halo's owned rows split for a pass around its exchange: those it sends (the border), and
@@ -274,6 +282,8 @@ private:
   // The fluid's 1 owned, 0 ghost, in the set's order (as keep_flagged takes them), on the
   // backend; a sort's inverse permutation.
   exec::DeviceBuffer<std::uint32_t> keep_, inverse_;
+  // rebuild()'s rows to keep (rebuilt_rows()).
+  exec::DeviceBuffer<std::uint32_t> alive_;
 };
 
 } // namespace kf

@@ -42,14 +42,13 @@ RankSelector<T>::departures(const exec::DeviceBuffer<Vec3<T>>& x, const exec::De
   const exec::Exec ex{backend_};
   dest_.resize(n);
   flags_.resize(n);
-  if (owned)
-    stay_.resize(n);
+  stay_.resize(n);
   block_destinations(ex, x.data(), n, BlockOwners{grid_, owner_.data()}, lo, hi, walls, rank_,
-                     dest_.data(), flags_.data(), owned, owned ? stay_.data() : nullptr);
+                     dest_.data(), flags_.data(), owned, stay_.data());
   const std::size_t k = exec::flagged_indices(ex, flags_, offsets_, idx_, "ranks.leavers");
   Departures d;
   d.leaving.n = n;
-  d.leaving.keep = owned ? stay_.data() : nullptr;
+  d.leaving.keep = stay_.data();
   d.leaving.index = indices(k);
   d.leaving.to.resize(k);
   std::vector<T> mass(k);
@@ -74,7 +73,8 @@ RankSelector<T>::departures(const exec::DeviceBuffer<Vec3<T>>& x, const exec::De
 template <typename T>
 template <typename Each>
 std::vector<int> RankSelector<T>::choose_ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n,
-                                                double width, Each each) {
+                                                double width, const std::uint32_t* alive,
+                                                Each each) {
   if (!decomposition_)
     throw Error("internal: ghosts chosen before the blocks' owners were set");
   // The fluid's and the boundary's widths are fixed; the knit's changes at each choice of its
@@ -102,7 +102,7 @@ std::vector<int> RankSelector<T>::choose_ghosts(const exec::DeviceBuffer<Vec3<T>
   // 64 peers a pass (a rank in the middle of a 3-D split has 26).
   for (std::size_t first = 0; first < peers.size(); first += 64) {
     ghost_peer_masks(ex, x.data(), n, BlockOwners{grid_, owner_.data()}, width, reach, slot_.data(),
-                     static_cast<int>(first), mask_.data());
+                     static_cast<int>(first), mask_.data(), alive);
     for (std::size_t s = first; s < std::min(peers.size(), first + 64); ++s) {
       mask_bit_flags(ex, mask_.data(), n, static_cast<int>(s - first), flags_.data());
       // (the count first: the call may grow idx_)
@@ -118,9 +118,10 @@ GhostLists RankSelector<T>::ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::si
                                    double width) {
   GhostLists g;
   std::vector<std::vector<std::uint32_t>> send;
-  g.peers = choose_ghosts(x, n, width, [&](std::size_t, const std::uint32_t*, std::size_t k) {
-    send.push_back(indices(k));
-  });
+  g.peers =
+      choose_ghosts(x, n, width, nullptr, [&](std::size_t, const std::uint32_t*, std::size_t k) {
+        send.push_back(indices(k));
+      });
   g.send = std::move(send);
   return g;
 }
@@ -128,11 +129,12 @@ GhostLists RankSelector<T>::ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::si
 template <typename T>
 typename RankSelector<T>::GhostRows
 RankSelector<T>::ghost_rows(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width,
-                            comm::RowCopier& rows) {
+                            comm::RowCopier& rows, const std::uint32_t* alive) {
   GhostRows g;
-  g.peers = choose_ghosts(x, n, width, [&](std::size_t, const std::uint32_t* idx, std::size_t k) {
-    g.send.push_back(rows.adopt(idx, k));
-  });
+  g.peers =
+      choose_ghosts(x, n, width, alive, [&](std::size_t, const std::uint32_t* idx, std::size_t k) {
+        g.send.push_back(rows.adopt(idx, k));
+      });
   return g;
 }
 

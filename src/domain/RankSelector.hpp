@@ -29,9 +29,9 @@ public:
   };
   /// Of the first n particles (positions x, masses m): those whose block another rank owns and
   /// those past [lo, hi] on a side without a wall (walls: low x, high x, low y, ...). Where
-  /// `owned` is given (1 owned, 0 a ghost held, on the backend) the ghosts are dropped too: the
-  /// departures then carry the flags of the rows that stay (Departures::keep, valid until the
-  /// next call), the ghosts' indices staying on the device.
+  /// `owned` is given (1 owned, 0 a ghost held, on the backend) the ghosts are dropped too. The
+  /// departures carry the flags of the rows that stay (Departures::keep, valid until the next
+  /// call), the dropped ghosts' indices staying on the device.
   Departures departures(const exec::DeviceBuffer<Vec3<T>>& x, const exec::DeviceBuffer<T>& m,
                         std::size_t n, const Vec3<T>& lo, const Vec3<T>& hi,
                         const std::array<bool, 6>& walls, const std::uint32_t* owned = nullptr);
@@ -44,15 +44,16 @@ public:
     std::vector<int> peers;
     std::vector<comm::RowList> send;
   };
+  /// alive (where given, on the backend): only rows with alive[i] != 0 are sent.
   GhostRows ghost_rows(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width,
-                       comm::RowCopier& rows);
+                       comm::RowCopier& rows, const std::uint32_t* alive = nullptr);
 
 private:
   /// The peers within `width`, and for each in turn `each(slot, rows, count)` with its rows
   /// (ascending, in the backend's memory, valid until the next call).
   template <typename Each>
   std::vector<int> choose_ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width,
-                                 Each each);
+                                 const std::uint32_t* alive, Each each);
   /// The first n elements of idx, on the host.
   std::vector<std::uint32_t> indices(std::size_t n) const;
 

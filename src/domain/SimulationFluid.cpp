@@ -21,7 +21,7 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     part.emplace("grid.fluid: the balance checked (N ranks)");
     // Every [parallel] check_every steps the measured imbalance may share the blocks out anew,
     // from the fluid this rank owns: the ghosts kept since the last sort ("verlet" lists) go
-    // first. Otherwise they go in the rebuild's migration (one compaction less).
+    // first. Otherwise the sort after the rebuild drops them with the leavers (no compaction).
     if (ranks_->balance_due(steps_))
       ranks_->drop_ghosts(ex_, *fluid_);
     if (ranks_
@@ -41,9 +41,15 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     outflow_particles_ += gone.particles;
     outflow_mass_ += gone.mass;
     part.emplace("grid.fluid: the sort by cell");
-    fluid_grid_->build(ex_, fluid_->x.data(), fluid_->size(), fluid_->id.data());
+    // The rows the rebuild left in place (leavers, the last sort's ghosts) sort last and go.
+    const std::size_t rows = fluid_->size();
+    fluid_grid_->build_keeping(ex_, fluid_->x.data(), rows,
+                               KeepBox<T>::everywhere(ranks_->rebuilt_rows()), fluid_->id.data());
     fluid_->reorder(ex_, fluid_grid_->permutation(), carry);
-    ranks_->fluid_sorted(fluid_grid_->permutation(), fluid_->size());
+    const std::size_t kept = fluid_grid_->kept();
+    fluid_grid_->drop_outside(kept);
+    fluid_->resize(kept);
+    ranks_->fluid_sorted(fluid_grid_->permutation(), rows, kept);
   } else if (remove_outflow) {
     part.emplace("grid.fluid: the sort by cell");
     const auto& d = scene_.domain;

@@ -469,6 +469,31 @@ TEST_F(Halo, DeviceRowsMoveTheSameBytesAsTheHost) {
     EXPECT_EQ(comm::migrate(*t, peers, leaving, kcols), nh2);
     EXPECT_EQ(bytes_of(kx), bx2);
     EXPECT_EQ(bytes_of(kid), bid2);
+    // In place (a rebuild's, the sort dropping the rest): the n rows untouched, the arrivals
+    // after them; the rows flagged to stay, then the arrivals, are the compacted migration's.
+    dx.assign(mine.x);
+    did.assign(mine.id);
+    leaving.keep = dstay.data();
+    leaving.in_place = true;
+    auto dcols3 = ExchangeColumns::of(dx, did).migration;
+    const std::size_t nd3 = comm::migrate(*way.transport, peers, leaving, dcols3, rows);
+    const std::size_t stayed = std::count(stay.begin(), stay.end(), 1u);
+    ASSERT_EQ(nd3, n + (nd2 - stayed));
+    const auto px = dx.to_host();
+    const auto pid = did.to_host();
+    EXPECT_EQ(bytes_of(std::vector<Vec3d>(px.begin(), px.begin() + n)), bytes_of(mine.x));
+    std::vector<Vec3d> closed;
+    std::vector<std::uint64_t> closed_id;
+    for (std::size_t i = 0; i < nd3; ++i)
+      if (i >= n || stay[i]) {
+        closed.push_back(px[i]);
+        closed_id.push_back(pid[i]);
+      }
+    EXPECT_EQ(bytes_of(closed), bx2);
+    EXPECT_EQ(bytes_of(closed_id), bid2);
+    leaving.keep = nullptr; // in place needs the flags
+    EXPECT_THROW(comm::migrate(*way.transport, peers, leaving, dcols3, rows), Error);
+    leaving.in_place = false;
     if (mpi.root())
       std::printf("%s: %zu ghosts, %zu after migration, same bytes as the host's\n", name.c_str(),
                   ng, nd);

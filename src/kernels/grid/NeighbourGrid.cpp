@@ -54,7 +54,7 @@ struct CellKeys {
     const int sub = 3 * levels;
     int cx, cy, cz;
     geo.coords(q, cx, cy, cz);
-    keys[i] = keeping && keep.outside(q)
+    keys[i] = keeping && keep.dropped(i, q)
                   ? outside << sub
                   : rank[geo.linear(cx, cy, cz)] << sub | geo.sub_cell_code(q, cx, cy, cz, levels);
     perm[i] = static_cast<std::uint32_t>(i);

@@ -23,12 +23,23 @@ struct SquaredDisplacement {
 };
 
 /// The box a point must lie in to keep its place in a sort (NeighbourGrid::build_keeping). A
-/// NaN coordinate counts as inside: the point stays for the step-size check to report.
+/// NaN coordinate counts as inside: the point stays for the step-size check to report. Where
+/// `rows` is given, point i also needs rows[i] != 0 (on N ranks: the rows a rebuild left in
+/// place that no longer belong here, dropped by the sort instead of a compaction before it).
 template <typename T>
 struct KeepBox {
   Vec3<T> lo, hi;
+  const std::uint32_t* rows = nullptr;
   KF_HD KF_INLINE bool outside(const Vec3<T>& q) const {
     return q.x < lo.x || q.x > hi.x || q.y < lo.y || q.y > hi.y || q.z < lo.z || q.z > hi.z;
+  }
+  KF_HD KF_INLINE bool dropped(std::size_t i, const Vec3<T>& q) const {
+    return outside(q) || (rows != nullptr && rows[i] == 0);
+  }
+  /// Every point inside: only the rows' flags choose.
+  static KeepBox everywhere(const std::uint32_t* rows) {
+    const T big = std::numeric_limits<T>::max();
+    return {{-big, -big, -big}, {big, big, big}, rows};
   }
 };
 

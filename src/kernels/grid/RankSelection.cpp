@@ -40,9 +40,14 @@ struct GhostMask {
   int reach;
   const int* slot_of_rank;
   int first_slot;
+  const std::uint32_t* alive;
   std::uint64_t* mask;
   KF_HD KF_INLINE void operator()(std::size_t i) const {
     std::uint64_t m = 0;
+    if (alive && alive[i] == 0) {
+      mask[i] = 0;
+      return;
+    }
     const int* slots = slot_of_rank;
     const int first = first_slot;
     for_each_ghost_rank(owners.grid, owners.owner, vec_cast<double>(x[i]), width, reach,
@@ -98,8 +103,9 @@ void block_destinations(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
 template <typename T>
 void ghost_peer_masks(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                       const BlockOwners& owners, double width, int reach, const int* slot_of_rank,
-                      int first_slot, std::uint64_t* mask) {
-  exec::for_each(ex, n, GhostMask<T>{x, owners, width, reach, slot_of_rank, first_slot, mask},
+                      int first_slot, std::uint64_t* mask, const std::uint32_t* alive) {
+  exec::for_each(ex, n,
+                 GhostMask<T>{x, owners, width, reach, slot_of_rank, first_slot, alive, mask},
                  "ranks.ghost_masks");
 }
 
@@ -125,7 +131,7 @@ void flag_below(const exec::Exec& ex, const std::uint32_t* perm, std::size_t n, 
                                       const std::uint32_t*, std::uint32_t*);                       \
   template void ghost_peer_masks<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                \
                                     const BlockOwners&, double, int, const int*, int,              \
-                                    std::uint64_t*);
+                                    std::uint64_t*, const std::uint32_t*);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

@@ -35,11 +35,12 @@ void block_destinations(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
 
 /// For i < n: bit s of mask[i] is set where x[i] lies within `width` of a block of the rank whose
 /// peer slot (slot_of_rank[rank], -1 for none) is first_slot + s, s < 64: a window of 64 peers a
-/// pass. reach: BlockGrid::reach(width).
+/// pass. reach: BlockGrid::reach(width). Where `alive` is given, mask[i] = 0 where alive[i] is 0
+/// (a row a rebuild left in place for the sort to drop).
 template <typename T>
 void ghost_peer_masks(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                       const BlockOwners& owners, double width, int reach, const int* slot_of_rank,
-                      int first_slot, std::uint64_t* mask);
+                      int first_slot, std::uint64_t* mask, const std::uint32_t* alive = nullptr);
 
 /// flags[i] = bit `bit` of mask[i], for i < n.
 void mask_bit_flags(const exec::Exec& ex, const std::uint64_t* mask, std::size_t n, int bit,
