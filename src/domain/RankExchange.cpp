@@ -345,23 +345,60 @@ typename RankExchange<T>::SplitRows& RankExchange<T>::boundary_rows() {
 }
 
 template <typename T>
+void RankExchange<T>::time_refreshes_on_device() {
+  for (auto& c : refresh_clocks_)
+    c = std::make_unique<exec::Stopwatch>(backend_);
+}
+
+template <typename T>
+template <typename F>
+void RankExchange<T>::on_clock(int k, F&& what) {
+  exec::Stopwatch* clock = refresh_clocks_[k].get();
+  if (clock)
+    clock->start();
+  what();
+  if (clock)
+    clock->stop();
+}
+
+template <typename T>
+const typename RankExchange<T>::RefreshTimes& RankExchange<T>::collect_refresh_times() {
+  for (int k = 0; k < kRefreshes; ++k)
+    if (refresh_clocks_[2 * k]) {
+      refresh_times_.pass[k] += refresh_clocks_[2 * k]->collect();
+      refresh_times_.exchange[k] += refresh_clocks_[2 * k + 1]->collect();
+    }
+  refresh_uses_ = 0;
+  return refresh_times_;
+}
+
+template <typename T>
 void RankExchange<T>::overlapped(comm::HaloExchange& halo, const SplitRows* rows,
                                  std::span<const comm::Column> cols, std::size_t first_ghost,
-                                 std::size_t n, const Pass& pass) {
+                                 std::size_t n, const Pass& pass, int refresh) {
+  // Two events an interval: read every few hundred refreshes (one host wait), as the stages'.
+  if (refresh_clocks_[0] && ++refresh_uses_ >= 3 * 256)
+    collect_refresh_times();
   if (!rows) {
-    pass(exec::Rows{nullptr, n});
-    const Timed timed{exchange_seconds_}, part{parts_.refresh};
-    halo.exchange(cols, first_ghost);
+    on_clock(2 * refresh, [&] { pass(exec::Rows{nullptr, n}); });
+    on_clock(2 * refresh + 1, [&] {
+      const Timed timed{exchange_seconds_}, part{parts_.refresh};
+      halo.exchange(cols, first_ghost);
+    });
     return;
   }
-  pass(exec::Rows{rows->border.data(), rows->border.size()});
-  {
+  on_clock(2 * refresh, [&] {
+    pass(exec::Rows{rows->border.data(), rows->border.size()});
+    {
+      const Timed timed{exchange_seconds_}, part{parts_.refresh};
+      halo.start(cols, first_ghost);
+    }
+    pass(exec::Rows{rows->interior.data(), rows->interior.size()});
+  });
+  on_clock(2 * refresh + 1, [&] {
     const Timed timed{exchange_seconds_}, part{parts_.refresh};
-    halo.start(cols, first_ghost);
-  }
-  pass(exec::Rows{rows->interior.data(), rows->interior.size()});
-  const Timed timed{exchange_seconds_}, part{parts_.refresh};
-  halo.finish();
+    halo.finish();
+  });
 }
 
 template <typename T>
@@ -452,19 +489,19 @@ void RankExchange<T>::fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm
 
 template <typename T>
 void RankExchange<T>::fluid_pass(std::span<const comm::Column> cols, std::size_t n,
-                                 const Pass& pass, bool overlap) {
+                                 const Pass& pass, bool overlap, int refresh) {
   if (!fluid_halo_) { // collective over the peers: also where this rank received no ghost
     pass(exec::Rows{nullptr, n});
     return;
   }
-  overlapped(*fluid_halo_, overlap ? &fluid_rows() : nullptr, cols, fluid_owned_, n, pass);
+  overlapped(*fluid_halo_, overlap ? &fluid_rows() : nullptr, cols, fluid_owned_, n, pass, refresh);
 }
 
 template <typename T>
 void RankExchange<T>::refresh_density(FluidSet<T>& fluid, const Pass& pass) {
   const comm::Column cols[] = {column(fluid.rho), column(fluid.p), column(fluid.vp),
                                column(fluid.vol)};
-  fluid_pass(cols, fluid.size(), pass, overlap_);
+  fluid_pass(cols, fluid.size(), pass, overlap_, 0);
 }
 
 template <typename T>
@@ -475,7 +512,7 @@ void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary, const Pass& pas
   }
   const comm::Column cols[] = {column(boundary.p), column(boundary.vp), column(boundary.inv_rho)};
   overlapped(*boundary_halo_, overlap_short_ ? &boundary_rows() : nullptr, cols,
-             boundary_own_count_, boundary.size(), pass);
+             boundary_own_count_, boundary.size(), pass, 1);
 }
 
 template <typename T>
@@ -498,7 +535,7 @@ void RankExchange<T>::refresh_forces(FluidSet<T>& fluid, bool continuity, const 
   const comm::Column all[] = {column(fluid.a), column(fluid.rho), column(fluid.drho),
                               column(fluid.drho_prev)};
   fluid_pass(std::span<const comm::Column>(all, continuity ? 4 : 1), fluid.size(), pass,
-             overlap_short_);
+             overlap_short_, 2);
 }
 
 template <typename T>

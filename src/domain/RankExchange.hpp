@@ -19,6 +19,7 @@
 #include "kernels/exec/Stopwatch.hpp"
 #include "kernels/particles/FluidSet.hpp"
 
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -212,6 +213,16 @@ public:
 
   /// Boundary particles this rank owns (1) and holds as ghosts (0), in the set's order.
   const std::vector<std::uint8_t>& boundary_owned() const { return boundary_owned_; }
+  /// The refreshes inside the fluid's passes (density, walls, forces): each pass and the exchange
+  /// after it (with overlap, the wait the interior's pass left) timed on the device, without
+  /// synchronising (`run --profile-device`); read by collect_refresh_times().
+  static constexpr int kRefreshes = 3;
+  struct RefreshTimes {
+    std::array<double, kRefreshes> pass{}, exchange{};
+  };
+  void time_refreshes_on_device();
+  /// Seconds so far (waits for the last interval's work).
+  const RefreshTimes& collect_refresh_times();
   /// Ghost count and bytes moved by the last rebuild's and refreshes' exchanges (progress).
   std::size_t fluid_ghosts() const { return fluid_halo_ ? fluid_halo_->received() : 0; }
 
@@ -240,13 +251,20 @@ private:
   SplitRows& split(const comm::HaloExchange& halo, SplitRows& out,
                    const std::function<void(exec::DeviceBuffer<std::uint32_t>&)>& owned);
   /// overlapped over the fluid's halo (or the pass over all n rows where there is none).
-  void fluid_pass(std::span<const comm::Column> cols, std::size_t n, const Pass& pass,
-                  bool overlap);
+  void fluid_pass(std::span<const comm::Column> cols, std::size_t n, const Pass& pass, bool overlap,
+                  int refresh);
+  // The refreshes timed on the device (time_refreshes_on_device): a pass and an exchange each.
+  std::array<std::unique_ptr<exec::Stopwatch>, 2 * kRefreshes> refresh_clocks_;
+  std::size_t refresh_uses_ = 0;
+  RefreshTimes refresh_times_;
+  /// Runs `what` inside clock k's interval (when the refreshes are timed).
+  template <typename F>
+  void on_clock(int k, F&& what);
   /// pass over the owned rows and the halo's exchange of cols, overlapped where the scene asks.
   /// (rows null: over all n rows, then the exchange.)
   void overlapped(comm::HaloExchange& halo, const SplitRows* rows,
                   std::span<const comm::Column> cols, std::size_t first_ghost, std::size_t n,
-                  const Pass& pass);
+                  const Pass& pass, int refresh);
   /// The fluid's and the boundary's split, current.
   SplitRows& fluid_rows();
   SplitRows& boundary_rows();

@@ -294,9 +294,9 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
   sum.particle_steps_per_s =
       sum.wall_seconds > 0 ? double(sum.steps) * double(particles) / sum.wall_seconds : 0;
   sum.diagnostics = sim->diagnostics();
-  sum.split = since_start(sim->rank_report());
   if (opt.profile_device)
     sim->collect_device_profile();
+  sum.split = since_start(sim->rank_report());
   for (const auto& s : sim->pipeline().stages()) {
     Pipeline::Stage copy{s.name,    s.module, s.what,           {},
                          s.seconds, s.calls,  s.device_seconds, s.idle_before_seconds};
@@ -368,6 +368,15 @@ std::string format_summary(const RunSummary& s) {
                   r.refresh_seconds, r.rebalance_seconds, knit, r.reduction_seconds,
                   r.packing_seconds);
     o << buf;
+    if (r.refresh_pass_device[0] + r.refresh_exchange_device[0] > 0) {
+      const auto& p = r.refresh_pass_device;
+      const auto& x = r.refresh_exchange_device;
+      std::snprintf(buf, sizeof buf,
+                    "refreshes on the device (rank 0; pass, then the exchange after it): density "
+                    "%.3f + %.3f s, walls %.3f + %.3f s, forces %.3f + %.3f s\n",
+                    p[0], x[0], p[1], x[1], p[2], x[2]);
+      o << buf;
+    }
   }
   if (d.knit) {
     std::snprintf(buf, sizeof buf,

@@ -8,6 +8,7 @@
 #include "io/Frame.hpp"
 #include "kernels/exec/Backend.hpp"
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -143,6 +144,9 @@ public:
     double migration_seconds = 0, refresh_seconds = 0, rebalance_seconds = 0, packing_seconds = 0;
     double reduction_seconds = 0; // the step size's all-reduce (the wait for the slowest rank)
     std::string transport;        // "mpi" or "nccl"
+    // With profile_on_device: the density's, the walls' and the forces' passes and the exchange
+    // after each, on the device (seconds from the start, not synchronised).
+    std::array<double, 3> refresh_pass_device{}, refresh_exchange_device{};
   };
   virtual RankReport rank_report() const { return {}; }
   /// Measure each stage's time (synchronising the device after each stage).

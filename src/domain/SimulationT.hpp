@@ -77,16 +77,27 @@ public:
             p.rebalance,
             p.packing,
             p.reduction,
-            std::string(ranks_->transport_name())};
+            std::string(ranks_->transport_name()),
+            refresh_times_.pass,
+            refresh_times_.exchange};
   }
   void set_profiling(bool on) override {
     profiling_ = on;
     stage_parts::enable(on, ex_.backend);
   }
-  void profile_on_device() override { pipeline_.time_on_device(ex_.backend); }
-  void collect_device_profile() override { pipeline_.collect_device(); }
+  void profile_on_device() override {
+    pipeline_.time_on_device(ex_.backend);
+    if (ranks_)
+      ranks_->time_refreshes_on_device();
+  }
+  void collect_device_profile() override {
+    pipeline_.collect_device();
+    if (ranks_)
+      refresh_times_ = ranks_->collect_refresh_times();
+  }
 
 private:
+  typename RankExchange<T>::RefreshTimes refresh_times_; // collect_device_profile()
   void build_pipeline();
   void init_particles();
   void init_coupling();
