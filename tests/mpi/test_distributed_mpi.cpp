@@ -282,6 +282,31 @@ TEST(Distributed, RepartitioningKeepsTheOneRankRun) {
   EXPECT_GE(d.imbalance, 1.0);
 }
 
+// `run --profile-device` times each refresh's pass and the exchange after it: both run inside
+// their stage (sph.density, boundary.pressure, sph.forces), so each pair of intervals lies within
+// the stage's own span, and none is empty. On the CPU the intervals are the host's clock's.
+TEST(Distributed, TheRefreshesAreTimedInsideTheirStages) {
+  comm::MpiContext mpi;
+  Scene s = dambreak("float", "summation");
+  s.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
+  auto split = Simulation::create(s, exec::Backend::Cpu, &mpi);
+  split->profile_on_device();
+  for (int k = 0; k < 30; ++k)
+    split->step(1e9);
+  split->collect_device_profile();
+  const auto r = split->rank_report();
+  const char* stages[] = {"sph.density", "boundary.pressure", "sph.forces"};
+  for (int k = 0; k < 3; ++k) {
+    double span = -1;
+    for (const auto& st : split->pipeline().stages())
+      if (st.name == stages[k])
+        span = st.device_seconds;
+    EXPECT_GT(r.refresh_pass_device[k], 0.0) << stages[k];
+    EXPECT_GT(r.refresh_exchange_device[k], 0.0) << stages[k];
+    EXPECT_LE(r.refresh_pass_device[k] + r.refresh_exchange_device[k], span) << stages[k];
+  }
+}
+
 // Fluid splashing onto three static obstacles in a box open at the top and the sides: the
 // obstacles' boundary particles are owned and shared like the walls'.
 TEST(Distributed, ObstaclesAreTheOneRankRun) {
