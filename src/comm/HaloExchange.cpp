@@ -127,12 +127,12 @@ void HaloExchange::add_to_owners(std::span<std::uint64_t> values, std::size_t wi
     recvs[k] = {peers_[k], in[k].data(), in[k].size() * sizeof(std::uint64_t)};
   }
   transport_.exchange_host(sends, recvs);
-  for (std::size_t k = 0; k < peers_.size(); ++k)
-    for (std::size_t i = 0; i < send_[k].size(); ++i) {
-      const std::size_t row = rows_.rows_of(send_[k])[i];
+  for (std::size_t k = 0; k < peers_.size(); ++k) {
+    const auto& sent = rows_.rows_of(send_[k]);
+    for (std::size_t i = 0; i < sent.size(); ++i)
       for (std::size_t c = 0; c < width; ++c)
-        values[row * width + c] += in[k][i * width + c];
-    }
+        values[sent[i] * width + c] += in[k][i * width + c];
+  }
 }
 
 Departures Departures::of(std::span<const int> destination, int me) {
