@@ -99,8 +99,8 @@ void check(exec::Backend backend) {
   sph_density_predict(ex, prm, f.view(), T(0)); // p, vp, vol from rho (and xm)
   exec::DeviceBuffer<std::uint8_t> near(backend, 0, "test.near");
   grid.occupied_around(ex, near);
-  const BoundaryNeighbours<T> bn{b.x.data(), b.volume.data(), nullptr,     nullptr,
-                                 nullptr,    false,           grid.view(), nb};
+  const BoundaryNeighbours<T> bn{b.x.data(), b.volume.data(), nullptr, nullptr, nullptr, false,
+                                 grid.view(), nb};
   SphLists<T> lists(backend, T(s));
   lists.build(ex, f, grid.view(), bn, T(h), near.data());
   lists.settle(ex); // the fluid rows' capacity grows here; the walls' rows take it next build
@@ -125,7 +125,6 @@ void check(exec::Backend backend) {
   // The fluid moves by up to 0.9 s (xm, as the predictor writes it each step); grid and lists
   // stay those of the build.
   auto x = f.x.to_host();
-  const auto x_build = x;
   for (auto& p : x) {
     Vec3d d{u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5};
     d = d * (0.9 * s / std::sqrt(norm2(d)) * u(rng));
@@ -137,40 +136,6 @@ void check(exec::Backend backend) {
   const WallResult<T> listed1 = wall_pass(ex, prm, b, f, grid.view(), near.data(), lists.walls());
   expect_same(walk1, listed1, "after the fluid moved within the skin");
   EXPECT_FALSE(same_bits(walk0.p, walk1.p)); // the motion changed the pressures
-  // Between sorts the pass may run over the wet rows only (boundary_wet_rows: the rows with a
-  // candidate, against a host count here): after a pass over every row at the build, a pass over
-  // the build's wet rows once the fluid moved leaves every row as a pass over every row does.
-  const auto near_h = near.to_host();
-  const CellView<T> cells_h = grid.view(); // its geometry; may_find reads the flags it is given
-  for (const bool use_lists : {false, true}) {
-    const ListView<T> w = use_lists ? lists.walls() : ListView<T>{};
-    const char* what = use_lists ? "wet rows, listed" : "wet rows, walk";
-    exec::DeviceBuffer<std::uint32_t> flags(backend, 0, "test.wet"),
-        offsets(backend, 0, "test.wet"), wet(backend, 0, "test.wet");
-    const std::size_t k =
-        boundary_wet_rows(ex, b.view(), grid.view(), near.data(), w, flags, offsets, wet);
-    std::vector<std::uint32_t> want;
-    for (std::uint32_t i = 0; i < nb; ++i) {
-      const bool in_list = use_lists && count[i] <= w.capacity;
-      if (in_list ? count[i] > 0 : cells_h.may_find(near_h.data(), xb[i]))
-        want.push_back(i);
-    }
-    auto got = wet.to_host();
-    got.resize(k);
-    EXPECT_EQ(got, want) << what;
-    EXPECT_GT(k, 0u) << what;
-    EXPECT_LT(k, nb * 3 / 4) << what << ": most of the floor is dry";
-    f.x.assign(x_build);
-    sph_density_predict(ex, prm, f.view(), T(0));
-    wall_pass(ex, prm, b, f, grid.view(), near.data(), w); // every row, at the build
-    f.x.assign(x);
-    sph_density_predict(ex, prm, f.view(), T(0));
-    const exec::Rows rows{wet.data(), k};
-    boundary_pressure(ex, prm, b.view(), f.view(), grid.view(),
-                      static_cast<const RigidShape<T>*>(nullptr), near.data(), w, &rows);
-    expect_same(WallResult<T>{b.p.to_host(), b.inv_rho.to_host(), b.vp.to_host()},
-                use_lists ? listed1 : walk1, what);
-  }
   // Rows of 8: most wet rows overflow and walk their cells instead.
   NeighbourList<T> small(backend);
   const FluidView<T> fv = f.view();
@@ -185,12 +150,8 @@ void check(exec::Backend backend) {
   expect_same(walk1, listed2, "rows of 8 (overflows walk)");
 }
 
-TEST(WallLists, EqualTheWalkCpuFloat) {
-  check<float>(exec::Backend::Cpu);
-}
-TEST(WallLists, EqualTheWalkCpuDouble) {
-  check<double>(exec::Backend::Cpu);
-}
+TEST(WallLists, EqualTheWalkCpuFloat) { check<float>(exec::Backend::Cpu); }
+TEST(WallLists, EqualTheWalkCpuDouble) { check<double>(exec::Backend::Cpu); }
 TEST(WallLists, EqualTheWalkCudaFloat) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";

@@ -64,8 +64,6 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
   // For boundary.pressure and the coupling's knit side, which walk this grid until the next
   // sort: a walk from a cell without fluid around is skipped.
   part.emplace("grid.fluid: the occupied cells and the lists");
-  walls_since_sort_ = 0;
-  wet_walls_for_ = std::size_t(-1);
   if (boundary_on_ || coupling_on_)
     fluid_grid_->occupied_around(ex_, fluid_near_);
   if (fluid_list_)
@@ -95,8 +93,6 @@ template <typename T>
 void SimulationT<T>::sort_boundary() {
   boundary_grid_->build(ex_, boundary_->x.data(), boundary_->size());
   boundary_->reorder(ex_, boundary_grid_->permutation());
-  walls_since_sort_ = 0;
-  wet_walls_for_ = std::size_t(-1);
   if (ranks_)
     ranks_->boundary_sorted(boundary_grid_->permutation(), boundary_->size());
   boundary_grid_->occupied_around(ex_, boundary_near_);
@@ -184,39 +180,20 @@ void SimulationT<T>::compute_forces() {
 }
 
 template <typename T>
-exec::Rows SimulationT<T>::walls_pass_rows(const exec::Rows& asked) {
-  const std::size_t n = boundary_->size();
-  // Only where every row is asked for (not the overlap's border and interior lists).
-  if (moving_ || asked.index != nullptr || asked.n != n)
-    return asked;
-  if (walls_since_sort_++ == 0) // the dry rows take their values once a sort
-    return asked;
-  if (wet_walls_for_ != n) {
-    const std::size_t wet = boundary_wet_rows(
-        ex_, boundary_->view(), fluid_grid_->view(), fluid_near_.data(),
-        fluid_list_ ? fluid_list_->walls() : ListView<T>{}, wet_flags_, wet_offsets_, wet_walls_);
-    wet_walls_.resize(wet);
-    wet_walls_for_ = n;
-  }
-  return exec::Rows{wet_walls_.data(), wet_walls_.size()};
-}
-
-template <typename T>
 void SimulationT<T>::extrapolate_boundary_pressure() {
-  auto pass = [&](const exec::Rows& asked) {
+  auto pass = [&](const exec::Rows* rows) {
     const LocalWork work(ranks_ ? &*ranks_ : nullptr);
-    const exec::Rows rows = walls_pass_rows(asked);
-    if (boundary_->size() > 0 && rows.n > 0)
+    if (boundary_->size() > 0)
       boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
                         shapes_.data(), fluid_near_.data(),
-                        fluid_list_ ? fluid_list_->walls() : ListView<T>{}, &rows);
+                        fluid_list_ ? fluid_list_->walls() : ListView<T>{}, rows);
   };
   if (!ranks_) {
-    pass(exec::Rows{nullptr, boundary_->size()});
+    pass(nullptr);
     return;
   }
   // Collective over the peers, so also where this rank holds no boundary.
-  ranks_->refresh_boundary(*boundary_, pass);
+  ranks_->refresh_boundary(*boundary_, [&](const exec::Rows& rows) { pass(&rows); });
 }
 
 template void SimulationT<float>::update_shapes(double);

@@ -13,10 +13,9 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     : scene_(scene), ex_{backend}, guard_count_(backend, 0, "boundary.guard_count"),
       sorted_outflow_mass_(backend, 0, "fluid.outflow"),
       sheet_count_(backend, 0, "sheet_guard.count"), boundary_near_(backend, 0, "boundary.near"),
-      fluid_near_(backend, 0, "fluid.near"), wet_walls_(backend, 0, "boundary.wet"),
-      wet_flags_(backend, 0, "boundary.wet"), wet_offsets_(backend, 0, "boundary.wet"),
-      bounds_(backend, 3, "integrate.dt"), plan_(backend, 1, "integrate.dt"),
-      solids_(scene, backend), shapes_(backend, 0, "rigid.shapes") {
+      fluid_near_(backend, 0, "fluid.near"), bounds_(backend, 3, "integrate.dt"),
+      plan_(backend, 1, "integrate.dt"), solids_(scene, backend),
+      shapes_(backend, 0, "rigid.shapes") {
   guard_count_.assign(std::vector<std::uint64_t>{0});
   sorted_outflow_mass_.assign(std::vector<double>{0.0});
   fluid_on_ = scene.has(Module::Fluid);

@@ -292,17 +292,6 @@ private:
   double fluid_step_motion() const;
   exec::DeviceBuffer<std::uint8_t> boundary_near_{exec::Backend::Cpu, 0, "boundary.near"};
   exec::DeviceBuffer<std::uint8_t> fluid_near_{exec::Backend::Cpu, 0, "fluid.near"};
-  // The walls' pass between sorts over the rows that find fluid only (boundary_wet_rows): the
-  // first pass after a sort runs over every row (the dry ones take their values, the same until
-  // the next sort), the second builds the list, later ones read it. Where the fluid sorts every
-  // step (lists off or rebuilt each step) the list is never built. Not with moving solids.
-  exec::DeviceBuffer<std::uint32_t> wet_walls_{exec::Backend::Cpu, 0, "boundary.wet"},
-      wet_flags_{exec::Backend::Cpu, 0, "boundary.wet"},
-      wet_offsets_{exec::Backend::Cpu, 0, "boundary.wet"};
-  std::size_t walls_since_sort_ = 0;
-  std::size_t wet_walls_for_ = std::size_t(-1); // the boundary's size the list is for (-1: none)
-  /// The rows the walls' pass runs over when asked for every row (see wet_walls_).
-  exec::Rows walls_pass_rows(const exec::Rows& asked);
   // knit, fluid, the job's fluid (N ranks planning on the device)
   exec::DeviceBuffer<MotionBounds<T>> bounds_{exec::Backend::Cpu, 0, "integrate.dt"};
   // bounds_[1] holds the fluid's bounds now, written by the last step's kick (kick_bounds): the

@@ -54,24 +54,6 @@ void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryVi
 }
 
 template <typename T>
-std::size_t boundary_wet_rows(const exec::Exec& ex, BoundaryView<T> b, CellView<T> fluid_cells,
-                              const std::uint8_t* fluid_near, const ListView<T>& walls,
-                              exec::DeviceBuffer<std::uint32_t>& flags,
-                              exec::DeviceBuffer<std::uint32_t>& offsets,
-                              exec::DeviceBuffer<std::uint32_t>& rows) {
-  flags.resize(b.n);
-  if (walls.count)
-    exec::for_each(ex, b.n,
-                   WetWallFlags<T, true>{b.x, fluid_cells, fluid_near, walls, flags.data()},
-                   "boundary.wet");
-  else
-    exec::for_each(ex, b.n,
-                   WetWallFlags<T, false>{b.x, fluid_cells, fluid_near, walls, flags.data()},
-                   "boundary.wet");
-  return exec::flagged_indices(ex, flags, offsets, rows, "boundary.wet");
-}
-
-template <typename T>
 void sph_density_predict(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, T dt) {
   exec::for_each(ex, f.n, DensityPredictor<T>{prm.eos, f, dt}, "sph.predict");
 }
@@ -124,10 +106,6 @@ void sph_mover_work(const exec::Exec& ex, const SphParams<T>& prm, const FluidVi
                                      const FluidView<T>&, CellView<T>, const RigidShape<T>*,       \
                                      const std::uint8_t*, const ListView<T>&, const exec::Rows*);  \
   template void sph_density_predict<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, T);   \
-  template std::size_t boundary_wet_rows<T>(                                                       \
-      const exec::Exec&, BoundaryView<T>, CellView<T>, const std::uint8_t*, const ListView<T>&,    \
-      exec::DeviceBuffer<std::uint32_t>&, exec::DeviceBuffer<std::uint32_t>&,                      \
-      exec::DeviceBuffer<std::uint32_t>&);                                                         \
   template void sph_forces<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,   \
                               const BoundaryNeighbours<T>&, const ListView<T>&, T,                 \
                               const exec::Rows*);                                                  \

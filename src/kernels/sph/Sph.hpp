@@ -89,19 +89,6 @@ void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryVi
                        const std::uint8_t* fluid_near = nullptr, const ListView<T>& walls = {},
                        const exec::Rows* rows = nullptr);
 
-/// The boundary particles the walls' pass finds fluid candidates for (wall_has_candidates: the
-/// same `fluid_near` and `walls` as the pass), their indices ascending in `rows` (flags and
-/// offsets: scratch); returns their count. The others get the dry values (p 0, the wall's
-/// velocity), the same at every step until the fluid's lists and `fluid_near` change at a sort:
-/// a pass over every row after each sort, then passes over these rows only, write what passes
-/// over every row write (most of a tank's wall particles are dry).
-template <typename T>
-std::size_t boundary_wet_rows(const exec::Exec& ex, BoundaryView<T> b, CellView<T> fluid_cells,
-                              const std::uint8_t* fluid_near, const ListView<T>& walls,
-                              exec::DeviceBuffer<std::uint32_t>& flags,
-                              exec::DeviceBuffer<std::uint32_t>& offsets,
-                              exec::DeviceBuffer<std::uint32_t>& rows);
-
 /// The continuity equation's part of a step before the neighbour pass (prm.density =
 /// Continuity): the pressure of the density predicted for the step's end, rho + dt (2 drho -
 /// drho_prev), and the gather copies, for every fluid particle.

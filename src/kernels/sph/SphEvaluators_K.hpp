@@ -79,36 +79,6 @@ struct DensityPredictor {
 // Listed: the walls' rows of SphLists (fluid within h + s at the last sort, in the walk's
 // order, so the sums are the walk's to the bit); a row that overflowed walks the cells.
 template <typename T, typename K, bool Listed = false>
-struct BoundaryPressureEvaluator;
-
-/// Whether the walls' pass finds any fluid candidate for boundary particle k at xb: its listed
-/// fluid where its row is complete (Listed), else the cells around it where `near` says some
-/// fluid is. Where it finds none the pass writes the dry values (p 0, the wall's velocity),
-/// which change only when the lists or `near` do (at a sort).
-template <typename T, bool Listed>
-KF_HD KF_INLINE bool wall_has_candidates(const ListView<T>& walls, const CellView<T>& cells,
-                                         const std::uint8_t* near, std::size_t k,
-                                         const Vec3<T>& xb) {
-  if constexpr (Listed)
-    if (walls.complete(k))
-      return walls.count[k] > 0;
-  return cells.may_find(near, xb);
-}
-
-/// flag[k] = 1 where the walls' pass finds fluid candidates for boundary particle k.
-template <typename T, bool Listed>
-struct WetWallFlags {
-  const Vec3<T>* x;
-  CellView<T> cells;
-  const std::uint8_t* near;
-  ListView<T> walls;
-  std::uint32_t* flag;
-  KF_HD KF_INLINE void operator()(std::size_t k) const {
-    flag[k] = wall_has_candidates<T, Listed>(walls, cells, near, k, x[k]) ? 1u : 0u;
-  }
-};
-
-template <typename T, typename K, bool Listed>
 struct BoundaryPressureEvaluator {
   K kernel;
   SphParams<T> prm;
