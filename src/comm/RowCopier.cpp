@@ -27,11 +27,6 @@ void RowCopier::do_gather(std::span<const Column> cols, std::span<const RowList>
     gather_one(cols, rows_of(lists[k]), outs[k]);
 }
 
-void RowCopier::do_gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                                  unsigned char* out) {
-  gather_one(cols, rows, out);
-}
-
 void RowCopier::do_scatter(std::span<const Column> cols, const RowList& slots,
                            std::span<const std::size_t> counts,
                            std::span<const unsigned char* const> ins) {
@@ -165,11 +160,6 @@ void RowCopier::scatter(std::span<const Column> cols, const RowList& slots,
                         std::span<const unsigned char* const> ins) {
   const AddTime t{seconds_};
   do_scatter(cols, slots, counts, ins);
-}
-void RowCopier::gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                               unsigned char* out) {
-  const AddTime t{seconds_};
-  do_gather_to_host(cols, rows, out);
 }
 void RowCopier::remove(std::span<const Column> cols, std::size_t n,
                        std::span<const std::uint32_t> gone) {

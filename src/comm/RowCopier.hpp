@@ -65,10 +65,6 @@ public:
   /// The same into the rows slots[o_k ..] where o_k is the sum of the counts before k.
   void scatter(std::span<const Column> cols, const RowList& slots,
                std::span<const std::size_t> counts, std::span<const unsigned char* const> ins);
-  /// One message of the rows `rows`, packed as gather packs, into host memory whatever memory
-  /// the messages live in (lists of indices that the host keeps).
-  void gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                      unsigned char* out);
   /// Of rows 0 .. n - 1 of each column, the rows `gone` (ascending) are removed and the others
   /// close up to rows 0, 1, ... in order: only the leavers' indices are passed, so a device
   /// backend finds the rows that stay where they are.
@@ -118,8 +114,6 @@ protected:
   virtual void do_rows_to_host(const RowList& list);
   virtual void do_copy_rows(const RowList& list, std::uint32_t* out);
   virtual RowList do_adopt(const std::uint32_t* rows, std::size_t n);
-  virtual void do_gather_to_host(std::span<const Column> cols, std::span<const std::uint32_t> rows,
-                                 unsigned char* out);
 
 private:
   double seconds_ = 0;

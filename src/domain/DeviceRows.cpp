@@ -155,19 +155,6 @@ void DeviceRows::do_gather(std::span<const comm::Column> cols, std::span<const c
                          batch_[k].n * row);
 }
 
-void DeviceRows::do_gather_to_host(std::span<const comm::Column> cols,
-                                   std::span<const std::uint32_t> rows, unsigned char* out) {
-  const std::size_t bytes = rows.size() * comm::row_bytes(cols);
-  if (bytes == 0)
-    return;
-  rows_.assign(rows.data(), rows.size());
-  packed_.resize(bytes);
-  const auto& c = columns(cols);
-  exec::gather_columns({backend_}, packed_.data(), c.data(), c.size(), rows_.data(), rows.size(),
-                       "ranks.pack");
-  exec::copy_bytes(out, exec::Backend::Cpu, packed_.data(), backend_, bytes);
-}
-
 void DeviceRows::do_scatter(std::span<const comm::Column> cols, const comm::RowList& slots,
                             std::span<const std::size_t> counts,
                             std::span<const unsigned char* const> ins) {

@@ -32,8 +32,6 @@ protected:
   std::size_t do_keep_flagged(std::span<const comm::Column> cols, std::size_t n,
                               const std::uint32_t* keep) override;
   unsigned char* do_message(std::size_t slot, std::size_t bytes) override;
-  void do_gather_to_host(std::span<const comm::Column> cols, std::span<const std::uint32_t> rows,
-                         unsigned char* out) override;
   // The lists' copies mapped, filled and read on the device (a rebuild's lists never cross the
   // bus: P9, the halo's remap after each sort went through the host).
   void do_remap(comm::RowList& list, comm::Column new_of_old) override;
