@@ -8,6 +8,7 @@
 #include <cstring>
 
 #if defined(KF_WITH_CUDA)
+#include "comm/IpcTransport.hpp"
 #include "comm/NcclTransport.hpp"
 
 #include <cuda_runtime.h>
@@ -56,15 +57,18 @@ std::string_view to_string(TransportKind k) {
     return "mpi";
   case TransportKind::Nccl:
     return "nccl";
+  case TransportKind::Ipc:
+    return "ipc";
   }
   return "?";
 }
 
 TransportKind parse_transport_kind(std::string_view text) {
-  for (TransportKind k : {TransportKind::Auto, TransportKind::Mpi, TransportKind::Nccl})
+  for (TransportKind k :
+       {TransportKind::Auto, TransportKind::Mpi, TransportKind::Nccl, TransportKind::Ipc})
     if (text == to_string(k))
       return k;
-  throw Error("unknown transport '" + std::string(text) + "': expected auto, mpi or nccl");
+  throw Error("unknown transport '" + std::string(text) + "': expected auto, mpi, nccl or ipc");
 }
 
 // ---- Transport ----------------------------------------------------------------------------------
@@ -216,6 +220,32 @@ void Transport::post_and_wait(std::span<const SendBuffer> sends,
     throw Error(who + ": waiting: " + mpi_error_string(rc));
 }
 
+std::vector<std::pair<const SendBuffer*, const RecvBuffer*>>
+Transport::self_messages(std::span<const SendBuffer> sends,
+                         std::span<const RecvBuffer> receives) const {
+  std::vector<const SendBuffer*> out;
+  std::vector<const RecvBuffer*> in;
+  for (const SendBuffer& s : sends)
+    if (s.peer == rank_)
+      out.push_back(&s);
+  for (const RecvBuffer& r : receives)
+    if (r.peer == rank_)
+      in.push_back(&r);
+  const std::string who = std::string(name()) + " transport on rank " + std::to_string(rank_);
+  if (out.size() != in.size())
+    throw Error(who + ": " + std::to_string(out.size()) + " sends to itself but " +
+                std::to_string(in.size()) + " receives from itself");
+  std::vector<std::pair<const SendBuffer*, const RecvBuffer*>> pairs;
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    if (out[k]->bytes != in[k]->bytes)
+      throw Error(who + ": message " + std::to_string(k) + " to itself sends " +
+                  std::to_string(out[k]->bytes) + " bytes into a receive of " +
+                  std::to_string(in[k]->bytes));
+    pairs.emplace_back(out[k], in[k]);
+  }
+  return pairs;
+}
+
 // ---- factory ------------------------------------------------------------------------------------
 
 namespace {
@@ -276,6 +306,19 @@ std::string nccl_unusable(const MpiContext& ctx, int& device) {
 #endif
 }
 
+/// Why CUDA IPC cannot join this job's ranks ("" if it can): they must all run on one node.
+/// Collective over ctx.
+std::string ipc_unusable(const MpiContext& ctx) {
+  MPI_Comm local;
+  MPI_Comm_split_type(ctx.comm(), MPI_COMM_TYPE_SHARED, ctx.rank(), MPI_INFO_NULL, &local);
+  int local_size = 1;
+  MPI_Comm_size(local, &local_size);
+  MPI_Comm_free(&local);
+  int all_local = local_size == ctx.size(), every = 0;
+  MPI_Allreduce(&all_local, &every, 1, MPI_INT, MPI_MIN, ctx.comm());
+  return every ? "" : "the job's ranks run on more than one node (CUDA IPC joins the GPUs of one)";
+}
+
 } // namespace
 
 std::unique_ptr<Transport> make_transport(const MpiContext& ctx, TransportKind kind,
@@ -283,18 +326,24 @@ std::unique_ptr<Transport> make_transport(const MpiContext& ctx, TransportKind k
   if (kind == TransportKind::Mpi)
     return std::make_unique<MpiTransport>(ctx);
   // `data` and `kind` are the same on every rank (the job's settings), so every rank either
-  // enters the collective check or skips it.
+  // enters the collective checks or skips them.
   int device = -1;
-  const std::string why = data == MemorySpace::Host
-                              ? "the data lives in host memory and NCCL moves device buffers"
-                              : nccl_unusable(ctx, device);
+  std::string why = data == MemorySpace::Host
+                        ? "the data lives in host memory and " + std::string(to_string(kind)) +
+                              " moves device buffers"
+                        : nccl_unusable(ctx, device);
+  if (kind == TransportKind::Ipc && why.empty())
+    why = ipc_unusable(ctx);
   if (why.empty()) {
 #if defined(KF_WITH_CUDA)
+    if (kind == TransportKind::Ipc)
+      return std::make_unique<IpcTransport>(ctx, device, stream);
     return std::make_unique<NcclTransport>(ctx, device, stream);
 #endif
   }
-  if (kind == TransportKind::Nccl)
-    throw Error("transport nccl cannot run here: " + why + "; choose auto or mpi");
+  if (kind == TransportKind::Nccl || kind == TransportKind::Ipc)
+    throw Error("transport " + std::string(to_string(kind)) + " cannot run here: " + why +
+                "; choose auto or mpi");
   return std::make_unique<MpiTransport>(ctx);
 }
 

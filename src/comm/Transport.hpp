@@ -17,6 +17,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 struct CUstream_st; // cudaStream_t without the CUDA headers, so CPU builds never see them
@@ -26,11 +27,11 @@ namespace kf::comm {
 /// Where a transport's buffers must live.
 enum class MemorySpace { Host, Device };
 
-enum class TransportKind { Auto, Mpi, Nccl };
+enum class TransportKind { Auto, Mpi, Nccl, Ipc };
 
 std::string_view to_string(MemorySpace s);
 std::string_view to_string(TransportKind k);
-/// "auto", "mpi" or "nccl"; anything else is a kf::Error naming the choices.
+/// "auto", "mpi", "nccl" or "ipc"; anything else is a kf::Error naming the choices.
 TransportKind parse_transport_kind(std::string_view text);
 
 struct SendBuffer {
@@ -51,7 +52,7 @@ public:
   Transport& operator=(const Transport&) = delete;
   virtual ~Transport();
 
-  /// "mpi" or "nccl".
+  /// "mpi", "nccl" or "ipc".
   virtual std::string_view name() const = 0;
   /// Where the buffers given to start() must live.
   virtual MemorySpace memory_space() const = 0;
@@ -105,6 +106,10 @@ protected:
   /// is a kf::Error beginning with `who`.
   void post_and_wait(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives,
                      int tag, const std::string& who) const;
+  /// The messages this rank sends itself, each with its receive (the k-th send to itself with
+  /// the k-th receive from itself); a count or size that disagrees is a kf::Error.
+  std::vector<std::pair<const SendBuffer*, const RecvBuffer*>>
+  self_messages(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives) const;
 
   virtual void do_start(std::span<const SendBuffer> sends,
                         std::span<const RecvBuffer> receives) = 0;

@@ -64,11 +64,19 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   overlap_ = scene.parallel.overlap;
   // NCCL between device buffers where every rank has a GPU of its own (auto), else MPI through
   // page-locked host memory.
-  const auto kind = scene.parallel.transport == Scene::Parallel::Transport::Mpi
-                        ? comm::TransportKind::Mpi
-                        : (scene.parallel.transport == Scene::Parallel::Transport::Nccl
-                               ? comm::TransportKind::Nccl
-                               : comm::TransportKind::Auto);
+  const auto kind = [&] {
+    switch (scene.parallel.transport) {
+    case Scene::Parallel::Transport::Mpi:
+      return comm::TransportKind::Mpi;
+    case Scene::Parallel::Transport::Nccl:
+      return comm::TransportKind::Nccl;
+    case Scene::Parallel::Transport::Ipc:
+      return comm::TransportKind::Ipc;
+    case Scene::Parallel::Transport::Auto:
+      break;
+    }
+    return comm::TransportKind::Auto;
+  }();
   transport_ = comm::make_transport(mpi, kind,
                                     backend == exec::Backend::Cpu ? comm::MemorySpace::Host
                                                                   : comm::MemorySpace::Device);

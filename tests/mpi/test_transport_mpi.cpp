@@ -351,7 +351,8 @@ TEST(TransportMpi, BadArgumentsAreClearErrors) {
   EXPECT_NE(e.find("1 peers but 0 sizes"), std::string::npos) << e;
   EXPECT_EQ(parse_transport_kind("nccl"), TransportKind::Nccl);
   e = error_of([] { parse_transport_kind("gloo"); });
-  EXPECT_NE(e.find("expected auto, mpi or nccl"), std::string::npos) << e;
+  EXPECT_NE(e.find("expected auto, mpi, nccl or ipc"), std::string::npos) << e;
+  EXPECT_EQ(parse_transport_kind("ipc"), TransportKind::Ipc);
 }
 
 TEST(TransportMpi, FactoryChoosesByBuildAndDevices) {
@@ -364,10 +365,16 @@ TEST(TransportMpi, FactoryChoosesByBuildAndDevices) {
   }
   std::string e = error_of([&] { make_transport(ctx, TransportKind::Nccl, MemorySpace::Host); });
   EXPECT_NE(e.find("host memory"), std::string::npos) << e;
+  e = error_of([&] { make_transport(ctx, TransportKind::Ipc, MemorySpace::Host); });
+  EXPECT_NE(e.find("transport ipc cannot run here: the data lives in host memory"),
+            std::string::npos)
+      << e;
 #if !defined(KF_WITH_CUDA)
   // A CPU build has no NCCL: auto falls back to MPI, and asking for NCCL says why it cannot.
   EXPECT_EQ(make_transport(ctx, TransportKind::Auto, MemorySpace::Device)->name(), "mpi");
   e = error_of([&] { make_transport(ctx, TransportKind::Nccl, MemorySpace::Device); });
+  EXPECT_NE(e.find("no CUDA"), std::string::npos) << e;
+  e = error_of([&] { make_transport(ctx, TransportKind::Ipc, MemorySpace::Device); });
   EXPECT_NE(e.find("no CUDA"), std::string::npos) << e;
 #else
   // Device data: NCCL where every rank has a GPU of its own (whatever is chosen, every rank
@@ -449,3 +456,120 @@ TEST(TransportMpi, MaxInPlaceIsTheJobsLargest) {
   check_max_in_place<double>(*d);
 #endif
 }
+
+#if defined(KF_WITH_CUDA)
+namespace {
+
+/// The transport of `kind` for device data where this job can have it, else null on every rank
+/// (the verdict is collective) with the reason in `why`.
+std::unique_ptr<Transport> device_transport(const MpiContext& ctx, TransportKind kind,
+                                            std::string& why) {
+  std::unique_ptr<Transport> t;
+  why = error_of([&] { t = make_transport(ctx, kind, MemorySpace::Device); });
+  EXPECT_EQ(ctx.min(double(t != nullptr)), ctx.max(double(t != nullptr))) << why;
+  return t;
+}
+
+} // namespace
+
+TEST(TransportMpi, IpcCarriesEveryPatternBetweenGpusOfOneNode) {
+  MpiContext ctx;
+  std::string why;
+  const auto t = device_transport(ctx, TransportKind::Ipc, why);
+  if (!t) {
+    // Only where a rank lacks a GPU of its own (CI: none at all), and saying so.
+    EXPECT_NE(why.find("no GPU of their own"), std::string::npos) << why;
+    GTEST_SKIP() << why;
+  }
+  EXPECT_EQ(t->name(), "ipc");
+  EXPECT_EQ(t->memory_space(), MemorySpace::Device);
+  // Rounds of rings (several messages a pair, in order), all pairs (itself included) and an
+  // exchange with work between start and finish; the sizes change from round to round, so the
+  // inboxes grow (up to 75 kB a message) and are reused.
+  for (int round = 0; round < 4; ++round) {
+    exchange_and_check(*t, ring(ctx.size(), 3, 600 + unsigned(round)), 2 * round);
+    exchange_and_check(*t, all_pairs(ctx.size(), 700 + unsigned(round)), 2 * round + 1, [&] {
+      const std::string e = error_of([&] { t->start({}, {}); });
+      EXPECT_NE(e.find("in flight"), std::string::npos) << e;
+    });
+  }
+  exchange_and_check(*t, {}, 9); // nobody talks
+  check_max_in_place<float>(*t);
+  check_max_in_place<double>(*t);
+  unsigned char host[16] = {};
+  const int peer = (ctx.rank() + 1) % ctx.size();
+  const std::string e = error_of([&] { t->start(std::vector<SendBuffer>{{peer, host, 16}}, {}); });
+  EXPECT_NE(e.find("is host memory"), std::string::npos) << e;
+  EXPECT_FALSE(t->in_flight());
+}
+
+// Many exchanges queued without a host wait between them, as a run's refreshes are: one send and
+// one receive buffer a peer reused by every round, filled and read by work on the legacy default
+// stream only. Each round's message is a byte that names its round and pair, its size changes
+// (the inboxes grow in the middle), and what arrives is copied into a history read once at the
+// end: a message read before it was written, or overwritten before it was read, shows.
+TEST(TransportMpi, DeviceTransportsKeepBackToBackExchangesInOrder) {
+  MpiContext ctx;
+  const int me = ctx.rank(), n = ctx.size();
+  constexpr int kRounds = 48;
+  auto bytes_of = [](int round) { return std::size_t(1000 + (round * 7919) % 60000); };
+  auto byte_of_round = [](int round, int from, int to) {
+    return static_cast<unsigned char>((round * 31 + from * 7 + to * 3) % 251 + 1);
+  };
+  std::vector<int> peers{(me + 1) % n};
+  if ((me + n - 1) % n != peers[0])
+    peers.push_back((me + n - 1) % n);
+  std::size_t largest = 0, history_bytes = 0;
+  std::vector<std::size_t> offset(kRounds);
+  for (int r = 0; r < kRounds; ++r) {
+    largest = std::max(largest, bytes_of(r));
+    offset[std::size_t(r)] = history_bytes;
+    history_bytes += bytes_of(r);
+  }
+  for (TransportKind kind : {TransportKind::Nccl, TransportKind::Ipc}) {
+    std::string why;
+    const auto t = device_transport(ctx, kind, why);
+    if (!t)
+      continue; // the other kind may still run here
+    SCOPED_TRACE(std::string(t->name()));
+    std::vector<unsigned char*> send(peers.size()), recv(peers.size()), history(peers.size());
+    for (std::size_t i = 0; i < peers.size(); ++i) {
+      ASSERT_EQ(cudaMalloc(&send[i], largest), cudaSuccess);
+      ASSERT_EQ(cudaMalloc(&recv[i], largest), cudaSuccess);
+      ASSERT_EQ(cudaMalloc(&history[i], history_bytes), cudaSuccess);
+    }
+    for (int r = 0; r < kRounds; ++r) {
+      std::vector<SendBuffer> sends;
+      std::vector<RecvBuffer> receives;
+      for (std::size_t i = 0; i < peers.size(); ++i) {
+        ASSERT_EQ(
+            cudaMemsetAsync(send[i], byte_of_round(r, me, peers[i]), bytes_of(r), cudaStreamLegacy),
+            cudaSuccess);
+        sends.push_back({peers[i], send[i], bytes_of(r)});
+        receives.push_back({peers[i], recv[i], bytes_of(r)});
+      }
+      t->start(sends, receives);
+      t->finish();
+      for (std::size_t i = 0; i < peers.size(); ++i)
+        ASSERT_EQ(cudaMemcpyAsync(history[i] + offset[std::size_t(r)], recv[i], bytes_of(r),
+                                  cudaMemcpyDeviceToDevice, cudaStreamLegacy),
+                  cudaSuccess);
+    }
+    std::vector<unsigned char> host(history_bytes);
+    for (std::size_t i = 0; i < peers.size(); ++i) {
+      ASSERT_EQ(cudaMemcpy(host.data(), history[i], history_bytes, cudaMemcpyDeviceToHost),
+                cudaSuccess);
+      for (int r = 0; r < kRounds; ++r) {
+        const unsigned char want = byte_of_round(r, peers[i], me);
+        const auto* at = host.data() + offset[std::size_t(r)];
+        const auto wrong =
+            std::count_if(at, at + bytes_of(r), [&](unsigned char b) { return b != want; });
+        EXPECT_EQ(wrong, 0) << "rank " << me << ", from rank " << peers[i] << ", round " << r;
+      }
+      cudaFree(send[i]);
+      cudaFree(recv[i]);
+      cudaFree(history[i]);
+    }
+  }
+}
+#endif
