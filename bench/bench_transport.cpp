@@ -42,7 +42,7 @@ int run(int argc, char** argv) {
   comm::MpiContext mpi;
   CLI::App app{"the device transports' exchange latency (mpiexec -n 2, a GPU a rank)"};
   std::vector<std::size_t> sizes{256, 4096, 65536, 1 << 20, 4 << 20};
-  std::vector<std::string> kinds{"nccl", "ipc"};
+  std::vector<std::string> kinds{"nccl"};
   int repeats = 200;
   app.add_option("--bytes", sizes, "message sizes")->delimiter(',');
   app.add_option("--transports", kinds, "transports to time")->delimiter(',');

@@ -1,19 +1,20 @@
 #!/usr/bin/env bash
-# The device transports side by side on the GPUs of one host, one rank a GPU, after
+# The transports side by side on the GPUs of one host, one rank a GPU (mpi: staged through the
+# host), after
 # `. .devrt/prelude.sh`, from the project root. Parts, any of:
-#   tests   test_transport_mpi on 2 ranks (the ipc and nccl cases run where each rank has a GPU)
+#   tests   test_transport_mpi on 2 ranks (its nccl cases run where each rank has a GPU)
 #   match   the dam break (0.3 s, frames every 0.1 s) on 2 GPUs with each transport: the frames
 #           land in OUTDIR/match_<transport> for jobs/studies/match_runs.py
 #   steady  the dam break at 4M fluid a GPU on 2 GPUs, each transport in turn (REPS rounds,
 #           alternated), runs of 300 and 1,500 steps: the marginal step from the done lines;
 #           DEVICE_PROFILE=1 adds --profile-device (the refreshes' passes and exchanges)
 # Usage: jobs/gpu/p9_transports.sh KNITFLOW OUTDIR PART...
-# TRANSPORTS (default "nccl ipc"), REPS (default 2), THREADS (default 4).
+# TRANSPORTS (default "nccl mpi"), REPS (default 2), THREADS (default 4).
 set -uo pipefail
 exe=$1 out=$2
 shift 2
 mkdir -p "$out/logs"
-transports=${TRANSPORTS:-nccl ipc}
+transports=${TRANSPORTS:-nccl mpi}
 threads=${THREADS:-4}
 prof=()
 [ "${DEVICE_PROFILE:-0}" = 1 ] && prof=(--profile-device)

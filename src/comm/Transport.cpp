@@ -8,7 +8,6 @@
 #include <cstring>
 
 #if defined(KF_WITH_CUDA)
-#include "comm/IpcTransport.hpp"
 #include "comm/NcclTransport.hpp"
 
 #include <cuda_runtime.h>
@@ -57,18 +56,15 @@ std::string_view to_string(TransportKind k) {
     return "mpi";
   case TransportKind::Nccl:
     return "nccl";
-  case TransportKind::Ipc:
-    return "ipc";
   }
   return "?";
 }
 
 TransportKind parse_transport_kind(std::string_view text) {
-  for (TransportKind k :
-       {TransportKind::Auto, TransportKind::Mpi, TransportKind::Nccl, TransportKind::Ipc})
+  for (TransportKind k : {TransportKind::Auto, TransportKind::Mpi, TransportKind::Nccl})
     if (text == to_string(k))
       return k;
-  throw Error("unknown transport '" + std::string(text) + "': expected auto, mpi, nccl or ipc");
+  throw Error("unknown transport '" + std::string(text) + "': expected auto, mpi or nccl");
 }
 
 // ---- Transport ----------------------------------------------------------------------------------
@@ -306,19 +302,6 @@ std::string nccl_unusable(const MpiContext& ctx, int& device) {
 #endif
 }
 
-/// Why CUDA IPC cannot join this job's ranks ("" if it can): they must all run on one node.
-/// Collective over ctx.
-std::string ipc_unusable(const MpiContext& ctx) {
-  MPI_Comm local;
-  MPI_Comm_split_type(ctx.comm(), MPI_COMM_TYPE_SHARED, ctx.rank(), MPI_INFO_NULL, &local);
-  int local_size = 1;
-  MPI_Comm_size(local, &local_size);
-  MPI_Comm_free(&local);
-  int all_local = local_size == ctx.size(), every = 0;
-  MPI_Allreduce(&all_local, &every, 1, MPI_INT, MPI_MIN, ctx.comm());
-  return every ? "" : "the job's ranks run on more than one node (CUDA IPC joins the GPUs of one)";
-}
-
 } // namespace
 
 std::unique_ptr<Transport> make_transport(const MpiContext& ctx, TransportKind kind,
@@ -326,24 +309,18 @@ std::unique_ptr<Transport> make_transport(const MpiContext& ctx, TransportKind k
   if (kind == TransportKind::Mpi)
     return std::make_unique<MpiTransport>(ctx);
   // `data` and `kind` are the same on every rank (the job's settings), so every rank either
-  // enters the collective checks or skips them.
+  // enters the collective check or skips it.
   int device = -1;
-  std::string why = data == MemorySpace::Host
-                        ? "the data lives in host memory and " + std::string(to_string(kind)) +
-                              " moves device buffers"
-                        : nccl_unusable(ctx, device);
-  if (kind == TransportKind::Ipc && why.empty())
-    why = ipc_unusable(ctx);
+  const std::string why = data == MemorySpace::Host
+                              ? "the data lives in host memory and NCCL moves device buffers"
+                              : nccl_unusable(ctx, device);
   if (why.empty()) {
 #if defined(KF_WITH_CUDA)
-    if (kind == TransportKind::Ipc)
-      return std::make_unique<IpcTransport>(ctx, device, stream);
     return std::make_unique<NcclTransport>(ctx, device, stream);
 #endif
   }
-  if (kind == TransportKind::Nccl || kind == TransportKind::Ipc)
-    throw Error("transport " + std::string(to_string(kind)) + " cannot run here: " + why +
-                "; choose auto or mpi");
+  if (kind == TransportKind::Nccl)
+    throw Error("transport nccl cannot run here: " + why + "; choose auto or mpi");
   return std::make_unique<MpiTransport>(ctx);
 }
 

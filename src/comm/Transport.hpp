@@ -27,11 +27,11 @@ namespace kf::comm {
 /// Where a transport's buffers must live.
 enum class MemorySpace { Host, Device };
 
-enum class TransportKind { Auto, Mpi, Nccl, Ipc };
+enum class TransportKind { Auto, Mpi, Nccl };
 
 std::string_view to_string(MemorySpace s);
 std::string_view to_string(TransportKind k);
-/// "auto", "mpi", "nccl" or "ipc"; anything else is a kf::Error naming the choices.
+/// "auto", "mpi" or "nccl"; anything else is a kf::Error naming the choices.
 TransportKind parse_transport_kind(std::string_view text);
 
 struct SendBuffer {
@@ -52,7 +52,7 @@ public:
   Transport& operator=(const Transport&) = delete;
   virtual ~Transport();
 
-  /// "mpi", "nccl" or "ipc".
+  /// "mpi" or "nccl".
   virtual std::string_view name() const = 0;
   /// Where the buffers given to start() must live.
   virtual MemorySpace memory_space() const = 0;

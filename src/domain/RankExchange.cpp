@@ -70,8 +70,6 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
       return comm::TransportKind::Mpi;
     case Scene::Parallel::Transport::Nccl:
       return comm::TransportKind::Nccl;
-    case Scene::Parallel::Transport::Ipc:
-      return comm::TransportKind::Ipc;
     case Scene::Parallel::Transport::Auto:
       break;
     }

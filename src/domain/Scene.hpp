@@ -248,10 +248,9 @@ struct Scene {
     double imbalance = 1.1;
     int check_every = 100;
     // How the ranks' messages move: "auto" (NCCL between device buffers when every rank has a
-    // GPU of its own, else MPI through host memory), "mpi", "nccl" or "ipc" (CUDA IPC copies
-    // between the GPUs of one node, NCCL's all-reduce for the step size); an error where the
-    // chosen one cannot run.
-    enum class Transport { Auto, Mpi, Nccl, Ipc } transport = Transport::Auto;
+    // GPU of its own, else MPI through host memory), "mpi" or "nccl" (an error where it cannot
+    // run).
+    enum class Transport { Auto, Mpi, Nccl } transport = Transport::Auto;
     // The passes whose results refresh ghosts compute the rows their peers receive first, then
     // the rest while the exchange is in flight (false: all rows, then the exchange).
     bool overlap = true;
