@@ -7,15 +7,19 @@ particles plus two halo refreshes at the HBM floor for packing, NVLink/InfiniBan
 assumed 10/20 us latency, with the refreshes hidden behind the interior. P9's runs on 1, 2 and 4
 H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, and the model is now
 
-    T(P, N) = a + b * k * (N + G) + X(P)
+    T(P, N) = k * T1(N + G) + X(P)
 
-  a   the step's fixed cost (launches, host waits, the dt reduction): fitted on one GPU, where
-      T(1, N) = a + b N over the 4M, 8M and 32M dam breaks. It alone is what keeps small ranks
-      from scaling: at 1M particles a GPU it is a third of the step.
-  b   the cost of a particle-step (fluid; the walls' particles ride along), fitted with a.
-  k   the split's inflation of a rank's per-particle cost (1 on one GPU): the passes split into
-      interior and border launches, the rows' lists, the imbalance left by METIS, the ghosts'
-      share of the sort. Fitted on the multi-GPU runs: the mean of (T - a - X) / (b (N + G)).
+  T1  one GPU's step at N fluid particles. Where the measured runs hold one-GPU steps at three or
+      more sizes (docs/data/p9_h200x2_2026-11-30/one_gpu_sizes.csv: 0.25M to 8M on an H200), the
+      curve through them (linear between sizes, the end segments' lines beyond); else
+      T1(N) = a + b N fitted on the one-GPU rows. The curve is what bounds strong scaling: a GPU
+      is less efficient at 1M particles (0.42 ms, 2.4e9 particle-steps/s) than at 8M (2.47 ms,
+      3.2e9), so even a split that costs nothing reaches only T1(8M) / T1(1M) = 5.9x on 8 GPUs
+      ("a free split" in the output). a and b (a fixed cost a step and a particle-step's cost)
+      are printed either way.
+  k   the split's inflation of a rank's step (1 on one GPU): the passes split into interior and
+      border launches, the rows' lists, the imbalance left by METIS, the ghosts' share of the
+      sort. Fitted on the multi-GPU runs: the mean of (T - X) / T1(N + G).
   G   ghosts of a rank: the geometric count (a cube a rank, LAYERS deep on each face, edge and
       corner it shares) times `ghost_factor` (1.3: `knitflow plan --ranks N` on the 4M dam break).
   X   the step's exchanges as they show on rank 0's wall ("split" line: migration, refreshes):
@@ -100,6 +104,13 @@ class Model:
             raise SystemExit("comm_model: the measured runs need 1-GPU and multi-GPU rows")
         # T(1, N) = a + b N
         self.a, self.b = lstsq2([r["fluid"] for r in one], [r["ms_per_step"] * 1e-3 for r in one])
+        # T1: the measured curve where three or more sizes were run (runs of one size averaged)
+        sizes = {}
+        for r in one:
+            sizes.setdefault(round(r["fluid"], -3), []).append(r["ms_per_step"] * 1e-3)
+        self.curve = sorted((n, sum(t) / len(t)) for n, t in sizes.items())
+        if len(self.curve) < 3:
+            self.curve = None
         # X = x0 + x1 peers + bytes / NVLink
         xs, ys = [], []
         for r in many:
@@ -112,9 +123,19 @@ class Model:
         for r in many:
             n = r["fluid"] / r["ranks"]
             g, _ = ghosts(n, r["ranks"], self.gf)
-            ks.append((r["ms_per_step"] * 1e-3 - self.a - self.exchange(n, r["ranks"])) /
-                      (self.b * (n + g)))
+            ks.append((r["ms_per_step"] * 1e-3 - self.exchange(n, r["ranks"])) / self.one_gpu(n + g))
         self.k = sum(ks) / len(ks)
+
+    def one_gpu(self, n):
+        """Seconds a step with n fluid particles on one GPU (T1)."""
+        c = self.curve
+        if not c:
+            return self.a + self.b * n
+        i = 1
+        while i < len(c) - 1 and n > c[i][0]:
+            i += 1
+        (n0, t0), (n1, t1) = c[i - 1], c[i]
+        return t0 + (t1 - t0) * (n - n0) / (n1 - n0)
 
     def exchange(self, n, p):
         if p == 1:
@@ -128,9 +149,9 @@ class Model:
     def step(self, n, p):
         """Seconds a step with n fluid particles a rank on p GPUs."""
         if p == 1:
-            return self.a + self.b * n
+            return self.one_gpu(n)
         g, _ = ghosts(n, p, self.gf)
-        return self.a + self.b * self.k * (n + g) + self.exchange(n, p)
+        return self.k * self.one_gpu(n + g) + self.exchange(n, p)
 
 
 def p5_step(n, p, factor):
@@ -171,8 +192,9 @@ def main():
     rows = read_rows([p for p in a.measured.split(",") if p])
     m = Model(rows, a.ghost_factor)
     print("calibrated: a = %.1f us a step, b = %.3f ns a particle-step (%.3e particle-steps/s), "
-          "k = %.3f, exchanges x0 = %.1f us + %.1f us a peer"
-          % (m.a * 1e6, m.b * 1e9, 1 / m.b, m.k, m.x0 * 1e6, m.x1 * 1e6))
+          "k = %.3f, exchanges x0 = %.1f us + %.1f us a peer; T1 %s"
+          % (m.a * 1e6, m.b * 1e9, 1 / m.b, m.k, m.x0 * 1e6, m.x1 * 1e6,
+             "through %d measured sizes" % len(m.curve) if m.curve else "= a + b N"))
 
     fit = []
     print("\nmeasured against the model (and P5's):")
@@ -210,6 +232,9 @@ def main():
                          "p5_model": v5})
             line.append("P=%d %.2f (%.2f)" % (p, value, v5))
         print("  %-14s %s" % (name, "  ".join(line)))
+        if name.startswith("strong"):
+            print("  %-14s %s" % ("  a free split", "  ".join(
+                "P=%d %.2f" % (p, m.one_gpu(n_of(1)) / m.one_gpu(n_of(p))) for p in ps)))
     keys = ["case", "gpus", "particles_per_gpu", "step_ms", "exchange_ms", "efficiency", "speedup", "p5_model"]
     with open(os.path.join(a.out, "comm_model.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys)
@@ -232,7 +257,7 @@ def main():
         base = [f for f in meas if f["gpus"] == 1][0]
         ax[0].plot([f["gpus"] for f in meas],
                    [base["measured_ms"] / f["measured_ms"] * (f["fluid"] / f["gpus"]) / base["fluid"] for f in meas],
-                   "o", color="C0", label="measured (H100 x4, NCCL)")
+                   "o", color="C0", label="measured")
     ax[0].axhline(0.9, color="grey", lw=0.5)
     ax[0].axhline(0.85, color="grey", lw=0.5, ls="--")
     ax[0].set(xscale="log", xlabel="GPUs", ylabel="weak-scaling efficiency (4M fluid a GPU)", ylim=(0.3, 1.05))
@@ -241,6 +266,9 @@ def main():
         c = "C%d" % (i + 1)
         ax[1].plot(ps, [r["speedup"] for r in st], "-", color=c, label=name + " model")
         ax[1].plot(ps, [r["p5_model"] for r in st], ":", color=c, label=name + " P5's model")
+        n_of = dict(cases)[name]
+        ax[1].plot(ps, [m.one_gpu(n_of(1)) / m.one_gpu(n_of(p)) for p in ps], "--", color=c, lw=0.8,
+                   label=name + ", a free split")
         meas = [f for f in fit if f["series"] == name]
         if meas:
             base = [f for f in meas if f["gpus"] == 1][0]
@@ -251,7 +279,7 @@ def main():
     for x in ax:
         x.legend(fontsize=7)
         x.grid(alpha=0.3)
-    fig.suptitle("knitflow dam break on P H100s: measured (1-4) and the calibrated model (NVLink within 8, NDR between)")
+    fig.suptitle("knitflow dam break on P GPUs: measured and the calibrated model (NVLink within 8, NDR between)")
     fig.tight_layout()
     fig.savefig(os.path.join(a.out, "comm_model.png"), dpi=120)
     print("wrote", os.path.join(a.out, "comm_model.csv"))
