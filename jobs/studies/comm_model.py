@@ -12,11 +12,13 @@ H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, a
   T1  one GPU's step at N fluid particles. Where the measured runs hold one-GPU steps at three or
       more sizes (docs/data/p9_h200x2_2026-11-30/one_gpu_sizes.csv: 0.25M to 8M on an H200), the
       curve through them (linear between sizes, the end segments' lines beyond); else
-      T1(N) = a + b N fitted on the one-GPU rows. The curve is what bounds strong scaling: a GPU
-      is less efficient at 1M particles (0.42 ms, 2.4e9 particle-steps/s) than at 8M (2.47 ms,
-      3.2e9), so even a split that costs nothing reaches only T1(8M) / T1(1M) = 5.9x on 8 GPUs
-      ("a free split" in the output). a and b (a fixed cost a step and a particle-step's cost)
-      are printed either way.
+      T1(N) = a + b N fitted on the one-GPU rows. A particle-step costs more in the smaller dam
+      breaks (1M: 0.42 ms, 2.4e9 particle-steps/s; 8M: 2.47 ms, 3.2e9): the GPU's tails and
+      fixed work, and the coarser tank's walls (twice the walls a fluid particle at 1M). "A free
+      split" in the output is T1(N) / T1(N / P), what a split costing nothing would reach if its
+      pieces ran at the smaller dam breaks' rate: pessimistic, as a piece of the big tank has
+      the big tank's walls a particle (k < 1 on the H200 runs). a and b (a fixed cost a step and
+      a particle-step's cost) are printed either way.
   k   the split's inflation of a rank's step (1 on one GPU): the passes split into interior and
       border launches, the rows' lists, the imbalance left by METIS, the ghosts' share of the
       sort. Fitted on the multi-GPU runs: the mean of (T - X) / T1(N + G).
