@@ -310,7 +310,7 @@ void RankExchange<T>::remap(comm::HaloExchange& halo, const exec::DeviceBuffer<s
 template <typename T>
 void RankExchange<T>::all_owned() {
   keep_.resize(fluid_owned_);
-  flag_below({backend_}, nullptr, fluid_owned_, fluid_owned_, keep_.data());
+  exec::fill_flags({backend_}, keep_.data(), fluid_owned_, 1u, "ranks.owned");
   fluid_split_.current = false;
 }
 
@@ -456,7 +456,7 @@ RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& h
   alive_.resize(rows_now);
   exec::copy_bytes(alive_.data(), backend_, leaving.leaving.keep, backend_,
                    n * sizeof(std::uint32_t));
-  flag_below(ex, nullptr, rows_now - n, rows_now - n, alive_.data() + n);
+  exec::fill_flags(ex, alive_.data() + n, rows_now - n, 1u, "ranks.alive");
   // The ghosts: every owned particle within the support of another rank's region goes there.
   part_now.emplace("grid.fluid: the ghosts chosen (N ranks)");
   auto gl = select_.ghost_rows(fluid.x, rows_now, fluid_width_, rows(), alive_.data());
@@ -470,7 +470,7 @@ RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& h
                                column(fluid.drho_prev), column(fluid.id)};
   fluid_halo_->exchange(cols, rows_now);
   alive_.resize(total);
-  flag_below(ex, nullptr, received, received, alive_.data() + rows_now);
+  exec::fill_flags(ex, alive_.data() + rows_now, received, 1u, "ranks.alive");
   // Until the sort: the rows before the ghosts (the dropped among them) count as owned.
   fluid_owned_ = rows_now;
   keep_.resize(total);

@@ -114,19 +114,6 @@ std::vector<int> RankSelector<T>::choose_ghosts(const exec::DeviceBuffer<Vec3<T>
 }
 
 template <typename T>
-GhostLists RankSelector<T>::ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n,
-                                   double width) {
-  GhostLists g;
-  std::vector<std::vector<std::uint32_t>> send;
-  g.peers =
-      choose_ghosts(x, n, width, nullptr, [&](std::size_t, const std::uint32_t*, std::size_t k) {
-        send.push_back(indices(k));
-      });
-  g.send = std::move(send);
-  return g;
-}
-
-template <typename T>
 typename RankSelector<T>::GhostRows
 RankSelector<T>::ghost_rows(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width,
                             comm::RowCopier& rows, const std::uint32_t* alive) {

@@ -36,10 +36,9 @@ public:
                         std::size_t n, const Vec3<T>& lo, const Vec3<T>& hi,
                         const std::array<bool, 6>& walls, const std::uint32_t* owned = nullptr);
   /// For the first n positions (owned by this rank): the local indices each neighbouring rank
-  /// needs as ghosts, those within `width` of its blocks (select_ghosts' lists, ascending).
-  GhostLists ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width);
-  /// The same lists held by `rows` (a device copier keeps them on the device: P9, their trip
-  /// through the host at every rebuild).
+  /// needs as ghosts, those within `width` of its blocks (select_ghosts' lists, ascending), held
+  /// by `rows` (a device copier keeps them on the device: P9, their trip through the host at
+  /// every rebuild; `rows.rows_of` brings one to the host).
   struct GhostRows {
     std::vector<int> peers;
     std::vector<comm::RowList> send;

@@ -160,15 +160,20 @@ struct SetAt {
 
 } // namespace
 
+void fill_flags(const Exec& ex, std::uint32_t* flags, std::size_t n, std::uint32_t value,
+                const char* label) {
+  for_each(ex, n, FillWith<std::uint32_t>{flags, value}, label);
+}
+
 void flag_all_but(const Exec& ex, std::uint32_t* flags, std::size_t n, const std::uint32_t* gone,
                   std::size_t n_gone, const char* label) {
-  for_each(ex, n, FillWith<std::uint32_t>{flags, 1u}, label);
+  fill_flags(ex, flags, n, 1u, label);
   set_listed(ex, flags, gone, n_gone, 0u, label);
 }
 
 void flag_only(const Exec& ex, std::uint32_t* flags, std::size_t n, const std::uint32_t* rows,
                std::size_t count, const char* label) {
-  for_each(ex, n, FillWith<std::uint32_t>{flags, 0u}, label);
+  fill_flags(ex, flags, n, 0u, label);
   set_listed(ex, flags, rows, count, 1u, label);
 }
 

@@ -50,6 +50,9 @@ void gather_messages(const Exec& ex, const RowColumn* cols, std::size_t n_cols,
 void scatter_messages(const Exec& ex, const RowColumn* cols, std::size_t n_cols,
                       const RowMessage* messages, std::size_t n_messages, const char* label);
 
+/// flags[i] = value for i < n.
+void fill_flags(const Exec& ex, std::uint32_t* flags, std::size_t n, std::uint32_t value,
+                const char* label);
 /// flags[rows[k]] = value for k < count (rows may repeat).
 void set_listed(const Exec& ex, std::uint32_t* flags, const std::uint32_t* rows, std::size_t count,
                 std::uint32_t value, const char* label);
