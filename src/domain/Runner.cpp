@@ -311,8 +311,11 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
                mpi.comm());
     return most;
   };
-  if (opt.profile_device && mpi.size() > 1)
+  if (opt.profile_device && mpi.size() > 1) {
     sum.device_seconds_slowest = slowest(&Pipeline::Stage::device_seconds);
+    MPI_Reduce(sum.split.refresh_pass_device.data(), sum.refresh_pass_slowest.data(), 3, MPI_DOUBLE,
+               MPI_MAX, 0, mpi.comm());
+  }
   if (opt.profile && mpi.size() > 1)
     sum.stage_seconds_slowest = slowest(&Pipeline::Stage::seconds);
   return sum;
@@ -376,6 +379,13 @@ std::string format_summary(const RunSummary& s) {
                     "%.3f + %.3f s, walls %.3f + %.3f s, forces %.3f + %.3f s\n",
                     p[0], x[0], p[1], x[1], p[2], x[2]);
       o << buf;
+      if (const auto& q = s.refresh_pass_slowest; q[0] + q[1] + q[2] > 0) {
+        std::snprintf(buf, sizeof buf,
+                      "  the slowest rank's passes (an exchange waits for them): density %.3f s, "
+                      "walls %.3f s, forces %.3f s\n",
+                      q[0], q[1], q[2]);
+        o << buf;
+      }
     }
   }
   if (d.knit) {

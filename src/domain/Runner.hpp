@@ -7,6 +7,7 @@
 #include "domain/Simulation.hpp"
 #include "kernels/exec/Backend.hpp"
 
+#include <array>
 #include <iosfwd>
 #include <string>
 #include <vector>
@@ -51,6 +52,10 @@ struct RunSummary {
   std::vector<double> stage_seconds_slowest;  // each stage's largest time over the ranks (rank 0,
                                               // N ranks, profiled)
   std::vector<double> device_seconds_slowest; // the same for the device spans (--profile-device)
+  // Each refresh's pass on the slowest rank (rank 0, N ranks, --profile-device): an exchange
+  // waits for the slowest rank's pass, so rank 0's exchange is that minus its own pass plus the
+  // transfer.
+  std::array<double, 3> refresh_pass_slowest{};
 };
 
 RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,
