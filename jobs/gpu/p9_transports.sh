@@ -1,7 +1,6 @@
 #!/usr/bin/env bash
 # The transports side by side on the GPUs of one host, one rank a GPU (mpi: staged through the
-# host), after
-# `. .devrt/prelude.sh`, from the project root. Parts, any of:
+# host), after `. .devrt/prelude.sh`, from the project root. Parts, any of:
 #   tests   test_transport_mpi on 2 ranks (its nccl cases run where each rank has a GPU)
 #   match   the dam break (0.3 s, frames every 0.1 s) on 2 GPUs with each transport: the frames
 #           land in OUTDIR/match_<transport> for jobs/studies/match_runs.py

@@ -216,32 +216,6 @@ void Transport::post_and_wait(std::span<const SendBuffer> sends,
     throw Error(who + ": waiting: " + mpi_error_string(rc));
 }
 
-std::vector<std::pair<const SendBuffer*, const RecvBuffer*>>
-Transport::self_messages(std::span<const SendBuffer> sends,
-                         std::span<const RecvBuffer> receives) const {
-  std::vector<const SendBuffer*> out;
-  std::vector<const RecvBuffer*> in;
-  for (const SendBuffer& s : sends)
-    if (s.peer == rank_)
-      out.push_back(&s);
-  for (const RecvBuffer& r : receives)
-    if (r.peer == rank_)
-      in.push_back(&r);
-  const std::string who = std::string(name()) + " transport on rank " + std::to_string(rank_);
-  if (out.size() != in.size())
-    throw Error(who + ": " + std::to_string(out.size()) + " sends to itself but " +
-                std::to_string(in.size()) + " receives from itself");
-  std::vector<std::pair<const SendBuffer*, const RecvBuffer*>> pairs;
-  for (std::size_t k = 0; k < out.size(); ++k) {
-    if (out[k]->bytes != in[k]->bytes)
-      throw Error(who + ": message " + std::to_string(k) + " to itself sends " +
-                  std::to_string(out[k]->bytes) + " bytes into a receive of " +
-                  std::to_string(in[k]->bytes));
-    pairs.emplace_back(out[k], in[k]);
-  }
-  return pairs;
-}
-
 // ---- factory ------------------------------------------------------------------------------------
 
 namespace {

@@ -17,7 +17,6 @@
 #include <span>
 #include <string>
 #include <string_view>
-#include <utility>
 #include <vector>
 
 struct CUstream_st; // cudaStream_t without the CUDA headers, so CPU builds never see them
@@ -106,10 +105,6 @@ protected:
   /// is a kf::Error beginning with `who`.
   void post_and_wait(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives,
                      int tag, const std::string& who) const;
-  /// The messages this rank sends itself, each with its receive (the k-th send to itself with
-  /// the k-th receive from itself); a count or size that disagrees is a kf::Error.
-  std::vector<std::pair<const SendBuffer*, const RecvBuffer*>>
-  self_messages(std::span<const SendBuffer> sends, std::span<const RecvBuffer> receives) const;
 
   virtual void do_start(std::span<const SendBuffer> sends,
                         std::span<const RecvBuffer> receives) = 0;

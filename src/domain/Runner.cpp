@@ -313,8 +313,9 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
   };
   if (opt.profile_device && mpi.size() > 1) {
     sum.device_seconds_slowest = slowest(&Pipeline::Stage::device_seconds);
-    MPI_Reduce(sum.split.refresh_pass_device.data(), sum.refresh_pass_slowest.data(), 3, MPI_DOUBLE,
-               MPI_MAX, 0, mpi.comm());
+    MPI_Reduce(sum.split.refresh_pass_device.data(), sum.refresh_pass_slowest.data(),
+               static_cast<int>(sum.refresh_pass_slowest.size()), MPI_DOUBLE, MPI_MAX, 0,
+               mpi.comm());
   }
   if (opt.profile && mpi.size() > 1)
     sum.stage_seconds_slowest = slowest(&Pipeline::Stage::seconds);

@@ -55,7 +55,7 @@ struct RunSummary {
   // Each refresh's pass on the slowest rank (rank 0, N ranks, --profile-device): an exchange
   // waits for the slowest rank's pass, so rank 0's exchange is that minus its own pass plus the
   // transfer.
-  std::array<double, 3> refresh_pass_slowest{};
+  decltype(Simulation::RankReport::refresh_pass_device) refresh_pass_slowest{};
 };
 
 RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,

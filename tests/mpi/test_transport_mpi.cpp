@@ -493,45 +493,43 @@ TEST(TransportMpi, NcclKeepsBackToBackExchangesInOrder) {
   const auto t = device_transport(ctx, TransportKind::Nccl, why);
   if (!t)
     GTEST_SKIP() << why; // no GPU a rank here (CI)
-  {
-    std::vector<unsigned char*> send(peers.size()), recv(peers.size()), history(peers.size());
+  std::vector<unsigned char*> send(peers.size()), recv(peers.size()), history(peers.size());
+  for (std::size_t i = 0; i < peers.size(); ++i) {
+    ASSERT_EQ(cudaMalloc(&send[i], largest), cudaSuccess);
+    ASSERT_EQ(cudaMalloc(&recv[i], largest), cudaSuccess);
+    ASSERT_EQ(cudaMalloc(&history[i], history_bytes), cudaSuccess);
+  }
+  for (int r = 0; r < kRounds; ++r) {
+    std::vector<SendBuffer> sends;
+    std::vector<RecvBuffer> receives;
     for (std::size_t i = 0; i < peers.size(); ++i) {
-      ASSERT_EQ(cudaMalloc(&send[i], largest), cudaSuccess);
-      ASSERT_EQ(cudaMalloc(&recv[i], largest), cudaSuccess);
-      ASSERT_EQ(cudaMalloc(&history[i], history_bytes), cudaSuccess);
+      ASSERT_EQ(
+          cudaMemsetAsync(send[i], byte_of_round(r, me, peers[i]), bytes_of(r), cudaStreamLegacy),
+          cudaSuccess);
+      sends.push_back({peers[i], send[i], bytes_of(r)});
+      receives.push_back({peers[i], recv[i], bytes_of(r)});
     }
-    for (int r = 0; r < kRounds; ++r) {
-      std::vector<SendBuffer> sends;
-      std::vector<RecvBuffer> receives;
-      for (std::size_t i = 0; i < peers.size(); ++i) {
-        ASSERT_EQ(
-            cudaMemsetAsync(send[i], byte_of_round(r, me, peers[i]), bytes_of(r), cudaStreamLegacy),
-            cudaSuccess);
-        sends.push_back({peers[i], send[i], bytes_of(r)});
-        receives.push_back({peers[i], recv[i], bytes_of(r)});
-      }
-      t->start(sends, receives);
-      t->finish();
-      for (std::size_t i = 0; i < peers.size(); ++i)
-        ASSERT_EQ(cudaMemcpyAsync(history[i] + offset[std::size_t(r)], recv[i], bytes_of(r),
-                                  cudaMemcpyDeviceToDevice, cudaStreamLegacy),
-                  cudaSuccess);
-    }
-    std::vector<unsigned char> host(history_bytes);
-    for (std::size_t i = 0; i < peers.size(); ++i) {
-      ASSERT_EQ(cudaMemcpy(host.data(), history[i], history_bytes, cudaMemcpyDeviceToHost),
+    t->start(sends, receives);
+    t->finish();
+    for (std::size_t i = 0; i < peers.size(); ++i)
+      ASSERT_EQ(cudaMemcpyAsync(history[i] + offset[std::size_t(r)], recv[i], bytes_of(r),
+                                cudaMemcpyDeviceToDevice, cudaStreamLegacy),
                 cudaSuccess);
-      for (int r = 0; r < kRounds; ++r) {
-        const unsigned char want = byte_of_round(r, peers[i], me);
-        const auto* at = host.data() + offset[std::size_t(r)];
-        const auto wrong =
-            std::count_if(at, at + bytes_of(r), [&](unsigned char b) { return b != want; });
-        EXPECT_EQ(wrong, 0) << "rank " << me << ", from rank " << peers[i] << ", round " << r;
-      }
-      cudaFree(send[i]);
-      cudaFree(recv[i]);
-      cudaFree(history[i]);
+  }
+  std::vector<unsigned char> host(history_bytes);
+  for (std::size_t i = 0; i < peers.size(); ++i) {
+    ASSERT_EQ(cudaMemcpy(host.data(), history[i], history_bytes, cudaMemcpyDeviceToHost),
+              cudaSuccess);
+    for (int r = 0; r < kRounds; ++r) {
+      const unsigned char want = byte_of_round(r, peers[i], me);
+      const auto* at = host.data() + offset[std::size_t(r)];
+      const auto wrong =
+          std::count_if(at, at + bytes_of(r), [&](unsigned char b) { return b != want; });
+      EXPECT_EQ(wrong, 0) << "rank " << me << ", from rank " << peers[i] << ", round " << r;
     }
+    cudaFree(send[i]);
+    cudaFree(recv[i]);
+    cudaFree(history[i]);
   }
 }
 #endif
