@@ -136,9 +136,13 @@ struct Fixture {
 
 /// Where the knit is when the forces are taken, against where its grid was sorted (begin_step).
 enum class Motion {
-  None,       // where begin_step saw it
-  WithinSkin, // every point moved less than the skin: the kept grid and near flags still hold
-  PastSkin,   // some points moved past the skin, no sort: the fluid side sums over all points
+  None,         // where begin_step saw it
+  WithinSkin,   // every point moved less than the skin: the kept grid and near flags still hold
+  PastListSkin, // every point moved 1.5-2.9 skins: past the lists' reach, within the cells'
+                // margin (3 skins): the fluid side walks its cells, the knit side the fluid's
+  PastMargin,   // every point moved 3.1-4 skins: a walk of the cells may miss a pair
+  PastSkin,     // some points moved past the cells' margin, no sort: the fluid side sums over
+                // all points
 };
 
 template <typename T>
@@ -155,6 +159,10 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
       const Vec3d dir = r * (1 / norm(r));
       if (motion == Motion::WithinSkin)
         c.kx[i] += dir * (0.9 * skin * std::abs(u(rng)));
+      else if (motion == Motion::PastListSkin)
+        c.kx[i] += dir * ((1.5 + 1.4 * std::abs(u(rng))) * skin);
+      else if (motion == Motion::PastMargin)
+        c.kx[i] += dir * ((3.1 + 0.9 * std::abs(u(rng))) * skin);
       else if (motion == Motion::PastSkin && i % 7 == 0)
         c.kx[i].x += c.kx[i].x < 0.05 ? 0.04 : -0.04; // 1.7 cells: out of their cells' reach
     }
@@ -402,13 +410,18 @@ TEST(CouplingKernels, OverflowingKnitRowsWalkTheirCellsCuda) {
 TEST(CouplingKernels, KnitMovedWithinSkinKeepsTheGridCpu) {
   check<double>(exec::Backend::Cpu, Motion::WithinSkin);
 }
+TEST(CouplingKernels, KnitMovedPastListSkinWalksTheCellsCpu) {
+  check<double>(exec::Backend::Cpu, Motion::PastListSkin);
+}
 TEST(CouplingKernels, KnitMovedPastSkinFallsBackToAllPairsCpu) {
+  check<double>(exec::Backend::Cpu, Motion::PastMargin);
   check<double>(exec::Backend::Cpu, Motion::PastSkin);
 }
 TEST(CouplingKernels, KnitMovedFallsBackToAllPairsCuda) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
   check<float>(exec::Backend::Cuda, Motion::WithinSkin);
+  check<float>(exec::Backend::Cuda, Motion::PastListSkin);
   check<float>(exec::Backend::Cuda, Motion::PastSkin);
 }
 

@@ -78,9 +78,11 @@ bool excluded(const Cloud& c, std::size_t i, std::size_t j, const SelfContactPar
 
 /// Where the points are when the forces are taken, against where the grid was sorted.
 enum class Motion {
-  None,       // sorted where they are
-  WithinSkin, // every point moved less than the skin since the sort: the grid still holds
-  PastSkin,   // some points moved past the skin and no sort followed: the all-pairs fallback
+  None,         // sorted where they are
+  WithinSkin,   // every point moved less than the skin since the sort: the grid still holds
+  PastListSkin, // every point moved 1.2-1.95 skins, no sort: the lists may miss a partner, a
+                // walk of the cells (margin 2 skins) not
+  PastSkin,     // some points moved past the margin and no sort followed: the all-pairs fallback
 };
 
 template <typename T>
@@ -97,6 +99,8 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
       const Vec3d dir = r * (1 / norm(r));
       if (motion == Motion::WithinSkin)
         c.x[i] += dir * (0.9 * skin * std::abs(u(rng)));
+      else if (motion == Motion::PastListSkin)
+        c.x[i] += dir * ((1.2 + 0.75 * std::abs(u(rng))) * skin);
       else if (motion == Motion::PastSkin && i % 10 == 0)
         c.x[i] += dir * (2.5 * skin);
     }
@@ -138,8 +142,9 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
   EXPECT_EQ(sc.sorts(), 1u) << "the forces must come from the grid sorted at the old positions";
   if (motion != Motion::None) {
     sc.sync(ex, set); // reads the watched motion
-    EXPECT_EQ(sc.stale_steps(), motion == Motion::PastSkin ? 1u : 0u);
-    EXPECT_EQ(sc.sorts(), motion == Motion::PastSkin ? 2u : 1u);
+    const bool past = motion == Motion::PastSkin || motion == Motion::PastListSkin;
+    EXPECT_EQ(sc.stale_steps(), past ? 1u : 0u);
+    EXPECT_EQ(sc.sorts(), past ? 2u : 1u);
   }
   const SelfContactStats st = sc.stats(ex, set);
   const auto a = set.a.to_host();
@@ -211,6 +216,9 @@ TEST(SelfContact, OverflowingListsWalkTheirCellsCuda) {
 TEST(SelfContact, MovedWithinSkinKeepsTheGridCpu) {
   check<double>(exec::Backend::Cpu, Motion::WithinSkin);
 }
+TEST(SelfContact, MovedPastListSkinWalksTheCellsCpu) {
+  check<double>(exec::Backend::Cpu, Motion::PastListSkin);
+}
 TEST(SelfContact, MovedPastSkinFallsBackToAllPairsCpu) {
   check<double>(exec::Backend::Cpu, Motion::PastSkin);
 }
@@ -218,6 +226,7 @@ TEST(SelfContact, MovedPastSkinFallsBackToAllPairsCuda) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
   check<float>(exec::Backend::Cuda, Motion::WithinSkin);
+  check<float>(exec::Backend::Cuda, Motion::PastListSkin);
   check<float>(exec::Backend::Cuda, Motion::PastSkin);
 }
 

@@ -131,9 +131,13 @@ struct SortedKnitSide {
 /// Fluid side: impulse_j += weight * (sum over knit points of the pair force on j), for the fluid
 /// particles flagged near the knit (a knit point in their 27 knit-grid cells), over the knit
 /// points listed for j once per step (or its knit-grid cells where its list overflowed). When
-/// the watched knit motion since the grid's sort passed its skin (*moved2 > skin2: the grid, the
-/// flags and the lists may miss a point), every fluid particle sums over all knit points
-/// instead: exact, O(n m), rare.
+/// the watched knit motion since the grid's sort passed its skin (*moved2 > skin2: the lists may
+/// miss a pair) but not the cells' margin (walk2 = (cell - reach)^2: a point within the reach
+/// now was within a cell edge of j where the grid sorted it), j walks its 27 cells, and the
+/// flags still skip exactly the particles with no knit point within reach. Past the margin
+/// (the grid and flags may miss a point) every fluid particle sums over all knit points: exact,
+/// O(n m). The walk's tier matters: the pour's splash outruns the expected motion often enough
+/// that the O(n m) sums were a third of this pass's time (docs/PERFORMANCE.md, P10 stage 8).
 /// Lanes a fluid particle in the coupling's fluid-side passes (its knit list's build, its pair
 /// forces, the absorption's choice): with a knit finer than the fluid a particle meets hundreds
 /// of knit points (a 0.01 m fluid over 128 stitches, a 1.25 mm wicking strip), and one lane's walk
@@ -155,6 +159,7 @@ struct FluidCouplingEvaluator {
   ListView<T> list;          // per fluid particle: knit points (grid order) within reach + skin
   const T* moved2;
   T skin2;
+  T walk2; // (cell - reach)^2: the grid's cells and the near flags hold up to this motion
   std::uint32_t n_knit;
   Vec3<T>* pair_force; // per slot of `list`: the pair's force on j (zero out of reach), kept for
                        // the knit side of the same substep
@@ -162,8 +167,10 @@ struct FluidCouplingEvaluator {
   /// g: the lanes sharing particle j (for_each_lanes): a coarse fluid's particle may meet
   /// hundreds of a fine knit's points, and one lane's walk over them was the pass's latency.
   KF_HD void operator()(std::size_t j, exec::Lanes g = {}) const {
-    const bool stale = !(*moved2 <= skin2);
-    if (!stale && !near[j])
+    const T m2 = *moved2;
+    const bool listed = m2 <= skin2; // NaN: neither
+    const bool walked = m2 <= walk2;
+    if (walked && !near[j])
       return;
     const Vec3<T> xj = f.x[j], vj = f.v[j];
     const T mj = f.m[j], rhoj = f.rho[j];
@@ -177,14 +184,14 @@ struct FluidCouplingEvaluator {
       if (force(i, fij))
         sum += fij;
     };
-    if (!stale && list.complete(j))
+    if (listed && list.complete(j))
       list.for_each_slot(j, g.lane, g.size, [&](std::size_t s, std::uint32_t i) {
         Vec3<T> fij{T(0), T(0), T(0)};
         if (force(i, fij))
           sum += fij;
         pair_force[s] = fij;
       });
-    else if (!stale)
+    else if (walked)
       knit_cells.for_each_candidate(xj, g.lane, g.size, pair);
     else
       for (std::uint32_t i = g.lane; i < n_knit; i += g.size)

@@ -160,7 +160,8 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
         FluidCouplingEvaluator<T, K>{
             k, params_, fluid.f, SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()},
             grid_.view(), weight, impulse_.data(), near_flag_.data(), list_.view(), watch_.moved2(),
-            watch_.skin2(), static_cast<std::uint32_t>(x_.size()), pair_force_.data()},
+            watch_.skin2(), walk_margin() * walk_margin(), static_cast<std::uint32_t>(x_.size()),
+            pair_force_.data()},
         "coupling.fluid");
     auto kv = knit.view();
     kv.n = active(knit);

@@ -112,6 +112,9 @@ public:
   /// two cells a side).
   T cell() const { return cell_; }
   T skin() const { return watch_.skin(); }
+  /// How far the knit may move from where its grid was sorted before a fluid particle's walk of
+  /// its 27 cells may miss a pair: the cell's margin over the reach (three watch skins).
+  T walk_margin() const { return cell_ - coupling_reach(params_); }
   const exec::DeviceBuffer<T>& saturation() const { return saturation_; }
   const exec::DeviceBuffer<T>& fluid_mass() const { return fluid_mass_; }
   std::size_t bytes() const;

@@ -116,11 +116,18 @@ SortedKnitView<T> KnitSelfContact<T>::sorted() const {
 
 template <typename T>
 SelfContactEvaluator<T> KnitSelfContact<T>::evaluator(KnitSet<T>& set) const {
-  return {set.view(),       set.x_rest.data(),
-          set.piece.data(), sorted(),
-          grid_.view(),     params_,
-          list_.view(),     watch_.moved2(),
-          watch_.skin2(),   static_cast<std::uint32_t>(x_.size())};
+  const T margin = cell_ - T(2) * params_.radius; // a walk of the cells holds up to it
+  return {set.view(),
+          set.x_rest.data(),
+          set.piece.data(),
+          sorted(),
+          grid_.view(),
+          params_,
+          list_.view(),
+          watch_.moved2(),
+          watch_.skin2(),
+          margin * margin,
+          static_cast<std::uint32_t>(x_.size())};
 }
 
 template <typename T>

@@ -52,9 +52,11 @@ KF_HD KF_INLINE bool self_contact_allowed(std::uint16_t piece_i, std::uint16_t p
 
 /// a_i += (sum of self-contact forces on i) / m_i for every free point, over the partners listed
 /// at the grid's sort (or its cells where its list overflowed). When the watched motion since
-/// the sort passed its skin (*moved2 > skin2: a list or the grid may miss a point), every point
+/// the sort passed its skin (*moved2 > skin2: a list may miss a partner) but not the cells'
+/// margin (walk2 = (cell - 2R)^2: a partner within 2R of i now was within a cell edge of i's
+/// position now where the grid sorted it), i walks its 27 cells; past the margin every point
 /// sums over all n points instead: exact, O(n^2), and rare (KnitSelfContact::begin_step sorts
-/// ahead of the motion it expects).
+/// ahead of the motion it expects, which a splash can outrun).
 template <typename T>
 struct SelfContactEvaluator {
   KnitView<T> p;
@@ -66,6 +68,7 @@ struct SelfContactEvaluator {
   ListView<T> list; // per point: the allowed partners within a cell edge at the sort
   const T* moved2;
   T skin2;
+  T walk2; // (cell - 2R)^2: the grid's cells hold up to this motion
   std::uint32_t n;
 
   KF_HD void operator()(std::size_t i, exec::Lanes g = {}) const {
@@ -93,9 +96,10 @@ struct SelfContactEvaluator {
       if (self_contact_force(d, vi - s.v[j], mi, s.m[j], params, fij))
         f += fij;
     };
-    if (*moved2 <= skin2 && list.count && list.complete(i))
+    const T m2 = *moved2; // NaN: all pairs
+    if (m2 <= skin2 && list.count && list.complete(i))
       list.for_each_neighbour(i, xi, g.lane, g.size, pair);
-    else if (*moved2 <= skin2)
+    else if (m2 <= walk2)
       cells.for_each_candidate(xi, g.lane, g.size, pair);
     else
       for (std::uint32_t j = g.lane; j < n; j += g.size)
