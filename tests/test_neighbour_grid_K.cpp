@@ -288,8 +288,9 @@ TEST(NeighbourList, MatchesTheCpuListsCuda) {
 // a one-particle walk of the grids done here on the host: the same entries in the same order,
 // fluid then boundary, and each row is the brute-force set within the radius. ~18 points a cell, so
 // a warp's particles span several cells and often two rows of cells. Boundary points fill a floor
-// slab, so rows near it mix both kinds and rows far from it skip the boundary walk.
-template <typename T>
+// slab, so rows near it mix both kinds and rows far from it skip the boundary walk. Warp false:
+// the builder a thread a particle (the GPU's choice for few particles), the same rows.
+template <typename T, bool Warp = true>
 void check_sph_chunk_builder(exec::Backend backend, int span) {
   const double h = 0.1;
   const Vec3d lo{0, 0, 0}, hi{1.0, 0.3, 0.55};
@@ -333,9 +334,11 @@ void check_sph_chunk_builder(exec::Backend backend, int span) {
   const std::size_t n = xf.size();
   const CellView<T> cells = fgrid.view();
   NeighbourList<T> by_chunk(backend);
-  by_chunk.template build_chunked<32>(
+  by_chunk.template build_chunked<Warp ? 32 : 1>(
       ex, n,
-      [&](const ListSink& o) { return SphChunkListBuilder<T>{dxm.data(), cells, b, r2, o, n}; },
+      [&](const ListSink& o) {
+        return SphChunkListBuilder<T, Warp>{dxm.data(), cells, b, r2, o, n};
+      },
       "test.by_chunk");
   // The reference: host grids of the same geometry (the same order as the backend's, checked),
   // each particle walking its own cell rows, fluid then boundary.
@@ -829,6 +832,7 @@ TEST(SphLists, ChunkBuilderEqualsOneParticleWalkCuda) {
     SCOPED_TRACE("cell_span " + std::to_string(span));
     check_sph_chunk_builder<float>(exec::Backend::Cuda, span);
     check_sph_chunk_builder<double>(exec::Backend::Cuda, span);
+    check_sph_chunk_builder<float, false>(exec::Backend::Cuda, span);
   }
 }
 

@@ -128,11 +128,34 @@ struct SpreadDiagonal {
 };
 
 /// The list builder of a build's inputs, for each sink the lists hand it.
-template <typename T, typename Built>
+template <typename T, bool Warp, typename Built>
 auto chunk_builders(const Built& k) {
   return [k](const ListSink& out) {
-    return SphChunkListBuilder<T>{k.f.xm, k.cells, k.b, k.r2, out, k.f.n};
+    return SphChunkListBuilder<T, Warp>{k.f.xm, k.cells, k.b, k.r2, out, k.f.n};
   };
+}
+
+/// Below this many fluid particles a thread builds a particle's row, above it a warp 32 rows
+/// (the same rows; SphChunkListBuilder). One H200, the pour (64,000 fluid, a few thousand
+/// spread over the knit late in the run): a build 447 -> 85 us over the whole run, the run
+/// 14.98 / 15.22 -> 13.91 / 14.05 s; at its start (64k particles in a block) 83 against 91 us,
+/// and a warp's walk of dense rows is what makes the millions' builds fast (P4 stage 8).
+constexpr std::size_t kThreadRowsBelow = 65536;
+
+/// Builds (or starts building) the lists for k's particles.
+template <typename T, typename Lists, typename Built>
+void build_rows(const exec::Exec& ex, Lists& lists, const Built& k, bool wait) {
+  const bool lanes = k.f.n < kThreadRowsBelow;
+  if (wait) {
+    if (lanes)
+      lists.template build_chunked<1>(ex, k.f.n, chunk_builders<T, false>(k), "neighbours.build");
+    else
+      lists.template build_chunked<32>(ex, k.f.n, chunk_builders<T, true>(k), "neighbours.build");
+  } else if (lanes) {
+    lists.template start_chunked<1>(ex, k.f.n, chunk_builders<T, false>(k), "neighbours.build");
+  } else {
+    lists.template start_chunked<32>(ex, k.f.n, chunk_builders<T, true>(k), "neighbours.build");
+  }
 }
 
 template <typename T>
@@ -167,7 +190,7 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
   // appends, 6.6 with this builder and 4-slot groups, 4.2 with 8-slot groups.
   const FluidView<T> fv = f.view(); // xm: FluidSet::reorder wrote it
   built_ = {fv, cells, b, r2};
-  lists_.template start_chunked<32>(ex, n, chunk_builders<T>(built_), "neighbours.build");
+  build_rows<T>(ex, lists_, built_, false);
   if (skin_ > T(0)) {
     x0_.resize(n);
     x0_.copy_from(f.x, n);
@@ -194,7 +217,7 @@ void SphLists<T>::settle(const exec::Exec& ex) {
     return;
   // A row overflowed (the capacity has grown): build again, waiting this time. The gather
   // copies xm still hold the positions of the build (the passes since wrote none).
-  lists_.template build_chunked<32>(ex, built_.f.n, chunk_builders<T>(built_), "neighbours.build");
+  build_rows<T>(ex, lists_, built_, true);
 }
 
 template <typename T>

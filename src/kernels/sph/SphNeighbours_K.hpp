@@ -74,7 +74,11 @@ struct SphList {
 /// candidate (ncu: issue-bound at ~50 instructions a candidate); a warp per cell left most lanes
 /// idle where the fluid thins. Requires the boundary grid of the same geometry as the fluid's, and
 /// x sorted as `cells` describes.
-template <typename T>
+/// Warp false: on the GPU too a thread a particle, each walking its own rows (the same rows, the
+/// CPU's code). A warp's 32 particles scattered over 32 rows of cells walk them one after the
+/// other: the pour's last few thousand particles, spread over the knit, took 823 us a build
+/// with 40 blocks (ncu; 65 us for its first 64k). SphLists picks by the particle count.
+template <typename T, bool Warp = true>
 struct SphChunkListBuilder {
   const Vec4<T>* xm; // fluid (x, m): one 16-byte load a candidate
   CellView<T> cells;
@@ -84,117 +88,120 @@ struct SphChunkListBuilder {
   std::size_t n;
 
   KF_HD void operator()(std::size_t first, exec::Lanes g) const {
-#if defined(__CUDA_ARCH__)
-    constexpr std::uint32_t kStride = 32; // lanes of a warp
-    __shared__ std::uint32_t ring[exec::kChunkBlock * kStageSlots];
-    std::uint32_t* slots = ring + (threadIdx.x / 32u) * (32u * kStageSlots) + (threadIdx.x % 32u);
-    // A warp's ring of 64 kept candidates, (x, y, z, -) each, and their list entries.
-    __shared__ alignas(16) T tiles[exec::kChunkBlock * 2 * 4];
-    __shared__ std::uint32_t tile_entries[exec::kChunkBlock * 2];
-    T* const tiles_of_warp = tiles + (threadIdx.x / 32u) * (64u * 4u);
-    std::uint32_t* const entries_of_warp = tile_entries + (threadIdx.x / 32u) * 64u;
-#else
-    constexpr std::uint32_t kStride = 1;
-    std::uint32_t ring[kStageSlots];
-    std::uint32_t* slots = ring;
-#endif
     const std::size_t i = first + g.lane;
     const bool mine = i < n; // lanes past the end walk along, appending nothing
     const Vec3<T> xi = xm[mine ? i : first].xyz();
     int cx, cy, cz;
     cells.geo.coords(xi, cx, cy, cz);
     const bool near = mine && b.around(xi);
-    StagedRowAppender<kStride> row(out, i, slots);
     // Appends this lane's hits among 32 candidates, entry(k) for candidate k, 16 at a time: the
     // ring holds 7 unwritten entries at most before a push.
-    auto append = [&](std::uint32_t hits, auto&& entry) {
+    auto append_to = [](auto& row, std::uint32_t hits, auto&& entry) {
       row.push_each(hits & 0xFFFFu, entry);
       row.flush();
       row.push_each(hits >> 16, [&](unsigned k) { return entry(16u + k); });
       row.flush();
     };
 #if defined(__CUDA_ARCH__)
-    const T far = T(1e30); // its square overflows a float to infinity: never within the radius
-    // The warp streams the candidates of a row group's rows through a shared ring, keeping
-    // only those within the radius of the box of the taking lanes' points (no lane can hit the
-    // others); each lane tests whole tiles of 32 kept candidates, unrolled. Kept candidates
-    // keep their order, so rows are the one-lane walk's. Why: a warp's union of rows holds
-    // ~1,700 candidates a particle, 62% of them within the radius of its lanes' box. Measured
-    // (H100, the column's whole run): 4% off the build (2.46 against 2.57 ms), ncu 6% fewer
-    // instructions; the pushes and the walk, not the tests, hold most of them.
-    // Kept candidates: those from `tested` on are in the ring, up to `held` (the same on every
-    // lane; `tested` a multiple of 32 but at a row group's end, when both restart at 0).
-    std::uint32_t held = 0, tested = 0;
-    Vec3<T> lo{far, far, far}, hi{-far, -far, -far};
-    // Past the margin, rounding cannot make a candidate outside the box's reach hit a lane.
-    const T reach2 = radius2 * T(1.0001);
-    auto position = [&](const T* tile, std::uint32_t t) {
-      if constexpr (std::is_same_v<T, float>) {
-        const float4 p = reinterpret_cast<const float4*>(tile)[t];
-        return Vec3<T>{p.x, p.y, p.z};
-      } else {
-        return Vec3<T>{tile[4 * t], tile[4 * t + 1], tile[4 * t + 2]};
-      }
-    };
-    // Tests the 32 kept candidates from `tested` on, of which the first `count` are real, and
-    // appends this lane's hits in order.
-    auto test_tile = [&](std::uint32_t count, bool take) {
-      __syncwarp(); // every lane's kept candidate is in the ring
-      const T* tile = tiles_of_warp + 4u * (tested % 64u);
-      const std::uint32_t* entries = entries_of_warp + tested % 64u;
-      std::uint32_t hits = 0;
-      KF_UNROLL
-      for (std::uint32_t t = 0; t < 32; ++t)
-        hits |= (norm2(xi - position(tile, t)) < radius2 ? 1u : 0u) << t;
-      if (count < 32)
-        hits &= (1u << count) - 1u;
-      append(take ? hits : 0u, [&](unsigned k) { return entries[k]; });
-      tested += 32;
-      __syncwarp(); // every lane is done with these 32 before the ring reuses their slots
-    };
-    // Streams the candidates pts[lo, hi) (entries tagged), 32 a step, a lane a candidate, each
-    // loaded one step ahead.
-    auto scan = [&](std::uint32_t from, std::uint32_t to, bool take, std::uint32_t tag,
-                    const auto* pts) {
-      auto fetch = [&](std::uint32_t j) {
-        return j < to ? position_of(pts[j]) : Vec3<T>{far, far, far};
-      };
-      Vec3<T> next = fetch(from + g.lane);
-      for (std::uint32_t base = from; base < to; base += 32) {
-        const Vec3<T> p = next;
-        next = fetch(base + 32 + g.lane);
-        // The distance from p to the box along each axis (0 inside its extent).
-        const T dx = kmax(kmax(lo.x - p.x, p.x - hi.x), T(0)),
-                dy = kmax(kmax(lo.y - p.y, p.y - hi.y), T(0)),
-                dz = kmax(kmax(lo.z - p.z, p.z - hi.z), T(0));
-        const bool keep = dx * dx + dy * dy + dz * dz < reach2; // far is never kept
-        const std::uint32_t kept = g.ballot(keep);
-        if (keep) { // held - tested < 32 before, so the ring's 64 slots hold them all
-          const std::uint32_t t = (held + popcount(kept & ((1u << g.lane) - 1u))) % 64u;
-          tiles_of_warp[4 * t] = p.x;
-          tiles_of_warp[4 * t + 1] = p.y;
-          tiles_of_warp[4 * t + 2] = p.z;
-          entries_of_warp[t] = (base + g.lane) | tag;
+    if constexpr (Warp) {
+      __shared__ std::uint32_t ring[exec::kChunkBlock * kStageSlots];
+      std::uint32_t* slots = ring + (threadIdx.x / 32u) * (32u * kStageSlots) + (threadIdx.x % 32u);
+      // A warp's ring of 64 kept candidates, (x, y, z, -) each, and their list entries.
+      __shared__ alignas(16) T tiles[exec::kChunkBlock * 2 * 4];
+      __shared__ std::uint32_t tile_entries[exec::kChunkBlock * 2];
+      T* const tiles_of_warp = tiles + (threadIdx.x / 32u) * (64u * 4u);
+      std::uint32_t* const entries_of_warp = tile_entries + (threadIdx.x / 32u) * 64u;
+      StagedRowAppender<32> row(out, i, slots);
+      auto append = [&](std::uint32_t hits, auto&& entry) { append_to(row, hits, entry); };
+      const T far = T(1e30); // its square overflows a float to infinity: never within the radius
+      // The warp streams the candidates of a row group's rows through a shared ring, keeping
+      // only those within the radius of the box of the taking lanes' points (no lane can hit the
+      // others); each lane tests whole tiles of 32 kept candidates, unrolled. Kept candidates
+      // keep their order, so rows are the one-lane walk's. Why: a warp's union of rows holds
+      // ~1,700 candidates a particle, 62% of them within the radius of its lanes' box. Measured
+      // (H100, the column's whole run): 4% off the build (2.46 against 2.57 ms), ncu 6% fewer
+      // instructions; the pushes and the walk, not the tests, hold most of them.
+      // Kept candidates: those from `tested` on are in the ring, up to `held` (the same on every
+      // lane; `tested` a multiple of 32 but at a row group's end, when both restart at 0).
+      std::uint32_t held = 0, tested = 0;
+      Vec3<T> lo{far, far, far}, hi{-far, -far, -far};
+      // Past the margin, rounding cannot make a candidate outside the box's reach hit a lane.
+      const T reach2 = radius2 * T(1.0001);
+      auto position = [&](const T* tile, std::uint32_t t) {
+        if constexpr (std::is_same_v<T, float>) {
+          const float4 p = reinterpret_cast<const float4*>(tile)[t];
+          return Vec3<T>{p.x, p.y, p.z};
+        } else {
+          return Vec3<T>{tile[4 * t], tile[4 * t + 1], tile[4 * t + 2]};
         }
-        held += popcount(kept);
-        if (held - tested >= 32)
-          test_tile(32, take);
-      }
-    };
-    // The kept candidates left at the end of a row group's fluid or boundary rows.
-    auto end_scan = [&](bool take) {
-      if (held > tested)
-        test_tile(held - tested, take);
-      held = 0;
-      tested = 0;
-    };
-    // The box of the points of the lanes that take the coming rows' hits.
-    auto box_of = [&](bool take) {
-      lo = g.min_each(take ? xi : Vec3<T>{far, far, far});
-      hi = g.max_each(take ? xi : Vec3<T>{-far, -far, -far});
-    };
-#else
-    // One lane: candidates tested 32 at a time, its hits appended as on the GPU.
+      };
+      // Tests the 32 kept candidates from `tested` on, of which the first `count` are real, and
+      // appends this lane's hits in order.
+      auto test_tile = [&](std::uint32_t count, bool take) {
+        __syncwarp(); // every lane's kept candidate is in the ring
+        const T* tile = tiles_of_warp + 4u * (tested % 64u);
+        const std::uint32_t* entries = entries_of_warp + tested % 64u;
+        std::uint32_t hits = 0;
+        KF_UNROLL
+        for (std::uint32_t t = 0; t < 32; ++t)
+          hits |= (norm2(xi - position(tile, t)) < radius2 ? 1u : 0u) << t;
+        if (count < 32)
+          hits &= (1u << count) - 1u;
+        append(take ? hits : 0u, [&](unsigned k) { return entries[k]; });
+        tested += 32;
+        __syncwarp(); // every lane is done with these 32 before the ring reuses their slots
+      };
+      // Streams the candidates pts[lo, hi) (entries tagged), 32 a step, a lane a candidate, each
+      // loaded one step ahead.
+      auto scan = [&](std::uint32_t from, std::uint32_t to, bool take, std::uint32_t tag,
+                      const auto* pts) {
+        auto fetch = [&](std::uint32_t j) {
+          return j < to ? position_of(pts[j]) : Vec3<T>{far, far, far};
+        };
+        Vec3<T> next = fetch(from + g.lane);
+        for (std::uint32_t base = from; base < to; base += 32) {
+          const Vec3<T> p = next;
+          next = fetch(base + 32 + g.lane);
+          // The distance from p to the box along each axis (0 inside its extent).
+          const T dx = kmax(kmax(lo.x - p.x, p.x - hi.x), T(0)),
+                  dy = kmax(kmax(lo.y - p.y, p.y - hi.y), T(0)),
+                  dz = kmax(kmax(lo.z - p.z, p.z - hi.z), T(0));
+          const bool keep = dx * dx + dy * dy + dz * dz < reach2; // far is never kept
+          const std::uint32_t kept = g.ballot(keep);
+          if (keep) { // held - tested < 32 before, so the ring's 64 slots hold them all
+            const std::uint32_t t = (held + popcount(kept & ((1u << g.lane) - 1u))) % 64u;
+            tiles_of_warp[4 * t] = p.x;
+            tiles_of_warp[4 * t + 1] = p.y;
+            tiles_of_warp[4 * t + 2] = p.z;
+            entries_of_warp[t] = (base + g.lane) | tag;
+          }
+          held += popcount(kept);
+          if (held - tested >= 32)
+            test_tile(32, take);
+        }
+      };
+      // The kept candidates left at the end of a row group's fluid or boundary rows.
+      auto end_scan = [&](bool take) {
+        if (held > tested)
+          test_tile(held - tested, take);
+        held = 0;
+        tested = 0;
+      };
+      // The box of the points of the lanes that take the coming rows' hits.
+      auto box_of = [&](bool take) {
+        lo = g.min_each(take ? xi : Vec3<T>{far, far, far});
+        hi = g.max_each(take ? xi : Vec3<T>{-far, -far, -far});
+      };
+      walk(g, mine, cx, cy, cz, near, scan, end_scan, box_of);
+      if (mine)
+        row.finish();
+      return;
+    }
+#endif
+    // One lane (the CPU; on the GPU a thread a particle, Warp false): candidates tested 32 at a
+    // time, its hits appended as the warp's.
+    std::uint32_t ring[kStageSlots];
+    StagedRowAppender<1> row(out, i, ring);
     auto scan = [&](std::uint32_t from, std::uint32_t to, bool take, std::uint32_t tag,
                     const auto* pts) {
       for (std::uint32_t base = from; base < to; base += 32) {
@@ -202,12 +209,20 @@ struct SphChunkListBuilder {
         for (std::uint32_t t = 0; t < 32 && base + t < to; ++t)
           hits |= (norm2(xi - position_of(pts[base + t])) < radius2 ? 1u : 0u) << t;
         // base + k never carries into the tag: indices stay below 2^31 - 32.
-        append(take ? hits : 0u, [&](unsigned k) { return (base + k) | tag; });
+        append_to(row, take ? hits : 0u, [&](unsigned k) { return (base + k) | tag; });
       }
     };
-    auto end_scan = [](bool) {};
-    auto box_of = [](bool) {};
-#endif
+    walk(
+        g, mine, cx, cy, cz, near, scan, [](bool) {}, [](bool) {});
+    if (mine)
+      row.finish();
+  }
+
+  /// The walk both variants share: the group's lanes whose cells share a row (y, z) take that
+  /// row's cells together, fluid then boundary, until every lane has walked its own.
+  template <typename Scan, typename EndScan, typename BoxOf>
+  KF_HD KF_INLINE void walk(exec::Lanes g, bool mine, int cx, int cy, int cz, bool near,
+                            Scan&& scan, EndScan&& end_scan, BoxOf&& box_of) const {
     bool pending = mine;
     for (unsigned lead = g.first_set(pending); lead < g.size; lead = g.first_set(pending)) {
       // The lanes in the lead lane's row of cells, and the cells along x they span.
@@ -228,8 +243,6 @@ struct SphChunkListBuilder {
       }
       pending = pending && !active;
     }
-    if (mine)
-      row.finish();
   }
 };
 
