@@ -36,6 +36,10 @@ if command -v nvcc >/dev/null 2>&1 || [ -x /usr/local/cuda/bin/nvcc ]; then
   cuda_objects src $(cd src && grep -rl --include='*.cpp' -e KF_WITH_CUDA -e __CUDACC__ . \
     | sed 's|^\./||' | grep -v -e '^kernels/' -e '^comm/')
   cuda_objects apps $(cd apps && grep -l -e KF_WITH_CUDA -e __CUDACC__ ./*.cpp | sed 's|^\./||')
+  # The tests' precompiled header (tests/CMakeLists.txt), which their objects read, built alone:
+  # its target would build the domain library again.
+  make -s -C build/cuda -f tests/CMakeFiles/kf_test_support.dir/build.make \
+    tests/CMakeFiles/kf_test_support.dir/cmake_pch.hxx.gch
   cuda_objects tests $(cd tests && { ls test_*_K.cpp; grep -rl --include='test_*.cpp' \
     -e KF_WITH_CUDA -e __CUDACC__ . | sed 's|^\./||'; } | sort -u)
 fi

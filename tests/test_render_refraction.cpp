@@ -83,7 +83,7 @@ glm::dvec3 sky(const glm::dvec3& d) { // shaders/environment.glsl
   return glm::mix(glm::dvec3(0.86, 0.89, 0.93), glm::dvec3(0.42, 0.58, 0.85), s);
 }
 
-struct Scene {
+struct RefractionScene {
   render::EglContext context{-1};
   render::OffscreenTarget opaque{kSize, kSize}, picture{kSize, kSize};
   render::WaterLayers water{kSize, kSize};
@@ -94,7 +94,7 @@ struct Scene {
   render::ViewMatrices view = render::ViewMatrices::of(camera(), 1.0);
   render::WaterOptics optics{1.333f, render::absorption_for(kTint, kDepth)};
 
-  Scene() {
+  RefractionScene() {
     floor_near.upload(quad(-3, kBorder, -kDepth));
     floor_far.upload(quad(kBorder, 3, -kDepth));
     slab.upload(box({-1, -1, -kDepth}, {1, 1, 0}));
@@ -145,7 +145,7 @@ class RenderRefraction : public ::testing::TestWithParam<bool> {};
 // Mirroring the sky (environment.glsl), or a yellow ceiling far above through the scene's cube
 // map: every reflected ray from the slab's top meets it.
 TEST_P(RenderRefraction, ASlabShowsTheFloorWhereSnellsLawSendsTheRayAbsorbedOnItsWay) {
-  Scene s;
+  RefractionScene s;
   s.mirror_ceiling = GetParam();
   s.draw(true, true, true);
   const auto px = s.resolved();
@@ -205,7 +205,7 @@ INSTANTIATE_TEST_SUITE_P(MirroringTheSkyOrTheScene, RenderRefraction, ::testing:
 // A drop before the background (nothing behind it but the far plane): the ray through its centre
 // meets it head on, passes 2 r of water unbent and brings the background's white, absorbed.
 TEST(RenderWater, ADropBeforeTheBackgroundAbsorbsOverItsDiameter) {
-  Scene s;
+  RefractionScene s;
   render::SurfaceMesh drop;
   const double r = 0.05;
   const int rings = 48, sides = 96;
@@ -255,7 +255,7 @@ TEST(RenderWater, ADropBeforeTheBackgroundAbsorbsOverItsDiameter) {
 }
 
 TEST(RenderWater, TheCompositeOfPartsLayersResolvesToTheWholePicture) {
-  Scene s;
+  RefractionScene s;
   s.draw(true, true, true);
   const auto whole = s.resolved();
   // Three parts: the near floor with the water, the far floor, nothing.

@@ -305,16 +305,26 @@ TEST(Stress, TankAtRestStaysAtRest) {
   check({"tank_rest", {"fluid.spacing=0.01", "simulation.end_time=3.0"}, 0.01, 1.5, 0.06});
 }
 
-// 0.95% at both sizes; the fastest particle after 0.8 s 0.0103 m/s (CI: to 1 s) and 0.027 (full:
-// to 2 s, the ringing after the damping stops at 0.6 s); seeds agree to 5% (two at full size).
+// 0.94% (CI) and 0.95% (full); the fastest particle after 0.8 s 0.0121 m/s (CI: to 1 s) and
+// 0.027 (full: to 2 s, the ringing after the damping stops at 0.6 s); seeds agree to 5% (two at
+// full size). CI's tank is 0.10 m wide, the same column (0.15 m: 0.95%, 0.0103 m/s, 115 s).
 TEST(Stress, WendlandTankFromPerturbedStarts) {
-  check({"wendland_tank", {"simulation.end_time=1.0"}, 0.012, 0.8, {0.015, 0.03}, 1e-3, 2});
+  check({"wendland_tank",
+         {"simulation.end_time=1.0", "domain.max=[0.1, 0.1, 0.3]",
+          "fluid.block.0.max=[0.1, 0.1, 0.25]"},
+         0.012,
+         0.8,
+         {0.015, 0.03},
+         1e-3,
+         2});
 }
 
 // The waves' impacts on the walls (about 1.7 m/s at c = 15: Mach 0.11) compress the fluid; the
 // largest over 100,000 chaotic steps depends on rounding: 14.3% on the CPU, 17.7% on an H200.
-TEST(Stress, LongRunOfAHundredThousandSteps) {
-  check({"long_run", {}, 0.2});
+// CI runs the first 50,000 (55 s on one core): the CPU's largest, 14.3%, and its energy, 0.949 of
+// the budget, are reached within them (measured: the same at 50,000 and 100,000 steps).
+TEST(Stress, LongRunOfFiftyThousandStepsAndAHundredAtFullSize) {
+  check({"long_run", {"solver.max_steps=50000"}, 0.2});
 }
 
 TEST(Stress, KnitSpringsAHundredTimesStiffer) {

@@ -132,7 +132,7 @@ def fluid_axes(spacing, sound_speeds):
 CASES = {
     "hydrostatic": Case(
         "scenes/hydrostatic.toml", fluid_cases.hydrostatic_case_error, "spacing",
-        fluid_axes({"small": [0.02, 0.015, 0.01, 0.0075], "full": [0.02, 0.01, 0.005, 0.0025]},
+        fluid_axes({"small": [0.02, 0.015, 0.0125, 0.01], "full": [0.02, 0.01, 0.005, 0.0025]},
                    [10.0, 20.0, 40.0]),
         {"small": ["fluid.spacing=0.015"], "full": ["fluid.spacing=0.005"]}),
     # A whole number of particles across the column (small 8, 10, 16, 20; full 10 to 80; a =
