@@ -142,20 +142,22 @@ auto chunk_builders(const Built& k) {
 /// and a warp's walk of dense rows is what makes the millions' builds fast (P4 stage 8).
 constexpr std::size_t kThreadRowsBelow = 65536;
 
-/// Builds (or starts building) the lists for k's particles.
+/// Builds (or starts building) the lists for k's particles, a row a lane or 32 rows a warp.
+template <typename T, bool Warp, typename Lists, typename Built>
+void build_rows_by(const exec::Exec& ex, Lists& lists, const Built& k, bool wait) {
+  constexpr unsigned lanes = Warp ? 32 : 1;
+  if (wait)
+    lists.template build_chunked<lanes>(ex, k.f.n, chunk_builders<T, Warp>(k), "neighbours.build");
+  else
+    lists.template start_chunked<lanes>(ex, k.f.n, chunk_builders<T, Warp>(k), "neighbours.build");
+}
+
 template <typename T, typename Lists, typename Built>
 void build_rows(const exec::Exec& ex, Lists& lists, const Built& k, bool wait) {
-  const bool lanes = k.f.n < kThreadRowsBelow;
-  if (wait) {
-    if (lanes)
-      lists.template build_chunked<1>(ex, k.f.n, chunk_builders<T, false>(k), "neighbours.build");
-    else
-      lists.template build_chunked<32>(ex, k.f.n, chunk_builders<T, true>(k), "neighbours.build");
-  } else if (lanes) {
-    lists.template start_chunked<1>(ex, k.f.n, chunk_builders<T, false>(k), "neighbours.build");
-  } else {
-    lists.template start_chunked<32>(ex, k.f.n, chunk_builders<T, true>(k), "neighbours.build");
-  }
+  if (k.f.n < kThreadRowsBelow)
+    build_rows_by<T, false>(ex, lists, k, wait);
+  else
+    build_rows_by<T, true>(ex, lists, k, wait);
 }
 
 template <typename T>
