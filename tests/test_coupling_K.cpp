@@ -145,9 +145,17 @@ enum class Motion {
                 // all points
 };
 
+/// Where the coupling's lists are built for the fluid (begin_step's FluidAnchor).
+enum class Anchor {
+  None,   // where the fluid is now, every step
+  Kept,   // an anchor each particle lies within 0.9 skins of: the lists built once for it
+          // (begin_step twice, the second keeping them) hold every pair
+  Outrun, // the anchor's bound past the skin: the lists are built for the fluid now, twice
+};
+
 template <typename T>
 void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t list_capacity = 256,
-           std::uint32_t knit_capacity = 0) {
+           std::uint32_t knit_capacity = 0, Anchor anchor = Anchor::None) {
   const Cloud c0 = make_cloud(5);   // saturation and pressure come from here (begin_step)
   Cloud c = c0;                     // the pair forces from here
   const double skin = 0.2 * kH / 3; // the knit grid's below: a third of its cells' margin
@@ -186,7 +194,37 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
   }
   fx.knit.a.assign(a0);
   // No motion expected over the step: the substeps watch the knit on the device only.
-  cp.begin_step(fx.ex, fx.knit, fx.side(), {}, T(0));
+  if (anchor == Anchor::None) {
+    cp.begin_step(fx.ex, fx.knit, fx.side(), {}, T(0));
+    EXPECT_EQ(cp.list_builds(), 1u);
+  } else {
+    // Where the fluid's lists were built: each particle up to 0.9 skins (Kept) from where it
+    // is now, the fluid's order; the bound as the fluid's lists would report it.
+    auto x0 = fx.fluid.x.to_host();
+    std::mt19937 rng(21);
+    std::uniform_real_distribution<double> u(-1, 1);
+    double largest = 0;
+    for (auto& q : x0) {
+      const Vec3d r{u(rng), u(rng), u(rng) + 1e-3};
+      const double d = (anchor == Anchor::Kept ? 0.9 : 1.5) * skin * std::abs(u(rng));
+      q += vec_cast<T>(r * (d / norm(r)));
+      largest = std::max(largest, d);
+    }
+    exec::DeviceBuffer<Vec3<T>> at(backend, 0, "test.anchor");
+    at.assign(x0);
+    const FluidAnchor<T> a{at.data(), 7, T(largest)};
+    cp.begin_step(fx.ex, fx.knit, fx.side(), {}, T(0), {}, a);
+    cp.begin_step(fx.ex, fx.knit, fx.side(), {}, T(0), {}, a);
+    if (anchor == Anchor::Kept) {
+      EXPECT_GT(largest, 0.8 * skin) << "the anchor tests little";
+      EXPECT_EQ(cp.list_builds(), 1u) << "the anchor's lists must be kept";
+      EXPECT_EQ(cp.flag_slack(), T(cp.skin()));
+    } else {
+      EXPECT_GT(largest, 1.0 * skin) << "the anchor's bound must pass the skin";
+      EXPECT_EQ(cp.list_builds(), 2u) << "lists for an anchor past its bound";
+      EXPECT_EQ(cp.flag_slack(), T(0));
+    }
+  }
   fx.knit.x.assign(cast<T>(c.kx));
   const T weight = T(0.25);
   cp.add_forces(fx.ex, fx.knit, fx.side(), weight);
@@ -365,7 +403,77 @@ void knit_side_ignores_fluid_out_of_reach(exec::Backend backend) {
   EXPECT_GT(moved, a0.size() / 2) << "too few knit points feel the fluid to test";
 }
 
+/// One knit point and one fluid particle within reach, where the near flags taken at an anchor do
+/// not see it: the anchor two knit-grid cells from the point's sorted position, the particle 0.9
+/// skins from the anchor toward it, the point 2.5 skins from its sorted position toward the
+/// particle (a walk of the cells would find it from where the particle is, but it is not flagged
+/// near). Returns the fluid particle's velocity after its impulse (the fluid side's sum; the
+/// knit side walks the fluid grid past the skin and finds the pair itself) with the lists built
+/// for the anchor, and built for where the particle is.
+template <typename T>
+std::array<Vec3<T>, 2> unflagged_contact(exec::Backend backend) {
+  const CouplingParams<T> pt = params_in<T>();
+  const GridGeometry<T> geo = NeighbourGrid<T>::cover({0, 0, 0}, {0.1, 0.1, 0.1}, 1.2 * kH);
+  const double cell = double(geo.cell), reach = double(coupling_reach(pt));
+  const double skin = double(KnitFluidCoupling<T>(backend, KernelType::Spiky, pt, geo).skin());
+  // Cells 2 and 4 along x (the grid has 7 a side), the middle of cell 3 across.
+  const double y = double(geo.origin.y) + 3.5 * cell, z = double(geo.origin.z) + 3.5 * cell;
+  const Vec3d sorted{double(geo.origin.x) + 3 * cell - 1e-6, y, z};
+  const Vec3d anchor{double(geo.origin.x) + 4 * cell + 1e-6, y, z};
+  EXPECT_GE(geo.nx, 7);
+  const Vec3d knit_now = sorted + Vec3d{2.5 * skin, 0, 0};
+  const Vec3d fluid_now = anchor - Vec3d{0.9 * skin, 0, 0};
+  EXPECT_LT(norm(fluid_now - knit_now), reach) << "the premise: a pair within reach";
+  EXPECT_GT(2.5 * skin, cell - reach - skin) << "the premise: past the anchored walk's margin";
+  EXPECT_LT(2.5 * skin, cell - reach) << "the premise: within the cells' margin";
+  std::array<Vec3<T>, 2> a{};
+  for (int anchored = 0; anchored < 2; ++anchored) {
+    Cloud c;
+    c.kx = {sorted};
+    c.kv = {{0, 0, 0}};
+    c.km = {2e-5};
+    c.handle = {kFreePoint};
+    c.fx = {fluid_now};
+    c.fv = {{0, 0, 0}};
+    c.fm = {1e-3};
+    c.frho = {1000};
+    Fixture<T> fx(backend, c);
+    KnitFluidCoupling<T> cp(backend, KernelType::Spiky, pt, geo);
+    fx.knit.a.assign(std::vector<Vec3<T>>(1, Vec3<T>{T(0), T(0), T(0)}));
+    exec::DeviceBuffer<Vec3<T>> at(backend, 0, "test.anchor");
+    at.assign(std::vector<Vec3<T>>{vec_cast<T>(anchor)});
+    const FluidAnchor<T> an{at.data(), 1, T(0.9 * skin)};
+    cp.begin_step(fx.ex, fx.knit, fx.side(), {}, T(0), {}, anchored ? an : FluidAnchor<T>{});
+    fx.knit.x.assign(std::vector<Vec3<T>>{vec_cast<T>(knit_now)});
+    cp.add_forces(fx.ex, fx.knit, fx.side(), T(1));
+    cp.apply_impulses(fx.ex, fx.fluid.view());
+    a[anchored] = fx.fluid.v.to_host()[0];
+  }
+  return a;
+}
+
 } // namespace
+
+// The anchor's flags are up to a skin from where a particle is: the fluid side's walk is exact
+// for a knit motion up to the cells' margin less that skin (past it, all points). Measured:
+// without the slack the anchored run misses the contact (the particle's velocity stays 0).
+TEST(CouplingKernels, AnchoredFlagsNarrowTheWalkCpu) {
+  const auto a = unflagged_contact<double>(exec::Backend::Cpu);
+  EXPECT_GT(norm(vec_cast<double>(a[0])), 1e-3) << "the premise: the pair pushes the particle";
+  EXPECT_NEAR(a[1].x, a[0].x, 1e-9 * norm(vec_cast<double>(a[0])));
+  EXPECT_NEAR(a[1].y, a[0].y, 1e-9 * norm(vec_cast<double>(a[0])));
+  EXPECT_NEAR(a[1].z, a[0].z, 1e-9 * norm(vec_cast<double>(a[0])));
+}
+
+TEST(CouplingKernels, AnchoredFlagsNarrowTheWalkCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  const auto a = unflagged_contact<float>(exec::Backend::Cuda);
+  EXPECT_GT(norm(vec_cast<double>(a[0])), 1e-3) << "the premise: the pair pushes the particle";
+  EXPECT_NEAR(a[1].x, a[0].x, 1e-5 * norm(vec_cast<double>(a[0])));
+  EXPECT_NEAR(a[1].y, a[0].y, 1e-5 * norm(vec_cast<double>(a[0])));
+  EXPECT_NEAR(a[1].z, a[0].z, 1e-5 * norm(vec_cast<double>(a[0])));
+}
 
 TEST(CouplingKernels, KnitSideIgnoresFluidOutOfReachCpu) {
   knit_side_ignores_fluid_out_of_reach<double>(exec::Backend::Cpu);
@@ -423,6 +531,28 @@ TEST(CouplingKernels, KnitMovedFallsBackToAllPairsCuda) {
   check<float>(exec::Backend::Cuda, Motion::WithinSkin);
   check<float>(exec::Backend::Cuda, Motion::PastListSkin);
   check<float>(exec::Backend::Cuda, Motion::PastSkin);
+}
+
+// The lists built for where the fluid's own lists were (an anchor within a skin of every
+// particle), kept over begin_steps: the same forces as the all-pairs reference, the knit at rest,
+// within its skin, past the lists' reach; and built for the fluid now once the anchor's bound
+// passes the skin.
+TEST(CouplingKernels, ListsKeptForAnAnchorMatchAllPairsCpu) {
+  check<double>(exec::Backend::Cpu, Motion::None, 256, 0, Anchor::Kept);
+  check<double>(exec::Backend::Cpu, Motion::WithinSkin, 256, 0, Anchor::Kept);
+  check<double>(exec::Backend::Cpu, Motion::PastListSkin, 256, 0, Anchor::Kept);
+  check<double>(exec::Backend::Cpu, Motion::PastMargin, 256, 0, Anchor::Kept);
+  check<double>(exec::Backend::Cpu, Motion::None, 256, 128, Anchor::Kept);
+  check<double>(exec::Backend::Cpu, Motion::WithinSkin, 256, 0, Anchor::Outrun);
+}
+TEST(CouplingKernels, ListsKeptForAnAnchorMatchAllPairsCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check<float>(exec::Backend::Cuda, Motion::None, 256, 0, Anchor::Kept);
+  check<float>(exec::Backend::Cuda, Motion::WithinSkin, 256, 0, Anchor::Kept);
+  check<float>(exec::Backend::Cuda, Motion::PastListSkin, 256, 0, Anchor::Kept);
+  check<float>(exec::Backend::Cuda, Motion::None, 256, 128, Anchor::Kept);
+  check<float>(exec::Backend::Cuda, Motion::WithinSkin, 256, 0, Anchor::Outrun);
 }
 
 // Eq. 11 as a hydrophilic medium needs it: draws fluid in below saturation, none at it, pushes

@@ -203,7 +203,15 @@ private:
       knit_halo_->begin(knit_->expected_motion(dt_));
     }
     coupling_->begin_step(ex_, knit_->set(), fluid_side(), pores(),
-                          static_cast<T>(knit_->expected_motion(dt_)), share_saturation());
+                          static_cast<T>(knit_->expected_motion(dt_)), share_saturation(),
+                          coupling_anchor());
+  }
+  /// On one rank with "verlet" lists: the fluid's lists' positions, so that the coupling's lists
+  /// last as long as they may (FluidAnchor). On N ranks the ghosts change at every step: none.
+  FluidAnchor<T> coupling_anchor() const {
+    if (ranks_ || !fluid_list_)
+      return {};
+    return {fluid_list_->listed_x(fluid_->size()), fluid_sorts_, fluid_list_->displacement_bound()};
   }
   /// On N ranks: the knit ghosts take their owners' saturation, capillary pressure and wet mass.
   std::function<void()> share_saturation() {

@@ -15,9 +15,10 @@ KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
       watch_(b, (grid.cell - coupling_reach(params)) / T(3), "coupling.moved"),
       saturation_(b, 0, "coupling.saturation"), pressure_(b, 0, "coupling.pressure"),
       fluid_mass_(b, 0, "coupling.fluid_mass"), x_(b, 0, "coupling.knit_x"),
-      v_(b, 0, "coupling.knit_v"), m_(b, 0, "coupling.knit_m"), p_(b, 0, "coupling.knit_p"),
-      impulse_(b, 0, "coupling.impulse"), near_flag_(b, 0, "coupling.near_flag"), list_(b),
-      knit_rows_(b), pair_force_(b, 0, "coupling.pair_force"),
+      v_(b, 0, "coupling.knit_v"), xs_(b, 0, "coupling.knit_x"), m_(b, 0, "coupling.knit_m"),
+      p_(b, 0, "coupling.knit_p"), impulse_(b, 0, "coupling.impulse"),
+      near_flag_(b, 0, "coupling.near_flag"), list_(b), knit_rows_(b),
+      pair_force_(b, 0, "coupling.pair_force"),
       list_skin_(T(2) * (grid.cell - coupling_reach(params)) / T(3)), list_capacity_(list_capacity),
       knit_capacity_(knit_capacity ? knit_capacity : list_capacity), cell_(grid.cell) {
   const T reach = coupling_reach(params);
@@ -44,6 +45,8 @@ void KnitFluidCoupling<T>::sort_now(const exec::Exec& ex, KnitSet<T>& knit,
   v_.resize(n);
   m_.resize(n);
   p_.resize(n); // m_ and p_ are gathered by begin_step every step (the wet mass changes)
+  xs_.resize(n);
+  exec::gather(ex, perm(), at, xs_, "coupling.gather");
 }
 
 template <typename T>
@@ -112,7 +115,7 @@ void KnitFluidCoupling<T>::update_saturation(const exec::Exec& ex, KnitSet<T>& k
 template <typename T>
 void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
                                       const FluidSide<T>& fluid, PoreMass<T> pores, T motion,
-                                      const std::function<void()>& share) {
+                                      const std::function<void()>& share, FluidAnchor<T> anchor) {
   update_saturation(ex, knit, fluid, pores, share);
   const std::size_t n = knit.size();
   watch_.before_step(ex, knit.x, motion, x_.size() != n, [&] { sort_now(ex, knit); });
@@ -120,27 +123,42 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
   exec::gather(ex, perm(), knit.m, m_, "coupling.gather"); // wet mass changes
   impulse_.resize(fluid.f.n);
   exec::fill(ex, impulse_, Vec3<T>{T(0), T(0), T(0)}, "coupling.impulse");
-  find_fluid_near_knit(ex, fluid);
-  // Lists from the knit's positions now: a pair within the reach at a substep is then within
-  // reach + list skin now (the knit moves at most 2 watch skins from now, the fluid not at all),
-  // and the grid walk finds it (1 watch skin since the sort, plus the list's reach + skin, fits
-  // in a cell).
   watch_.observe_gather(ex, knit.x, knit.v, perm(), x_, v_);
+  // The lists hold, for each fluid particle near the knit, the knit points within reach + 2
+  // skins of it, both where the lists were built for: the knit where its grid was sorted (a
+  // point moves at most a skin from there while the lists are read: the substeps watch it), the
+  // fluid where it is now or, with an anchor, where the fluid's own lists were built (the fluid
+  // at most a skin from there: the anchor's bound, read on the host). The fluid does not move
+  // through the knit's substeps, so lists built for an anchor last until the fluid's next sort,
+  // the knit grid's next sort, or the anchor's bound passing the skin; the walk of 27 cells
+  // (reach + 2 skins < the cell less a skin) finds every pair.
+  const bool anchored = anchor.x0 && anchor.moved <= T(0.99) * watch_.skin();
+  const Built now{anchored, anchored ? anchor.sorts : 0, sorts_, fluid.f.n, n};
+  const bool keep = anchored && built_ && built_->anchored &&
+                    built_->fluid_sorts == now.fluid_sorts &&
+                    built_->knit_sorts == now.knit_sorts && built_->fluid == now.fluid &&
+                    built_->knit == now.knit;
+  flag_slack_ = anchored ? watch_.skin() : T(0);
+  if (keep)
+    return;
+  const Vec3<T>* at = anchored ? anchor.x0 : fluid.f.x;
+  find_fluid_near_knit(ex, at, fluid.f.n);
   const T r = coupling_reach(params_) + list_skin_;
-  list_.template build_for<kFluidSideLanes>(ex, fluid.f.x, near_flag_.data(), fluid.f.n, x_.data(),
+  list_.template build_for<kFluidSideLanes>(ex, at, near_flag_.data(), fluid.f.n, xs_.data(),
                                             grid_.view(), r * r, list_capacity_);
   // The same pairs seen from the knit, for its side of every substep (the lists' rows hold
   // grid slots: perm maps them to the knit's points).
   knit_rows_.build(ex, list_.view(), near_flag_.data(), perm().data(), n, knit_capacity_);
   pair_force_.resize(list_.view().capacity * fluid.f.n);
+  built_ = now;
+  ++list_builds_;
 }
 
 template <typename T>
-void KnitFluidCoupling<T>::find_fluid_near_knit(const exec::Exec& ex, const FluidSide<T>& fluid) {
-  const std::size_t n = fluid.f.n;
+void KnitFluidCoupling<T>::find_fluid_near_knit(const exec::Exec& ex, const Vec3<T>* x,
+                                                std::size_t n) {
   near_flag_.resize(n);
   const CellView<T> knit_cells = grid_.view();
-  const Vec3<T>* x = fluid.f.x;
   std::uint32_t* flag = near_flag_.data();
   exec::for_each(
       ex, n, [=] KF_HD(std::size_t j) { flag[j] = knit_cells.has_candidates(x[j]) ? 1u : 0u; },
@@ -160,8 +178,8 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
         FluidCouplingEvaluator<T, K>{
             k, params_, fluid.f, SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()},
             grid_.view(), weight, impulse_.data(), near_flag_.data(), list_.view(), watch_.moved2(),
-            watch_.skin2(), walk_margin() * walk_margin(), static_cast<std::uint32_t>(x_.size()),
-            pair_force_.data()},
+            watch_.skin2(), (walk_margin() - flag_slack_) * (walk_margin() - flag_slack_),
+            static_cast<std::uint32_t>(x_.size()), pair_force_.data()},
         "coupling.fluid");
     auto kv = knit.view();
     kv.n = active(knit);
@@ -252,7 +270,7 @@ std::size_t KnitFluidCoupling<T>::bytes() const {
   return grid_.bytes() + watch_.bytes() + near_flag_.capacity_bytes() + list_.bytes() +
          knit_rows_.bytes() + pair_force_.capacity_bytes() + saturation_.capacity_bytes() +
          pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() + x_.capacity_bytes() +
-         v_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
+         v_.capacity_bytes() + xs_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
          impulse_.capacity_bytes();
 }
 

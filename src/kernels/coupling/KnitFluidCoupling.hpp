@@ -20,6 +20,7 @@
 #include <array>
 #include <functional>
 #include <limits>
+#include <optional>
 
 namespace kf {
 
@@ -32,6 +33,19 @@ struct FluidSide {
   // NeighbourGrid::occupied_around of `cells` (null: unknown): a knit point whose cell has no
   // fluid around skips its walk, which would find nothing (most of a sheet is dry).
   const std::uint8_t* near = nullptr;
+};
+
+/// Where the coupling's per-step lists may be built for the fluid, so that they last over steps:
+/// the positions the fluid's own lists were built for (SphLists::listed_x, in the fluid's order
+/// now), the count of the fluid's sorts that gave that order, and a bound on every particle's
+/// displacement since (SphLists::displacement_bound). While it stays within a watch skin, the
+/// lists built for x0 hold every pair (docs/ARCHITECTURE.md "Knit-fluid coupling on the GPU").
+/// Null x0: the lists are built for the positions now, every step.
+template <typename T>
+struct FluidAnchor {
+  const Vec3<T>* x0 = nullptr;
+  std::uint64_t sorts = 0;
+  T moved = std::numeric_limits<T>::infinity();
 };
 
 struct CouplingStats {
@@ -74,9 +88,11 @@ public:
   /// device and the fluid side sums over all knit points if the skin was crossed after all.
   /// share: called after the knit's saturation, capillary pressure and wet mass are computed
   /// (on N ranks the ghosts take their owners' values there).
+  /// anchor: the fluid positions to build the lists for (FluidAnchor); lists built for an
+  /// anchor are kept while its sorts, its bound and the knit grid's sort allow.
   void begin_step(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid,
                   PoreMass<T> pores = {}, T motion = std::numeric_limits<T>::infinity(),
-                  const std::function<void()>& share = {});
+                  const std::function<void()>& share = {}, FluidAnchor<T> anchor = {});
   /// begin_step's first part alone: the knit's saturation, capillary pressure and wet mass from
   /// the state now (then share), the grid and lists untouched. For snapshots and diagnostics
   /// before a step where the knit's points changed (a restart shares them out anew on N ranks);
@@ -123,6 +139,12 @@ public:
   void sort_knit(const exec::Exec& ex, KnitSet<T>& knit);
   /// Knit grid sorts so far.
   std::uint64_t sorts() const { return sorts_; }
+  /// The per-step lists' builds so far (begin_step; fewer than its calls where an anchor kept
+  /// them).
+  std::uint64_t list_builds() const { return list_builds_; }
+  /// How far a fluid particle may be from where the near flags were taken for it (the anchor's
+  /// budget, a watch skin, while the lists are an anchor's; else 0).
+  T flag_slack() const { return flag_slack_; }
   /// The knit grid sorted for the current positions and the sorted positions gathered.
   void sync_knit(const exec::Exec& ex, KnitSet<T>& knit);
   const NeighbourGrid<T>& knit_grid() const { return grid_; }
@@ -136,9 +158,9 @@ public:
   const std::uint32_t* near_flags(std::size_t n) const {
     return near_flag_.size() == n ? near_flag_.data() : nullptr;
   }
-  /// Flags the fluid particles with a knit point in their knit-grid cells (public: nvcc's
-  /// device lambdas may not live in private members).
-  void find_fluid_near_knit(const exec::Exec& ex, const FluidSide<T>& fluid);
+  /// Flags the fluid particles at x (n of them) with a knit point in their knit-grid cells
+  /// (public: nvcc's device lambdas may not live in private members).
+  void find_fluid_near_knit(const exec::Exec& ex, const Vec3<T>* x, std::size_t n);
 
   /// Restart: the knit's positions at the grid's last sort and the watch's record (snapshot
   /// state; empty positions before the first begin_step).
@@ -158,8 +180,9 @@ private:
   std::uint64_t sorts_ = 0;
   exec::DeviceBuffer<T> saturation_, pressure_, fluid_mass_; // knit order
   exec::DeviceBuffer<Vec3<T>> x_, v_;                        // knit, grid order
-  exec::DeviceBuffer<T> m_, p_;                              // knit, grid order
-  exec::DeviceBuffer<Vec3<T>> impulse_;                      // fluid order
+  exec::DeviceBuffer<Vec3<T>> xs_;      // knit, grid order, where the grid was sorted: the lists
+  exec::DeviceBuffer<T> m_, p_;         // knit, grid order
+  exec::DeviceBuffer<Vec3<T>> impulse_; // fluid order
   // 1 for the fluid particles with a knit point in their 27 knit-grid cells, found once per step
   // (begin_step): the fluid is held still through the knit's substeps and the knit grid is not
   // sorted between them, so only these can feel the knit (while the skin holds). A flag, not a
@@ -176,6 +199,16 @@ private:
   exec::DeviceBuffer<Vec3<T>> pair_force_;
   T list_skin_;
   std::uint32_t list_capacity_, knit_capacity_;
+  // What the lists were last built for: an anchor's positions (its sorts) or the fluid's then,
+  // the knit grid's sort, the counts. begin_step keeps them while all still hold.
+  struct Built {
+    bool anchored = false;
+    std::uint64_t fluid_sorts = 0, knit_sorts = 0;
+    std::size_t fluid = 0, knit = 0;
+  };
+  std::optional<Built> built_;
+  std::uint64_t list_builds_ = 0;
+  T flag_slack_ = 0;
   // N ranks (distribute): as KnitSelfContact's.
   std::size_t active(const KnitSet<T>& knit) const { return std::min(active_, knit.size()); }
   bool ties_by_id_ = false;

@@ -59,13 +59,15 @@ void SheetGuard<T>::apply(const exec::Exec& ex, FluidView<T> f, T dt, KnitSet<T>
         ex, faces(), SheetExtent<T>{knit.x.data(), knit_x0.data(), sheet, geo}, extent_.data(),
         "coupling.sheet_guard");
     // The coupling grid's points moved at most three of its watch's skins since its sort (one
-    // before the step, two in it: KnitFluidCoupling::begin_step).
+    // before the step, two in it: KnitFluidCoupling::begin_step); the near flags were taken up
+    // to flag_slack() from where the particles' steps began (lists kept for an anchor): a
+    // particle may be that much nearer, and the walk reaches that much farther.
     exec::transform_reduce_into(
         ex, f.n, exec::SumOp{},
         SheetGuardEvaluator<T>{f.x, f.v, counted, knit.x.data(), knit_x0.data(), knit.id.data(),
                                coupling.knit_grid().view(), coupling.perm().data(), sheet,
                                extent_.data(), coupling.near_flags(f.n), hits, sums_.data(), dt,
-                               T(3) * coupling.skin(), gap_},
+                               T(3) * coupling.skin() + coupling.flag_slack(), gap_},
         count, "coupling.sheet_guard");
   }
   if (ghost_sums) // every corner's count, from all ranks

@@ -111,6 +111,14 @@ public:
     return lists_.view();
   }
   T skin() const { return skin_; }
+  /// With a skin: the positions the lists were built for (the fluid's order now; null before
+  /// the first build, or for another count) and a bound on every particle's displacement since,
+  /// the host's or the last reading's (stale_after; 0 after a build). The knit's coupling builds
+  /// its lists for these positions too (FluidAnchor).
+  const Vec3<T>* listed_x(std::size_t n) const {
+    return skin_ > T(0) && x0_.size() == n ? x0_.data() : nullptr;
+  }
+  T displacement_bound() const { return bound_; }
   std::uint32_t capacity() const { return lists_.capacity(); }
   std::size_t bytes() const {
     return lists_.bytes() + walls_.bytes() + x0_.capacity_bytes() + moved_.capacity_bytes() +
