@@ -7,8 +7,9 @@
 namespace kf {
 
 void Pipeline::add(std::string name, std::string module, std::string what,
-                   std::function<void()> run) {
-  stages_.push_back({std::move(name), std::move(module), std::move(what), std::move(run), 0, 0});
+                   std::function<void()> run, bool before_dt) {
+  stages_.push_back(
+      {std::move(name), std::move(module), std::move(what), std::move(run), before_dt, 0, 0});
 }
 
 void Pipeline::time_on_device(exec::Backend backend) {
@@ -29,12 +30,16 @@ void Pipeline::collect_device() {
   runs_since_collect_ = 0;
 }
 
-void Pipeline::run(const std::function<void()>& timer_sync) {
+void Pipeline::run(const std::function<void()>& timer_sync,
+                   const std::function<void()>& settle_dt) {
   using clock = std::chrono::steady_clock;
   const bool on_device = !spans_.empty();
   for (std::size_t k = 0; k < stages_.size(); ++k) {
     auto& s = stages_[k];
     const auto t0 = clock::now();
+    // Before the device's span: an instability found there is the step's, not the stage's.
+    if (settle_dt && !s.before_dt)
+      settle_dt();
     if (on_device) {
       if (open_wait_ < waits_.size()) // none before the first stage's first run
         waits_[open_wait_]->stop();

@@ -18,6 +18,9 @@ public:
     std::string module; // "fluid"
     std::string what;   // one line for `plan`
     std::function<void()> run;
+    // Runs before the step's size is known: queues no work that takes it (run() with a
+    // settle_dt waits for the size only at the first stage that is not).
+    bool before_dt = false;
     double seconds = 0;
     std::uint64_t calls = 0;
     // Timed on the device (time_on_device): the span from the stage's first work to its last,
@@ -25,9 +28,13 @@ public:
     double device_seconds = 0, idle_before_seconds = 0;
   };
 
-  void add(std::string name, std::string module, std::string what, std::function<void()> run);
+  void add(std::string name, std::string module, std::string what, std::function<void()> run,
+           bool before_dt = false);
   /// Runs every stage in order; with a synchronising `timer_sync` each stage's time is measured.
-  void run(const std::function<void()>& timer_sync = {});
+  /// `settle_dt`, when given, is called before each stage that is not before_dt (it makes the
+  /// step's size known; a no-op once it is).
+  void run(const std::function<void()>& timer_sync = {},
+           const std::function<void()>& settle_dt = {});
   /// From now on each stage is also timed on the backend's stream, without waiting for it
   /// (events read every few hundred steps, and at collect_device()): where the device works and
   /// where it waits for the host (P9: a split step's time that host timings cannot place).

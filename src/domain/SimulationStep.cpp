@@ -21,27 +21,75 @@ double SimulationT<T>::stable_dt() {
     job_bounds(&kb, 1);
     return std::min(dt, knit_stable_dt(&kb));
   }
+  if (knit_on_) { // both sets' bounds in one read
+    queue_both_bounds();
+    return both_bounds_dt();
+  }
   auto f = fluid_->view();
   MotionBounds<T> mb;
-  if (knit_on_) { // both sets' bounds in one read
-    knit_->motion_bounds_to(bounds_.data());
-    motion_bounds_to(ex_, f.v, f.a, f.n, bounds_.data() + 1, "integrate.dt");
-    auto both = bounds_.to_host();
-    if (ranks_)
-      job_bounds(both.data(), 2);
-    dt = std::min(dt, knit_stable_dt(&both[0]));
-    mb = both[1];
-  } else if (fluid_bounds_ready_) {
+  if (fluid_bounds_ready_)
     mb = bounds_.to_host()[1];
-  } else {
+  else
     mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
-  }
-  if (ranks_ && !knit_on_) // one dt for the job: the largest speed and acceleration of all ranks
-    job_bounds(&mb, 1);    // (NaN read as infinite: every rank reports the instability below)
+  if (ranks_)           // one dt for the job: the largest speed and acceleration of all ranks
+    job_bounds(&mb, 1); // (NaN read as infinite: every rank reports the instability below)
+  return std::min(dt, fluid_dt(mb));
+}
+
+template <typename T>
+double SimulationT<T>::fluid_dt(const MotionBounds<T>& mb) {
   fluid_bounds_ = mb;
   if (!(std::isfinite(double(mb.v2)) && std::isfinite(double(mb.a2))))
     report_instability("a fluid velocity or acceleration is not finite");
-  return std::min(dt, fluid_stable_dt(fluid_step_rule(), double(mb.v2), double(mb.a2)));
+  return fluid_stable_dt(fluid_step_rule(), double(mb.v2), double(mb.a2));
+}
+
+template <typename T>
+void SimulationT<T>::queue_both_bounds() {
+  auto f = fluid_->view();
+  knit_->motion_bounds_to(bounds_.data());
+  motion_bounds_to(ex_, f.v, f.a, f.n, bounds_.data() + 1, "integrate.dt");
+  if (!bounds_read_)
+    bounds_read_.emplace(ex_.backend, 2, "integrate.dt");
+  else if (bounds_read_->pending()) // a step that threw before settling it (the watchdog's)
+    bounds_read_->wait();
+  bounds_read_->start(bounds_.data());
+}
+
+template <typename T>
+double SimulationT<T>::both_bounds_dt() {
+  const auto r = bounds_read_->wait();
+  MotionBounds<T> both[2] = {r[0], r[1]};
+  if (ranks_)
+    job_bounds(both, 2);
+  const double dt = std::min(scene_.solver.dt_max, knit_stable_dt(&both[0]));
+  return std::min(dt, fluid_dt(both[1]));
+}
+
+template <typename T>
+bool SimulationT<T>::reads_bounds_behind() const {
+  // The knit's and the fluid's bounds (one read) taken while the stages that need no step size
+  // run: the pipeline must open with one (the coupling's saturation).
+  const auto& st = pipeline_.stages();
+  return knit_on_ && fluid_on_ && !st.empty() && st.front().before_dt;
+}
+
+template <typename T>
+void SimulationT<T>::take_dt(double dt, double remaining) {
+  if (dt < scene_.solver.dt_min)
+    report_instability("the stable time step " + std::to_string(dt) + " s fell below dt_min " +
+                       std::to_string(scene_.solver.dt_min) + " s");
+  bool lands = false;
+  dt_ = landed_dt(dt, remaining, lands);
+  step_lands_ = lands;
+}
+
+template <typename T>
+void SimulationT<T>::settle_dt() {
+  if (!dt_pending_)
+    return;
+  dt_pending_ = false;
+  take_dt(both_bounds_dt(), dt_remaining_);
 }
 
 template <typename T>
@@ -113,6 +161,7 @@ template <typename T>
 double SimulationT<T>::step(double t_limit) {
   // Land exactly on t_limit (output times), without leaving a sliver of a step before it.
   const double remaining = t_limit - time_;
+  dt_pending_ = false; // one left by a step that threw (the watchdog's retry) is not this one's
   if (plans_step_on_device()) {
     if (!plan_read_)
       plan_read_.emplace(ex_.backend, 1, "integrate.dt");
@@ -128,18 +177,20 @@ double SimulationT<T>::step(double t_limit) {
     plan_read_->start(plan_.data());
     step_pending_ = true;
     dt_ = std::numeric_limits<double>::quiet_NaN(); // known once the drift is queued
+  } else if (reads_bounds_behind()) {
+    queue_both_bounds(); // read while the first stages run: settle_dt()
+    dt_pending_ = true;
+    dt_remaining_ = remaining;
+    dt_ = std::numeric_limits<double>::quiet_NaN(); // known once settled
   } else {
-    const double dt = stable_dt();
-    if (dt < scene_.solver.dt_min)
-      report_instability("the stable time step " + std::to_string(dt) + " s fell below dt_min " +
-                         std::to_string(scene_.solver.dt_min) + " s");
-    bool lands = false;
-    dt_ = landed_dt(dt, remaining, lands);
-    step_lands_ = lands;
+    take_dt(stable_dt(), remaining);
   }
   fluid_bounds_ready_ = false; // the stages change v and a; the step's last kick writes them
   pipeline_.run(profiling_ ? std::function<void()>([this] { exec::synchronize(ex_.backend); })
-                           : std::function<void()>());
+                           : std::function<void()>(),
+                dt_pending_ ? std::function<void()>([this] { settle_dt(); })
+                            : std::function<void()>());
+  settle_dt();   // a stage settles it; a pipeline of stages before it only would still
   settle_step(); // the drift stage settles it; a pipeline without one would still
   time_ = step_lands_ ? t_limit : time_ + dt_;
   ++steps_;
@@ -174,6 +225,12 @@ double SimulationT<T>::knit_stable_dt(const MotionBounds<T>* bounds) {
 }
 
 template double SimulationT<float>::stable_dt();
+template double SimulationT<float>::fluid_dt(const MotionBounds<float>&);
+template void SimulationT<float>::queue_both_bounds();
+template double SimulationT<float>::both_bounds_dt();
+template bool SimulationT<float>::reads_bounds_behind() const;
+template void SimulationT<float>::take_dt(double, double);
+template void SimulationT<float>::settle_dt();
 template void SimulationT<float>::job_bounds(MotionBounds<float>*, int);
 template FluidStepRule SimulationT<float>::fluid_step_rule() const;
 template bool SimulationT<float>::plans_step_on_device() const;
@@ -182,6 +239,12 @@ template double SimulationT<float>::step(double);
 template void SimulationT<float>::report_instability(const std::string&, WatchMeasure);
 template double SimulationT<float>::knit_stable_dt(const MotionBounds<float>*);
 template double SimulationT<double>::stable_dt();
+template double SimulationT<double>::fluid_dt(const MotionBounds<double>&);
+template void SimulationT<double>::queue_both_bounds();
+template double SimulationT<double>::both_bounds_dt();
+template bool SimulationT<double>::reads_bounds_behind() const;
+template void SimulationT<double>::take_dt(double, double);
+template void SimulationT<double>::settle_dt();
 template void SimulationT<double>::job_bounds(MotionBounds<double>*, int);
 template FluidStepRule SimulationT<double>::fluid_step_rule() const;
 template bool SimulationT<double>::plans_step_on_device() const;

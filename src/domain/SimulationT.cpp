@@ -302,7 +302,8 @@ void SimulationT<T>::build_pipeline() {
                                                *coupling_, split ? &*split : nullptr);
           if (absorption_ranks_ ? absorption_ranks_->settle(ex_, *fluid_, got) : got.removed > 0)
             sort_fluid();
-        });
+        },
+        true); // takes no step size
     pipeline_.add("capillary.diffuse", "capillary",
                   "absorbed fluid moves between neighbouring knit points (Darcy: capillary "
                   "suction and gravity)",
@@ -322,12 +323,13 @@ void SimulationT<T>::build_pipeline() {
                   });
   }
   if (coupling_on_)
-    pipeline_.add("coupling.begin", coupling_module,
-                  capillary ? "knit saturation (Eq. 9), Leverett J (Eq. 11), capillary pressure "
-                              "(Eq. 10) from the fluid around each knit point; fluid impulses "
-                              "cleared"
-                            : "knit grid for the contact; fluid impulses cleared",
-                  [this] { begin_coupling(); });
+    pipeline_.add(
+        "coupling.begin", coupling_module,
+        capillary ? "knit saturation (Eq. 9), Leverett J (Eq. 11), capillary pressure "
+                    "(Eq. 10) from the fluid around each knit point; fluid impulses "
+                    "cleared"
+                  : "knit grid for the contact; fluid impulses cleared",
+        [this] { begin_coupling(); }, true); // waits for the step's size itself
   if (knit_on_)
     pipeline_.add(
         "knit.step", "knit",

@@ -197,14 +197,19 @@ private:
   }
   std::uint64_t next_fluid_id_ = 0;
   PoreMass<T> pores() const { return absorption_ ? absorption_->pores() : PoreMass<T>{}; }
+  /// The coupling's step opens (the saturation, then the knit grid and the lists for the knit's
+  /// motion over the step): the step's size is waited for between the two, its read queued
+  /// before the saturation's passes (settle_dt), except on N ranks where the ghosts need it first.
   void begin_coupling() {
     if (knit_halo_) { // the knit's ghosts current, and their saturation their owners'
+      settle_dt();
       stage_parts::Scope part("coupling.begin: knit ghosts (refreshed, or chosen anew)");
       knit_halo_->begin(knit_->expected_motion(dt_));
     }
-    coupling_->begin_step(ex_, knit_->set(), fluid_side(), pores(),
-                          static_cast<T>(knit_->expected_motion(dt_)), share_saturation(),
-                          coupling_anchor());
+    coupling_->update_saturation(ex_, knit_->set(), fluid_side(), pores(), share_saturation());
+    settle_dt();
+    coupling_->begin_lists(ex_, knit_->set(), fluid_side(),
+                           static_cast<T>(knit_->expected_motion(dt_)), coupling_anchor());
   }
   /// On one rank with "verlet" lists: the fluid's lists' positions, so that the coupling's lists
   /// last as long as they may (FluidAnchor). On N ranks the ghosts change at every step: none.
@@ -310,6 +315,20 @@ private:
   // N ranks where the transport reduces device data (NCCL) the job's bounds are all-reduced
   // there first (bounds_[2]): no rank's host waits for the step size.
   FluidStepRule fluid_step_rule() const;
+  /// The fluid's step size from its bounds (kept in fluid_bounds_; a non-finite one reported).
+  double fluid_dt(const MotionBounds<T>& mb);
+  // Knit scenes with fluid: the knit's and the fluid's bounds are queued when the step starts
+  // and read while the stages before its size run (Pipeline::Stage::before_dt: the coupling's
+  // saturation), so the device is not left idle while the host takes the size; settle_dt()
+  // waits for them and takes it (a no-op when nothing is pending).
+  bool reads_bounds_behind() const;
+  void queue_both_bounds();
+  double both_bounds_dt();
+  void take_dt(double dt, double remaining); // dt_ and step_lands_; below dt_min reported
+  void settle_dt();
+  std::optional<exec::PendingRead<MotionBounds<T>>> bounds_read_;
+  bool dt_pending_ = false;
+  double dt_remaining_ = 0;
   bool plans_step_on_device() const;
   void settle_step();
   exec::DeviceBuffer<StepPlan<T>> plan_{exec::Backend::Cpu, 0, "integrate.dt"};

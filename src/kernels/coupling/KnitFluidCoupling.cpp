@@ -15,7 +15,7 @@ KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
       watch_(b, (grid.cell - coupling_reach(params)) / T(3), "coupling.moved"),
       saturation_(b, 0, "coupling.saturation"), pressure_(b, 0, "coupling.pressure"),
       fluid_mass_(b, 0, "coupling.fluid_mass"), x_(b, 0, "coupling.knit_x"),
-      v_(b, 0, "coupling.knit_v"), xs_(b, 0, "coupling.knit_x"), m_(b, 0, "coupling.knit_m"),
+      v_(b, 0, "coupling.knit_v"), xs_(b, 0, "coupling.knit_x_sorted"), m_(b, 0, "coupling.knit_m"),
       p_(b, 0, "coupling.knit_p"), impulse_(b, 0, "coupling.impulse"),
       near_flag_(b, 0, "coupling.near_flag"), list_(b), knit_rows_(b),
       pair_force_(b, 0, "coupling.pair_force"),
@@ -117,13 +117,20 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
                                       const FluidSide<T>& fluid, PoreMass<T> pores, T motion,
                                       const std::function<void()>& share, FluidAnchor<T> anchor) {
   update_saturation(ex, knit, fluid, pores, share);
+  begin_lists(ex, knit, fluid, motion, anchor);
+}
+
+template <typename T>
+void KnitFluidCoupling<T>::begin_lists(const exec::Exec& ex, KnitSet<T>& knit,
+                                       const FluidSide<T>& fluid, T motion, FluidAnchor<T> anchor) {
   const std::size_t n = knit.size();
   watch_.before_step(ex, knit.x, motion, x_.size() != n, [&] { sort_now(ex, knit); });
   exec::gather(ex, perm(), pressure_, p_, "coupling.gather");
   exec::gather(ex, perm(), knit.m, m_, "coupling.gather"); // wet mass changes
   impulse_.resize(fluid.f.n);
   exec::fill(ex, impulse_, Vec3<T>{T(0), T(0), T(0)}, "coupling.impulse");
-  watch_.observe_gather(ex, knit.x, knit.v, perm(), x_, v_);
+  // The sorted copies x_, v_ and the watch's record are the first add_forces' (the knit step's
+  // opening forces, before anything moves): none here.
   // The lists hold, for each fluid particle near the knit, the knit points within reach + 2
   // skins of it, both where the lists were built for: the knit where its grid was sorted (a
   // point moves at most a skin from there while the lists are read: the substeps watch it), the
@@ -133,13 +140,9 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
   // the knit grid's next sort, or the anchor's bound passing the skin; the walk of 27 cells
   // (reach + 2 skins < the cell less a skin) finds every pair.
   const bool anchored = anchor.x0 && anchor.moved <= T(0.99) * watch_.skin();
-  const Built now{anchored, anchored ? anchor.sorts : 0, sorts_, fluid.f.n, n};
-  const bool keep = anchored && built_ && built_->anchored &&
-                    built_->fluid_sorts == now.fluid_sorts &&
-                    built_->knit_sorts == now.knit_sorts && built_->fluid == now.fluid &&
-                    built_->knit == now.knit;
+  const Built now{anchor.sorts, sorts_, fluid.f.n, n};
   flag_slack_ = anchored ? watch_.skin() : T(0);
-  if (keep)
+  if (anchored && built_ == now)
     return;
   const Vec3<T>* at = anchored ? anchor.x0 : fluid.f.x;
   find_fluid_near_knit(ex, at, fluid.f.n);
@@ -150,7 +153,8 @@ void KnitFluidCoupling<T>::begin_step(const exec::Exec& ex, KnitSet<T>& knit,
   // grid slots: perm maps them to the knit's points).
   knit_rows_.build(ex, list_.view(), near_flag_.data(), perm().data(), n, knit_capacity_);
   pair_force_.resize(list_.view().capacity * fluid.f.n);
-  built_ = now;
+  // Only a build for an anchor may be kept: one for the fluid where it is now is for this step.
+  built_ = anchored ? std::optional<Built>(now) : std::nullopt;
   ++list_builds_;
 }
 

@@ -99,6 +99,12 @@ public:
   /// the next begin_step computes the same values again.
   void update_saturation(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid,
                          PoreMass<T> pores = {}, const std::function<void()>& share = {});
+  /// begin_step's second part: the knit grid (sorted when the knit may pass its skin over a
+  /// step of `motion`), the sorted wet mass and pressure, the impulses cleared, the lists (kept
+  /// for an anchor while they hold). Apart so that the host may wait for `motion` while the
+  /// saturation's passes run.
+  void begin_lists(const exec::Exec& ex, KnitSet<T>& knit, const FluidSide<T>& fluid, T motion,
+                   FluidAnchor<T> anchor = {});
   /// On N ranks (the knit set holds owned points, then ghosts): the knit grid's ties go by id,
   /// so each fluid particle's knit candidates come in the one-rank run's order; the host's
   /// motion readings are the job's; the knit-side passes and stats cover the first `active`
@@ -199,12 +205,12 @@ private:
   exec::DeviceBuffer<Vec3<T>> pair_force_;
   T list_skin_;
   std::uint32_t list_capacity_, knit_capacity_;
-  // What the lists were last built for: an anchor's positions (its sorts) or the fluid's then,
-  // the knit grid's sort, the counts. begin_step keeps them while all still hold.
+  // What lists built for an anchor were built for: its positions (the fluid's sorts), the knit
+  // grid's sort, the counts. begin_step keeps them while all still hold (empty: nothing kept).
   struct Built {
-    bool anchored = false;
     std::uint64_t fluid_sorts = 0, knit_sorts = 0;
     std::size_t fluid = 0, knit = 0;
+    bool operator==(const Built&) const = default;
   };
   std::optional<Built> built_;
   std::uint64_t list_builds_ = 0;
