@@ -8,7 +8,9 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <string>
 #include <thread>
+#include <vector>
 
 using namespace kf;
 
@@ -59,4 +61,29 @@ TEST(Pipeline, AStageThatThrowsLeavesTheTimersPaired) {
   EXPECT_NO_THROW(p.collect_device());
   EXPECT_EQ(p.stages()[0].calls, 2u);
   EXPECT_EQ(p.stages()[1].calls, 1u);
+}
+
+// The step's size (P10 stage 11): the stages marked before_dt run before it is settled, and it is
+// settled before the first stage that is not, whatever the stages' order after that.
+TEST(Pipeline, StagesBeforeTheStepSizeRunBeforeItIsSettled) {
+  Pipeline p;
+  std::vector<std::string> seen;
+  bool settled = false;
+  p.add(
+      "absorb", "m", "", [&] { seen.push_back(settled ? "absorb late" : "absorb"); }, true);
+  p.add(
+      "begin", "m", "", [&] { seen.push_back(settled ? "begin late" : "begin"); }, true);
+  p.add("knit", "m", "", [&] { seen.push_back(settled ? "knit" : "knit without dt"); });
+  p.add("fluid", "m", "", [&] { seen.push_back(settled ? "fluid" : "fluid without dt"); });
+  const auto settle = [&] {
+    if (!settled)
+      seen.push_back("settle");
+    settled = true;
+  };
+  p.run({}, settle);
+  EXPECT_EQ(seen, (std::vector<std::string>{"absorb", "begin", "settle", "knit", "fluid"}));
+  // Without a settle hook (a size known before the run) every stage simply runs.
+  seen.clear();
+  p.run();
+  EXPECT_EQ(seen, (std::vector<std::string>{"absorb late", "begin late", "knit", "fluid"}));
 }
