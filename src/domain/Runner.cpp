@@ -298,9 +298,8 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
     sim->collect_device_profile();
   sum.split = since_start(sim->rank_report());
   for (const auto& s : sim->pipeline().stages()) {
-    Pipeline::Stage copy{s.name,  s.module,         s.what,
-                         {},      s.before_dt,      s.seconds,
-                         s.calls, s.device_seconds, s.idle_before_seconds};
+    Pipeline::Stage copy = s;
+    copy.run = nullptr; // the summary outlives the simulation its functions capture
     sum.stages.push_back(std::move(copy));
   }
   // Each stage's largest time over the ranks, on rank 0 (every rank runs the same stages).

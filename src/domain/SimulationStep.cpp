@@ -224,33 +224,23 @@ double SimulationT<T>::knit_stable_dt(const MotionBounds<T>* bounds) {
   }
 }
 
-template double SimulationT<float>::stable_dt();
-template double SimulationT<float>::fluid_dt(const MotionBounds<float>&);
-template void SimulationT<float>::queue_both_bounds();
-template double SimulationT<float>::both_bounds_dt();
-template bool SimulationT<float>::reads_bounds_behind() const;
-template void SimulationT<float>::take_dt(double, double);
-template void SimulationT<float>::settle_dt();
-template void SimulationT<float>::job_bounds(MotionBounds<float>*, int);
-template FluidStepRule SimulationT<float>::fluid_step_rule() const;
-template bool SimulationT<float>::plans_step_on_device() const;
-template void SimulationT<float>::settle_step();
-template double SimulationT<float>::step(double);
-template void SimulationT<float>::report_instability(const std::string&, WatchMeasure);
-template double SimulationT<float>::knit_stable_dt(const MotionBounds<float>*);
-template double SimulationT<double>::stable_dt();
-template double SimulationT<double>::fluid_dt(const MotionBounds<double>&);
-template void SimulationT<double>::queue_both_bounds();
-template double SimulationT<double>::both_bounds_dt();
-template bool SimulationT<double>::reads_bounds_behind() const;
-template void SimulationT<double>::take_dt(double, double);
-template void SimulationT<double>::settle_dt();
-template void SimulationT<double>::job_bounds(MotionBounds<double>*, int);
-template FluidStepRule SimulationT<double>::fluid_step_rule() const;
-template bool SimulationT<double>::plans_step_on_device() const;
-template void SimulationT<double>::settle_step();
-template double SimulationT<double>::step(double);
-template void SimulationT<double>::report_instability(const std::string&, WatchMeasure);
-template double SimulationT<double>::knit_stable_dt(const MotionBounds<double>*);
+#define KF_INSTANTIATE(T)                                                                          \
+  template double SimulationT<T>::stable_dt();                                                     \
+  template double SimulationT<T>::fluid_dt(const MotionBounds<T>&);                                \
+  template void SimulationT<T>::queue_both_bounds();                                               \
+  template double SimulationT<T>::both_bounds_dt();                                                \
+  template bool SimulationT<T>::reads_bounds_behind() const;                                       \
+  template void SimulationT<T>::take_dt(double, double);                                           \
+  template void SimulationT<T>::settle_dt();                                                       \
+  template void SimulationT<T>::job_bounds(MotionBounds<T>*, int);                                 \
+  template FluidStepRule SimulationT<T>::fluid_step_rule() const;                                  \
+  template bool SimulationT<T>::plans_step_on_device() const;                                      \
+  template void SimulationT<T>::settle_step();                                                     \
+  template double SimulationT<T>::step(double);                                                    \
+  template void SimulationT<T>::report_instability(const std::string&, WatchMeasure);              \
+  template double SimulationT<T>::knit_stable_dt(const MotionBounds<T>*);
+KF_INSTANTIATE(float)
+KF_INSTANTIATE(double)
+#undef KF_INSTANTIATE
 
 } // namespace kf
