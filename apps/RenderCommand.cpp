@@ -165,6 +165,7 @@ render::SnapshotStyle style_of(const Scene::Render& r, const RenderArgs& a) {
   st.surface_field = r.surface == Scene::Render::SurfaceField::Naive
                          ? render::SurfaceField::Naive
                          : render::SurfaceField::Weighted;
+  st.surface_cell = r.surface_cell;
   st.knit_yarns = a.knit.empty() ? r.knit == Scene::Render::Knit::Yarns : a.knit == "yarns";
   st.yarn_radius = r.yarn_radius;
   st.knit_volume = r.yarn_volume;

@@ -446,14 +446,14 @@ TEST(Scene, DensityModelOptions) {
 
 } // namespace
 TEST(Scene, RenderTableReadsItsKeys) {
-  const Scene s =
-      load_scene((test::source_dir() / "scenes" / "pour.toml").string(),
-                 {"render.width=640", "render.orbit=30", "render.fluid=\"spheres\"",
-                  "render.surface=\"naive\"", "render.knit_colour=[0.1, 0.2, 0.3]",
-                  "render.knit=\"points\"", "render.yarn_radius=0.001", "render.shadows=false",
-                  "render.refraction=false", "render.refractive_index=1.5",
-                  "render.absorption_depth=0.25", "render.yarn_volume=false", "render.yarn_plies=2",
-                  "render.yarn_fuzz=0", "render.yarn_slices=3", "render.yarn_detail_pixels=2.5"});
+  const Scene s = load_scene(
+      (test::source_dir() / "scenes" / "pour.toml").string(),
+      {"render.width=640", "render.orbit=30", "render.fluid=\"spheres\"",
+       "render.surface=\"naive\"", "render.knit_colour=[0.1, 0.2, 0.3]", "render.knit=\"points\"",
+       "render.yarn_radius=0.001", "render.shadows=false", "render.refraction=false",
+       "render.refractive_index=1.5", "render.absorption_depth=0.25", "render.yarn_volume=false",
+       "render.yarn_plies=2", "render.yarn_fuzz=0", "render.yarn_slices=3",
+       "render.yarn_detail_pixels=2.5", "render.surface_cell=2"});
   EXPECT_EQ(s.render.width, 640);
   EXPECT_EQ(s.render.height, 1080); // scenes/pour.toml's own
   EXPECT_TRUE(s.render.camera);
@@ -473,10 +473,11 @@ TEST(Scene, RenderTableReadsItsKeys) {
   EXPECT_EQ(s.render.yarn_fuzz, 0);
   EXPECT_EQ(s.render.yarn_slices, 3);
   EXPECT_DOUBLE_EQ(s.render.yarn_detail_pixels, 2.5);
+  EXPECT_DOUBLE_EQ(s.render.surface_cell, 2);
   // An index below air's, or water that absorbs all at no depth, named with what it needs.
   for (const char* bad :
        {"render.refractive_index=0.5", "render.absorption_depth=0", "render.yarn_slices=5",
-        "render.yarn_plies=0", "render.yarn_detail_pixels=-1"}) {
+        "render.yarn_plies=0", "render.yarn_detail_pixels=-1", "render.surface_cell=0"}) {
     const std::string e = load_error((test::source_dir() / "scenes" / "pour.toml").string(), {bad});
     EXPECT_NE(e.find(std::string(bad).substr(0, std::string(bad).find('='))), std::string::npos)
         << e;

@@ -271,6 +271,9 @@ struct Scene {
     double wet_darkening = 0.15; // alpha in C' = C (1 - alpha sqrt(s))
     enum class Fluid { Surface, Spheres } fluid = Fluid::Surface;
     enum class SurfaceField { Weighted, Naive } surface = SurfaceField::Weighted;
+    // The surface's grid cell over the fluid's spacing: coarser draws a preview sooner (the
+    // field's work goes as its cube) and smooths away detail under a cell.
+    double surface_cell = 0.5;
     bool boundary = false;                                // the walls' particles
     enum class Knit { Yarns, Points } knit = Knit::Yarns; // tubes along the yarns, or spheres
     double yarn_radius = 0; // [m]; 0: a fifth of the spacing of the knit's points in a layer

@@ -689,6 +689,7 @@ void read_render(const TableReader& t, Scene::Render& r) {
                 "wet_darkening",
                 "fluid",
                 "surface",
+                "surface_cell",
                 "boundary",
                 "knit",
                 "yarn_radius",
@@ -726,6 +727,7 @@ void read_render(const TableReader& t, Scene::Render& r) {
   t.read("wet_darkening", r.wet_darkening, Range::closed(0, 1));
   t.read("fluid", r.fluid, kRenderFluids);
   t.read("surface", r.surface, kSurfaceFields);
+  t.read("surface_cell", r.surface_cell, Range::closed(0.125, 4));
   t.read("boundary", r.boundary);
   t.read("knit", r.knit, kRenderKnits);
   t.read("yarn_radius", r.yarn_radius, Range::at_least(0));

@@ -298,6 +298,7 @@ SurfaceMesh floor_square(const glm::dvec3& lo, const glm::dvec3& hi, double z) {
 SurfaceOptions SnapshotRenderer::surface_options() const {
   SurfaceOptions opt;
   opt.field = style_.surface_field;
+  opt.cell = style_.surface_cell;
   opt.spacing = fluid_r_ ? 2 * *fluid_r_ : 0;
   return opt;
 }
