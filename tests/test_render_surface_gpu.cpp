@@ -38,6 +38,16 @@ std::vector<glm::dvec3> ball_and_splash(int cells, glm::dvec3 c, int drops) {
   return p;
 }
 
+/// A snapshot frame holding only these points, as its fluid's positions.
+io::Frame fluid_frame(const std::vector<glm::dvec3>& p) {
+  std::vector<float> x;
+  for (const auto& q : p)
+    x.insert(x.end(), {float(q.x), float(q.y), float(q.z)});
+  io::Frame frame;
+  frame.phases.push_back({"fluid", {io::Field::from("position", x, 3)}});
+  return frame;
+}
+
 const char* name(SurfaceField f) {
   return f == SurfaceField::Naive ? "naive" : "weighted";
 }
@@ -232,12 +242,7 @@ TEST_F(SurfaceOnGpu, RegionsSplitTheSurfaceWithoutLossOrOverlap) {
 TEST(SurfaceOnGpuPicture, ThePictureIsTheHostSurfacesPicture) {
   // A splash drawn with the surface from the GPU's passes and from the host's: the same
   // triangles to float rounding, so the same picture but for a few edge pixels.
-  const auto p = ball_and_splash(8, {0.3, -0.2, 0.5}, 300);
-  std::vector<float> x;
-  for (const auto& q : p)
-    x.insert(x.end(), {float(q.x), float(q.y), float(q.z)});
-  io::Frame frame;
-  frame.phases.push_back({"fluid", {io::Field::from("position", x, 3)}});
+  const io::Frame frame = fluid_frame(ball_and_splash(8, {0.3, -0.2, 0.5}, 300));
   std::vector<io::RgbaImage> pictures;
   for (bool gpu : {true, false}) {
     render::SnapshotStyle s;
@@ -270,12 +275,7 @@ TEST(SurfaceOnGpuPicture, ACoarserCellDrawsFewerTriangles) {
   // [render] surface_cell reaches the surface's grid: a cell twice as coarse lays a quarter of
   // the triangles over the same area (a closed surface's triangles go as its area over a cell
   // squared).
-  const auto p = ball_and_splash(8, {0.3, -0.2, 0.5}, 0);
-  std::vector<float> x;
-  for (const auto& q : p)
-    x.insert(x.end(), {float(q.x), float(q.y), float(q.z)});
-  io::Frame frame;
-  frame.phases.push_back({"fluid", {io::Field::from("position", x, 3)}});
+  const io::Frame frame = fluid_frame(ball_and_splash(8, {0.3, -0.2, 0.5}, 0));
   std::vector<double> triangles;
   for (double cell : {0.5, 1.0}) {
     render::SnapshotStyle s;

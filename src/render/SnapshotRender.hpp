@@ -51,7 +51,7 @@ struct SnapshotStyle {
   // the particles' spheres.
   bool fluid_surface = true;
   SurfaceField surface_field = SurfaceField::Weighted;
-  double surface_cell = 0.5; // the surface's grid cell over the fluid's spacing
+  double surface_cell = SurfaceOptions{}.cell; // the surface's grid cell over the spacing
   // The surface mirrors a sky over a grey ground by Fresnel's share (Schlick, F0 = 0.02), and
   // with environment_size > 0 the scene without the fluid before it: a cube map of that many
   // texels a side drawn from the fluid's centre (the knit as its points' spheres there: at a

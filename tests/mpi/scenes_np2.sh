@@ -56,8 +56,9 @@ EOF
     echo "FAIL $name: restart on 2 ranks"; cat "$out/$name.r.log"; fail=1; continue
   fi
   # And its pictures, the frames shared out over 2 ranks: one PNG a snapshot. The surface's grid
-  # at 2 spacings (a pixel here is 5-20 of them): the field's work is the pour's render (23 of
-  # its 26 s a frame at 0.5 spacing through llvmpipe).
+  # at 2 spacings, not 0.5: a pixel of the pour's 64 x 48 is ~5 of them (25 mm at 1.9 m), and
+  # the finer grid's field was 15 of the pour's 22 s a frame through llvmpipe (11 s at 2; the
+  # picture within 4 levels, in 4 pixels).
   look=(--width 64 --height 48 --set render.surface_cell=2)
   if ! timeout 300 "$mpiexec" -n 2 --oversubscribe "$exe" render "$out/$name.2" "${look[@]}" \
        --quiet > "$out/$name.png.log" 2>&1 \
