@@ -114,6 +114,30 @@ TEST(KnitSprings, ForceIsMinusTheEnergyGradient) {
   EXPECT_LT(worst, 1e-7) << "F = -dE/dx fails by " << worst;
 }
 
+// The per-point tables' two layouts (RowLayout): each maps the n x width (entry, point) pairs
+// one to one onto the table's n x width words; the CPU's keeps a point's row in adjacent words
+// (its force pass walks one row at a time), the GPU's a slot's points (a warp reads them together).
+TEST(KnitSprings, BothRowLayoutsPlaceEveryEntryOnceInTheTable) {
+  const std::size_t n = 37;
+  const std::uint32_t width = 5;
+  for (const exec::Backend b : {exec::Backend::Cpu, exec::Backend::Cuda}) {
+    const RowLayout rows = RowLayout::for_backend(b, n, width);
+    std::vector<int> seen(n * width, 0);
+    for (std::size_t i = 0; i < n; ++i)
+      for (std::uint32_t e = 0; e < width; ++e) {
+        const std::size_t at = rows.at(e, i);
+        ASSERT_LT(at, n * width);
+        ++seen[at];
+        if (e > 0) {
+          EXPECT_EQ(at - rows.at(e - 1, i), b == exec::Backend::Cpu ? std::size_t(1) : n);
+        }
+      }
+    for (int c : seen) {
+      ASSERT_EQ(c, 1);
+    }
+  }
+}
+
 // On N ranks (KnitSystem::localize) a rank holds its owned points, then ghosts, in any order:
 // the rows localized from the whole network's give every owned point the force it has in the
 // whole network, bit for bit (each row in the mesh's order); the ghosts get none (NaN stays).

@@ -27,7 +27,7 @@ KF_HD KF_INLINE void for_each_volume_cell(const VolumeView<T>& vol, const Vec3<T
     return;
   const std::uint32_t cells = vol.count[i];
   for (std::uint32_t e = lane; e < cells; e += stride) {
-    const std::uint32_t c = vol.cell[e * vol.n_points + i];
+    const std::uint32_t c = vol.cell[vol.rows.at(e, i)];
     const std::uint32_t* q = vol.point + 4 * std::size_t(c);
     const Vec3<T> xp = x[q[0]], xo = x[q[1]], xa = x[q[2]], xb = x[q[3]];
     const int role = q[0] == i ? 0 : q[1] == i ? 1 : q[2] == i ? 2 : 3;

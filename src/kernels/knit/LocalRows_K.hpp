@@ -1,22 +1,24 @@
 #pragma once
 #include "core/HostDevice.hpp"
+#include "kernels/knit/RowLayout.hpp"
 
 #include <cstddef>
 #include <cstdint>
 
 namespace kf {
 
-/// Gathers a slot-major (ELL) table's rows for a rank's points from the mesh's: local point k
-/// (owned, k < owned) takes mesh point id[k]'s row, each entry through `local` (mesh indices
-/// inside it made local); ghosts get none (their rows are their owners'). Springs and volume
-/// cells share it: entry e of point p sits at e * n + p in both.
+/// Gathers a per-point table's rows for a rank's points from the mesh's: local point k (owned,
+/// k < owned) takes mesh point id[k]'s row, each entry through `local` (mesh indices inside it
+/// made local); ghosts get none (their rows are their owners'). Springs and volume cells share
+/// it: entry e of point p sits at rows.at(e, p) in both (RowLayout).
 template <typename Entry, typename Local>
 struct LocalRowGather {
   const std::uint32_t* mesh_count;
   const Entry* mesh_entry;
-  std::size_t mesh_n;
+  RowLayout mesh_rows;
   const std::uint64_t* id;
-  std::size_t owned, n;
+  std::size_t owned;
+  RowLayout rows;
   std::uint32_t* count;
   Entry* entry;
   Local local;
@@ -29,7 +31,7 @@ struct LocalRowGather {
     const std::uint32_t c = mesh_count[p];
     count[k] = c;
     for (std::uint32_t e = 0; e < c; ++e)
-      entry[e * n + k] = local(mesh_entry[e * mesh_n + p]);
+      entry[rows.at(e, k)] = local(mesh_entry[mesh_rows.at(e, p)]);
   }
 };
 

@@ -28,11 +28,12 @@ void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_
   std::uint32_t width = 0;
   for (std::uint32_t c : count)
     width = std::max(width, c);
+  const RowLayout rows = RowLayout::for_backend(count_.backend(), n_points, width);
   std::vector<SpringEntry<T>> entry(std::size_t(width) * n_points);
   std::vector<std::uint32_t> fill(n_points, 0);
   auto put = [&](std::uint32_t a, std::uint32_t b, const Spring& s) {
-    entry[std::size_t(fill[a]++) * n_points + a] = {b, static_cast<T>(s.rest), static_cast<T>(s.k),
-                                                    static_cast<T>(s.c)};
+    entry[rows.at(fill[a]++, a)] = {b, static_cast<T>(s.rest), static_cast<T>(s.k),
+                                    static_cast<T>(s.c)};
   };
   for (const Spring& s : springs) {
     put(s.i, s.j, s);
@@ -42,6 +43,7 @@ void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_
   entry_.assign(entry);
   springs_ = springs.size();
   width_ = width;
+  rows_ = rows;
 }
 
 namespace {
@@ -64,13 +66,14 @@ void SpringTopology<T>::localize(const exec::Exec& ex, const SpringTopology& mes
                                  std::size_t owned, std::size_t n) {
   count_.resize(n);
   entry_.resize(std::size_t(mesh.width_) * n);
+  rows_ = RowLayout::for_backend(count_.backend(), n, mesh.width_);
   exec::for_each(ex, n,
                  LocalRowGather<SpringEntry<T>, OtherEndLocal<T>>{mesh.count_.data(),
                                                                   mesh.entry_.data(),
-                                                                  mesh.count_.size(),
+                                                                  mesh.rows_,
                                                                   id,
                                                                   owned,
-                                                                  n,
+                                                                  rows_,
                                                                   count_.data(),
                                                                   entry_.data(),
                                                                   {{local_of_id}}},
@@ -82,7 +85,7 @@ void SpringTopology<T>::localize(const exec::Exec& ex, const SpringTopology& mes
 
 template <typename T>
 SpringView<T> SpringTopology<T>::view() const {
-  return {count_.data(), entry_.data(), count_.size()};
+  return {count_.data(), entry_.data(), rows_};
 }
 
 template <typename T>

@@ -4,6 +4,7 @@
 // backends).
 #include "core/Vec3.hpp"
 #include "kernels/exec/Algorithms.hpp"
+#include "kernels/knit/RowLayout.hpp"
 
 #include <cstdint>
 #include <vector>
@@ -37,14 +38,14 @@ struct SpringEntry {
   T rest = T(0), k = T(0), c = T(0);
 };
 
-/// Point i's e-th spring is entry[e * n_points + i], e < count[i]: slot-major (ELL), so the lanes
-/// of a warp, one point each, read adjacent entries (compressed rows had each lane read its own
-/// row: a cache line per lane per spring).
+/// Point i's e-th spring is entry[rows.at(e, i)], e < count[i]: slot-major (ELL) on the GPU, so
+/// the lanes of a warp, one point each, read adjacent entries (compressed rows had each lane read
+/// its own row: a cache line per lane per spring); row-major on the CPU (RowLayout).
 template <typename T>
 struct SpringView {
   const std::uint32_t* count;
   const SpringEntry<T>* entry;
-  std::size_t n_points;
+  RowLayout rows;
 
   /// f(entry) for point i's springs (with lanes: every stride-th from `lane` on).
   template <typename F>
@@ -52,7 +53,7 @@ struct SpringView {
                                        std::uint32_t stride = 1) const {
     const std::uint32_t c = count[i];
     for (std::uint32_t e = lane; e < c; e += stride)
-      f(entry[e * n_points + i]);
+      f(entry[rows.at(e, i)]);
   }
 };
 
@@ -82,6 +83,7 @@ private:
   exec::DeviceBuffer<SpringEntry<T>> entry_;
   std::size_t springs_ = 0;
   std::uint32_t width_ = 0; // the most springs of one point
+  RowLayout rows_;
   std::vector<std::size_t> by_kind_;
 };
 

@@ -35,11 +35,12 @@ void VolumeTopology<T>::build(const std::vector<VolumeCell>& cells, std::size_t 
   std::uint32_t width = 0;
   for (std::uint32_t c : count)
     width = std::max(width, c);
+  const RowLayout rows = RowLayout::for_backend(count_.backend(), n_points, width);
   std::vector<std::uint32_t> cell(std::size_t(width) * n_points, 0), fill(n_points, 0);
   for (std::size_t c = 0; c < cells.size(); ++c)
     for (int r = 0; r < 4; ++r) {
       const std::uint32_t i = cells[c].point[r];
-      cell[std::size_t(fill[i]++) * n_points + i] = static_cast<std::uint32_t>(c);
+      cell[rows.at(fill[i]++, i)] = static_cast<std::uint32_t>(c);
     }
   count_.assign(count);
   cell_.assign(cell);
@@ -48,6 +49,7 @@ void VolumeTopology<T>::build(const std::vector<VolumeCell>& cells, std::size_t 
   k_.assign(k);
   cells_ = cells.size();
   width_ = width;
+  rows_ = rows;
 }
 
 namespace {
@@ -76,14 +78,15 @@ void VolumeTopology<T>::localize(const exec::Exec& ex, const VolumeTopology& mes
   }
   count_.resize(n);
   cell_.resize(std::size_t(width_) * n);
+  rows_ = RowLayout::for_backend(count_.backend(), n, width_);
   point_.resize(mesh.point_.size());
   exec::for_each(ex, n,
                  LocalRowGather<std::uint32_t, SameEntry>{mesh.count_.data(),
                                                           mesh.cell_.data(),
-                                                          mesh.count_.size(),
+                                                          mesh.rows_,
                                                           id,
                                                           owned,
-                                                          n,
+                                                          rows_,
                                                           count_.data(),
                                                           cell_.data(),
                                                           {}},
@@ -96,7 +99,7 @@ template <typename T>
 VolumeView<T> VolumeTopology<T>::view() const {
   if (cells_ == 0)
     return {};
-  return {count_.data(), cell_.data(), point_.data(), rest_.data(), k_.data(), count_.size()};
+  return {count_.data(), cell_.data(), point_.data(), rest_.data(), k_.data(), rows_};
 }
 
 template <typename T>

@@ -7,6 +7,7 @@
 // layers keep their order. Stored per point like the springs (gather, no atomics).
 #include "core/Vec3.hpp"
 #include "kernels/exec/Algorithms.hpp"
+#include "kernels/knit/RowLayout.hpp"
 
 #include <array>
 #include <cstdint>
@@ -51,11 +52,11 @@ KF_HD KF_INLINE Vec3<T> tet_volume_gradient(const Vec3<T>& p, const Vec3<T>& o, 
 template <typename T>
 struct VolumeView {
   const std::uint32_t* count = nullptr; // cells point i belongs to
-  const std::uint32_t* cell = nullptr;  // its e-th at cell[e * n_points + i] (slot-major)
+  const std::uint32_t* cell = nullptr;  // its e-th at cell[rows.at(e, i)] (RowLayout)
   const std::uint32_t* point = nullptr; // 4 per cell
   const T* rest = nullptr;
   const T* k = nullptr;
-  std::size_t n_points = 0;
+  RowLayout rows;
 
   KF_HD KF_INLINE bool empty() const { return count == nullptr; }
 };
@@ -79,6 +80,7 @@ private:
   exec::DeviceBuffer<T> rest_, k_;
   std::size_t cells_ = 0;
   std::uint32_t width_ = 0; // the most cells of one point
+  RowLayout rows_;
 };
 
 } // namespace kf
