@@ -25,33 +25,22 @@ build/fuzz/fuzz_scene -max_total_time=60 -rss_limit_mb=2048 -timeout=10 -print_f
   >build/fuzz/run.log 2>&1 &
 fuzz=$!
 if command -v nvcc >/dev/null 2>&1 || [ -x /usr/local/cuda/bin/nvcc ]; then
-  # Compile only what the CUDA build compiles otherwise than the CPU build above: the kernels
-  # library (nvcc), the transports (NCCL), and every other source or test naming KF_WITH_CUDA or
-  # __CUDACC__, and nvcc's tests (test_*_K); the rest is the same g++ code again (`cmake --build
-  # --preset cuda` builds everything, as the GPU jobs do).
+  # Compile only what the CUDA build compiles otherwise than the CPU build above
+  # (scripts/cuda_check.py: nvcc's units through its front end and device compiler, the
+  # transports (NCCL) and every other source or test naming KF_WITH_CUDA or __CUDACC__); the
+  # rest is the same g++ code again (`cmake --build --preset cuda` builds everything, as the GPU
+  # jobs do).
   # Its own tree (build/cuda-check; build/cuda stays the GPU jobs' Release build), configured
   # for the check alone: PTX without SASS (90-virtual: no ptxas), NVVM at -O0 (-Xcicc) and host
   # code at -O0 (no CMAKE_BUILD_TYPE's flags): Sph.cpp 61 -> 22 s, KnitFluidCoupling.cpp 46 ->
   # 20 s on CI's cores. The front ends, every template's instantiation and the device code's
-  # generation still run; what is left out is optimisation and ptxas's register allocation.
+  # generation still run; what is left out is optimisation, ptxas's register allocation and the
+  # host compiler's pass over nvcc's host output (cuda_check.py says why).
   stamp "CUDA build (compile only: the kernels, the transports, the sources KF_WITH_CUDA changes)"
   cuda=build/cuda-check
   cmake --preset cuda -B "$cuda" -DKF_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=CompileCheck \
     -DCMAKE_CUDA_ARCHITECTURES=90-virtual -DCMAKE_CUDA_FLAGS="-Xcicc -O0" >/dev/null
-  cmake --build "$cuda" -j"$jobs" --target kf_kernels kf_comm
-  cuda_objects() { # DIR FILE...: each file's object in the CUDA build's DIR
-    local dir=$1; shift
-    [ $# -eq 0 ] || make -s -C "$cuda/$dir" -j"$jobs" "${@/%.cpp/.o}"
-  }
-  cuda_objects src $(cd src && grep -rl --include='*.cpp' -e KF_WITH_CUDA -e __CUDACC__ . \
-    | sed 's|^\./||' | grep -v -e '^kernels/' -e '^comm/')
-  cuda_objects apps $(cd apps && grep -l -e KF_WITH_CUDA -e __CUDACC__ ./*.cpp | sed 's|^\./||')
-  # The tests' precompiled header (tests/CMakeLists.txt), which their objects read, built alone:
-  # its target would build the domain library again.
-  make -s -C "$cuda" -f tests/CMakeFiles/kf_test_support.dir/build.make \
-    tests/CMakeFiles/kf_test_support.dir/cmake_pch.hxx.gch
-  cuda_objects tests $(cd tests && { ls test_*_K.cpp; grep -rl --include='test_*.cpp' \
-    -e KF_WITH_CUDA -e __CUDACC__ . | sed 's|^\./||'; } | sort -u)
+  python3 scripts/cuda_check.py "$cuda" "$jobs"
 fi
 if ! wait "$fuzz"; then
   tail -40 build/fuzz/run.log
