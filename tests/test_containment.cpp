@@ -77,14 +77,17 @@ void expect_contained(const Outcome& o, const std::string& what, double max_rate
 } // namespace
 
 // Guard corrections per particle-step each scene (coarsened as below) reaches, measured on the CPU:
-// obstacles 1.2e-2, mesh_obstacle 1.2e-2, pour 3.1e-3, wicking 2.4e-3, dambreak 6.2e-4,
+// obstacles 1.2e-2, mesh_obstacle 1.2e-2, pour 3.1e-3 (3.7e-3 at 392df8e), dambreak 6.2e-4,
 // hydrostatic 0 (a tank at rest: the wall forces alone hold it). They count rare events in
 // splashes, which rounding reshuffles: P4's later stages, same physics in another order, moved
 // them by up to 25% (obstacles 1.3e-2, mesh_obstacle 1.5e-2, pour 3.8e-3, wicking 2.7e-3,
 // dambreak 7e-4 before). So each bound is 1.4x its scene's figure; a scene without one fails.
+// The wicking pool, at rest since it took the continuity equation (its rate was 2.4e-3 with
+// summation density's slosh), has 1 correction in ~1e6 particle-steps (1.0e-6): a count that
+// small is noise, so its bound is 10 of them (1e-5), 240x under what the sloshing pool needed.
 const std::map<std::string, double> kGuardRateBound = {
     {"obstacles.toml", 1.7e-2}, {"mesh_obstacle.toml", 1.7e-2}, {"pour.toml", 4.4e-3},
-    {"wicking.toml", 3.4e-3},   {"dambreak.toml", 8.7e-4},      {"hydrostatic.toml", 0.0}};
+    {"wicking.toml", 1e-5},     {"dambreak.toml", 8.7e-4},      {"hydrostatic.toml", 0.0}};
 
 TEST(Containment, EverySceneFileKeepsFluidOutOfSolids) {
   int scenes = 0;
