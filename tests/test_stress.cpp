@@ -321,7 +321,7 @@ TEST(Stress, WendlandTankFromPerturbedStarts) {
 
 // The waves' impacts on the walls (about 1.7 m/s at c = 15: Mach 0.11) compress the fluid; the
 // largest over 100,000 chaotic steps depends on rounding: 14.3% on the CPU, 17.7% on an H200.
-// CI runs the first 25,000 (28 s on one core): the CPU's largest, 14.3%, and its energy, 0.949 of
+// CI runs the first 25,000 (20 s on one core): the CPU's largest, 14.3%, and its energy, 0.949 of
 // the budget, are reached within them (measured: the same at 20,000, 25,000, 30,000, 50,000 and
 // 100,000 steps).
 TEST(Stress, LongRunOfTwentyFiveThousandStepsAndAHundredAtFullSize) {

@@ -43,7 +43,6 @@ void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_
   entry_.assign(entry);
   springs_ = springs.size();
   width_ = width;
-  rows_ = rows;
 }
 
 namespace {
@@ -64,28 +63,27 @@ template <typename T>
 void SpringTopology<T>::localize(const exec::Exec& ex, const SpringTopology& mesh,
                                  const std::uint64_t* id, const std::uint32_t* local_of_id,
                                  std::size_t owned, std::size_t n) {
+  width_ = mesh.width_; // before rows(): the CPU's rows are width_ apart
   count_.resize(n);
-  entry_.resize(std::size_t(mesh.width_) * n);
-  rows_ = RowLayout::for_backend(count_.backend(), n, mesh.width_);
+  entry_.resize(std::size_t(width_) * n);
   exec::for_each(ex, n,
                  LocalRowGather<SpringEntry<T>, OtherEndLocal<T>>{mesh.count_.data(),
                                                                   mesh.entry_.data(),
-                                                                  mesh.rows_,
+                                                                  mesh.rows(),
                                                                   id,
                                                                   owned,
-                                                                  rows_,
+                                                                  rows(),
                                                                   count_.data(),
                                                                   entry_.data(),
                                                                   {{local_of_id}}},
                  "knit.springs.localize");
   springs_ = mesh.springs_;
-  width_ = mesh.width_;
   by_kind_ = mesh.by_kind_;
 }
 
 template <typename T>
 SpringView<T> SpringTopology<T>::view() const {
-  return {count_.data(), entry_.data(), rows_};
+  return {count_.data(), entry_.data(), rows()};
 }
 
 template <typename T>

@@ -83,7 +83,8 @@ private:
   exec::DeviceBuffer<SpringEntry<T>> entry_;
   std::size_t springs_ = 0;
   std::uint32_t width_ = 0; // the most springs of one point
-  RowLayout rows_;
+  /// Where the rows sit: the backend's layout for these points and width.
+  RowLayout rows() const { return RowLayout::for_backend(count_.backend(), count_.size(), width_); }
   std::vector<std::size_t> by_kind_;
 };
 

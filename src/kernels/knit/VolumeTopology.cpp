@@ -49,7 +49,6 @@ void VolumeTopology<T>::build(const std::vector<VolumeCell>& cells, std::size_t 
   k_.assign(k);
   cells_ = cells.size();
   width_ = width;
-  rows_ = rows;
 }
 
 namespace {
@@ -78,15 +77,14 @@ void VolumeTopology<T>::localize(const exec::Exec& ex, const VolumeTopology& mes
   }
   count_.resize(n);
   cell_.resize(std::size_t(width_) * n);
-  rows_ = RowLayout::for_backend(count_.backend(), n, width_);
   point_.resize(mesh.point_.size());
   exec::for_each(ex, n,
                  LocalRowGather<std::uint32_t, SameEntry>{mesh.count_.data(),
                                                           mesh.cell_.data(),
-                                                          mesh.rows_,
+                                                          mesh.rows(),
                                                           id,
                                                           owned,
-                                                          rows_,
+                                                          rows(),
                                                           count_.data(),
                                                           cell_.data(),
                                                           {}},
@@ -99,7 +97,7 @@ template <typename T>
 VolumeView<T> VolumeTopology<T>::view() const {
   if (cells_ == 0)
     return {};
-  return {count_.data(), cell_.data(), point_.data(), rest_.data(), k_.data(), rows_};
+  return {count_.data(), cell_.data(), point_.data(), rest_.data(), k_.data(), rows()};
 }
 
 template <typename T>

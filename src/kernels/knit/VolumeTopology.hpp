@@ -80,7 +80,8 @@ private:
   exec::DeviceBuffer<T> rest_, k_;
   std::size_t cells_ = 0;
   std::uint32_t width_ = 0; // the most cells of one point
-  RowLayout rows_;
+  /// Where the rows sit: the backend's layout for these points and width.
+  RowLayout rows() const { return RowLayout::for_backend(count_.backend(), count_.size(), width_); }
 };
 
 } // namespace kf
