@@ -3,6 +3,7 @@
 #include "core/Error.hpp"
 #include "domain/KnitMeshPiece.hpp"
 #include "domain/MeshObstacle.hpp"
+#include "domain/Samplers.hpp"
 #include "domain/Scene.hpp"
 #include "support/TestPaths.hpp"
 
@@ -108,6 +109,49 @@ TEST(Scene, MinimalSceneTakesDefaults) {
   EXPECT_TRUE(s.fluid.clamp_negative_pressure);
   EXPECT_TRUE(s.obstacles.empty());
   EXPECT_TRUE(s.has(Module::Fluid) && s.has(Module::Boundary));
+}
+
+// A disordered start: every particle within jitter x spacing / 2 of its lattice point along each
+// axis, the bound nearly reached (the offsets fill the interval), no drift on average, the same
+// on every call; 0 is the lattice; the loader reads the key and refuses past 0.5.
+TEST(Scene, FluidBlockJitterIsBoundedUnbiasedAndRepeatable) {
+  FluidBlock block;
+  block.min = {0, 0, 0};
+  block.max = {0.2, 0.2, 0.2};
+  const double dp = 0.01;
+  const auto lattice = sample_fluid_block(block, dp);
+  block.jitter = 0.4;
+  const auto a = sample_fluid_block(block, dp), b = sample_fluid_block(block, dp);
+  ASSERT_EQ(a.size(), 8000u);
+  ASSERT_EQ(lattice.size(), a.size());
+  const double bound = 0.4 * dp / 2;
+  double largest = 0, moved = 0;
+  Vec3d mean{0, 0, 0};
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    const Vec3d d = a[i] - lattice[i];
+    for (double c : {d.x, d.y, d.z}) {
+      ASSERT_LE(std::abs(c), bound) << "particle " << i;
+      largest = std::max(largest, std::abs(c));
+    }
+    moved += norm(d) > 0;
+    mean += d * (1.0 / a.size());
+    ASSERT_EQ(a[i].x, b[i].x);
+    ASSERT_EQ(a[i].y, b[i].y);
+    ASSERT_EQ(a[i].z, b[i].z);
+  }
+  EXPECT_EQ(moved, a.size());
+  EXPECT_GT(largest, 0.99 * bound); // 24,000 uniform draws: the largest within 1e-4 of the bound
+  // A uniform offset's mean over n draws has sigma = bound / sqrt(3 n): 4 sigma per axis.
+  const double four_sigma = 4 * bound / std::sqrt(3.0 * a.size());
+  EXPECT_LT(std::abs(mean.x), four_sigma);
+  EXPECT_LT(std::abs(mean.y), four_sigma);
+  EXPECT_LT(std::abs(mean.z), four_sigma);
+
+  const Scene s = load_scene(scene_file("minimal.toml"), {"fluid.block.0.jitter=0.25"});
+  EXPECT_DOUBLE_EQ(s.fluid.blocks[0].jitter, 0.25);
+  const std::string msg = load_error(scene_file("minimal.toml"), {"fluid.block.0.jitter=0.6"});
+  EXPECT_NE(msg.find("jitter"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("expected a number in [0, 0.5], got 0.6"), std::string::npos) << msg;
 }
 
 TEST(Scene, OutputDirDefaultsToName) {

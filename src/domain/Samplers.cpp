@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <utility>
 
@@ -18,6 +19,16 @@ int cells_along(double length, double dp) {
   return std::max(0, static_cast<int>(std::floor(length / dp + 1e-9)));
 }
 
+/// A number in [-0.5, 0.5) from a lattice point and an axis (splitmix64's finaliser): the
+/// jitter depends on nothing but the point, so every run and rank samples the same start.
+double jitter_of(std::uint64_t point, int axis) {
+  std::uint64_t z = point * 3 + static_cast<std::uint64_t>(axis) + 0x9E3779B97F4A7C15ull;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  z ^= z >> 31;
+  return static_cast<double>(z >> 11) * 0x1.0p-53 - 0.5;
+}
+
 } // namespace
 
 std::vector<Vec3d> sample_fluid_block(const FluidBlock& block, double dp) {
@@ -25,10 +36,17 @@ std::vector<Vec3d> sample_fluid_block(const FluidBlock& block, double dp) {
   const int nx = cells_along(e.x, dp), ny = cells_along(e.y, dp), nz = cells_along(e.z, dp);
   std::vector<Vec3d> x;
   x.reserve(static_cast<std::size_t>(nx) * ny * nz);
+  const double a = block.jitter * dp;
   for (int k = 0; k < nz; ++k)
     for (int j = 0; j < ny; ++j)
-      for (int i = 0; i < nx; ++i)
-        x.push_back(block.min + Vec3d{(i + 0.5) * dp, (j + 0.5) * dp, (k + 0.5) * dp});
+      for (int i = 0; i < nx; ++i) {
+        Vec3d p = block.min + Vec3d{(i + 0.5) * dp, (j + 0.5) * dp, (k + 0.5) * dp};
+        if (a > 0) {
+          const std::uint64_t n = (std::uint64_t(k) * ny + j) * nx + i;
+          p += Vec3d{a * jitter_of(n, 0), a * jitter_of(n, 1), a * jitter_of(n, 2)};
+        }
+        x.push_back(p);
+      }
   return x;
 }
 

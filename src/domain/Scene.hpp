@@ -27,6 +27,10 @@ enum class ObstacleShape { Plane, Box, Sphere, Mesh };
 struct FluidBlock {
   Vec3d min{}, max{};
   Vec3d velocity{0, 0, 0};
+  // Each particle moved off its lattice point by up to jitter x spacing / 2 along each axis, the
+  // same on every run and rank (a disordered start: a lattice at rest resists shear like a weak
+  // solid; docs/PHYSICS.md). 0: the lattice.
+  double jitter = 0;
 };
 
 struct Obstacle {

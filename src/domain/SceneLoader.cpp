@@ -255,7 +255,7 @@ void read_sound_speed(const TableReader& t, Scene::Fluid& f) {
 }
 
 FluidBlock read_block(const TableReader& t, const Scene::Domain& d) {
-  t.allow_only({"min", "max", "velocity"});
+  t.allow_only({"min", "max", "velocity", "jitter"});
   FluidBlock b;
   std::tie(b.min, b.max) = read_box(t);
   const bool min_in = all_less_equal(d.min, b.min) && all_less_equal(b.min, d.max);
@@ -266,6 +266,7 @@ FluidBlock read_block(const TableReader& t, const Scene::Domain& d) {
                repr(*t.node(key)));
   }
   t.read("velocity", b.velocity);
+  t.read("jitter", b.jitter, Range::closed(0, 0.5)); // within the particle's own cell
   return b;
 }
 
