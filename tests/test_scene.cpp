@@ -125,7 +125,8 @@ TEST(Scene, FluidBlockJitterIsBoundedUnbiasedAndRepeatable) {
   ASSERT_EQ(a.size(), 8000u);
   ASSERT_EQ(lattice.size(), a.size());
   const double bound = 0.4 * dp / 2;
-  double largest = 0, moved = 0;
+  double largest = 0;
+  std::size_t moved = 0;
   Vec3d mean{0, 0, 0};
   for (std::size_t i = 0; i < a.size(); ++i) {
     const Vec3d d = a[i] - lattice[i];
@@ -133,7 +134,7 @@ TEST(Scene, FluidBlockJitterIsBoundedUnbiasedAndRepeatable) {
       ASSERT_LE(std::abs(c), bound) << "particle " << i;
       largest = std::max(largest, std::abs(c));
     }
-    moved += norm(d) > 0;
+    moved += norm(d) > 0 ? 1 : 0;
     mean += d * (1.0 / a.size());
     ASSERT_EQ(a[i].x, b[i].x);
     ASSERT_EQ(a[i].y, b[i].y);
