@@ -207,7 +207,7 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
     if (own) // after the fluid side: the knit's side reads the pair forces it kept
       knit_forces_with(ex, kv.n, *own, knit_side, "knit.forces");
     else
-      exec::for_each_lanes<4>(ex, kv.n, knit_side, "coupling.knit");
+      exec::for_each_lanes<kKnitLanes>(ex, kv.n, knit_side, "coupling.knit");
   });
 }
 

@@ -12,9 +12,10 @@ const std::size_t kKnitOnePassUpTo = 150000;
 template <typename T>
 void knit_forces(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s, Vec3<T> gravity,
                  const VolumeView<T>& vol) {
-  // 4 lanes per point: 50k points alone fill a sixth of an H100's threads, too few to hide the
-  // latency of the neighbours' loads.
-  exec::for_each_lanes<4>(ex, p.n, SpringForceEvaluator<T>{p, s, vol, gravity}, "knit.springs");
+  // Lanes a point (KnitLanes.hpp): 50k points alone fill a sixth of an H100's threads, too few
+  // to hide the latency of the neighbours' loads.
+  exec::for_each_lanes<kKnitLanes>(ex, p.n, SpringForceEvaluator<T>{p, s, vol, gravity},
+                                   "knit.springs");
 }
 
 template <typename T>
@@ -22,8 +23,8 @@ void knit_forces(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& o
                  std::size_t one_pass_up_to) {
   if (own.with_self && !own.held && n > one_pass_up_to) {
     // The separate passes' own evaluators, as knit_forces above and KnitSelfContact launch them.
-    exec::for_each_lanes<4>(ex, n, own.springs, "knit.springs");
-    exec::for_each_lanes<4>(ex, n, own.self, "knit.self_contact");
+    exec::for_each_lanes<kKnitLanes>(ex, n, own.springs, "knit.springs");
+    exec::for_each_lanes<kKnitLanes>(ex, n, own.self, "knit.self_contact");
     return;
   }
   knit_forces_with(ex, n, own, NoKnitTerm{}, "knit.forces");

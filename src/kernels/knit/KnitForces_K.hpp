@@ -6,6 +6,7 @@
 // than its work (docs/PERFORMANCE.md, P10 stage 5).
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/knit/KnitEvaluators_K.hpp"
+#include "kernels/knit/KnitLanes.hpp"
 #include "kernels/knit/SelfContact_K.hpp"
 
 #include <cstddef>
@@ -71,19 +72,19 @@ struct KnitForceTerms {
   Vec3<T>* held = nullptr; // where set, the forces on the handles' points (KnitPointForces)
 };
 
-/// a = (the knit's own forces + extra's) / m + g on points [0, n), in one pass of 4 lanes a
-/// point (the lanes of springs.force, self.force and extra.force alike). Instantiate it in a
+/// a = (the knit's own forces + extra's) / m + g on points [0, n), in one pass of kKnitLanes lanes
+/// a point (the lanes of springs.force, self.force and extra.force alike). Instantiate it in a
 /// kernels translation unit (compiled by nvcc when CUDA is on), as every launch.
 template <typename T, typename Extra>
 void knit_forces_with(const exec::Exec& ex, std::size_t n, const KnitForceTerms<T>& own,
                       const Extra& extra, const char* label) {
   if (own.with_self)
-    exec::for_each_lanes<4>(
+    exec::for_each_lanes<kKnitLanes>(
         ex, n,
         KnitPointForces<T, SelfContactEvaluator<T>, Extra>{own.springs, own.self, extra, own.held},
         label);
   else
-    exec::for_each_lanes<4>(
+    exec::for_each_lanes<kKnitLanes>(
         ex, n, KnitPointForces<T, NoKnitTerm, Extra>{own.springs, {}, extra, own.held}, label);
 }
 

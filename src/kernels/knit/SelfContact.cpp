@@ -1,4 +1,5 @@
 #include "kernels/knit/SelfContact.hpp"
+#include "kernels/knit/KnitLanes.hpp"
 
 namespace kf {
 
@@ -132,7 +133,7 @@ SelfContactEvaluator<T> KnitSelfContact<T>::evaluator(KnitSet<T>& set) const {
 
 template <typename T>
 void KnitSelfContact<T>::add_forces(const exec::Exec& ex, KnitSet<T>& set) const {
-  exec::for_each_lanes<4>(ex, active(set), evaluator(set), "knit.self_contact");
+  exec::for_each_lanes<kKnitLanes>(ex, active(set), evaluator(set), "knit.self_contact");
 }
 
 template <typename T>
