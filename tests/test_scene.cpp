@@ -467,6 +467,25 @@ TEST(Scene, NeighbourSearchOptions) {
   EXPECT_NE(list.find("\"on\""), std::string::npos) << list;
 }
 
+TEST(Scene, ShiftingOptions) {
+  const Scene d = load_scene(scene_file("minimal.toml"));
+  EXPECT_EQ(d.solver.shifting, Scene::Solver::Shifting::Off);
+  const Scene s = load_scene(scene_file("minimal.toml"),
+                             {"solver.shifting=\"fickian\"", "solver.shifting_coefficient=4",
+                              "solver.shifting_surface=1.5"});
+  EXPECT_EQ(s.solver.shifting, Scene::Solver::Shifting::Fickian);
+  EXPECT_DOUBLE_EQ(s.solver.shifting_coefficient, 4.0);
+  EXPECT_DOUBLE_EQ(s.solver.shifting_surface, 1.5);
+  const std::string kind = load_error(scene_file("minimal.toml"), {"solver.shifting=\"on\""});
+  EXPECT_NE(kind.find("solver.shifting"), std::string::npos) << kind;
+  EXPECT_NE(kind.find("\"fickian\""), std::string::npos) << kind;
+  const std::string a = load_error(scene_file("minimal.toml"), {"solver.shifting_coefficient=0"});
+  EXPECT_NE(a.find("key 'solver.shifting_coefficient'"), std::string::npos) << a;
+  const std::string surface =
+      load_error(scene_file("minimal.toml"), {"solver.shifting_surface=3.5"});
+  EXPECT_NE(surface.find("key 'solver.shifting_surface'"), std::string::npos) << surface;
+}
+
 TEST(Scene, DensityModelOptions) {
   const Scene d = load_scene(scene_file("minimal.toml"));
   EXPECT_EQ(d.solver.density, DensityModel::Summation);

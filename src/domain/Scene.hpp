@@ -151,6 +151,14 @@ struct Scene {
     // "summation" (Eq. 2) or "continuity" (drho/dt with delta-SPH diffusion; docs/PHYSICS.md).
     DensityModel density = DensityModel::Summation;
     double density_diffusion = 0.1; // continuity: delta of the diffusion term (0: none)
+    // Particle shifting (Lind et al. 2012, in DualSPHysics's Fickian form): after the forces
+    // pass each fluid particle moves by -A h |v| dt grad C, C = sum_j V_j W_ij, towards where its
+    // neighbours are sparser (at most |v| dt), except at the free surface, where div r =
+    // -sum_j V_j r_ij . grad W_ij (about 3 inside 3D water) is below shifting_surface.
+    // "off" (default) or "fickian" (docs/PHYSICS.md).
+    enum class Shifting { Off, Fickian } shifting = Shifting::Off;
+    double shifting_coefficient = 2.0; // A (DualSPHysics's ShiftCoef, -2 there by its sign)
+    double shifting_surface = 2.75;    // DualSPHysics's ShiftTFS for 3D
     // A preset of what accuracy costs (P7, docs/VALIDATION.md): "preview" and "reference"
     // scale the fluid's spacing and set the settings the scene does not give itself
     // (quality_preset); "production" and none: the scene as written.

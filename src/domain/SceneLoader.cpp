@@ -52,6 +52,9 @@ constexpr std::array kTransports{
     Choice<Scene::Parallel::Transport>{"nccl", Scene::Parallel::Transport::Nccl}};
 constexpr std::array kDensityModels{Choice<DensityModel>{"summation", DensityModel::Summation},
                                     Choice<DensityModel>{"continuity", DensityModel::Continuity}};
+constexpr std::array kShifting{
+    Choice<Scene::Solver::Shifting>{"off", Scene::Solver::Shifting::Off},
+    Choice<Scene::Solver::Shifting>{"fickian", Scene::Solver::Shifting::Fickian}};
 constexpr std::array kOnInstability{
     Choice<Scene::Solver::OnInstability>{"stop", Scene::Solver::OnInstability::Stop},
     Choice<Scene::Solver::OnInstability>{"rollback", Scene::Solver::OnInstability::Rollback}};
@@ -188,6 +191,9 @@ void read_solver(const TableReader& t, Scene::Solver& sv) {
                 "neighbour_skin",
                 "density",
                 "density_diffusion",
+                "shifting",
+                "shifting_coefficient",
+                "shifting_surface",
                 "quality",
                 "watchdog_steps",
                 "watchdog_max_speed",
@@ -207,6 +213,9 @@ void read_solver(const TableReader& t, Scene::Solver& sv) {
   t.read("neighbour_skin", sv.neighbour_skin, Range::above_up_to(0, 1));
   t.read("density", sv.density, kDensityModels);
   t.read("density_diffusion", sv.density_diffusion, Range::at_least(0));
+  t.read("shifting", sv.shifting, kShifting);
+  t.read("shifting_coefficient", sv.shifting_coefficient, Range::above_up_to(0, 10));
+  t.read("shifting_surface", sv.shifting_surface, Range::closed(0, 3));
   t.read("cfl", sv.cfl, Range::above_up_to(0, 1));
   t.read("force_factor", sv.force_factor, Range::above_up_to(0, 1));
   t.read("viscous_factor", sv.viscous_factor, Range::above_up_to(0, 1));

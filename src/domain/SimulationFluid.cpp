@@ -2,6 +2,7 @@
 // pressure, each with the halo it reads on N ranks (ghost refreshes just before the pass).
 #include "domain/SimulationT.hpp"
 #include "domain/StageParts.hpp"
+#include "kernels/sph/Shifting.hpp"
 
 namespace kf {
 
@@ -86,7 +87,9 @@ double SimulationT<T>::fluid_step_motion() const {
   const double extent = std::max({std::abs(d.min.x), std::abs(d.min.y), std::abs(d.min.z),
                                   std::abs(d.max.x), std::abs(d.max.y), std::abs(d.max.z)});
   const double rounding = 4 * double(std::numeric_limits<T>::epsilon()) * (extent + h_);
-  return (solids_.empty() ? 1.0 : 2.0) * drift * (1 + 1e-6) + rounding;
+  // A shift moves a particle at most |v| dt more, v the half kick's (sph_shift): one drift more.
+  const double drifts = (solids_.empty() ? 1.0 : 2.0) + (shifting() ? 1.0 : 0.0);
+  return drifts * drift * (1 + 1e-6) + rounding;
 }
 
 template <typename T>
@@ -150,24 +153,58 @@ void SimulationT<T>::fluid_forces(T dt) {
   };
   if (!ranks_) {
     pass(nullptr);
+    shift_fluid(dt);
     return;
   }
   // With the knit coupled the ghosts stay until the next drift (the coupling reads the fluid
   // around the knit), their motion refreshed after the kick: every row is computed.
   if (coupling_on_) {
     pass(nullptr);
+    shift_fluid(dt);
     return;
   }
   const auto on_rows = [&](const exec::Rows& rows) { pass(&rows); };
   // Their work is done: between steps a rank holds only the fluid it owns; with "verlet" lists
   // the ghosts stay until the next sort, taking their owners' state now, so that the kick, the
   // drift and the next density pass give each the values its owner computes.
-  if (ranks_->keeps_ghosts())
+  if (ranks_->keeps_ghosts()) {
     ranks_->refresh_forces(*fluid_, continuity(), on_rows);
-  else {
+    shift_fluid(dt);
+  } else {
     ranks_->owned_pass(fluid_->size(), on_rows);
+    shift_fluid(dt); // while the ghosts are there: the border's shifts read them
     ranks_->drop_ghosts(ex_, *fluid_);
   }
+}
+
+template <typename T>
+void SimulationT<T>::shift_fluid(T dt) {
+  if (!shifting() || !(dt > T(0)))
+    return;
+  const auto& s = scene_.solver;
+  const ShiftRule<T> rule{static_cast<T>(s.shifting_coefficient),
+                          static_cast<T>(s.shifting_surface), dt};
+  const std::size_t n = fluid_->size();
+  shift_.resize(n);
+  // Every shift read the positions before any moves: the moves in a pass of their own.
+  auto find = [&](const exec::Rows& rows) {
+    const LocalWork work(ranks_ ? &*ranks_ : nullptr);
+    sph_shift(ex_, sph_, fluid_->view(), fluid_grid_->view(), boundary_neighbours(),
+              fluid_list_view(), rule, rows, shift_.data());
+  };
+  auto move = [&](const exec::Rows& rows) {
+    const LocalWork work(ranks_ ? &*ranks_ : nullptr);
+    sph_apply_shift(ex_, fluid_->view(), rows, shift_.data());
+  };
+  if (!ranks_) {
+    find(exec::Rows{nullptr, n});
+    move(exec::Rows{nullptr, n});
+    return;
+  }
+  ranks_->owned_pass(n, find);
+  ranks_->owned_pass(n, move);
+  // Ghosts that stay (the "verlet" lists', the coupling's) take their owners' positions.
+  ranks_->refresh_positions(*fluid_);
 }
 
 template <typename T>
@@ -203,6 +240,7 @@ template void SimulationT<float>::sort_boundary();
 template BoundaryNeighbours<float> SimulationT<float>::boundary_neighbours();
 template void SimulationT<float>::fluid_density(float);
 template void SimulationT<float>::fluid_forces(float);
+template void SimulationT<float>::shift_fluid(float);
 template void SimulationT<float>::compute_forces();
 template void SimulationT<float>::extrapolate_boundary_pressure();
 template void SimulationT<double>::update_shapes(double);
@@ -212,6 +250,7 @@ template void SimulationT<double>::sort_boundary();
 template BoundaryNeighbours<double> SimulationT<double>::boundary_neighbours();
 template void SimulationT<double>::fluid_density(double);
 template void SimulationT<double>::fluid_forces(double);
+template void SimulationT<double>::shift_fluid(double);
 template void SimulationT<double>::compute_forces();
 template void SimulationT<double>::extrapolate_boundary_pressure();
 

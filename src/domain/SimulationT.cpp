@@ -16,6 +16,7 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
       fluid_near_(backend, 0, "fluid.near"), bounds_(backend, 3, "integrate.dt"),
       plan_(backend, 1, "integrate.dt"), solids_(scene, backend),
       shapes_(backend, 0, "rigid.shapes") {
+  shift_ = exec::DeviceBuffer<Vec3<T>>(backend, 0, "sph.shift");
   guard_count_.assign(std::vector<std::uint64_t>{0});
   sorted_outflow_mass_.assign(std::vector<double>{0.0});
   fluid_on_ = scene.has(Module::Fluid);
@@ -484,9 +485,11 @@ void SimulationT<T>::build_pipeline() {
       pipeline_.add("boundary.pressure", "boundary", "wall pressure from the fluid (Adami 2012)",
                     [this] { extrapolate_boundary_pressure(); });
     pipeline_.add("sph.forces", "fluid",
-                  continuity() ? "pressure (Eq. 3), viscosity (Eq. 4), gravity; density rate "
-                                 "(continuity, delta-SPH diffusion) and the density's step"
-                               : "pressure (Eq. 3), viscosity (Eq. 4), gravity",
+                  std::string(continuity()
+                                  ? "pressure (Eq. 3), viscosity (Eq. 4), gravity; density rate "
+                                    "(continuity, delta-SPH diffusion) and the density's step"
+                                  : "pressure (Eq. 3), viscosity (Eq. 4), gravity") +
+                      (shifting() ? "; particle shifting (Fickian, off the free surface)" : ""),
                   [this] { fluid_forces(static_cast<T>(dt_)); });
     if (boundary_on_ && moving_)
       pipeline_.add("boundary.work", "boundary",

@@ -115,6 +115,12 @@ private:
   bool density_done_ = false; // this step's sph.density ran early (while the lists were read)
   void fluid_forces(T dt);
   bool continuity() const { return scene_.solver.density == DensityModel::Continuity; }
+  bool shifting() const {
+    return fluid_on_ && scene_.solver.shifting == Scene::Solver::Shifting::Fickian;
+  }
+  /// Particle shifting over the owned fluid after the forces pass, at its positions (sph_shift),
+  /// for a step of dt (0: none).
+  void shift_fluid(T dt);
   BoundaryNeighbours<T> boundary_neighbours();
   void extrapolate_boundary_pressure();
   /// Velocity factor of one half kick of a step h: exp(-zeta h / 2) while settling, else 1.
@@ -146,6 +152,7 @@ private:
     return {fluid_->view(), cells, near ? fluid_near_.data() : nullptr};
   }
   SphParams<T> sph_;
+  exec::DeviceBuffer<Vec3<T>> shift_{exec::Backend::Cpu, 0, "sph.shift"}; // shift_fluid's
   double h_ = 0, margin_ = 0;
   double time_ = 0, dt_ = 0;
   std::uint64_t steps_ = 0;

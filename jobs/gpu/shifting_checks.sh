@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Particle shifting on the GPU, after `. .devrt/prelude.sh`, from the project root: its tests
+# (test_shifting_K, test_backends' CPU-against-GPU cases, found on PATH), memcheck on its
+# kernels' test, and its cost: the dam break at 4M fluid ("verlet" lists) with and without
+# shifting, a step at steady state (runs of 300 and 1,500 steps), BEFORE (a build without it:
+# no loss) against AFTER, twice, alternating; the whole pour (no shifting) for both.
+#
+#   jobs/gpu/shifting_checks.sh BEFORE AFTER OUTDIR
+set -uo pipefail
+before=$1 after=$2 out=$3
+mkdir -p "$out"
+echo "== tests ($(date -u +%T))"
+test_shifting_K 2>&1 | grep -E "OK|FAILED|PASSED|SKIPPED" | tail -8
+test_backends 2>&1 | grep -E "^\[ +(OK|FAILED)|Shifting|PASSED" | tail -30
+echo "== memcheck"
+/usr/local/cuda/bin/compute-sanitizer --tool memcheck test_shifting_K --gtest_filter='*Cuda*' 2>&1 |
+  tail -3
+dp=$(python3 -c "print('%.8g' % ((0.016 / 4e6) ** (1 / 3)))")
+step() { # EXE [--set ...]: the done lines of runs of 300 and 1,500 steps
+  local exe=$1
+  shift
+  for s in 300 1500; do
+    "$exe" run scenes/dambreak.toml --device cuda --set 'solver.neighbour_list="verlet"' \
+      --set "fluid.spacing=$dp" --set output.enabled=false --output "$out/o" \
+      --set "solver.max_steps=$s" "$@" 2>&1 | grep '^done' | sed "s/^/    $s: /"
+  done
+}
+echo "== dam break 4M, verlet ($(date -u +%T))"
+for round in 1 2; do
+  for which in before after; do
+    echo "-- $which"
+    step "${!which}"
+  done
+  echo "-- after, shifting"
+  step "$after" --set 'solver.shifting="fickian"'
+done
+echo "-- after, shifting, kernel times"
+KF_KERNEL_TIMES=1 "$after" run scenes/dambreak.toml --device cuda --set 'solver.neighbour_list="verlet"' \
+  --set "fluid.spacing=$dp" --set output.enabled=false --output "$out/o" --set solver.max_steps=1500 \
+  --set 'solver.shifting="fickian"' 2>&1 | sed -n '/^kernel times/,/^host waits/p' | head -14
+echo "== the pour, whole ($(date -u +%T))"
+for which in before after; do
+  echo "-- $which: $("${!which}" run scenes/pour.toml --device cuda --set output.enabled=false \
+    --output "$out/o" 2>&1 | grep '^done')"
+done
+rm -rf "$out/o"
