@@ -73,6 +73,7 @@ FLUID_AXES = {
     "density": ["summation", "continuity"],
     "precision": ["float", "double"],
     "neighbour_list": ["off", "on", "verlet"],
+    "shifting": ["off", "fickian"],
     # [solver] quality's presets, on the base spacing (preview twice it, reference half).
     "quality": ["preview", "production", "reference"],
 }
@@ -83,7 +84,7 @@ KEYS = {"spacing": "fluid.spacing", "cfl": "solver.cfl", "kernel": "solver.kerne
         "density": "solver.density", "precision": "simulation.precision",
         "neighbour_list": "solver.neighbour_list", "quality": "solver.quality",
         "substeps": "knit.substeps", "spring_factor": "knit.spring_factor",
-        "absorption": "capillary.model"}
+        "absorption": "capillary.model", "shifting": "solver.shifting"}
 
 
 # The knit cases' snapshots without the yarns' polylines (the errors read the points; the
@@ -149,7 +150,7 @@ CASES = {
         "scenes/studies/sloshing.toml", fluid_cases.sloshing_error, "spacing",
         {"spacing": {"small": [0.02, 0.015, 0.01], "full": [0.02, 0.01, 0.005, 0.0025]},
          "sound_speed": [10.0, 20.0, 40.0],
-         **{k: FLUID_AXES[k] for k in ("cfl", "kernel", "density", "neighbour_list")}},
+         **{k: FLUID_AXES[k] for k in ("cfl", "kernel", "density", "neighbour_list", "shifting")}},
         {"small": ["fluid.spacing=0.015"], "full": ["fluid.spacing=0.005"]}),
     # Wales along the strip.
     "catenary": Case(

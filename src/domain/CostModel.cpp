@@ -88,6 +88,8 @@ std::vector<std::string> cost_settings(const Scene& scene) {
                                 : "neighbour_list_verlet_flowing");
   if (scene.precision == Precision::Double)
     out.push_back("precision_double");
+  if (s.shifting == Scene::Solver::Shifting::Fickian && scene.has(Module::Fluid))
+    out.push_back("shifting_fickian");
   return out;
 }
 
