@@ -467,6 +467,16 @@ TEST(Scene, NeighbourSearchOptions) {
   EXPECT_NE(list.find("\"on\""), std::string::npos) << list;
 }
 
+TEST(Scene, ArtificialViscosity) {
+  EXPECT_EQ(load_scene(scene_file("minimal.toml")).fluid.artificial_viscosity, 0.0);
+  const Scene s = load_scene(scene_file("minimal.toml"), {"fluid.artificial_viscosity=0.01"});
+  EXPECT_DOUBLE_EQ(s.fluid.artificial_viscosity, 0.01);
+  const std::string e = load_error(scene_file("minimal.toml"), {"fluid.artificial_viscosity=-1"});
+  EXPECT_NE(e.find("key 'fluid.artificial_viscosity': expected a number in [0, 1]"),
+            std::string::npos)
+      << e;
+}
+
 TEST(Scene, ShiftingOptions) {
   const Scene d = load_scene(scene_file("minimal.toml"));
   EXPECT_EQ(d.solver.shifting, Scene::Solver::Shifting::Off);

@@ -10,6 +10,8 @@
 #include "kernels/sph/SmoothingKernels.hpp"
 #include "kernels/sph/SphLists.hpp"
 
+#include "support/FluidBlock.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -18,74 +20,21 @@
 namespace kf {
 namespace {
 
-constexpr double kDp = 0.01, kH = 2 * kDp, kSkin = 0.2 * kH;
-const Vec3d kLo{0, 0, -0.03}, kHi{0.16, 0.1, 0.1}; // the grid's box
-
-/// A jittered block of water on a two-layer floor, and what a pass over it needs.
+using test::kDp;
+using test::kH;
+using test::kSkin;
 template <typename T>
-struct Block {
-  exec::Exec ex;
-  FluidSet<T> f;
-  BoundarySet<T> b;
-  NeighbourGrid<T> grid, bgrid; // the fluid's, the floor's (the same cells)
-  SphParams<T> prm;
-  std::size_t n = 0, nb = 0;
+using Block = test::FluidBlock<T>;
 
-  Block(exec::Backend backend, double jitter, unsigned seed)
-      : ex{backend}, f(backend), b(backend),
-        grid(backend, NeighbourGrid<T>::cover(kLo, kHi, kH + kSkin)),
-        bgrid(backend, NeighbourGrid<T>::cover(kLo, kHi, kH + kSkin)) {
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> u(-0.5, 0.5), speed(0.5, 1.5);
-    std::vector<Vec3<T>> xf, xb, v;
-    for (double z = 0.5 * kDp; z < 0.08; z += kDp)
-      for (double y = 0.5 * kDp; y < kHi.y; y += kDp)
-        for (double x = 0.5 * kDp; x < 0.12; x += kDp) {
-          xf.push_back(vec_cast<T>(Vec3d{x + jitter * kDp * u(rng), y + jitter * kDp * u(rng),
-                                         z + jitter * kDp * u(rng)}));
-          Vec3d d{u(rng), u(rng), u(rng)};
-          v.push_back(vec_cast<T>(d * (speed(rng) / std::sqrt(norm2(d)))));
-        }
-    for (double z = -0.5 * kDp; z > -2 * kDp; z -= kDp)
-      for (double y = 0.5 * kDp; y < kHi.y; y += kDp)
-        for (double x = 0.5 * kDp; x < 0.15; x += kDp)
-          xb.push_back(vec_cast<T>(Vec3d{x, y, z}));
-    n = xf.size();
-    nb = xb.size();
-    f.resize(n);
-    f.x.assign(xf);
-    f.v.assign(v);
-    f.m.assign(std::vector<T>(n, T(1000 * kDp * kDp * kDp)));
-    f.rho.assign(std::vector<T>(n, T(1000)));
-    f.drho.assign(std::vector<T>(n, T(0)));
-    f.drho_prev.assign(std::vector<T>(n, T(0)));
-    b.resize(nb);
-    b.x.assign(xb);
-    b.obstacle.assign(std::vector<std::uint32_t>(nb, kWallObstacle));
-    b.volume.assign(std::vector<T>(nb, T(kDp * kDp * kDp)));
-    prm.kernel = KernelType::CubicSpline;
-    prm.h = T(kH);
-    bgrid.build(ex, b.x.data(), nb);
-    b.reorder(ex, bgrid.permutation());
-    sort();
-  }
-  /// The grid and the pass's copies (xm, vol = m / rho = dp^3) at the current positions.
-  void sort() {
-    grid.build(ex, f.x.data(), n);
-    f.reorder(ex, grid.permutation());
-    sph_density_predict(ex, prm, f.view(), T(0));
-  }
-  BoundaryNeighbours<T> walls() {
-    return {b.x.data(), b.volume.data(), nullptr, nullptr, nullptr, false, bgrid.view(), nb};
-  }
-  std::vector<Vec3<T>> shift(const ShiftRule<T>& rule, const ListView<T>& list = {}) {
-    exec::DeviceBuffer<Vec3<T>> s(ex.backend, n, "test.shift");
-    s.poison(); // NaN: an unwritten row shows
-    sph_shift(ex, prm, f.view(), grid.view(), walls(), list, rule, exec::Rows{nullptr, n},
-              s.data());
-    return s.to_host();
-  }
-};
+template <typename T>
+std::vector<Vec3<T>> shift_of(Block<T>& blk, const ShiftRule<T>& rule,
+                              const ListView<T>& list = {}) {
+  exec::DeviceBuffer<Vec3<T>> s(blk.ex.backend, blk.n, "test.shift");
+  s.poison(); // NaN: an unwritten row shows
+  sph_shift(blk.ex, blk.prm, blk.f.view(), blk.grid.view(), blk.walls(), list, rule,
+            exec::Rows{nullptr, blk.n}, s.data());
+  return s.to_host();
+}
 
 /// grad C and div r of every fluid particle over all particles within h, in double.
 struct Fields {
@@ -129,8 +78,8 @@ void matches_brute_force(exec::Backend backend) {
   // A = 2 (DualSPHysics's default), and 10 (the scene's largest), where shifts reach the cap.
   for (const double a : {2.0, 10.0}) {
     const ShiftRule<T> rule{T(a), T(2.75), T(1e-3)};
-    const auto walked = blk.shift(rule);
-    const auto listed = blk.shift(rule, lists.view());
+    const auto walked = shift_of(blk, rule);
+    const auto listed = shift_of(blk, rule, lists.view());
     std::size_t moved = 0, surface = 0, capped = 0, near_threshold = 0;
     for (std::size_t i = 0; i < blk.n; ++i) {
       const double step = std::sqrt(norm2(vec_cast<double>(v[i]))) * double(rule.dt);

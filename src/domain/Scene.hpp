@@ -189,6 +189,9 @@ struct Scene {
     double viscosity = 1e-3;      // dynamic viscosity mu [Pa s], Eq. 4
     bool clamp_negative_pressure = true;
     bool no_slip = true; // walls and obstacles hold the fluid by viscosity (else free slip)
+    // Monaghan's artificial viscosity alpha between fluid particles (0: none; DualSPHysics uses
+    // 0.01): it damps the summation density's pressure noise (docs/PHYSICS.md).
+    double artificial_viscosity = 0;
     // The density fluid starts with under continuity (summation ignores it). "rest": rho0;
     // "hydrostatic": fluid at rest starts at the EOS density of the weight of the fluid above it
     // (as DualSPHysics starts).

@@ -281,8 +281,8 @@ FluidBlock read_block(const TableReader& t, const Scene::Domain& d) {
 
 void read_fluid(const TableReader& t, Scene& s) {
   t.allow_only({"spacing", "support", "rest_density", "eos", "speed_of_sound", "stiffness",
-                "tait_exponent", "viscosity", "clamp_negative_pressure", "no_slip",
-                "initial_density", "block"});
+                "tait_exponent", "viscosity", "artificial_viscosity", "clamp_negative_pressure",
+                "no_slip", "initial_density", "block"});
   Scene::Fluid& f = s.fluid;
   t.read("spacing", f.spacing, Range::positive());
   t.read("support", f.support, Range::closed(1.0, 4.0));
@@ -291,6 +291,7 @@ void read_fluid(const TableReader& t, Scene& s) {
   read_sound_speed(t, f);
   t.read("tait_exponent", f.tait_exponent, Range::at_least(1));
   t.read("viscosity", f.viscosity, Range::at_least(0));
+  t.read("artificial_viscosity", f.artificial_viscosity, Range::closed(0, 1));
   t.read("clamp_negative_pressure", f.clamp_negative_pressure);
   t.read("no_slip", f.no_slip);
   // Read under summation too, which computes the density from the particles and so ignores it:

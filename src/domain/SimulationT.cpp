@@ -46,6 +46,7 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
   sph_.h = static_cast<T>(h_);
   sph_.eos = scene_eos<T>(scene);
   sph_.viscosity = static_cast<T>(scene.fluid.viscosity);
+  sph_.artificial = static_cast<T>(scene.fluid.artificial_viscosity * scene.fluid.speed_of_sound);
   sph_.no_slip = scene.fluid.no_slip;
   sph_.gravity = vec_cast<T>(scene.gravity);
   sph_.density = scene.solver.density;

@@ -285,6 +285,16 @@ TEST(Distributed, ShiftingIsTheOneRankRun) {
   expect_same_run(s, 200, 50, "dam break, shifting, verlet lists", exec::Backend::Cpu, true);
 }
 
+// Monaghan's artificial viscosity reads the ghosts' velocities and volumes, which the density's
+// refresh brings. Two ranks only (as above).
+TEST(Distributed, ArtificialViscosityIsTheOneRankRun) {
+  if (comm::MpiContext().size() > 2)
+    GTEST_SKIP() << "run on 2 ranks";
+  Scene s = dambreak("float", "summation");
+  s.fluid.artificial_viscosity = 0.01;
+  expect_same_run(s, 200, 50, "dam break, artificial viscosity");
+}
+
 TEST(Distributed, RepartitioningKeepsTheOneRankRun) {
   comm::MpiContext mpi;
   Scene s = dambreak("float", "summation");

@@ -63,22 +63,29 @@ void sph_forces(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T> f, C
                 const BoundaryNeighbours<T>& b, const ListView<T>& list, T dt,
                 const exec::Rows* rows) {
   const exec::Rows over = rows ? *rows : exec::Rows{nullptr, f.n};
-  auto run = [&](auto k, auto continuity) {
+  auto run = [&](auto k, auto continuity, auto artificial) {
     using K = decltype(k);
-    constexpr bool C = decltype(continuity)::value;
+    constexpr bool C = decltype(continuity)::value, A = decltype(artificial)::value;
     if (list.count)
-      exec::for_rows(ex, over, ForceEvaluator<T, K, SphList<T>, C>{k, prm, f, {list}, b, dt},
+      exec::for_rows(ex, over, ForceEvaluator<T, K, SphList<T>, C, A>{k, prm, f, {list}, b, dt},
                      "sph.forces");
     else
       exec::for_rows(ex, over,
-                     ForceEvaluator<T, K, SphCellWalk<T>, C>{k, prm, f, {cells, b}, b, dt},
+                     ForceEvaluator<T, K, SphCellWalk<T>, C, A>{k, prm, f, {cells, b}, b, dt},
                      "sph.forces");
+  };
+  // Without the artificial viscosity the pass is the one it was (its own instantiation).
+  auto with_artificial = [&](auto k, auto continuity) {
+    if (prm.artificial > T(0))
+      run(k, continuity, std::true_type{});
+    else
+      run(k, continuity, std::false_type{});
   };
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
     if (prm.density == DensityModel::Continuity)
-      run(k, std::true_type{});
+      with_artificial(k, std::true_type{});
     else
-      run(k, std::false_type{});
+      with_artificial(k, std::false_type{});
   });
 }
 

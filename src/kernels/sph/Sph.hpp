@@ -23,6 +23,9 @@ struct SphParams {
   // Continuity: the delta-SPH diffusion coefficient delta h c0, with h the smoothing length (half
   // the support, DualSPHysics's h for its kernels of support 2h).
   T diffusion = T(0);
+  // Monaghan's artificial viscosity between fluid particles: alpha c0 (0: none). It damps the
+  // pressure noise of the summation density, which nothing else damps (docs/PHYSICS.md).
+  T artificial = T(0);
 };
 
 /// Boundary particles seen by fluid kernels (empty when the scene has no boundary module).

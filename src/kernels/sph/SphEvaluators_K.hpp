@@ -158,7 +158,8 @@ KF_HD KF_INLINE void add_wall_pair(Vec3<T>& acc, const WallPairSide<T>& i, const
 }
 
 // Continuity: the same pass also sums drho_i/dt (see operator()) and ends the density's step.
-template <typename T, typename K, typename N, bool Continuity = false>
+// Artificial: Monaghan's artificial viscosity between fluid particles (SphParams::artificial).
+template <typename T, typename K, typename N, bool Continuity = false, bool Artificial = false>
 struct ForceEvaluator {
   // Four blocks of 256 (32 warps) an SM, so at most 64 registers: left to itself ptxas took 66
   // with the wall entries' three loads (24 warps an SM), and the column's whole run slowed by 8%
@@ -208,6 +209,8 @@ struct ForceEvaluator {
     [[maybe_unused]] T rate = T(0), diffuse = T(0);
     // rho^H_j - rho^H_i = -hydro . r_ij.
     [[maybe_unused]] const Vec3<T> hydro = prm.gravity * (prm.eos.rho0 * krcp(prm.eos.c2));
+    // Artificial viscosity: alpha c0 (h / 2), h / 2 the smoothing length, and rho_i.
+    [[maybe_unused]] const T av = prm.artificial * T(0.5) * kernel.h;
     // Boundary particles act as fluid particles of mass psi_b = rho0 V_b and pressure P_b. Both
     // sources meet every fluid neighbour before any boundary one, so the sums keep one order.
     const T rho0 = prm.eos.rho0;
@@ -241,6 +244,14 @@ struct ForceEvaluator {
           // multiply, a multiply-add and an add).
           acc += vij * (visc_i * vol_lap);
           acc -= rij * (dw * press);
+          if constexpr (Artificial) {
+            // Monaghan (1992), approaching pairs only: a_i -= m_j Pi_ij grad W, Pi_ij =
+            // -alpha c0 mu_ij / rho_ij, mu_ij = (h / 2) v_ij . r_ij / (r^2 + eta^2), rho_ij the
+            // pair's mean density (rho_j = m_j / V_j). Symmetric in i and j: momentum is kept.
+            const T mu = kmin(dot(vij, rij), T(0)) * krcp_fast(r2 + eta2);
+            const T pi_ij = -av * mu * T(2) * krcp_fast(rho_i + xmj.w * krcp_fast(vol_j));
+            acc -= rij * (dw * xmj.w * pi_ij);
+          }
           if constexpr (Continuity) {
             rate += vol_j * dw * dot(vij, rij);
             diffuse += vol_lap * (rho_i - dot(hydro, rij));

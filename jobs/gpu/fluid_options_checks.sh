@@ -1,20 +1,24 @@
 #!/usr/bin/env bash
-# Particle shifting on the GPU, after `. .devrt/prelude.sh`, from the project root: its tests
-# (test_shifting_K, test_backends' CPU-against-GPU cases, found on PATH), memcheck on its
-# kernels' test, and its cost: the dam break at 4M fluid ("verlet" lists) with and without
-# shifting, a step at steady state (runs of 300 and 1,500 steps), BEFORE (a build without it:
-# no loss) against AFTER, twice, alternating; the whole pour (no shifting) for both.
+# The fluid's options on the GPU (particle shifting, the artificial viscosity), after
+# `. .devrt/prelude.sh`, from the project root: their tests (test_shifting_K,
+# test_artificial_viscosity_K, test_backends' CPU-against-GPU cases, found on PATH), memcheck on
+# their kernels' tests, and their cost: the dam break at 4M fluid ("verlet" lists) without them
+# and with each, a step at steady state (runs of 300 and 1,500 steps), BEFORE (a build without
+# them: no loss) against AFTER, twice, alternating; the whole pour (neither) for both.
 #
-#   jobs/gpu/shifting_checks.sh BEFORE AFTER OUTDIR
+#   jobs/gpu/fluid_options_checks.sh BEFORE AFTER OUTDIR
 set -uo pipefail
 before=$1 after=$2 out=$3
 mkdir -p "$out"
 echo "== tests ($(date -u +%T))"
-test_shifting_K 2>&1 | grep -E "OK|FAILED|PASSED|SKIPPED" | tail -8
+for t in test_shifting_K test_artificial_viscosity_K; do
+  $t 2>&1 | grep -E "OK|FAILED|PASSED|SKIPPED" | tail -8
+done
 test_backends 2>&1 | grep -E "^\[ +(OK|FAILED)|Shifting|PASSED" | tail -30
 echo "== memcheck"
-/usr/local/cuda/bin/compute-sanitizer --tool memcheck test_shifting_K --gtest_filter='*Cuda*' 2>&1 |
-  tail -3
+for t in test_shifting_K test_artificial_viscosity_K; do
+  /usr/local/cuda/bin/compute-sanitizer --tool memcheck $t --gtest_filter='*Cuda*' 2>&1 | tail -2
+done
 dp=$(python3 -c "print('%.8g' % ((0.016 / 4e6) ** (1 / 3)))")
 step() { # EXE [--set ...]: the done lines of runs of 300 and 1,500 steps
   local exe=$1
@@ -33,6 +37,8 @@ for round in 1 2; do
   done
   echo "-- after, shifting"
   step "$after" --set 'solver.shifting="fickian"'
+  echo "-- after, artificial viscosity 0.01"
+  step "$after" --set fluid.artificial_viscosity=0.01
 done
 echo "-- after, shifting, kernel times"
 KF_KERNEL_TIMES=1 "$after" run scenes/dambreak.toml --device cuda --set 'solver.neighbour_list="verlet"' \
