@@ -152,7 +152,7 @@ struct Scene {
     DensityModel density = DensityModel::Summation;
     double density_diffusion = 0.1; // continuity: delta of the diffusion term (0: none)
     // Particle shifting (Lind et al. 2012, in DualSPHysics's Fickian form): after the forces
-    // pass each fluid particle moves by -A h |v| dt grad C, C = sum_j V_j W_ij, towards where its
+    // pass each fluid particle moves by -A (h/2) |v| dt grad C, C = sum_j V_j W_ij, to where its
     // neighbours are sparser (at most |v| dt), except at the free surface, where div r =
     // -sum_j V_j r_ij . grad W_ij (about 3 inside 3D water) is below shifting_surface.
     // "off" (default) or "fickian" (docs/PHYSICS.md).
