@@ -56,21 +56,18 @@ def main():
     scale = statistics.median(ratios)
     print(f"{a.like} against the passes' medians, row by row: "
           + ", ".join(f"{x:.3f}" for x in ratios) + f"; scale (their median) {scale:.4f}")
+    def scaled(k, was):
+        """The passes' row k with its scaled median beside its own times."""
+        r = dict(first[k], wall_s=round(medians[k] * scale, 3),
+                 wall_runs_s=";".join(f"{t:.3f}" for t in runs[k]), speed_scale=round(scale, 4))
+        print(f"  {k[0]} {k[1]} = {k[2]}: {r['wall_runs_s']} s -> {r['wall_s']} s ({was})")
+        return r
+
     out = []
     for r in stored:
         k = (r["case"], r["axis"], r["value"])
-        if k in runs and not a.add:
-            r = dict(first[k], wall_s=round(medians[k] * scale, 3),
-                     wall_runs_s=";".join(f"{t:.3f}" for t in runs[k]), speed_scale=round(scale, 4))
-            print(f"  {k[0]} {k[1]} = {k[2]}: {r['wall_runs_s']} s -> {r['wall_s']} s "
-                  f"(was {then[k]:.3f})")
-        out.append(r)
-    for k in runs:  # --add: the rows STORED lacks, in the passes' order
-        if k not in then:
-            r = dict(first[k], wall_s=round(medians[k] * scale, 3),
-                     wall_runs_s=";".join(f"{t:.3f}" for t in runs[k]), speed_scale=round(scale, 4))
-            print(f"  {k[0]} {k[1]} = {k[2]}: {r['wall_runs_s']} s -> {r['wall_s']} s (new)")
-            out.append(r)
+        out.append(scaled(k, f"was {then[k]:.3f}") if k in runs and not a.add else r)
+    out += [scaled(k, "new") for k in runs if k not in then]  # --add: in the passes' order
     fields = list(dict.fromkeys(f for r in out for f in r))
     with open(a.out, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=fields)

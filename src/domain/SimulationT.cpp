@@ -10,13 +10,13 @@ namespace kf {
 template <typename T>
 SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only,
                             const comm::MpiContext* mpi)
-    : scene_(scene), ex_{backend}, guard_count_(backend, 0, "boundary.guard_count"),
+    : scene_(scene), ex_{backend}, shift_(backend, 0, "sph.shift"),
+      guard_count_(backend, 0, "boundary.guard_count"),
       sorted_outflow_mass_(backend, 0, "fluid.outflow"),
       sheet_count_(backend, 0, "sheet_guard.count"), boundary_near_(backend, 0, "boundary.near"),
       fluid_near_(backend, 0, "fluid.near"), bounds_(backend, 3, "integrate.dt"),
       plan_(backend, 1, "integrate.dt"), solids_(scene, backend),
       shapes_(backend, 0, "rigid.shapes") {
-  shift_ = exec::DeviceBuffer<Vec3<T>>(backend, 0, "sph.shift");
   guard_count_.assign(std::vector<std::uint64_t>{0});
   sorted_outflow_mass_.assign(std::vector<double>{0.0});
   fluid_on_ = scene.has(Module::Fluid);
