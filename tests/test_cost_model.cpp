@@ -137,6 +137,18 @@ TEST(CostModel, AnEstimateComposesTheSettingsFactors) {
                                     {"fluid.spacing=0.02", "solver.neighbour_list=\"verlet\"",
                                      "solver.damping=1.0", "solver.damping_until=0.1"});
   EXPECT_EQ(cost_settings(settling), (std::vector<std::string>{"neighbour_list_verlet_settling"}));
+  // Monaghan's artificial viscosity, where alpha > 0, with shifting: both priced, each a factor.
+  d.factors["artificial_viscosity"] = 1.25;
+  d.factors["shifting_fickian"] = 1.5;
+  const Scene viscous = load_scene(
+      scene_path("dambreak.toml"),
+      {"fluid.spacing=0.02", "fluid.artificial_viscosity=0.01", "solver.shifting=\"fickian\""});
+  EXPECT_EQ(cost_settings(viscous),
+            (std::vector<std::string>{"shifting_fickian", "artificial_viscosity"}));
+  EXPECT_NEAR(estimate_cost(d, viscous, p).step_s, 1.25 * 1.5 * step, 1e-12);
+  EXPECT_TRUE(
+      cost_settings(load_scene(scene_path("dambreak.toml"), {"fluid.artificial_viscosity=0"}))
+          .empty());
   // A wider support meets (support / 2)^3 as many pairs: the fluid's term scales.
   const Scene wide =
       load_scene(scene_path("dambreak.toml"), {"fluid.spacing=0.02", "fluid.support=2.5"});

@@ -166,6 +166,18 @@ TEST(Watchdog, LimitsAreTheScenesAndTripJustPastThem) {
   auto trip = dog.check(r);
   EXPECT_NE(trip.why.find("energy rose"), std::string::npos) << trip.why;
   EXPECT_NE(trip.why.find("solver.watchdog_energy_rise"), std::string::npos) << trip.why;
+  // The scene's summation density without the artificial viscosity: the trip names that cause
+  // and its cure; with either cure the message is the measure's alone.
+  ASSERT_EQ(scene.solver.density, DensityModel::Summation);
+  EXPECT_NE(trip.why.find("set fluid.artificial_viscosity = 0.01"), std::string::npos) << trip.why;
+  Scene cured = scene;
+  cured.fluid.artificial_viscosity = 0.01;
+  EXPECT_EQ(Watchdog(cured, start, elastic, 0.0).check(r).why.find("artificial_viscosity"),
+            std::string::npos);
+  cured = scene;
+  cured.solver.density = DensityModel::Continuity;
+  EXPECT_EQ(Watchdog(cured, start, elastic, 0.0).check(r).why.find("artificial_viscosity"),
+            std::string::npos);
   r.kinetic = limit(0.7) - r.potential - 1e-9; // just short
   EXPECT_EQ(dog.check(r).why, "");
 

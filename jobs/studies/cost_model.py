@@ -17,7 +17,7 @@ S the run's steps, N the particles, the support and the settings that carry a fa
 `knitflow plan` gives them (its "model" line: S = end_time over the CFL step at the fluid's fall
 speed from its top, none where the scene damps its motion toward rest): f the product of a factor
 a setting (the continuity density, the neighbour lists "on", "verlet" in a settling scene and in
-a flowing one, double precision, particle shifting) on a whole step (on a GPU a small step is mostly its kernels'
+a flowing one, double precision, particle shifting, the artificial viscosity) on a whole step (on a GPU a small step is mostly its kernels'
 launches, which a setting changes with its passes). start, step, fluid and boundary are fitted by
 least squares on relative error over the fluid's runs without such settings; each setting's
 factor is then the geometric mean of what its runs ask for; the knit's coefficients (a substep's

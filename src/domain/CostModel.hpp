@@ -13,7 +13,7 @@
 //
 // steps from the plan (PlanReport::run_steps), f the product of the factors of the settings the
 // scene uses (cost_settings: the continuity density, the neighbour lists, double precision,
-// particle shifting); the
+// particle shifting, the artificial viscosity); the
 // fluid's part where the scene has fluid, the knit's where it has a knit, a knit term where the
 // scene calls for its stage (knit_cost_terms: self-collision, the knit-fluid coupling and its
 // substep's and step's fixed costs, the conserving absorption's Darcy substeps a step), the
@@ -58,7 +58,8 @@ std::vector<DeviceCost> parse_cost_model(const std::string& text, const std::str
 
 /// The names of the scene's settings that carry a factor: "density_continuity",
 /// "neighbour_list_on", "neighbour_list_verlet_settling" or "_flowing" (kept lists last longer
-/// where the scene damps its motion toward rest), "precision_double", "shifting_fickian".
+/// where the scene damps its motion toward rest), "precision_double", "shifting_fickian",
+/// "artificial_viscosity" (alpha > 0).
 std::vector<std::string> cost_settings(const Scene& scene);
 
 /// The names of the knit's stages that carry a term: "knit_self_contact", "knit_coupling" (the

@@ -68,6 +68,14 @@ Watchdog::Watchdog(const Scene& scene, const WatchReading& start, double start_s
     capillary_ = capillary_pressure_scale(scene) * leverett_j(0.0) * pores;
   }
   start_work_ = start.work;
+  // The summation density without a dissipative term lets the pressure noise at a tank's walls
+  // grow until it trips the energy or the speed (a closed tank at rest too, after ~1 s:
+  // docs/VALIDATION.md, P7's sloshing); the continuity density's diffusion or Monaghan's term
+  // damps it. Named where the scene has that combination.
+  if (fluid && sv.density == DensityModel::Summation && scene.fluid.artificial_viscosity == 0)
+    fluid_hint_ = "; the summation density without the artificial viscosity lets a tank's "
+                  "pressure noise grow until it trips this: set fluid.artificial_viscosity = "
+                  "0.01 or solver.density = \"continuity\" (docs/VALIDATION.md)";
 }
 
 double Watchdog::energy_limit(const WatchReading& r) const {
@@ -94,7 +102,7 @@ Watchdog::Trip Watchdog::check(const WatchReading& r) const {
                   "a fluid particle moves at %.4g m/s, past the watchdog's %.4g m/s "
                   "(solver.watchdog_max_speed; by default the speed of sound)",
                   r.fluid_max_speed, fluid_speed_);
-    return {buf, WatchMeasure::FluidSpeed};
+    return {buf + fluid_hint_, WatchMeasure::FluidSpeed};
   }
   if (knit_speed_ > 0 && r.knit_max_speed > knit_speed_) {
     std::snprintf(buf, sizeof buf,
@@ -120,8 +128,9 @@ Watchdog::Trip Watchdog::check(const WatchReading& r) const {
                   "J (the start's %.4g J and the %.4g J the moving solids and handles did since, "
                   "%.3g%% more (solver.watchdog_energy_rise), and what suction could add)",
                   e, limit, start_energy_, r.work - start_work_, 100 * rise_);
-    return {buf, r.knit_max_speed > r.fluid_max_speed ? WatchMeasure::KnitSpeed
-                                                      : WatchMeasure::FluidSpeed};
+    if (r.knit_max_speed > r.fluid_max_speed)
+      return {buf, WatchMeasure::KnitSpeed};
+    return {buf + fluid_hint_, WatchMeasure::FluidSpeed};
   }
   return {};
 }

@@ -44,6 +44,7 @@ public:
 private:
   double fluid_speed_ = 0, knit_speed_ = 0, max_density_ = 0, density_error_ = 0;
   double start_energy_ = 0, start_work_ = 0, rise_ = 0, floor_ = 0, capillary_ = 0;
+  std::string fluid_hint_; // a known cause of the scene's fluid trips, and its cure ("": none)
 };
 
 } // namespace kf

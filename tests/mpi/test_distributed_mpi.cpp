@@ -391,6 +391,17 @@ TEST(Distributed, OnTheGpuTheSplitIsTheOneRankGpuRun) {
   verlet.parallel.overlap = false;
   expect_same_run(verlet, 200, 50, "GPU dam break, verlet lists, no overlap", gpu, true);
   expect_same_run(moving_sphere(), 200, 50, "GPU sphere moving through a tank", gpu, true);
+  // The fluid's options: the GPU's shift reads the ghosts the forces' pass read and the kept
+  // ghosts take their owners' shifted positions on the device (refresh_positions); the
+  // artificial viscosity reads the ghosts' velocities.
+  Scene shifted = dambreak("float", "summation");
+  shifted.solver.shifting = Scene::Solver::Shifting::Fickian;
+  expect_same_run(shifted, 200, 50, "GPU dam break, shifting", gpu);
+  shifted.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
+  expect_same_run(shifted, 200, 50, "GPU dam break, shifting, verlet lists", gpu, true);
+  Scene viscous = dambreak("float", "summation");
+  viscous.fluid.artificial_viscosity = 0.01;
+  expect_same_run(viscous, 200, 50, "GPU dam break, artificial viscosity", gpu);
 }
 
 // A sphere ploughing through a tank at 1 m/s: its boundary particles cross blocks (of one
