@@ -56,7 +56,8 @@ def overrides_of(row, full):
     """The --set overrides the study gave this row's run."""
     case = accuracy.CASES[row["case"]]
     size = "full" if full else "small"
-    return (case.fixed[size] + case.base_for(row["axis"], full)
+    extra = [o for o in (row.get("extra") or "").split(";") if o]  # accuracy.py --set
+    return (case.fixed[size] + case.base_for(row["axis"], full) + extra
             + case.setting(row["axis"], parsed(row["value"])))
 
 
