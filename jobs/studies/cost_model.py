@@ -5,7 +5,7 @@
 
 A run's wall time on a device is predicted as (src/domain/CostModel.hpp)
 
-    T = start + S (f (step + (support / 2)^3 fluid N_fluid + boundary N_boundary)
+    T = start + S (f (step + (support / 2)^q (pair_step + fluid N_fluid) + boundary N_boundary)
                    + knit_step
                    + substeps (knit_substep + N_knit (knit + self_contact? + coupling?)
                                + coupling? coupling_substep)
@@ -18,9 +18,13 @@ S the run's steps, N the particles, the support and the settings that carry a fa
 speed from its top, none where the scene damps its motion toward rest): f the product of a factor
 a setting (the continuity density, the neighbour lists "on", "verlet" in a settling scene and in
 a flowing one, double precision, particle shifting, the artificial viscosity) on a whole step (on a GPU a small step is mostly its kernels'
-launches, which a setting changes with its passes). start, step, fluid and boundary are fitted by
-least squares on relative error over the fluid's runs without such settings; each setting's
-factor is then the geometric mean of what its runs ask for; the knit's coefficients (a substep's
+launches, which a setting changes with its passes); q the pairs' exponent (3 where a pair costs as
+a pair; fitted on a grid of 1-4 where the runs have several supports). start, step, pair_step (a step's cost that
+grows with the pairs a particle meets but not with the particles: on a GPU a small run's passes
+last as long as a particle's walk over its neighbours, the support's runs show it), fluid and
+boundary are fitted by least squares on relative error over the fluid's runs without such
+settings; each setting's factor is then the geometric mean over the cases of what each case's
+runs ask for (one case's many runs do not outvote another's few); the knit's coefficients (a substep's
 fixed cost, a point's a substep, the self-contact's and the knit-fluid coupling's a point a
 substep where the scene has them, the coupling's fixed cost a substep and a step, the conserving
 absorption's a point and its fixed cost a Darcy substep: the plan's "knit terms"; the knit's
@@ -92,12 +96,14 @@ def step_cost(c, row):
     """The fluid's part of a step before its settings' factor (none without fluid)."""
     if row["Nf"] == 0 and row["Nb"] == 0:
         return 0.0
-    return c[1] + pairs(row) * c[2] * row["Nf"] + c[3] * row["Nb"]
+    return c[1] + pairs(row, c[6]) * (c[5] + c[2] * row["Nf"]) + c[3] * row["Nb"]
 
 
-def pairs(row):
-    """The neighbours a fluid particle meets against support 2: (support / 2)^3."""
-    return (row["support"] / 2.0) ** 3
+def pairs(row, q):
+    """What the support's neighbours cost against support 2: (support / 2)^q. q = 3 where a pair
+    costs as a pair (the neighbours a particle meets); a GPU fits less (its cells' candidates are
+    longer runs at a wider support: 1.9x a step's time at support 3 for 3.4x the pairs)."""
+    return (row["support"] / 2.0) ** q
 
 
 KNIT_TERMS = ["knit_substep_s", "knit_s", "self_contact_s", "coupling_s", "coupling_step_s",
@@ -174,19 +180,30 @@ def fit(rows):
     fluid = [r for r in rows if r["Nk"] == 0]
     base = [r for r in fluid if not r["settings"]]
     # step_cost's columns, the support's pairs included (fitted as 1 until 2026-11-29 while the
-    # prediction scaled them: the support's runs pulled the fluid's coefficient off).
-    A = np.array([[1.0, r["S"], r["S"] * pairs(r) * r["Nf"], r["S"] * r["Nb"], output_column(r)]
-                  for r in base])
+    # prediction scaled them: the support's runs pulled the fluid's coefficient off), for each
+    # exponent q of the pairs on a grid; the q whose worst base run is nearest kept (3 where the
+    # runs have one support: the plain pair count).
     w = np.array([1.0 / r["wall"] for r in base])
     y = np.array([r["wall"] for r in base])
-    c = nonnegative_lstsq(A * w[:, None], y * w)
+    best = None
+    supports = {r["support"] for r in base}
+    for q in (np.arange(1.0, 4.001, 0.05) if len(supports) > 1 else [3.0]):
+        A = np.array([[1.0, r["S"], r["S"] * pairs(r, q) * r["Nf"], r["S"] * r["Nb"],
+                       output_column(r), r["S"] * pairs(r, q)] for r in base])
+        x = nonnegative_lstsq(A * w[:, None], y * w)
+        worst = np.max(np.abs((A @ x) * w - 1.0))
+        if best is None or worst < best[0] - 1e-12:
+            best = (worst, np.append(x, round(float(q), 2)))
+    c = best[1]
     asks = {}
     for r in fluid:
         if len(r["settings"]) == 1:  # a setting's own runs ask for its factor
             step = r["S"] * step_cost(c, r)
             rest = r["wall"] - c[0] - c[4] * output_column(r)
-            asks.setdefault(r["settings"][0], []).append(max(rest, 0.05 * step) / step)
-    factors = {k: float(np.exp(np.mean(np.log(v)))) for k, v in asks.items()}
+            asks.setdefault(r["settings"][0], {}).setdefault(r["case"], []).append(
+                max(rest, 0.05 * step) / step)
+    factors = {k: float(np.exp(np.mean([np.mean(np.log(v)) for v in by_case.values()])))
+               for k, by_case in asks.items()}
     knit = np.zeros(len(KNIT_TERMS))
     knitted = [r for r in rows if r["Nk"] > 0]
     if knitted:
@@ -234,7 +251,9 @@ def main():
         print(f"{r['case']:12} {r['axis']:15} {str(r['value']):>10} {r['Nf']:9d} {r['Nb']:9d} "
               f"{r['Nk']:7d} {r['steps']:7d} {r['S']:7.0f} {r['wall']:9.2f} {t:10.2f} {100 * off:+5.0f}%")
     device = a.device or rows[0].get("device", "device")
-    print(f"{device}: t_start {c[0]:.3g} s, a step {c[1]:.3g} s + {c[2]:.3g} s a fluid particle "
+    print(f"{device}: t_start {c[0]:.3g} s, a step {c[1]:.3g} s + {c[5]:.3g} s x the pairs "
+          f"((support / 2)^{c[6]:.3g}) + "
+          f"{c[2]:.3g} s a fluid particle "
           f"+ {c[3]:.3g} s a boundary particle, {c[4]:.3g} s a particle a snapshot; factors "
           + ", ".join(f"{k} x{f:.2f}" for k, f in factors.items())
           + "; knit " + ", ".join(f"{k} {v:.3g}" for k, v in zip(KNIT_TERMS, knit))
@@ -247,25 +266,31 @@ def main():
 def write_model(path, device, c, factors, knit, worst, worst_fluid, sources):
     """The device's table into the model file, the other devices' kept."""
     lines = open(path).read().splitlines() if os.path.exists(path) else []
-    kept, skip = [], False
+    kept, skip, at = [], False, None
     for line in lines:
         if line.startswith("["):
             skip = line.strip() == f"[{device}]"
+            if skip:
+                at = len(kept)  # the new table goes where the old one was
         if not skip:
             kept.append(line)
+    after = kept[at:] if at is not None else []
+    kept = kept[:at] if at is not None else kept
     while kept and not kept[-1].strip():
         kept.pop()
     table = [f"[{device}]",
              f"# fitted by jobs/studies/cost_model.py to "
              f"{', '.join(os.path.relpath(os.path.abspath(p), accuracy.ROOT) for p in sources)}",
              f"start_s = {c[0]:.6g}", f"step_s = {c[1]:.6g}", f"fluid_s = {c[2]:.6g}",
-             f"boundary_s = {c[3]:.6g}", f"output_s = {c[4]:.6g}"]
+             f"boundary_s = {c[3]:.6g}", f"output_s = {c[4]:.6g}", f"pair_step_s = {c[5]:.6g}",
+             f"pairs_exponent = {c[6]:.3g}"]
     table += [f"{k} = {f:.4g}" for k, f in factors.items()]
     table += [f"{k} = {v:.6g}" for k, v in zip(KNIT_TERMS, knit) if v > 0]
     table.append(f"worst_off = {worst:.3f}")
     table.append(f"worst_off_fluid = {worst_fluid:.3f}")
     with open(path, "w") as f:
-        f.write("\n".join(kept + ([""] if kept else []) + table) + "\n")
+        f.write("\n".join(kept + ([""] if kept else []) + table + ([""] if after else [])
+                          + after) + "\n")
 
 
 if __name__ == "__main__":

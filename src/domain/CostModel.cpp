@@ -43,6 +43,7 @@ std::vector<DeviceCost> parse_cost_model(const std::string& text, const std::str
     d.worst_off_fluid = coefficient("worst_off_fluid", false);
     // The coefficients a device may lack (a fit without knit runs, an older table): zero.
     const std::pair<const char*, double*> optional[] = {
+        {"pair_step_s", &d.pair_step_s},
         {"knit_substep_s", &d.knit_substep_s},
         {"knit_s", &d.knit_s},
         {"self_contact_s", &d.self_contact_s},
@@ -56,10 +57,12 @@ std::vector<DeviceCost> parse_cost_model(const std::string& text, const std::str
         {"conserving_substep_s", &d.conserving_substep_s}};
     for (const auto& [key, at] : optional)
       *at = coefficient(key, false);
+    if ((*t)["pairs_exponent"])
+      d.pairs_exponent = coefficient("pairs_exponent", true);
     for (const auto& [key, value] : *t) {
       const std::string k(key.str());
       if (k == "start_s" || k == "step_s" || k == "fluid_s" || k == "boundary_s" ||
-          k == "worst_off" || k == "worst_off_fluid" ||
+          k == "worst_off" || k == "worst_off_fluid" || k == "pairs_exponent" ||
           std::any_of(std::begin(optional), std::end(optional),
                       [&](const auto& e) { return k == e.first; }))
         continue;
@@ -119,11 +122,12 @@ CostEstimate estimate_cost(const DeviceCost& device, const Scene& scene, const P
     if (it != device.factors.end())
       f *= it->second;
   }
-  const double pairs = std::pow(scene.fluid.support / 2.0, 3);
+  const double pairs = std::pow(scene.fluid.support / 2.0, device.pairs_exponent);
   CostEstimate e;
   if (plan.fluid > 0 || plan.boundary > 0)
-    e.step_s = f * (device.step_s + pairs * device.fluid_s * double(plan.fluid) +
-                    device.boundary_s * double(plan.boundary));
+    e.step_s =
+        f * (device.step_s + pairs * (device.pair_step_s + device.fluid_s * double(plan.fluid)) +
+             device.boundary_s * double(plan.boundary));
   if (plan.knit > 0) {
     const double n = double(plan.knit);
     double point = device.knit_s, per_substep = device.knit_substep_s,

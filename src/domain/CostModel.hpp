@@ -3,7 +3,8 @@
 // (jobs/studies/cost_model.py writes src/domain/CostModel.toml; the build compiles it in). A
 // run's wall time on a device:
 //
-//   T = start + steps (f (step + (support / 2)^3 fluid N_fluid + boundary N_boundary)
+//   T = start + steps (f (step + (support / 2)^q (pair_step + fluid N_fluid)
+//                         + boundary N_boundary)
 //                      + knit_step
 //                      + substeps (knit_substep + N_knit (knit + self_contact? + coupling?)
 //                                  + coupling? coupling_substep)
@@ -11,15 +12,14 @@
 //                      + conserving? darcy_substeps (conserving_substep + N_knit conserving))
 //         + knit_start + frames output (N_fluid + N_boundary + N_knit)
 //
-// steps from the plan (PlanReport::run_steps), f the product of the factors of the settings the
-// scene uses (cost_settings: the continuity density, the neighbour lists, double precision,
-// particle shifting, the artificial viscosity); the
-// fluid's part where the scene has fluid, the knit's where it has a knit, a knit term where the
-// scene calls for its stage (knit_cost_terms: self-collision, the knit-fluid coupling and its
-// substep's and step's fixed costs, the conserving absorption's Darcy substeps a step), the
-// knit's own fixed costs (a step's: its bounds and step size; a run's: building the knit, its pore
-// network and first lists), and the snapshots' writing (PlanReport::output_frames). A device
-// fitted to no knit run has no knit terms.
+// steps from the plan (PlanReport::run_steps), q the device's pairs_exponent, f the product of the
+// factors of the settings the scene uses (cost_settings: the continuity density, the neighbour
+// lists, double precision, particle shifting, the artificial viscosity); the fluid's part where the
+// scene has fluid, the knit's where it has a knit, a knit term where the scene calls for its stage
+// (knit_cost_terms: self-collision, the knit-fluid coupling and its substep's and step's fixed
+// costs, the conserving absorption's Darcy substeps a step), the knit's own fixed costs (a step's:
+// its bounds and step size; a run's: building the knit, its pore network and first lists), and the
+// snapshots' writing (PlanReport::output_frames). A device fitted to no knit run has no knit terms.
 #include "domain/Scene.hpp"
 #include "domain/Simulation.hpp"
 
@@ -30,9 +30,15 @@
 namespace kf {
 
 struct DeviceCost {
-  std::string name;                      // "h100", "cpu-2core"
-  double start_s = 0, step_s = 0;        // a run's start; a step's fixed cost [s]
-  double fluid_s = 0, boundary_s = 0;    // a particle's, a step [s]
+  std::string name;                   // "h100", "cpu-2core"
+  double start_s = 0, step_s = 0;     // a run's start; a step's fixed cost [s]
+  double fluid_s = 0, boundary_s = 0; // a particle's, a step [s]
+  // A step's cost that grows with the pairs a particle meets, (support / 2)^3, not with the
+  // particles: on a GPU a small run's passes last as long as one particle's walk [s].
+  double pair_step_s = 0;
+  // The pairs' cost against support 2 is (support / 2)^pairs_exponent: 3 where a pair costs as
+  // a pair; a GPU fits less (its cells' candidates run longer at a wider support).
+  double pairs_exponent = 3;
   std::map<std::string, double> factors; // a setting's (cost_settings' names) on a whole step
   // The knit's: a substep's fixed cost, a point's a substep, the self-contact's and the
   // coupling's a point a substep, the conserving absorption's a point a Darcy substep [s].
