@@ -152,15 +152,17 @@ CASES = {
         {"small": ["fluid.spacing=0.0125"], "full": ["fluid.spacing=0.005"]},
         fixed={"small": ["simulation.end_time=0.3", "output.interval=0.01"],
                "full": ["simulation.end_time=0.3", "output.interval=0.01"]}),
-    # A whole number of particles across the slice (0.06 m) and up the fill (0.2 m).
+    # A whole number of particles along the tank (0.4 m), across the slice (0.06 m) and up the
+    # fill (0.2 m): 0.015 m (the small study's until 2026-12-01) left 1 cm of the tank's length
+    # and 5 mm of the fill empty.
     "sloshing": Case(
         "scenes/studies/sloshing.toml", fluid_cases.sloshing_error, "spacing",
-        {"spacing": {"small": [0.02, 0.015, 0.01], "full": [0.02, 0.01, 0.005, 0.0025]},
+        {"spacing": {"small": [0.02, 0.01], "full": [0.02, 0.01, 0.005, 0.0025]},
          "sound_speed": [10.0, 20.0, 40.0],
          # The support in spacings sets the period's error here, not the spacing (VALIDATION).
          "support": [2.0, 2.5, 3.0],
          **{k: FLUID_AXES[k] for k in ("cfl", "kernel", "density", "neighbour_list", "shifting")}},
-        {"small": ["fluid.spacing=0.015"], "full": ["fluid.spacing=0.005"]}),
+        {"small": ["fluid.spacing=0.02"], "full": ["fluid.spacing=0.005"]}),
     # Wales along the strip.
     "catenary": Case(
         "scenes/studies/catenary.toml", knit_cases.catenary_error, "stitches",
