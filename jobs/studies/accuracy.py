@@ -30,7 +30,7 @@ scene has them, at the case's base resolution):
                of a damped cosine fitted to its centre of mass along x over 2 s against the
                first standing wave's (linear theory), relative; the decay beside it.
                spacing, sound_speed, support (2, 2.5, 3), cfl, kernel, density,
-               neighbour_list, shifting (its
+               neighbour_list, shifting, quality (its
                scene has the artificial viscosity at 0.01: the summation's noise runs away
                without it)
   catenary     scenes/studies/catenary.toml: the settled strip's centre line against the
@@ -161,7 +161,8 @@ CASES = {
          "sound_speed": [10.0, 20.0, 40.0],
          # The support in spacings sets the period's error here, not the spacing (VALIDATION).
          "support": [2.0, 2.5, 3.0],
-         **{k: FLUID_AXES[k] for k in ("cfl", "kernel", "density", "neighbour_list", "shifting")}},
+         **{k: FLUID_AXES[k]
+            for k in ("cfl", "kernel", "density", "neighbour_list", "shifting", "quality")}},
         {"small": ["fluid.spacing=0.02"], "full": ["fluid.spacing=0.005"]}),
     # Wales along the strip.
     "catenary": Case(
