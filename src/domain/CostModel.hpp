@@ -33,8 +33,8 @@ struct DeviceCost {
   std::string name;                   // "h100", "cpu-2core"
   double start_s = 0, step_s = 0;     // a run's start; a step's fixed cost [s]
   double fluid_s = 0, boundary_s = 0; // a particle's, a step [s]
-  // A step's cost that grows with the pairs a particle meets, (support / 2)^3, not with the
-  // particles: on a GPU a small run's passes last as long as one particle's walk [s].
+  // A step's cost that grows with the pairs a particle meets, (support / 2)^pairs_exponent, not
+  // with the particles: on a GPU a small run's passes last as long as one particle's walk [s].
   double pair_step_s = 0;
   // The pairs' cost against support 2 is (support / 2)^pairs_exponent: 3 where a pair costs as
   // a pair; a GPU fits less (its cells' candidates run longer at a wider support).
