@@ -17,22 +17,22 @@ S the run's steps, N the particles, the support and the settings that carry a fa
 `knitflow plan` gives them (its "model" line: S = end_time over the CFL step at the fluid's fall
 speed from its top, none where the scene damps its motion toward rest): f the product of a factor
 a setting (the continuity density, the neighbour lists "on", "verlet" in a settling scene and in
-a flowing one, double precision, particle shifting, the artificial viscosity) on a whole step (on a GPU a small step is mostly its kernels'
-launches, which a setting changes with its passes); q the pairs' exponent (3 where a pair costs as
-a pair; fitted on a grid of 1-4 where the runs have several supports). start, step, pair_step (a step's cost that
-grows with the pairs a particle meets but not with the particles: on a GPU a small run's passes
-last as long as a particle's walk over its neighbours, the support's runs show it), fluid and
-boundary are fitted by least squares on relative error over the fluid's runs without such
-settings; each setting's factor is then the geometric mean over the cases of what each case's
-runs ask for (one case's many runs do not outvote another's few); the knit's coefficients (a substep's
-fixed cost, a point's a substep, the self-contact's and the knit-fluid coupling's a point a
-substep where the scene has them, the coupling's fixed cost a substep and a step, the conserving
-absorption's a point and its fixed cost a Darcy substep: the plan's "knit terms"; the knit's
-fixed cost a step and a run) over the runs with a knit, the
-fluid's part of them as fitted, making the worst run's relative error smallest (minimax: the plan
-promises a bound). Every study run's prediction is printed against
+a flowing one, double precision, particle shifting, the artificial viscosity) on a whole step (on
+a GPU a small step is mostly its kernels' launches, which a setting changes with its passes); q
+the pairs' exponent (3 where a pair costs as a pair; fitted on a grid of 1-4 where the runs have
+several supports). start, step, pair_step (a step's cost that grows with the pairs a particle
+meets but not with the particles: on a GPU a small run's passes last as long as a particle's walk
+over its neighbours, as the support's runs show), fluid and boundary are fitted by least squares
+on relative error over the fluid's runs without such settings; each setting's factor is then the
+geometric mean over the cases of what each case's runs ask for (one case's many runs do not
+outvote another's few); the knit's coefficients (a substep's fixed cost, a point's a substep, the
+self-contact's and the knit-fluid coupling's a point a substep where the scene has them, the
+coupling's fixed cost a substep and a step, the conserving absorption's a point and its fixed
+cost a Darcy substep: the plan's "knit terms"; the knit's fixed cost a step and a run) over the
+runs with a knit, the fluid's part of them as fitted, making the worst run's relative error
+smallest (minimax: the plan promises a bound). Every study run's prediction is printed against
 its measured time; --out writes the device's table into the model file (src/domain/CostModel.toml,
-which the app compiles in), keeping the other devices'.
+which the app compiles in) in its place, keeping the other devices'.
 """
 import argparse
 import csv
