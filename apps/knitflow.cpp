@@ -7,6 +7,7 @@
 #include "domain/PartitionPlan.hpp"
 #include "domain/Runner.hpp"
 #include "domain/Scene.hpp"
+#include "domain/SceneCautions.hpp"
 #include "domain/SceneSize.hpp"
 #include "domain/Simulation.hpp"
 #include "kernels/exec/Backend.hpp"
@@ -187,6 +188,8 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   for (auto m : scene.modules)
     mods += (mods.empty() ? "" : ", ") + kf::to_string(m);
   std::printf("scene      %s (%s)\n", scene.name.c_str(), scene.path.c_str());
+  for (const std::string& c : kf::scene_cautions(scene))
+    std::printf("caution    %s\n", c.c_str());
   std::printf("modules    %s\n", mods.c_str());
   std::printf("precision  %s\n", std::string(kf::to_string(scene.precision)).c_str());
   if (scene.solver.quality != kf::Scene::Solver::Quality::None) {
@@ -261,6 +264,9 @@ int cmd_run(const Args& a, const kf::comm::MpiContext& mpi) {
   opt.profile_device = a.profile_device;
   if (const char* f = std::getenv("KF_FAULT"))
     opt.fault = kf::parse_fault(f);
+  if (mpi.root()) // also when quiet: a study's runs keep them in their logs
+    for (const std::string& c : kf::scene_cautions(scene))
+      std::cerr << "knitflow: caution: " << c << "\n";
   if (mpi.root() && !a.quiet)
     std::cerr << "knitflow: " << scene.name << " on " << kf::exec::describe(opt.backend) << ", "
               << mpi.size() << " rank(s), " << kf::to_string(scene.precision) << "\n";

@@ -51,6 +51,43 @@ def hydrostatic_error(run_dir, scene):
     return float(np.mean(errors)), len(errors)
 
 
+def paired_fraction(positions, spacing):
+    """The fraction of particles with a neighbour nearer than half a spacing: none on a lattice
+    or in a settled fluid (a few in a splash), most where the kernel's pairing instability has
+    clumped them (the cubic spline past a support of 2 spacings: VALIDATION, P7). Cells half a
+    spacing wide: such a neighbour lies in one of the 27 around a particle's."""
+    x = np.asarray(positions, dtype=np.float64)
+    if len(x) < 2:
+        return 0.0
+    r = 0.5 * spacing
+    cell = np.floor((x - x.min(axis=0)) / r).astype(np.int64) + 1  # a margin of one cell
+    dims = cell.max(axis=0) + 2
+    key = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
+    order = np.argsort(key, kind="stable")
+    ks, xs = key[order], x[order]
+    near = np.zeros(len(x), dtype=bool)
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            for dz in (-1, 0, 1):
+                other = ks + (dx * dims[1] + dy) * dims[2] + dz
+                lo = np.searchsorted(ks, other, "left")
+                count = np.searchsorted(ks, other, "right") - lo
+                for j in range(int(count.max())):
+                    i = np.nonzero(count > j)[0]
+                    k = lo[i] + j
+                    d2 = ((xs[i] - xs[k]) ** 2).sum(axis=1)
+                    near[i[(k != i) & (d2 < r * r)]] = True
+    return float(near.mean())
+
+
+def last_paired_fraction(run_dir, scene):
+    """paired_fraction of the fluid in the run's last snapshot."""
+    frames = sorted(glob.glob(os.path.join(run_dir, "frame_*.h5")))
+    with h5py.File(frames[-1], "r") as f:
+        x = f["fluid/position"][...]
+    return round(paired_fraction(x, float(scene["fluid"]["spacing"])), 4)
+
+
 def read_curve(name):
     """A digitised curve of tests/data: (x, y) rows after '#' comments and a header."""
     rows = []
@@ -118,7 +155,8 @@ def dambreak_error(run_dir, scene):
     error = float(np.sqrt(np.mean(np.concatenate([fd, hd]) ** 2)))
     extra = {"release_delay": round(float(best), 3),
              "front_rms": float(np.sqrt(np.mean(fd ** 2))),
-             "height_rms": float(np.sqrt(np.mean(hd ** 2))), "_curves": curves}
+             "height_rms": float(np.sqrt(np.mean(hd ** 2))),
+             "paired": last_paired_fraction(run_dir, scene), "_curves": curves}
     return error, len(fd) + len(hd), extra
 
 
@@ -139,7 +177,7 @@ def self_error(curves, reference):
 
 def hydrostatic_case_error(run_dir, scene):
     error, frames = hydrostatic_error(run_dir, scene)
-    return error, frames, {}
+    return error, frames, {"paired": last_paired_fraction(run_dir, scene)}
 
 
 def centre_of_mass_x(run_dir):
@@ -202,4 +240,5 @@ def sloshing_error(run_dir, scene):
     return error, int(keep.sum()), {
         "period_s": round(2 * math.pi / omega, 5), "period_linear_s": round(2 * math.pi / omega0, 5),
         "damping_per_s": round(gamma, 4), "amplitude_m": round(amplitude, 6),
-        "fit_misfit": round(misfit, 4), "depth_m": round(depth, 4), "width_m": W}
+        "fit_misfit": round(misfit, 4), "depth_m": round(depth, 4), "width_m": W,
+        "paired": last_paired_fraction(run_dir, scene)}
