@@ -16,6 +16,13 @@ def order_of(h, e):
 
 
 def hydrostatic(rows, h, e):
+    # A settled tank with the cubic spline at its default support of 2 spacings does not pair:
+    # measured 0.68%, 0.50%, 0.14%, 0 of the particles within half a spacing of a neighbour (a
+    # few at the walls of the coarse tanks). Past a support of 2 the cubic spline pairs (61% at
+    # 2.5 in the H200's tank); the bound sits between.
+    paired = [float(r["paired"]) for r in rows]
+    print(f"paired {paired}")
+    assert max(paired) < 0.01, f"the tank's particles pair: {paired}"
     for k in range(1, len(rows)):
         assert e[k] < e[k - 1], f"the error grew from spacing {h[k-1]} to {h[k]}: {e[k-1]} -> {e[k]}"
     order = order_of(h, e)
@@ -32,7 +39,9 @@ def hydrostatic(rows, h, e):
 
 def dambreak(rows, h, e):
     for r in rows:
-        for key in ("front_rms", "height_rms", "release_delay"):
+        # paired: recorded, not bounded: the surge's impacts bring particles together (3-7% of
+        # them within half a spacing at these spacings), which is not the kernel's instability.
+        for key in ("front_rms", "height_rms", "release_delay", "paired"):
             assert r.get(key), f"no {key} in {r}"
     order = order_of(h, e)
     print(f"against the experiment: errors {e}, observed order {order:.2f}")
