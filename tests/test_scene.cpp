@@ -221,8 +221,8 @@ TEST(Scene, ExampleScenesLoad) {
 TEST(Scene, CubicSplinePastTwoSpacingsIsCautioned) {
   // The cubic spline pairs past a support of 2 spacings (kCubicPairingSupport's measurements);
   // the other kernels do not, and no shipped scene asks for it but the DualSPHysics column
-  // (scenes/bench: DualSPHysics's own cubic spline at h = 1.732 dp, kept to compare like with
-  // like).
+  // (scenes/bench: DualSPHysics's own cubic spline at h = 1.732 dp, kept to measure speed at
+  // DualSPHysics's particle and neighbour counts).
   const std::string dam = (test::source_dir() / "scenes" / "dambreak.toml").string();
   EXPECT_TRUE(scene_cautions(load_scene(dam)).empty()) << "cubic at 2 spacings";
   const auto c = scene_cautions(load_scene(dam, {"fluid.support=2.25"}));
