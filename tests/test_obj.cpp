@@ -153,6 +153,18 @@ TEST(Obj, MissingFileNamesPath) {
   }
 }
 
+TEST(Obj, DirectoryIsRefusedWithItsReason) {
+  // An ifstream opens a directory on Linux and reads nothing: the reader must say why instead.
+  const std::string path = (test::data_dir() / "meshes").string();
+  try {
+    read_obj(path);
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    EXPECT_EQ(msg.rfind(path + ": cannot open OBJ file (Is a directory)", 0), 0u) << msg;
+  }
+}
+
 TEST(Obj, ReadsAFile) {
   const auto dir = test::scratch_dir("obj_file");
   const std::string path = (dir / "tri.obj").string();

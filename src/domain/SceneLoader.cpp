@@ -7,14 +7,13 @@
 #include "domain/Scene.hpp"
 #include "domain/SceneOverrides.hpp"
 #include "domain/SceneReader.hpp"
+#include "io/WholeFile.hpp"
 #include "kernels/grid/GridGeometry.hpp"
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <span>
 #include <sstream>
 #include <utility>
@@ -810,21 +809,10 @@ toml::table parse_toml(const std::string& text, const std::string& source_name) 
 }
 
 std::string read_file(const std::string& path) {
-  const auto cannot = [&](int err) {
-    return SceneError(path + ": cannot open scene file (" + std::strerror(err) + ")");
-  };
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw cannot(EISDIR);
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw cannot(errno ? errno : ENOENT);
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad())
-    throw cannot(errno ? errno : EIO);
-  return text.str();
+  io::WholeFile f = io::read_whole_file(path);
+  if (f.error)
+    throw SceneError(path + ": cannot open scene file (" + std::strerror(f.error) + ")");
+  return std::move(f.text);
 }
 
 /// The text as read plus one "# --set ..." line per override: a snapshot records what ran.

@@ -1,15 +1,12 @@
 #include "io/ObjReader.hpp"
 
 #include "core/Error.hpp"
+#include "io/WholeFile.hpp"
 
 #include <algorithm>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
 
 namespace kf::io {
 
@@ -203,21 +200,10 @@ ObjMesh parse_obj(std::string_view text, const std::string& source_name) {
 }
 
 ObjMesh read_obj(const std::string& path) {
-  const auto cannot = [&](int err) {
-    return Error(path + ": cannot open OBJ file (" + std::strerror(err) + ")");
-  };
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    throw cannot(EISDIR);
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw cannot(errno ? errno : ENOENT);
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad())
-    throw cannot(errno ? errno : EIO);
-  return parse_obj(text.str(), path);
+  const WholeFile f = read_whole_file(path);
+  if (f.error)
+    throw Error(path + ": cannot open OBJ file (" + std::strerror(f.error) + ")");
+  return parse_obj(f.text, path);
 }
 
 std::vector<ObjTriangle> fan_triangles(const ObjMesh& mesh) {
