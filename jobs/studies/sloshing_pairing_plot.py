@@ -6,11 +6,10 @@ particles paired (within half a spacing of a neighbour) after 2 s.
 
     jobs/studies/sloshing_pairing_plot.py OUT.png
 """
-import csv
 import os
 import sys
 
-from study_io import ROOT
+from study_io import ROOT, read_rows
 from study_plots import pyplot
 
 DATA = os.path.join(ROOT, "docs", "data")
@@ -23,22 +22,21 @@ PAIRING = "p7_h200_2026-12-01/sloshing_pairing.csv"
 
 
 def rows(path):
-    with open(os.path.join(DATA, path)) as f:
-        return list(csv.DictReader(f))
+    return read_rows([os.path.join(DATA, path)])
 
 
 def signed(r):
     """The period's relative error in percent, + long."""
-    return 100 * (float(r["period_s"]) / float(r["period_linear_s"]) - 1)
+    return 100 * (r["period_s"] / r["period_linear_s"] - 1)
 
 
 def main():
     plt = pyplot()
     fig, (a, b) = plt.subplots(1, 2, figsize=(10, 4))
     for label, path in SPACING_SERIES:
-        mine = sorted((r for r in rows(path) if r["axis"] == "spacing" and r["period_s"]),
-                      key=lambda r: float(r["value"]))
-        a.semilogx([float(r["value"]) for r in mine], [signed(r) for r in mine], "o-", label=label)
+        mine = sorted((r for r in rows(path) if r["axis"] == "spacing" and r["period_s"] != ""),
+                      key=lambda r: r["value"])
+        a.semilogx([r["value"] for r in mine], [signed(r) for r in mine], "o-", label=label)
     a.axhline(0, color="k", lw=0.6)
     ticks = [0.0025, 0.005, 0.01, 0.02]
     a.set_xticks(ticks, [str(t) for t in ticks])
@@ -47,14 +45,14 @@ def main():
     a.set_ylabel("period against linear theory [%]")
     a.set_title("sloshing: the period against the spacing")
     a.legend(fontsize=8)
-    pairing = [r for r in rows(PAIRING) if r["spacing"] == "0.005" and r["device"] == "cuda"]
+    pairing = [r for r in rows(PAIRING) if r["spacing"] == 0.005 and r["device"] == "cuda"]
     twin = b.twinx()
     for kernel, colour in (("cubic", "C0"), ("wendland", "C2")):
-        mine = sorted((r for r in pairing if r["kernel"] == kernel), key=lambda r: float(r["support"]))
-        s = [float(r["support"]) for r in mine]
-        b.plot(s, [100 * float(r["period_error"]) for r in mine], "o-", color=colour,
+        mine = sorted((r for r in pairing if r["kernel"] == kernel), key=lambda r: r["support"])
+        s = [r["support"] for r in mine]
+        b.plot(s, [100 * r["period_error"] for r in mine], "o-", color=colour,
                label=f"{kernel}: period")
-        twin.plot(s, [100 * float(r["paired"]) for r in mine], "s--", color=colour, alpha=0.6,
+        twin.plot(s, [100 * r["paired"] for r in mine], "s--", color=colour, alpha=0.6,
                   label=f"{kernel}: paired")
     b.axhline(0, color="k", lw=0.6)
     b.set_xlabel("kernel support [spacings]")

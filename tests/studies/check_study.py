@@ -18,7 +18,7 @@ def order_of(h, e):
 def hydrostatic(rows, h, e):
     # A settled tank with the cubic spline at its default support of 2 spacings does not pair:
     # measured 0.68%, 0.50%, 0.14%, 0 of the particles within half a spacing of a neighbour (a
-    # few at the walls of the coarse tanks). Past a support of 2 the cubic spline pairs (61% at
+    # few at the walls of the coarse tanks). Past a support of 2 the cubic spline pairs (59% at
     # 2.5 in the H200's tank); the bound sits between.
     paired = [float(r["paired"]) for r in rows]
     print(f"paired {paired}")
