@@ -96,8 +96,11 @@ void print_partition(const kf::Scene& scene, const kf::PlanReport& plan, int ran
       "cost over the mean)\n",
       ranks, p.blocks[0], p.blocks[1], p.blocks[2], p.block_edge, scene.parallel.block_cells,
       p.imbalance);
-  std::printf("halo       ghost width fluid %.4g m, boundary %.4g m, knit %.4g m\n",
-              p.widths.of(Phase::Fluid), p.widths.of(Phase::Boundary), p.widths.of(Phase::Knit));
+  std::printf("halo       ghost width fluid %.4g m (%.4g m beside walls), boundary %.4g m, knit "
+              "%.4g m\n",
+              p.widths.of(Phase::Fluid),
+              std::max(p.widths.fluid_beside_walls, p.widths.of(Phase::Fluid)),
+              p.widths.of(Phase::Boundary), p.widths.of(Phase::Knit));
   if (ranks == 1)
     return;
   std::printf("  rank %10s %10s %10s | %9s %9s %9s | %5s %10s %8s\n", "fluid", "boundary", "knit",

@@ -2,8 +2,9 @@
 // kernels/grid/RankSelection) are the host's: the leavers and their destinations are those of the
 // decomposition's owner() and the open sides, the removed mass their sum, and the ghosts sent to
 // each neighbour are select_ghosts' lists, which test_decomposition checks against a brute-force
-// distance to every block. On the CPU backend, and on CUDA where a GPU is visible; also with more
-// than 64 neighbours (the ghost masks' windows).
+// distance to every block, also with the points of flagged cells going farther (the fluid beside
+// walls). On the CPU backend, and on CUDA where a GPU is visible; also with more than 64
+// neighbours (the ghost masks' windows).
 #include "domain/DeviceRows.hpp"
 #include "domain/GhostSelection.hpp"
 #include "domain/RankSelector.hpp"
@@ -15,7 +16,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <random>
 #include <vector>
 
 using namespace kf;
@@ -96,9 +99,39 @@ void departures_are_the_hosts(exec::Backend b) {
   }
 }
 
+/// Cells of `cell` over [lo, hi], about a third of them flagged (seeded): "beside walls".
+template <typename T>
+struct FlaggedCells {
+  GridGeometry<T> geo;
+  std::vector<std::uint8_t> flags;
+  FlaggedCells(const Vec3d& lo, const Vec3d& hi, double cell, std::uint32_t seed) {
+    geo.origin = vec_cast<T>(lo);
+    geo.cell = T(cell);
+    geo.inv_cell = T(1) / geo.cell;
+    geo.nx = int(std::ceil((hi.x - lo.x) / cell));
+    geo.ny = int(std::ceil((hi.y - lo.y) / cell));
+    geo.nz = int(std::ceil((hi.z - lo.z) / cell));
+    std::mt19937 rng(seed);
+    flags.resize(geo.cells());
+    for (auto& f : flags)
+      f = rng() % 3 == 0 ? 1 : 0;
+  }
+  /// Point q's cell flag, from its coordinates (points outside take the nearest edge cell).
+  std::uint8_t at(const Vec3<T>& q) const {
+    int c[3];
+    const int n[3] = {geo.nx, geo.ny, geo.nz};
+    for (int d = 0; d < 3; ++d) {
+      const double u = std::floor(double((&q.x)[d] - (&geo.origin.x)[d]) / double(geo.cell));
+      c[d] = std::clamp(int(u), 0, n[d] - 1);
+    }
+    return flags[std::size_t(c[0]) + std::size_t(n[0]) * (c[1] + std::size_t(n[1]) * c[2])];
+  }
+};
+
+/// wider_width > 0: the points in flagged cells (FlaggedCells) go as far as wider_width.
 template <typename T>
 std::size_t ghosts_are_select_ghosts(exec::Backend b, int ranks, const std::vector<double>& widths,
-                                     std::size_t points = 9000) {
+                                     std::size_t points = 9000, double wider_width = 0) {
   // Two thirds piled into one corner, so the parts are uneven in shape.
   const Vec3d lo{0, 0, 0}, hi{0.8, 0.4, 0.6};
   const BlockGrid g(lo, hi, 0.05);
@@ -106,6 +139,9 @@ std::size_t ghosts_are_select_ghosts(exec::Backend b, int ranks, const std::vect
   const auto spread = uniform_points(points - xd.size(), lo, hi, 4);
   xd.insert(xd.end(), spread.begin(), spread.end());
   const Decomposition d = split(g, xd, ranks);
+  const FlaggedCells<T> cells(lo, hi, 0.02, 5);
+  exec::DeviceBuffer<std::uint8_t> cell_flags(b, 0, "test.cells");
+  cell_flags.assign(cells.flags);
   std::size_t sent = 0;
   for (int me = 0; me < ranks; ++me) {
     // This rank's points, in the precision the particles are held in.
@@ -120,12 +156,19 @@ std::size_t ghosts_are_select_ghosts(exec::Backend b, int ranks, const std::vect
     sel.set(d, me);
     exec::DeviceBuffer<Vec3<T>> bx(b, 0, "test.x");
     bx.assign(mine);
+    std::vector<std::uint8_t> beside;
+    WiderCells<T> wider;
+    if (wider_width > 0) {
+      for (const auto& q : mine)
+        beside.push_back(cells.at(q));
+      wider = {cells.geo, cell_flags.data(), wider_width};
+    }
     for (double w : widths) {
-      const GhostLists want = select_ghosts(d, me, mine_d, w);
+      const GhostLists want = select_ghosts(d, me, mine_d, w, beside, wider_width);
       // The lists held by the backend's copier (on a device: chosen and kept there), on a
       // selector whose scratch grows here (a stale pointer into it once went unnoticed).
       const auto rows = make_rows(b);
-      const auto held = sel.ghost_rows(bx, mine.size(), w, *rows);
+      const auto held = sel.ghost_rows(bx, mine.size(), w, *rows, nullptr, wider);
       EXPECT_EQ(held.peers, want.peers) << ranks << " ranks, rank " << me << ", width " << w;
       EXPECT_EQ(held.send.size(), want.send.size());
       for (std::size_t k = 0; k < std::min(want.send.size(), held.send.size()); ++k) {
@@ -156,6 +199,26 @@ TEST(RankSelector, GhostsAreSelectGhostsLists) {
       const std::size_t sent = ghosts_are_select_ghosts<float>(b, ranks, {0.013, 0.05, 0.071});
       EXPECT_GT(sent, 1000u) << "too few ghosts for the check to mean much";
       ghosts_are_select_ghosts<double>(b, ranks, {0.013, 0.071});
+    }
+  }
+}
+
+// The fluid beside walls goes farther (RankExchange: the ghost walls' pressures computed where
+// they are): the points in flagged cells take the wider width, the others theirs; the peers are
+// those within the wider width. A wider width of two blocks' reach over one, and one no wider.
+TEST(RankSelector, PointsInFlaggedCellsGoFarther) {
+  for (exec::Backend b : backends()) {
+    SCOPED_TRACE(std::string(exec::to_string(b)));
+    for (int ranks : {2, 3, 7}) {
+      const std::size_t plain = ghosts_are_select_ghosts<float>(b, ranks, {0.013, 0.03});
+      const std::size_t wider =
+          ghosts_are_select_ghosts<float>(b, ranks, {0.013, 0.03}, 9000, 0.071);
+      // About a third of the points flagged, going 2-5x as far: clearly more ghosts.
+      EXPECT_GT(wider, plain + plain / 4) << ranks << " ranks";
+      ghosts_are_select_ghosts<double>(b, ranks, {0.026}, 9000, 0.052);
+      // No wider than the width: the plain lists.
+      EXPECT_EQ(ghosts_are_select_ghosts<float>(b, ranks, {0.03}, 9000, 0.02),
+                ghosts_are_select_ghosts<float>(b, ranks, {0.03}));
     }
   }
 }

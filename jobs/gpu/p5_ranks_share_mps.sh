@@ -1,19 +1,7 @@
 #!/usr/bin/env bash
-# p5_ranks_share.sh with the ranks' work running side by side on the GPU through CUDA MPS (the
-# Multi-Process Service: one server context for all the ranks' processes, no time slices), the
-# way a job runs several ranks on one GPU in production. Starts a private MPS control daemon
-# (pipes and logs in a temporary folder; the GPU's compute mode and other settings untouched),
-# runs the series, and stops it. After `. .devrt/prelude.sh`, from the project root.
+# p5_ranks_share.sh with the ranks' work running side by side on the GPU through CUDA MPS
+# (with_mps.sh). After `. .devrt/prelude.sh`, from the project root.
 # Usage: jobs/gpu/p5_ranks_share_mps.sh KNITFLOW [STEPS] [LISTS]
 set -uo pipefail
-if ! command -v nvidia-cuda-mps-control > /dev/null; then
-  echo "nvidia-cuda-mps-control not found: MPS is not installed on this machine" >&2
-  exit 2
-fi
-dir=$(mktemp -d)
-export CUDA_MPS_PIPE_DIRECTORY=$dir/pipe CUDA_MPS_LOG_DIRECTORY=$dir/log
-mkdir -p "$CUDA_MPS_PIPE_DIRECTORY" "$CUDA_MPS_LOG_DIRECTORY"
-nvidia-cuda-mps-control -d || { echo "MPS control daemon did not start" >&2; exit 2; }
-trap 'echo quit | nvidia-cuda-mps-control; sleep 1; rm -rf "$dir"' EXIT
-echo "MPS on (pipes in $CUDA_MPS_PIPE_DIRECTORY)"
-bash "$(dirname "$0")/p5_ranks_share.sh" "$@"
+here="$(dirname "$0")"
+exec bash "$here/with_mps.sh" bash "$here/p5_ranks_share.sh" "$@"

@@ -1,6 +1,9 @@
 #include "domain/GhostSelection.hpp"
 
+#include "core/Error.hpp"
+
 #include <algorithm>
+#include <string>
 
 namespace kf {
 
@@ -24,13 +27,17 @@ std::vector<int> neighbour_ranks(const Decomposition& d, int me, double width) {
   return out;
 }
 
-GhostLists select_ghosts(const Decomposition& d, int me, std::span<const Vec3d> x, double width) {
+GhostLists select_ghosts(const Decomposition& d, int me, std::span<const Vec3d> x, double width,
+                         std::span<const std::uint8_t> wider, double wider_width) {
+  if (!wider.empty() && wider.size() != x.size())
+    throw Error("internal: select_ghosts: " + std::to_string(wider.size()) + " wider flags for " +
+                std::to_string(x.size()) + " particles");
   GhostLists g;
-  g.peers = neighbour_ranks(d, me, width);
+  g.peers = neighbour_ranks(d, me, wider.empty() ? width : std::max(width, wider_width));
   g.send.resize(g.peers.size());
   std::vector<int> to;
   for (std::size_t i = 0; i < x.size(); ++i) {
-    d.ghost_ranks(x[i], width, to);
+    d.ghost_ranks(x[i], !wider.empty() && wider[i] ? std::max(width, wider_width) : width, to);
     for (int r : to) {
       const auto it = std::lower_bound(g.peers.begin(), g.peers.end(), r);
       // ghost_ranks only names ranks with a block within the width, hence within the reach.

@@ -21,6 +21,9 @@ struct GhostLists {
 };
 
 /// For rank `me`'s particles x (owned, in local order): the local indices each peer needs.
-GhostLists select_ghosts(const Decomposition& d, int me, std::span<const Vec3d> x, double width);
+/// Where `wider` is given (one flag a particle), a flagged particle goes as far as wider_width
+/// (the peers are then those within it: every rank must pass the same widths).
+GhostLists select_ghosts(const Decomposition& d, int me, std::span<const Vec3d> x, double width,
+                         std::span<const std::uint8_t> wider = {}, double wider_width = 0);
 
 } // namespace kf

@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <set>
+#include <unordered_set>
 
 namespace kf {
 
@@ -17,8 +19,10 @@ GhostWidths ghost_widths(const Scene& scene, double longest_spring, double self_
     if (scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet)
       h *= 1 + scene.solver.neighbour_skin;
     g.width[static_cast<int>(Phase::Fluid)] = std::max(h, coupling_reach);
-    if (scene.has(Module::Boundary))
+    if (scene.has(Module::Boundary)) {
       g.width[static_cast<int>(Phase::Boundary)] = h;
+      g.fluid_beside_walls = std::max(2 * h, g.of(Phase::Fluid)); // as RankExchange's
+    }
   }
   if (scene.has(Module::Knit))
     g.width[static_cast<int>(Phase::Knit)] =
@@ -33,7 +37,7 @@ std::array<std::size_t, kPhases> ghost_bytes_per_step(const Scene& scene) {
     moving = moving || o.velocity.x != 0 || o.velocity.y != 0 || o.velocity.z != 0;
   std::array<std::size_t, kPhases> b{0, 0, 0};
   b[static_cast<int>(Phase::Fluid)] = (3 + 3 + 1 + 1) * t;
-  b[static_cast<int>(Phase::Boundary)] = (1 + (moving ? 3 : 0)) * t;
+  b[static_cast<int>(Phase::Boundary)] = (moving ? 3 : 0) * t;
   b[static_cast<int>(Phase::Knit)] =
       std::size_t(scene.knit.substeps) * 6 * t + (scene.has(Module::Capillary) ? t : 0);
   return b;
@@ -71,13 +75,31 @@ PartitionReport plan_partition(const Scene& scene, const std::array<std::vector<
   r.imbalance = Decomposition::imbalance(per);
   r.rank.resize(ranks);
   const auto bytes = ghost_bytes_per_step(scene);
+  // The cells of the boundary's ghost width with a boundary particle in them or next to them:
+  // the fluid there is sent as far as fluid_beside_walls (the run's rule, by its grid's cells).
+  const double wall_cell = widths.of(Phase::Boundary);
+  std::unordered_set<std::uint64_t> walls;
+  const auto key = [&](const Vec3d& q, int dx, int dy, int dz) {
+    const auto c = [&](double u, double u0, int o) {
+      return static_cast<std::uint64_t>(std::floor((u - u0) / wall_cell) + o + (1 << 20));
+    };
+    return c(q.x, lo.x, dx) | c(q.y, lo.y, dy) << 21 | c(q.z, lo.z, dz) << 42;
+  };
+  if (widths.fluid_beside_walls > 0 && wall_cell > 0)
+    for (const Vec3d& q : x[static_cast<int>(Phase::Boundary)])
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx)
+            walls.insert(key(q, dx, dy, dz));
   std::vector<std::set<int>> sources(ranks);
   std::vector<int> to;
   for (int p = 0; p < kPhases; ++p)
     for (const Vec3d& q : x[p]) {
       const int own = d.owner(q);
       ++r.rank[own].owned[p];
-      d.ghost_ranks(q, widths.width[p], to);
+      const bool beside =
+          p == static_cast<int>(Phase::Fluid) && !walls.empty() && walls.count(key(q, 0, 0, 0)) > 0;
+      d.ghost_ranks(q, beside ? widths.fluid_beside_walls : widths.width[p], to);
       for (int g : to) {
         ++r.rank[g].ghosts[p];
         r.rank[g].bytes_per_step += bytes[p];

@@ -16,19 +16,24 @@ namespace kf {
 /// this rank's (DESIGN §6).
 struct GhostWidths {
   std::array<double, kPhases> width{0, 0, 0};
+  /// The fluid's beside walls (twice the boundary's: a ghost wall finds all its fluid; 0: no
+  /// walls).
+  double fluid_beside_walls = 0;
   double of(Phase p) const { return width[static_cast<int>(p)]; }
 };
 
 /// The widths a scene needs: fluid and boundary the support radius (plus the "verlet" lists'
-/// skin) or the fluid-knit contact reach if larger; knit the longest spring stretched by half,
-/// the self-contact diameter or the contact reach. `longest_spring`, `self_radius` and
-/// `coupling_reach` come from the built knit and coupling (0 where absent).
+/// skin) or the fluid-knit contact reach if larger, the fluid twice the boundary's beside walls;
+/// knit the longest spring stretched by half, the self-contact diameter or the contact reach.
+/// `longest_spring`, `self_radius` and `coupling_reach` come from the built knit and coupling
+/// (0 where absent).
 GhostWidths ghost_widths(const Scene& scene, double longest_spring, double self_radius,
                          double coupling_reach);
 
 /// Bytes a ghost of each phase costs a step: the fields refreshed in place between rebuilds
 /// (fluid x, v before the density pass and rho, P before the forces; knit x, v every substep and
-/// saturation; boundary pressure, plus x when solids move).
+/// saturation; boundary x when solids move: the ghost walls' pressures are computed where they
+/// are).
 std::array<std::size_t, kPhases> ghost_bytes_per_step(const Scene& scene);
 
 struct RankShare {

@@ -52,7 +52,7 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
       alive_(backend, 0, "ranks.alive") {
   for (auto& c : clocks_)
     c = std::make_unique<exec::Stopwatch>(backend);
-  for (SplitRows* r : {&fluid_split_, &boundary_split_}) {
+  for (SplitRows* r : {&fluid_split_}) {
     r->border = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.border");
     r->interior = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.interior");
     r->flags = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.interior_flags");
@@ -82,14 +82,20 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   // Between device buffers (NCCL) a message is short beside what splitting a pass costs (a
   // second launch; the border's, small, leaves most of the GPU idle at its tail): only the
   // density's refresh, the largest message, before the longest wait, keeps the overlap; the
-  // walls' pass (~40 us whole) and the forces' (a: one column) run whole, then exchange. On two
-  // H200s this took 58 us off the 4M-a-GPU dam break's step (docs/PERFORMANCE.md, P9).
+  // forces' pass (a: one column) runs whole, then exchanges. On two H200s this took 58 us off
+  // the 4M-a-GPU dam break's step (docs/PERFORMANCE.md, P9).
   overlap_short_ = overlap_ && transport_->memory_space() == comm::MemorySpace::Host;
   costs_.knit_substeps = scene.knit.substeps;
   // A pair within the support now was within support + skin at the sort.
   fluid_width_ = std::max(scene.support_radius(), coupling_reach) + (keeps_ghosts_ ? skin : 0.0);
   // The owned fluid strays up to the skin out of the region between sorts ("verlet").
   boundary_width_ = scene.support_radius() + (keeps_ghosts_ ? skin : 0.0);
+  // A ghost wall (within boundary_width_ of the region) computes its own pressure from the fluid
+  // within the support (+ skin: its list's reach) of it, so the fluid beside walls goes twice
+  // as far: no exchange of the walls' pressures, one meeting of the ranks a step fewer.
+  walls_width_ = scene.has(Module::Boundary) && scene.has(Module::Fluid)
+                     ? std::max(fluid_width_, 2 * boundary_width_)
+                     : 0.0;
   // Blocks of block_cells support radii; the knit's ghost width where there is no fluid (as
   // `knitflow plan` cuts them).
   block_scale_ = scene.has(Module::Fluid) ? fluid_width_ : std::max(knit_width, 1e-6);
@@ -187,7 +193,6 @@ void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::siz
   boundary_own_count_ = n;
   boundary_owned_.assign(total, 0);
   std::fill(boundary_owned_.begin(), boundary_owned_.begin() + n, 1);
-  boundary_split_.current = false;
 }
 
 template <typename T>
@@ -344,13 +349,6 @@ typename RankExchange<T>::SplitRows& RankExchange<T>::fluid_rows() {
 }
 
 template <typename T>
-typename RankExchange<T>::SplitRows& RankExchange<T>::boundary_rows() {
-  return split(*boundary_halo_, boundary_split_, [this](exec::DeviceBuffer<std::uint32_t>& flags) {
-    flags.assign(std::vector<std::uint32_t>(boundary_owned_.begin(), boundary_owned_.end()));
-  });
-}
-
-template <typename T>
 void RankExchange<T>::time_refreshes_on_device() {
   for (auto& c : refresh_clocks_)
     c = std::make_unique<exec::Stopwatch>(backend_);
@@ -426,13 +424,15 @@ void RankExchange<T>::boundary_sorted(const exec::DeviceBuffer<std::uint32_t>& p
   remap(*boundary_halo_, perm_buffer, n, n, boundary_own_count_);
   const HostValues<std::uint32_t> perm(perm_buffer, n); // at the start and re-partitions only
   boundary_owned_ = pick(boundary_owned_, perm.span());
-  boundary_split_.current = false;
 }
 
 template <typename T>
 typename RankExchange<T>::Removed
 RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& hi,
-                         const std::array<bool, 6>& walls, bool acceleration) {
+                         const std::array<bool, 6>& walls, bool acceleration,
+                         const WiderCells<T>& beside_walls) {
+  if (walls_width_ > 0 && !beside_walls.cells)
+    throw Error("internal: the fluid's ghosts chosen without the cells beside walls");
   const Timed timed{exchange_seconds_}, part{parts_.migration};
   const std::size_t n = fluid.size();
   const exec::Exec ex{backend_};
@@ -459,7 +459,10 @@ RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& h
   exec::fill_flags(ex, alive_.data() + n, rows_now - n, 1u, "ranks.alive");
   // The ghosts: every owned particle within the support of another rank's region goes there.
   part_now.emplace("grid.fluid: the ghosts chosen (N ranks)");
-  auto gl = select_.ghost_rows(fluid.x, rows_now, fluid_width_, rows(), alive_.data());
+  WiderCells<T> wider = beside_walls;
+  wider.width = walls_width_;
+  auto gl = select_.ghost_rows(fluid.x, rows_now, fluid_width_, rows(), alive_.data(),
+                               walls_width_ > 0 ? wider : WiderCells<T>{});
   part_now.emplace("grid.fluid: the ghosts' halo set up (N ranks)");
   fluid_halo_.emplace(*transport_, std::move(gl.peers), std::move(gl.send), rows());
   part_now.emplace("grid.fluid: the ghosts received (N ranks)");
@@ -511,14 +514,11 @@ void RankExchange<T>::refresh_density(FluidSet<T>& fluid, const Pass& pass) {
 }
 
 template <typename T>
-void RankExchange<T>::refresh_boundary(BoundarySet<T>& boundary, const Pass& pass) {
-  if (!boundary_halo_) {
-    pass(exec::Rows{nullptr, boundary.size()});
-    return;
-  }
-  const comm::Column cols[] = {column(boundary.p), column(boundary.vp), column(boundary.inv_rho)};
-  overlapped(*boundary_halo_, overlap_short_ ? &boundary_rows() : nullptr, cols,
-             boundary_own_count_, boundary.size(), pass, 1);
+void RankExchange<T>::walls_pass(std::size_t n, const Pass& pass) {
+  // Every wall, owned and ghost: a ghost wall's fluid is at hand (walls_width_), so its pressure
+  // is its owner's, bit for bit, without an exchange (test_distributed_mpi).
+  on_clock(2 * 1, [&] { pass(exec::Rows{nullptr, n}); });
+  on_clock(2 * 1 + 1, [] {});
 }
 
 template <typename T>

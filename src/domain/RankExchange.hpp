@@ -4,9 +4,10 @@
 // owns; at each sort (rebuild) the fluid that left its blocks migrates to their owners and the
 // ghosts within the support of its region are received and appended, to be dropped again after
 // the forces pass. The boundary: owned particles plus ghosts received once, or at every step
-// where solids move (boundary_moved). Ghost
-// values that a pass computes from neighbours a ghost lacks (summation density, wall pressure)
-// are refreshed from their owners. On a device backend the particles stay in device memory: the
+// where solids move (boundary_moved). Ghost values that a pass computes from neighbours a ghost
+// lacks (summation density; the forces kept ghosts move by) are refreshed from their owners; the
+// ghost walls compute their own pressures, the fluid beside walls coming twice as far
+// (walls_pass). On a device backend the particles stay in device memory: the
 // rows that move are packed there (DeviceRows) and staged through the host for MPI; the owners
 // and the ghosts are chosen there too (RankSelector), only their indices coming to the host.
 #include "comm/HaloExchange.hpp"
@@ -79,8 +80,13 @@ public:
   /// pass over the columns fewer than a compaction before the sort.
   /// acceleration: the migrants take their a along (FluidSet::Carry's: a sort at a step's start,
   /// after an absorption or an emission, comes before the half kick that reads it).
+  /// beside_walls (geometry and cells; its width is this class's): the cells with walls around
+  /// (NeighbourGrid::occupied_around of the boundary's grid), required where the scene has walls.
+  /// The fluid in them goes to the ranks within twice the walls' ghost width, so that walls_pass
+  /// computes the ghost walls' pressures here.
   Removed rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& hi,
-                  const std::array<bool, 6>& walls, bool acceleration);
+                  const std::array<bool, 6>& walls, bool acceleration,
+                  const WiderCells<T>& beside_walls = {});
   /// After rebuild(): 1 for each of the fluid's rows the sort keeps, 0 for those it drops (on the
   /// backend; valid until the sort).
   const std::uint32_t* rebuilt_rows() const { return alive_.data(); }
@@ -95,16 +101,17 @@ public:
   /// then over the other owned rows while the exchange is in flight (a ghost's own values would
   /// be overwritten: it is not computed); without, over every row, then the exchange.
   void refresh_density(FluidSet<T>& fluid, const Pass& pass);
-  /// The same for the walls' pressure pass: the boundary ghosts' p and its packed copies (vp,
-  /// inv_rho); overlapped only where the messages go through the host (MPI).
-  void refresh_boundary(BoundarySet<T>& boundary, const Pass& pass);
+  /// The walls' pressure pass over all n boundary particles, owned and ghost: the fluid beside
+  /// a ghost wall came with the fluid's ghosts (rebuild's beside_walls), its pressure needs no
+  /// exchange. Not collective.
+  void walls_pass(std::size_t n, const Pass& pass);
   /// After the forces pass: only the owned fluid stays.
   void drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid);
   /// With the knit coupled, after the kick: the ghosts' velocities, accelerations and densities
   /// from their owners (the coupling reads the fluid around each knit point before the next
   /// drift).
   void refresh_motion(FluidSet<T>& fluid);
-  /// With "verlet" lists: the forces pass, as refresh_boundary runs it, and what it wrote (a;
+  /// With "verlet" lists: the forces pass, as refresh_density runs its own, and what it wrote (a;
   /// under continuity also rho, drho and drho_prev) from the owners, so that the kick and the
   /// drift then move each ghost exactly as its owner moves it (its v and x follow: the same
   /// arithmetic on the same values).
@@ -267,8 +274,7 @@ private:
                   const Pass& pass, int refresh);
   /// The fluid's and the boundary's split, current.
   SplitRows& fluid_rows();
-  SplitRows& boundary_rows();
-  SplitRows fluid_split_, boundary_split_;
+  SplitRows fluid_split_;
 
   const comm::MpiContext& mpi_;
   exec::Backend backend_;
@@ -279,7 +285,7 @@ private:
   double block_scale_ = 0; // a block's edge over parallel.block_cells
   bool keeps_ghosts_ = false;
   bool overlap_ = false;          // [parallel] overlap, where it applies
-  bool overlap_short_ = false;    // the same for the walls' and forces' refreshes (host messages)
+  bool overlap_short_ = false;    // the same for the forces' refresh (host messages)
   std::uint64_t last_window_ = 0; // window_of(step) at the last imbalance check
   std::uint64_t window_of(std::uint64_t step) const {
     return step / static_cast<std::uint64_t>(scene_.parallel.check_every);
@@ -293,6 +299,7 @@ private:
   std::optional<Decomposition> decomposition_;
   RankSelector<T> select_;
   double fluid_width_ = 0, boundary_width_ = 0;
+  double walls_width_ = 0; // the fluid's ghost width beside walls (0: no walls)
   std::vector<int> migration_peers_;
   std::optional<comm::HaloExchange> fluid_halo_, boundary_halo_;
   std::size_t fluid_owned_ = 0, boundary_own_count_ = 0;

@@ -74,9 +74,13 @@ template <typename T>
 template <typename Each>
 std::vector<int> RankSelector<T>::choose_ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n,
                                                 double width, const std::uint32_t* alive,
-                                                Each each) {
+                                                const WiderCells<T>& wider, Each each) {
   if (!decomposition_)
     throw Error("internal: ghosts chosen before the blocks' owners were set");
+  // The peers and the blocks' reach: those of the widest a point may take (every rank alike).
+  const double base = width;
+  if (wider.cells)
+    width = std::max(width, wider.width);
   // The fluid's and the boundary's widths are fixed; the knit's changes at each choice of its
   // ghosts: the widths used last are kept (the latest at the back), the least recent dropped.
   auto it =
@@ -101,8 +105,8 @@ std::vector<int> RankSelector<T>::choose_ghosts(const exec::DeviceBuffer<Vec3<T>
   flags_.resize(n);
   // 64 peers a pass (a rank in the middle of a 3-D split has 26).
   for (std::size_t first = 0; first < peers.size(); first += 64) {
-    ghost_peer_masks(ex, x.data(), n, BlockOwners{grid_, owner_.data()}, width, reach, slot_.data(),
-                     static_cast<int>(first), mask_.data(), alive);
+    ghost_peer_masks(ex, x.data(), n, BlockOwners{grid_, owner_.data()}, base, reach, slot_.data(),
+                     static_cast<int>(first), mask_.data(), alive, wider);
     for (std::size_t s = first; s < std::min(peers.size(), first + 64); ++s) {
       mask_bit_flags(ex, mask_.data(), n, static_cast<int>(s - first), flags_.data());
       // (the count first: the call may grow idx_)
@@ -116,12 +120,13 @@ std::vector<int> RankSelector<T>::choose_ghosts(const exec::DeviceBuffer<Vec3<T>
 template <typename T>
 typename RankSelector<T>::GhostRows
 RankSelector<T>::ghost_rows(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width,
-                            comm::RowCopier& rows, const std::uint32_t* alive) {
+                            comm::RowCopier& rows, const std::uint32_t* alive,
+                            const WiderCells<T>& wider) {
   GhostRows g;
-  g.peers =
-      choose_ghosts(x, n, width, alive, [&](std::size_t, const std::uint32_t* idx, std::size_t k) {
-        g.send.push_back(rows.adopt(idx, k));
-      });
+  g.peers = choose_ghosts(x, n, width, alive, wider,
+                          [&](std::size_t, const std::uint32_t* idx, std::size_t k) {
+                            g.send.push_back(rows.adopt(idx, k));
+                          });
   return g;
 }
 

@@ -7,6 +7,7 @@
 #include "domain/Decomposition.hpp"
 #include "domain/GhostSelection.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
+#include "kernels/grid/RankSelection.hpp"
 
 #include <array>
 #include <cstdint>
@@ -43,16 +44,18 @@ public:
     std::vector<int> peers;
     std::vector<comm::RowList> send;
   };
-  /// alive (where given, on the backend): only rows with alive[i] != 0 are sent.
+  /// alive (where given, on the backend): only rows with alive[i] != 0 are sent. wider: the
+  /// points in its flagged cells go as far as its width (the peers are then those within it).
   GhostRows ghost_rows(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width,
-                       comm::RowCopier& rows, const std::uint32_t* alive = nullptr);
+                       comm::RowCopier& rows, const std::uint32_t* alive = nullptr,
+                       const WiderCells<T>& wider = {});
 
 private:
-  /// The peers within `width`, and for each in turn `each(slot, rows, count)` with its rows
-  /// (ascending, in the backend's memory, valid until the next call).
+  /// The peers within `width` (or wider's), and for each in turn `each(slot, rows, count)` with
+  /// its rows (ascending, in the backend's memory, valid until the next call).
   template <typename Each>
   std::vector<int> choose_ghosts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n, double width,
-                                 const std::uint32_t* alive, Each each);
+                                 const std::uint32_t* alive, const WiderCells<T>& wider, Each each);
   /// The first n elements of idx, on the host.
   std::vector<std::uint32_t> indices(std::size_t n) const;
 

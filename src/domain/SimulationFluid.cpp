@@ -37,8 +37,12 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     if (!remove_outflow)
       walls.fill(true);
     part.reset(); // the rebuild times its own parts
-    const auto gone =
-        ranks_->rebuild(*fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max), walls, carry.acceleration);
+    // The fluid beside walls goes farther: the ghost walls' pressures are computed here.
+    WiderCells<T> beside_walls;
+    if (boundary_on_)
+      beside_walls = {boundary_grid_->view().geo, boundary_near_.data()};
+    const auto gone = ranks_->rebuild(*fluid_, vec_cast<T>(d.min), vec_cast<T>(d.max), walls,
+                                      carry.acceleration, beside_walls);
     outflow_particles_ += gone.particles;
     outflow_mass_ += gone.mass;
     part.emplace("grid.fluid: the sort by cell");
@@ -229,8 +233,7 @@ void SimulationT<T>::extrapolate_boundary_pressure() {
     pass(nullptr);
     return;
   }
-  // Collective over the peers, so also where this rank holds no boundary.
-  ranks_->refresh_boundary(*boundary_, [&](const exec::Rows& rows) { pass(&rows); });
+  ranks_->walls_pass(boundary_->size(), [&](const exec::Rows& rows) { pass(&rows); });
 }
 
 template void SimulationT<float>::update_shapes(double);

@@ -2,7 +2,8 @@
 // set of particles (seeded), keeps those its blocks own, and then
 // - every particle is owned by exactly one rank;
 // - the ghosts a rank receives are exactly the particles of other ranks within the ghost width of
-//   its region, by a brute-force distance to each of its blocks, with their values;
+//   its region, by a brute-force distance to each of its blocks, with their values; also where
+//   flagged particles take a wider width (the fluid beside walls);
 // - the reverse of a refresh (add_to_owners) adds each ghost's values into its owner's row,
 //   against a brute-force count over every rank's ghosts;
 // - after the particles move, migration keeps the count, the ids, the masses and every other
@@ -123,8 +124,19 @@ TEST_F(Halo, GhostsAreExactlyTheParticlesWithinTheWidthOfTheRegion) {
   const auto [all, d, mine] = uniform(11);
   // Owned once: the ids over all ranks are the global ids, each once.
   EXPECT_EQ(all_ids(mine.id), std::vector<std::uint64_t>(all.id));
-  for (double width : {0.013, 0.05, 0.08}) {
-    const GhostLists gl = select_ghosts(d, mpi.rank(), mine.x, width);
+  // Every third particle (by id) flagged "beside walls": with a wider width it goes that far
+  // (RankExchange's fluid beside walls), the others their width.
+  const auto flagged = [](std::uint64_t id) { return (id / 7) % 3 == 0; };
+  std::vector<std::uint8_t> beside;
+  for (std::uint64_t id : mine.id)
+    beside.push_back(flagged(id) ? 1 : 0);
+  const std::pair<double, double> widths[] = {{0.013, 0}, {0.05, 0}, {0.08, 0}, {0.013, 0.05}};
+  for (const auto& [width, wider] : widths) {
+    const GhostLists gl = select_ghosts(d, mpi.rank(), mine.x, width,
+                                        wider > 0 ? beside : std::vector<std::uint8_t>{}, wider);
+    const auto width_of = [&, width = width, wider = wider](std::uint64_t id) {
+      return wider > 0 && flagged(id) ? std::max(width, wider) : width;
+    };
     comm::HaloExchange ex(*t, gl.peers, gl.send);
     const std::size_t n = mine.x.size(), ng = ex.received();
     std::vector<Vec3d> x(n + ng, Vec3d{std::nan(""), 0, 0});
@@ -136,19 +148,20 @@ TEST_F(Halo, GhostsAreExactlyTheParticlesWithinTheWidthOfTheRegion) {
     // The brute-force set: every particle of another rank within the width of this region.
     std::vector<std::uint64_t> want;
     for (std::size_t i = 0; i < all.x.size(); ++i)
-      if (d.owner(all.x[i]) != mpi.rank() && d.distance_to_region(all.x[i], mpi.rank()) < width)
+      if (d.owner(all.x[i]) != mpi.rank() &&
+          d.distance_to_region(all.x[i], mpi.rank()) < width_of(all.id[i]))
         want.push_back(all.id[i]);
     std::sort(want.begin(), want.end());
     std::vector<std::uint64_t> got(id.begin() + n, id.end());
     std::sort(got.begin(), got.end());
-    EXPECT_EQ(got, want) << "rank " << mpi.rank() << ", width " << width;
+    EXPECT_EQ(got, want) << "rank " << mpi.rank() << ", width " << width << ", wider " << wider;
     EXPECT_GT(got.size(), 0u);
     // The border a pass computes before the exchange starts: exactly the owned particles within
     // the width of another rank's region, each once, ascending.
     std::vector<std::uint32_t> border;
     for (std::size_t i = 0; i < n; ++i)
       for (int r = 0; r < mpi.size(); ++r)
-        if (r != mpi.rank() && d.distance_to_region(mine.x[i], r) < width) {
+        if (r != mpi.rank() && d.distance_to_region(mine.x[i], r) < width_of(mine.id[i])) {
           border.push_back(static_cast<std::uint32_t>(i));
           break;
         }
@@ -156,7 +169,7 @@ TEST_F(Halo, GhostsAreExactlyTheParticlesWithinTheWidthOfTheRegion) {
     std::vector<std::uint32_t> sent = ex.sent_rows();
     std::sort(sent.begin(), sent.end());
     sent.erase(std::unique(sent.begin(), sent.end()), sent.end());
-    EXPECT_EQ(sent, border) << "rank " << mpi.rank() << ", width " << width;
+    EXPECT_EQ(sent, border) << "rank " << mpi.rank() << ", width " << width << ", wider " << wider;
     // And each ghost carries its particle's position, bit for bit.
     for (std::size_t k = n; k < n + ng; ++k) {
       const std::size_t i = (id[k] - 1000) / 7;
@@ -164,8 +177,9 @@ TEST_F(Halo, GhostsAreExactlyTheParticlesWithinTheWidthOfTheRegion) {
       EXPECT_EQ(std::memcmp(&x[k], &all.x[i], sizeof(Vec3d)), 0) << "ghost " << id[k];
     }
     if (mpi.root())
-      std::printf("width %.3f: rank 0 owns %zu, receives %zu ghosts from %zu peer(s)\n", width, n,
-                  ng, gl.peers.size());
+      std::printf("width %.3f (wider %.3f): rank 0 owns %zu, receives %zu ghosts from %zu "
+                  "peer(s)\n",
+                  width, wider, n, ng, gl.peers.size());
   }
 }
 

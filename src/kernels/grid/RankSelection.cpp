@@ -42,6 +42,7 @@ struct GhostMask {
   int first_slot;
   const std::uint32_t* alive;
   std::uint64_t* mask;
+  WiderCells<T> wider;
   KF_HD KF_INLINE void operator()(std::size_t i) const {
     std::uint64_t m = 0;
     if (alive && alive[i] == 0) {
@@ -50,8 +51,9 @@ struct GhostMask {
     }
     const int* slots = slot_of_rank;
     const int first = first_slot;
-    for_each_ghost_rank(owners.grid, owners.owner, vec_cast<double>(x[i]), width, reach,
-                        [&m, slots, first](int r) {
+    const Vec3<T> p = x[i];
+    for_each_ghost_rank(owners.grid, owners.owner, vec_cast<double>(p), wider.width_at(p, width),
+                        reach, [&m, slots, first](int r) {
                           const int s = slots[r] - first;
                           if (s >= 0 && s < 64)
                             m |= std::uint64_t(1) << s;
@@ -103,10 +105,11 @@ void block_destinations(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
 template <typename T>
 void ghost_peer_masks(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                       const BlockOwners& owners, double width, int reach, const int* slot_of_rank,
-                      int first_slot, std::uint64_t* mask, const std::uint32_t* alive) {
-  exec::for_each(ex, n,
-                 GhostMask<T>{x, owners, width, reach, slot_of_rank, first_slot, alive, mask},
-                 "ranks.ghost_masks");
+                      int first_slot, std::uint64_t* mask, const std::uint32_t* alive,
+                      const WiderCells<T>& wider) {
+  exec::for_each(
+      ex, n, GhostMask<T>{x, owners, width, reach, slot_of_rank, first_slot, alive, mask, wider},
+      "ranks.ghost_masks");
 }
 
 void mask_bit_flags(const exec::Exec& ex, const std::uint64_t* mask, std::size_t n, int bit,
@@ -131,7 +134,7 @@ void flag_below(const exec::Exec& ex, const std::uint32_t* perm, std::size_t n, 
                                       const std::uint32_t*, std::uint32_t*);                       \
   template void ghost_peer_masks<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                \
                                     const BlockOwners&, double, int, const int*, int,              \
-                                    std::uint64_t*, const std::uint32_t*);
+                                    std::uint64_t*, const std::uint32_t*, const WiderCells<T>&);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

@@ -6,6 +6,7 @@
 // never do.
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/grid/BlockOwners_K.hpp"
+#include "kernels/grid/GridGeometry.hpp"
 
 #include <array>
 #include <cstddef>
@@ -33,14 +34,35 @@ void block_destinations(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                         const std::array<bool, 6>& walls, int me, int* dest, std::uint32_t* leaving,
                         const std::uint32_t* owned = nullptr, std::uint32_t* stay = nullptr);
 
+/// A wider ghost width for the points of some cells: those in a cell of `geo` flagged in `cells`
+/// (per linear cell; null: none) go to the ranks within `width` of them. The fluid beside walls:
+/// a peer's ghost walls then find all their fluid there and compute their own pressure.
+template <typename T>
+struct WiderCells {
+  GridGeometry<T> geo{};
+  const std::uint8_t* cells = nullptr;
+  double width = 0;
+  KF_HD KF_INLINE bool flags(const Vec3<T>& x) const {
+    int cx, cy, cz;
+    geo.coords(x, cx, cy, cz);
+    return cells[geo.linear(cx, cy, cz)] != 0;
+  }
+  /// The ghost width of a point at x when the others' is `base`.
+  KF_HD KF_INLINE double width_at(const Vec3<T>& x, double base) const {
+    return cells && width > base && flags(x) ? width : base;
+  }
+};
+
 /// For i < n: bit s of mask[i] is set where x[i] lies within `width` of a block of the rank whose
 /// peer slot (slot_of_rank[rank], -1 for none) is first_slot + s, s < 64: a window of 64 peers a
-/// pass. reach: BlockGrid::reach(width). Where `alive` is given, mask[i] = 0 where alive[i] is 0
-/// (a row a rebuild left in place for the sort to drop).
+/// pass; `wider.width` for the points in wider's flagged cells. reach: BlockGrid::reach of the
+/// larger width. Where `alive` is given, mask[i] = 0 where alive[i] is 0 (a row a rebuild left in
+/// place for the sort to drop).
 template <typename T>
 void ghost_peer_masks(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                       const BlockOwners& owners, double width, int reach, const int* slot_of_rank,
-                      int first_slot, std::uint64_t* mask, const std::uint32_t* alive = nullptr);
+                      int first_slot, std::uint64_t* mask, const std::uint32_t* alive = nullptr,
+                      const WiderCells<T>& wider = {});
 
 /// flags[i] = bit `bit` of mask[i], for i < n.
 void mask_bit_flags(const exec::Exec& ex, const std::uint64_t* mask, std::size_t n, int bit,
