@@ -11,7 +11,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <set>
 #include <vector>
 
@@ -229,4 +231,76 @@ TEST(Decomposition, BadRequestsAreClearErrors) {
   EXPECT_THROW(Decomposition::partition(g, counts, PhaseCosts{}, 0, 0.1), Error);
   EXPECT_THROW(Decomposition::partition(g, Counts(3), PhaseCosts{}, 2, 0.1), Error);
   EXPECT_THROW(BlockGrid({0, 0, 0}, {1, 1, 1}, 0.0), Error);
+}
+
+namespace {
+
+/// A job's imbalance over `intervals` checks: `excess(k)` is the slowest rank's compute over the
+/// mean in the k-th interval after a re-partition (k = 1, 2, ...), what a re-partition resets;
+/// a re-partition costs `cost`. Returns the time lost (excess paid plus re-partitions) when
+/// `decide(excess, held, last_cost)` chooses at each check.
+template <typename Excess, typename Decide>
+double time_lost(int intervals, double cost, Excess excess, Decide decide) {
+  double lost = 0, last_cost = 0;
+  std::uint64_t held = 0;
+  for (int i = 0; i < intervals; ++i) {
+    ++held;
+    const double e = excess(held);
+    lost += e;
+    if (decide(e, held, last_cost)) {
+      lost += cost;
+      last_cost = cost;
+      held = 0;
+    }
+  }
+  return lost;
+}
+
+/// The least time lost by re-partitioning every p intervals, p = 1 .. intervals (brute force).
+template <typename Excess>
+double best_period(int intervals, double cost, Excess excess) {
+  double best = std::numeric_limits<double>::infinity();
+  for (int p = 1; p <= intervals; ++p)
+    best = std::min(best,
+                    time_lost(intervals, cost, excess,
+                              [p](double, std::uint64_t held, double) { return int(held) >= p; }));
+  return best;
+}
+
+} // namespace
+
+// [parallel] payback: a re-partition must save, over as many intervals as the last one held,
+// what the last one cost. Against a brute-force search of the best fixed period, on two models
+// of a job: an imbalance a re-partition cannot remove (ranks sharing a GPU: each interval loses
+// the same), and one that grows after each re-partition (the fluid drifting to one rank). The
+// rule loses at most about twice the best period's time (it re-partitions once the imbalance has
+// lost what a re-partition costs: the rent-or-buy bound), where re-partitioning at every check
+// loses up to many times more.
+TEST(Decomposition, ARepartitionMustPayForItself) {
+  const auto rule = [](double e, std::uint64_t held, double last_cost) {
+    return Decomposition::repartition_pays(e, 0.0, held, last_cost);
+  };
+  const auto always = [](double, std::uint64_t, double) { return true; };
+  const int n = 400;
+  const double cost = 0.7; // seconds (the 8M dam break on 2 ranks sharing one H200)
+  // The first re-partition always goes ahead (nothing measured yet).
+  EXPECT_TRUE(Decomposition::repartition_pays(1.0, 1.0, 1, 0.0));
+  EXPECT_FALSE(Decomposition::repartition_pays(1.06, 1.0, 3, 0.7)); // 0.18 s saved < 0.7
+  EXPECT_TRUE(Decomposition::repartition_pays(1.06, 1.0, 12, 0.7)); // 0.72 s >= 0.7
+  for (double e : {0.01, 0.06, 0.3}) {
+    const auto constant = [e](std::uint64_t) { return e; };
+    const double best = best_period(n, cost, constant);
+    const double ruled = time_lost(n, cost, constant, rule);
+    EXPECT_LE(ruled, 2.0 * best + cost) << "constant excess " << e;
+    // At every check: (e + cost) an interval; the rule's ~(e + cost / ceil(cost / e)): 1.9x at
+    // e = 0.3 (every third interval), 7-35x below.
+    EXPECT_GT(time_lost(n, cost, constant, always), (e < 0.1 ? 5.0 : 1.5) * ruled)
+        << "constant excess " << e;
+  }
+  for (double d : {0.001, 0.01, 0.1}) {
+    const auto drift = [d](std::uint64_t k) { return d * double(k); };
+    const double best = best_period(n, cost, drift);
+    const double ruled = time_lost(n, cost, drift, rule);
+    EXPECT_LE(ruled, 2.0 * best + cost) << "drift " << d;
+  }
 }

@@ -260,6 +260,11 @@ Decomposition::rank_costs(const std::vector<std::array<double, kPhases>>& all_co
   return per;
 }
 
+bool Decomposition::repartition_pays(double most, double mean, std::uint64_t intervals_held,
+                                     double last_cost) {
+  return !(last_cost > 0) || (most - mean) * static_cast<double>(intervals_held) >= last_cost;
+}
+
 double Decomposition::imbalance(const std::vector<double>& per_rank) {
   if (per_rank.empty())
     return 1.0;

@@ -106,6 +106,12 @@ public:
                                  const PhaseCosts& costs) const;
   /// Slowest rank over the mean (1: perfect balance).
   static double imbalance(const std::vector<double>& per_rank);
+  /// Whether a re-partition pays for itself: it saves about what the slowest rank spends over
+  /// the mean an interval (`most` - `mean`, seconds of compute since the last check) for about as
+  /// many intervals as the last one held (`intervals_held`, this one counted), and must save
+  /// `last_cost`, the seconds the last re-partition took (0: none yet, which always pays).
+  static bool repartition_pays(double most, double mean, std::uint64_t intervals_held,
+                               double last_cost);
 
 private:
   BlockGrid grid_;

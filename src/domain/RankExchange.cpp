@@ -218,8 +218,22 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   MPI_Allreduce(MPI_IN_PLACE, seconds.data(), kPhases, MPI_DOUBLE, MPI_SUM, mpi_.comm());
   b.imbalance = mean > 0 ? most / mean : 1.0;
   last_imbalance_ = b.imbalance;
+  ++checks_held_;
   if (b.imbalance <= scene_.parallel.imbalance)
     return b;
+  // A re-partition saves about what the slowest rank spends over the mean an interval, for about
+  // as many intervals as the last one held; it must save what the last one cost. Ranks sharing
+  // a GPU measure an imbalance a re-partition cannot remove (each rank's passes stretched by the
+  // others'): 2 ranks on one H200 re-partitioned the 8M dam break 4 times in 1,500 steps, 0.7 s
+  // each, half the run (docs/PERFORMANCE.md, P5 on one H200). Every rank decides alike: most,
+  // mean and the cost are the job's.
+  if (scene_.parallel.payback &&
+      !Decomposition::repartition_pays(most, mean, checks_held_, last_repartition_seconds_)) {
+    ++declined_;
+    b.declined = true;
+    return b;
+  }
+  const auto started = std::chrono::steady_clock::now();
   const Timed timed{exchange_seconds_};
   // The job's counts per block now, and the blocks shared out anew (every rank alike).
   const BlockGrid& grid = decomposition_->grid();
@@ -280,6 +294,9 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
     migrate_boundary(*boundary, bx->span(), everyone);
   b.repartitioned = true;
   ++repartitions_;
+  checks_held_ = 0;
+  last_repartition_seconds_ =
+      mpi_.max(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
   return b;
 }
 

@@ -150,18 +150,21 @@ public:
   struct Balance {
     double imbalance = 0; // slowest rank's compute over the mean since the last check (0: none)
     bool repartitioned = false;
+    bool declined =
+        false; // past the threshold, but a re-partition would not pay ([parallel] payback)
   };
   /// Whether balance() at this step checks the imbalance (and may re-partition: the fluid must
   /// then hold only what this rank owns).
   bool balance_due(std::uint64_t step) const { return window_of(step) > last_window_; }
   /// At the first sort [parallel] check_every steps or more after the last check (call before a
   /// rebuild, the fluid holding only what this rank owns): when the measured imbalance passes
-  /// [parallel] imbalance, the blocks are partitioned anew by the particles' current counts, each
-  /// phase's weighed by its measured cost a particle (the job's seconds on the phase over its
-  /// particles since the last check), and the fluid and the boundary migrate to their new owners
-  /// (sort the boundary after, then boundary_sorted()); the knit follows at KnitHalo's next choice.
-  /// knit_x: the knit's positions, the first knit_owned this rank's (read only at a
-  /// re-partition).
+  /// [parallel] imbalance (and, with [parallel] payback, the time it loses until the next
+  /// re-partition would be due reaches what the last one cost), the blocks are partitioned anew by
+  /// the particles' current counts, each phase's weighed by its measured cost a particle (the job's
+  /// seconds on the phase over its particles since the last check), and the fluid and the boundary
+  /// migrate to their new owners (sort the boundary after, then boundary_sorted()); the knit
+  /// follows at KnitHalo's next choice. knit_x: the knit's positions, the first knit_owned this
+  /// rank's (read only at a re-partition).
   Balance balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary,
                   const exec::DeviceBuffer<Vec3<T>>* knit_x = nullptr, std::size_t knit_owned = 0);
   /// What the knit's exchange shares: the transport, the ranks next to this one's blocks (a
@@ -199,6 +202,10 @@ public:
     parts_.reduction += seconds;
   }
   std::uint64_t repartitions() const { return repartitions_; }
+  /// Checks past the threshold where a re-partition would not have paid ([parallel] payback).
+  std::uint64_t declined_repartitions() const { return declined_; }
+  /// The job's slowest rank's seconds in the last re-partition (0: none yet).
+  double last_repartition_seconds() const { return last_repartition_seconds_; }
   /// The split's seconds by part (within exchange_seconds(); the knit's ghosts are the rest).
   struct Parts {
     double migration = 0; // fluid leaving, migrating, its ghosts chosen and received
@@ -281,8 +288,10 @@ private:
   std::unique_ptr<comm::RowCopier> rows_;
   Parts parts_; // all but packing (the copier's)
   double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
-  std::uint64_t repartitions_ = 0;
-  double block_scale_ = 0; // a block's edge over parallel.block_cells
+  std::uint64_t repartitions_ = 0, declined_ = 0;
+  double last_repartition_seconds_ = 0;
+  std::uint64_t checks_held_ = 0; // imbalance checks since the last re-partition (this one too)
+  double block_scale_ = 0;        // a block's edge over parallel.block_cells
   bool keeps_ghosts_ = false;
   bool overlap_ = false;          // [parallel] overlap, where it applies
   bool overlap_short_ = false;    // the same for the forces' refresh (host messages)

@@ -350,9 +350,18 @@ std::string format_summary(const RunSummary& s) {
     }
     if (d.imbalance > 0) {
       std::snprintf(buf, sizeof buf,
-                    "ranks: compute imbalance %.3f at the last check, %llu re-partition(s)\n",
+                    "ranks: compute imbalance %.3f at the last check, %llu re-partition(s)",
                     d.imbalance, static_cast<unsigned long long>(d.repartitions));
       o << buf;
+      if (d.declined_repartitions > 0) {
+        std::snprintf(buf, sizeof buf,
+                      ", %llu declined (the imbalance lost less than a re-partition costs: the "
+                      "last took %.3g s)",
+                      static_cast<unsigned long long>(d.declined_repartitions),
+                      d.repartition_seconds);
+        o << buf;
+      }
+      o << "\n";
     }
     if (d.outflow_particles) {
       std::snprintf(buf, sizeof buf, "outflow: %llu fluid particles (%.4g kg) left the domain\n",

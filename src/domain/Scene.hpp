@@ -262,6 +262,10 @@ struct Scene {
     // measured over every `check_every` steps.
     double imbalance = 1.1;
     int check_every = 100;
+    // A re-partition must pay for itself: the time the imbalance loses (the slowest rank's
+    // compute over the mean, a check's interval) times the intervals the last re-partition held
+    // must reach what the last re-partition cost (false: at every check past `imbalance`).
+    bool payback = true;
     // How the ranks' messages move: "auto" (NCCL between device buffers when every rank has a
     // GPU of its own, else MPI through host memory), "mpi" or "nccl" (an error where it cannot
     // run).

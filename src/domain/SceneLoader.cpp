@@ -656,10 +656,11 @@ void read_knit(const TableReader& sim, const TableReader& t, Scene& s,
 
 /// [parallel]: the decomposition into blocks and its rebalancing (domain/Decomposition).
 void read_parallel(const TableReader& t, Scene::Parallel& p) {
-  t.allow_only({"block_cells", "imbalance", "check_every", "transport", "overlap"});
+  t.allow_only({"block_cells", "imbalance", "check_every", "payback", "transport", "overlap"});
   p.block_cells = read_count(t, "block_cells", p.block_cells, 1, 1024);
   t.read("imbalance", p.imbalance, Range::at_least(1));
   p.check_every = read_count(t, "check_every", p.check_every, 1, 1000000000);
+  t.read("payback", p.payback);
   t.read("transport", p.transport, kTransports);
   t.read("overlap", p.overlap);
 }

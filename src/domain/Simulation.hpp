@@ -52,10 +52,12 @@ struct Diagnostics {
   double fluid_mass = 0;        // sum of the free fluid particles' masses [kg]
   // Mass-conserving absorption (capillary.model = "conserving"), whole run.
   std::uint64_t absorbed_particles = 0, emitted_particles = 0;
-  // Several ranks: the compute imbalance measured at the last check (slowest over the mean) and
-  // the re-partitions so far.
+  // Several ranks: the compute imbalance measured at the last check (slowest over the mean), the
+  // re-partitions so far, the checks past the threshold where one would not have paid
+  // ([parallel] payback), and what the last one cost (the slowest rank's seconds).
   double imbalance = 0;
-  std::uint64_t repartitions = 0;
+  std::uint64_t repartitions = 0, declined_repartitions = 0;
+  double repartition_seconds = 0;
   double diffused_mass = 0; // moved between knit points [kg]
 };
 

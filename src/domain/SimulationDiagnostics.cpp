@@ -85,6 +85,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
       if (!fluid_on_) {
         d.imbalance = ranks_->last_imbalance();
         d.repartitions = ranks_->repartitions();
+        d.declined_repartitions = ranks_->declined_repartitions();
+        d.repartition_seconds = ranks_->last_repartition_seconds();
       }
     }
   }
@@ -136,6 +138,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.outflow_mass = mpi.sum(d.outflow_mass);
     d.imbalance = ranks_->last_imbalance();
     d.repartitions = ranks_->repartitions();
+    d.declined_repartitions = ranks_->declined_repartitions();
+    d.repartition_seconds = ranks_->last_repartition_seconds();
   }
   return d;
 }

@@ -555,9 +555,10 @@ TEST(DistributedKnit, ConservingAbsorptionIsTheOneRankRun) {
   expect_same_coupled_run(absorbing_hammock("float"), 1000, 50, "absorbing hammock, float");
   // scenes/wicking.toml: the strip dips into the pool at t = 0.01 s (step ~80) and soaks it up.
   // Re-partitioned every 20 steps (the knit migrating with its masses at the next choice).
-  const Scene wicking = load_scene((test::source_dir() / "scenes" / "wicking.toml").string(),
-                                   {"output.enabled=false", "parallel.block_cells=1",
-                                    "parallel.imbalance=1.0", "parallel.check_every=20"});
+  const Scene wicking =
+      load_scene((test::source_dir() / "scenes" / "wicking.toml").string(),
+                 {"output.enabled=false", "parallel.block_cells=1", "parallel.imbalance=1.0",
+                  "parallel.check_every=20", "parallel.payback=false"});
   expect_same_coupled_run(wicking, 600, 100, "wicking");
 }
 
