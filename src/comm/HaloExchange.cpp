@@ -64,6 +64,19 @@ void HaloExchange::copy_sent_rows(std::uint32_t* out) const {
   }
 }
 
+void HaloExchange::copy_ghost_rows(std::uint32_t* out, std::size_t first_ghost) const {
+  if (recv_total_ == 0)
+    return;
+  if (recv_slot_.size() != 0) {
+    rows_.copy_rows(recv_slot_, out);
+    return;
+  }
+  std::vector<std::uint32_t> rows(recv_total_);
+  for (std::size_t k = 0; k < recv_total_; ++k)
+    rows[k] = static_cast<std::uint32_t>(first_ghost + k);
+  rows_.copy_rows(RowList(std::move(rows)), out);
+}
+
 void HaloExchange::start(std::span<const Column> columns, std::size_t first_ghost) {
   const std::size_t row = row_bytes(columns);
   std::vector<SendBuffer> sends(peers_.size());
@@ -82,9 +95,11 @@ void HaloExchange::start(std::span<const Column> columns, std::size_t first_ghos
   pending_.assign(columns.begin(), columns.end());
   pending_first_ = first_ghost;
   transport_.start(sends, recvs);
+  in_flight_ = true;
 }
 
 void HaloExchange::finish() {
+  in_flight_ = false;
   transport_.finish();
   const std::vector<const unsigned char*> ins(in_.begin(), in_.end());
   if (recv_slot_.size() == 0)

@@ -39,6 +39,11 @@ public:
   std::vector<std::uint32_t> sent_rows() const;
   /// The same written at `out` (sent() rows, memory of the copier's kind: no host round trip).
   void copy_sent_rows(std::uint32_t* out) const;
+  /// Where the ghosts are (received() rows, ascending by peer and position in its message),
+  /// written at `out` as copy_sent_rows writes: first_ghost + k until a remap, then their slots.
+  void copy_ghost_rows(std::uint32_t* out, std::size_t first_ghost) const;
+  /// Whether an exchange was started and not finished.
+  bool pending() const { return in_flight_; }
 
   /// Packs the columns' values of the listed particles and posts the exchange; returns at once.
   /// Every rank must pass the same columns (count and element sizes) in the same order.
@@ -74,7 +79,8 @@ private:
   std::vector<RowList> send_;
   std::vector<std::size_t> recv_count_, recv_offset_;
   std::size_t recv_total_ = 0;
-  RowList recv_slot_;              // empty: contiguous from first_ghost
+  RowList recv_slot_; // empty: contiguous from first_ghost
+  bool in_flight_ = false;
   std::vector<unsigned char*> in_; // the copier's messages, between start and finish
   std::vector<Column> pending_;
   std::size_t pending_first_ = 0, last_bytes_ = 0;

@@ -59,6 +59,7 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
     r->scratch = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.interior_scan");
     r->sent = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.sent");
   }
+  ghost_list_ = exec::DeviceBuffer<std::uint32_t>(backend, 0, "ranks.ghost_rows");
   keeps_ghosts_ = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet &&
                   scene.has(Module::Fluid);
   overlap_ = scene.parallel.overlap;
@@ -106,6 +107,7 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
 template <typename T>
 void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
                                  std::span<const Vec3<T>> knit, std::uint64_t step) {
+  settle_forces();
   const int me = rank();
   last_window_ = window_of(step);
   std::vector<Vec3<T>> fx, bx;
@@ -151,6 +153,7 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
 
 template <typename T>
 void RankExchange<T>::boundary_moved(BoundarySet<T>& boundary) {
+  settle_forces();
   const Timed timed{exchange_seconds_}, part{parts_.migration};
   const HostValues<Vec3<T>> bx(boundary.x);
   // To the neighbours, or to anyone where a solid moved more than a block in a step.
@@ -181,6 +184,7 @@ void RankExchange<T>::migrate_boundary(BoundarySet<T>& boundary, std::span<const
 
 template <typename T>
 void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t n) {
+  settle_forces();
   // The ghosts come from their owners (not from this rank's copy of the scene), so their order
   // is the one the owners' refreshes will send in.
   auto gl = select_.ghost_rows(boundary.x, n, boundary_width_, rows());
@@ -204,6 +208,7 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   // (with lists kept over steps the sorts come when the fluid has moved, not every step).
   if (!balance_due(step))
     return b;
+  settle_forces();
   last_window_ = step / static_cast<std::uint64_t>(scene_.parallel.check_every);
   const Timed part{parts_.rebalance};
   for (int p = 0; p < kPhases; ++p) {
@@ -330,10 +335,44 @@ void RankExchange<T>::remap(comm::HaloExchange& halo, const exec::DeviceBuffer<s
 }
 
 template <typename T>
+void RankExchange<T>::fluid_rows_changed() {
+  fluid_split_.current = false;
+  ghost_list_current_ = false;
+}
+
+template <typename T>
+exec::Rows RankExchange<T>::ghost_rows() {
+  if (!fluid_halo_)
+    return exec::Rows{nullptr, 0};
+  if (!ghost_list_current_) {
+    ghost_list_.resize(fluid_halo_->received());
+    fluid_halo_->copy_ghost_rows(ghost_list_.data(), fluid_owned_);
+    ghost_list_current_ = true;
+  }
+  return exec::Rows{ghost_list_.data(), ghost_list_.size()};
+}
+
+template <typename T>
+void RankExchange<T>::settle_forces() {
+  if (forces_pending())
+    finish_forces();
+}
+
+template <typename T>
+void RankExchange<T>::finish_forces() {
+  if (!forces_pending())
+    throw Error("internal: the forces' refresh finished while none is in flight");
+  on_clock(2 * 2 + 1, [&] {
+    const Timed timed{exchange_seconds_}, part{parts_.refresh};
+    fluid_halo_->finish();
+  });
+}
+
+template <typename T>
 void RankExchange<T>::all_owned() {
   keep_.resize(fluid_owned_);
   exec::fill_flags({backend_}, keep_.data(), fluid_owned_, 1u, "ranks.owned");
-  fluid_split_.current = false;
+  fluid_rows_changed();
 }
 
 template <typename T>
@@ -396,16 +435,23 @@ const typename RankExchange<T>::RefreshTimes& RankExchange<T>::collect_refresh_t
 template <typename T>
 void RankExchange<T>::overlapped(comm::HaloExchange& halo, const SplitRows* rows,
                                  std::span<const comm::Column> cols, std::size_t first_ghost,
-                                 std::size_t n, const Pass& pass, int refresh) {
+                                 std::size_t n, const Pass& pass, int refresh, bool finish) {
   // Two events an interval: read every few hundred refreshes (one host wait), as the stages'.
   if (refresh_clocks_[0] && ++refresh_uses_ >= 3 * 256)
     collect_refresh_times();
   if (!rows) {
-    on_clock(2 * refresh, [&] { pass(exec::Rows{nullptr, n}); });
-    on_clock(2 * refresh + 1, [&] {
-      const Timed timed{exchange_seconds_}, part{parts_.refresh};
-      halo.exchange(cols, first_ghost);
+    on_clock(2 * refresh, [&] {
+      pass(exec::Rows{nullptr, n});
+      if (!finish) {
+        const Timed timed{exchange_seconds_}, part{parts_.refresh};
+        halo.start(cols, first_ghost);
+      }
     });
+    if (finish)
+      on_clock(2 * refresh + 1, [&] {
+        const Timed timed{exchange_seconds_}, part{parts_.refresh};
+        halo.exchange(cols, first_ghost);
+      });
     return;
   }
   on_clock(2 * refresh, [&] {
@@ -416,10 +462,11 @@ void RankExchange<T>::overlapped(comm::HaloExchange& halo, const SplitRows* rows
     }
     pass(exec::Rows{rows->interior.data(), rows->interior.size()});
   });
-  on_clock(2 * refresh + 1, [&] {
-    const Timed timed{exchange_seconds_}, part{parts_.refresh};
-    halo.finish();
-  });
+  if (finish)
+    on_clock(2 * refresh + 1, [&] {
+      const Timed timed{exchange_seconds_}, part{parts_.refresh};
+      halo.finish();
+    });
 }
 
 template <typename T>
@@ -448,6 +495,7 @@ typename RankExchange<T>::Removed
 RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& hi,
                          const std::array<bool, 6>& walls, bool acceleration,
                          const WiderCells<T>& beside_walls) {
+  settle_forces();
   if (walls_width_ > 0 && !beside_walls.cells)
     throw Error("internal: the fluid's ghosts chosen without the cells beside walls");
   const Timed timed{exchange_seconds_}, part{parts_.migration};
@@ -495,7 +543,7 @@ RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& h
   fluid_owned_ = rows_now;
   keep_.resize(total);
   flag_below(ex, nullptr, total, rows_now, keep_.data());
-  fluid_split_.current = false;
+  fluid_rows_changed();
   return Removed{leaving.removed, leaving.removed_mass};
 }
 
@@ -510,17 +558,19 @@ void RankExchange<T>::fluid_sorted(const exec::DeviceBuffer<std::uint32_t>& perm
   keep_.resize(kept);
   flag_below({backend_}, perm_buffer.data(), kept, fluid_owned_, keep_.data());
   fluid_owned_ = kept - received;
-  fluid_split_.current = false;
+  fluid_rows_changed();
 }
 
 template <typename T>
 void RankExchange<T>::fluid_pass(std::span<const comm::Column> cols, std::size_t n,
-                                 const Pass& pass, bool overlap, int refresh) {
+                                 const Pass& pass, bool overlap, int refresh, bool finish) {
+  settle_forces();
   if (!fluid_halo_) { // collective over the peers: also where this rank received no ghost
     pass(exec::Rows{nullptr, n});
     return;
   }
-  overlapped(*fluid_halo_, overlap ? &fluid_rows() : nullptr, cols, fluid_owned_, n, pass, refresh);
+  overlapped(*fluid_halo_, overlap ? &fluid_rows() : nullptr, cols, fluid_owned_, n, pass, refresh,
+             finish);
 }
 
 template <typename T>
@@ -540,6 +590,7 @@ void RankExchange<T>::walls_pass(std::size_t n, const Pass& pass) {
 
 template <typename T>
 void RankExchange<T>::refresh(std::span<const comm::Column> columns) {
+  settle_forces();
   const Timed timed{exchange_seconds_}, part{parts_.refresh};
   if (!fluid_halo_) // collective over the peers: also where this rank received no ghost
     return;
@@ -554,11 +605,13 @@ void RankExchange<T>::refresh_motion(FluidSet<T>& fluid) {
 }
 
 template <typename T>
-void RankExchange<T>::refresh_forces(FluidSet<T>& fluid, bool continuity, const Pass& pass) {
+void RankExchange<T>::refresh_forces(FluidSet<T>& fluid, bool continuity, const Pass& pass,
+                                     bool defer) {
   const comm::Column all[] = {column(fluid.a), column(fluid.rho), column(fluid.drho),
                               column(fluid.drho_prev)};
+  // [parallel] overlap false: the exchange right after the pass, as every refresh then.
   fluid_pass(std::span<const comm::Column>(all, continuity ? 4 : 1), fluid.size(), pass,
-             overlap_short_, 2);
+             overlap_short_, 2, !(defer && overlap_));
 }
 
 template <typename T>
@@ -570,6 +623,7 @@ void RankExchange<T>::refresh_positions(FluidSet<T>& fluid) {
 template <typename T>
 void RankExchange<T>::remove(const exec::Exec& ex, FluidSet<T>& fluid,
                              const exec::DeviceBuffer<std::uint32_t>& keep) {
+  settle_forces();
   const Timed timed{exchange_seconds_}, part{parts_.refresh};
   fluid.keep_flagged(ex, keep);
   fluid_owned_ = fluid.size();
@@ -587,6 +641,7 @@ void RankExchange<T>::appended(const FluidSet<T>& fluid) {
 
 template <typename T>
 void RankExchange<T>::drop_ghosts(const exec::Exec& ex, FluidSet<T>& fluid) {
+  settle_forces();
   if (fluid.size() != fluid_owned_)
     remove(ex, fluid, keep_); // the owned flags
   else

@@ -114,8 +114,14 @@ public:
   /// With "verlet" lists: the forces pass, as refresh_density runs its own, and what it wrote (a;
   /// under continuity also rho, drho and drho_prev) from the owners, so that the kick and the
   /// drift then move each ghost exactly as its owner moves it (its v and x follow: the same
-  /// arithmetic on the same values).
-  void refresh_forces(FluidSet<T>& fluid, bool continuity, const Pass& pass);
+  /// arithmetic on the same values). defer (with [parallel] overlap): the exchange is left in
+  /// flight, finished by finish_forces() once the owned rows' kick is queued (forces_pending()
+  /// until then; any other exchange or rebuild finishes it first).
+  void refresh_forces(FluidSet<T>& fluid, bool continuity, const Pass& pass, bool defer = false);
+  bool forces_pending() const { return fluid_halo_ && fluid_halo_->pending(); }
+  void finish_forces();
+  /// The rows the fluid's ghosts hold (on the backend; valid until the fluid's next sort).
+  exec::Rows ghost_rows();
   /// The forces pass where the ghosts go after it (drop_ghosts): over the owned rows only (with
   /// [parallel] overlap; else over all n).
   void owned_pass(std::size_t n, const Pass& pass);
@@ -254,6 +260,12 @@ private:
              std::size_t rows, std::size_t kept, std::size_t first_ghost);
   /// The fluid holds only what this rank owns: every flag 1.
   void all_owned();
+  /// Finishes a deferred forces' refresh (before anything else uses the halo).
+  void settle_forces();
+  /// The fluid's rows moved or changed hands: the split lists and the ghosts' list are stale.
+  void fluid_rows_changed();
+  exec::DeviceBuffer<std::uint32_t> ghost_list_{exec::Backend::Cpu, 0, "ranks.ghost_rows"};
+  bool ghost_list_current_ = false;
   /// A halo's owned rows split for a pass around its exchange: those it sends (the border), and
   /// the others, on the backend. Built at the first pass after the halo or the order changed.
   struct SplitRows {
@@ -266,7 +278,7 @@ private:
                    const std::function<void(exec::DeviceBuffer<std::uint32_t>&)>& owned);
   /// overlapped over the fluid's halo (or the pass over all n rows where there is none).
   void fluid_pass(std::span<const comm::Column> cols, std::size_t n, const Pass& pass, bool overlap,
-                  int refresh);
+                  int refresh, bool finish = true);
   // The refreshes timed on the device (time_refreshes_on_device): a pass and an exchange each.
   std::array<std::unique_ptr<exec::Stopwatch>, 2 * kRefreshes> refresh_clocks_;
   std::size_t refresh_uses_ = 0;
@@ -275,10 +287,11 @@ private:
   template <typename F>
   void on_clock(int k, F&& what);
   /// pass over the owned rows and the halo's exchange of cols, overlapped where the scene asks.
-  /// (rows null: over all n rows, then the exchange.)
+  /// (rows null: over all n rows, then the exchange.) finish false: the exchange is left in
+  /// flight.
   void overlapped(comm::HaloExchange& halo, const SplitRows* rows,
                   std::span<const comm::Column> cols, std::size_t first_ghost, std::size_t n,
-                  const Pass& pass, int refresh);
+                  const Pass& pass, int refresh, bool finish = true);
   /// The fluid's and the boundary's split, current.
   SplitRows& fluid_rows();
   SplitRows fluid_split_;

@@ -172,7 +172,10 @@ void SimulationT<T>::fluid_forces(T dt) {
   // the ghosts stay until the next sort, taking their owners' state now, so that the kick, the
   // drift and the next density pass give each the values its owner computes.
   if (ranks_->keeps_ghosts()) {
-    ranks_->refresh_forces(*fluid_, continuity(), on_rows);
+    // Where the next stage is the kick (no shifting, no moving solids' work, no knit), the
+    // exchange stays in flight behind the owned rows' kick (its stage finishes it).
+    const bool defer = !shifting() && !knit_on_ && !(boundary_on_ && moving_);
+    ranks_->refresh_forces(*fluid_, continuity(), on_rows, defer);
     shift_fluid(dt);
   } else {
     ranks_->owned_pass(fluid_->size(), on_rows);
@@ -218,6 +221,9 @@ void SimulationT<T>::compute_forces() {
   if (boundary_on_)
     extrapolate_boundary_pressure();
   fluid_forces(T(0));
+  // Outside a step no kick follows to finish the forces' refresh (fluid_forces defers it).
+  if (ranks_ && ranks_->forces_pending())
+    ranks_->finish_forces();
 }
 
 template <typename T>

@@ -192,6 +192,8 @@ double SimulationT<T>::step(double t_limit) {
                             : std::function<void()>());
   settle_dt();   // a stage settles it; a pipeline of stages before it only would still
   settle_step(); // the drift stage settles it; a pipeline without one would still
+  if (ranks_ && ranks_->forces_pending()) // the kick finishes it: no ghost may stay behind
+    throw Error("internal: the forces' refresh still in flight at the end of a step");
   time_ = step_lands_ ? t_limit : time_ + dt_;
   ++steps_;
   return dt_;

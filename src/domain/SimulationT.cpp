@@ -510,8 +510,16 @@ void SimulationT<T>::build_pipeline() {
                     "step's size takes",
                     [this] {
                       auto f = fluid_->view();
-                      kick_bounds(ex_, f.v, f.a, f.n, static_cast<T>(dt_), damping_keep(dt_),
-                                  bounds_.data() + 1, "integrate.kick");
+                      const T dt = static_cast<T>(dt_), keep = damping_keep(dt_);
+                      // On N ranks the forces' refresh may still be in flight (fluid_forces):
+                      // the owned rows first, the ghosts once their accelerations are in.
+                      const bool split = ranks_ && ranks_->forces_pending();
+                      kick_bounds(ex_, f.v, f.a, f.n, dt, keep, bounds_.data() + 1,
+                                  "integrate.kick", split ? ranks_->owned_flags() : nullptr);
+                      if (split) {
+                        ranks_->finish_forces();
+                        kick_rows(ex_, f.v, f.a, ranks_->ghost_rows(), dt, keep, "integrate.kick");
+                      }
                       fluid_bounds_ready_ = true;
                     });
   }

@@ -68,11 +68,34 @@ struct KickMotion {
   }
 };
 
+/// KickMotion of the rows flagged in `only`; the others neither move nor bound.
+template <typename T>
+struct KickMotionOf {
+  KickMotion<T> kick;
+  const std::uint32_t* only;
+  KF_HD KF_INLINE MotionBounds<T> operator()(std::size_t i) const {
+    return only[i] ? kick(i) : MotionBounds<T>{T(0), T(0)};
+  }
+};
+
 template <typename T>
 void kick_bounds(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt, T keep,
-                 MotionBounds<T>* out, const char* label) {
-  exec::transform_reduce_to(ex, n, MotionBounds<T>{}, NanMaxOp{},
-                            KickMotion<T>{v, a, T(0.5) * dt, keep}, out, label);
+                 MotionBounds<T>* out, const char* label, const std::uint32_t* only) {
+  const KickMotion<T> k{v, a, T(0.5) * dt, keep};
+  if (only)
+    exec::transform_reduce_to(ex, n, MotionBounds<T>{}, NanMaxOp{}, KickMotionOf<T>{k, only}, out,
+                              label);
+  else
+    exec::transform_reduce_to(ex, n, MotionBounds<T>{}, NanMaxOp{}, k, out, label);
+}
+
+template <typename T>
+void kick_rows(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, const exec::Rows& rows, T dt,
+               T keep, const char* label) {
+  const T half = T(0.5) * dt;
+  exec::for_rows(
+      ex, rows,
+      [=] KF_HD(std::size_t i) { v[i] = half_kick(i, v, a, half, keep, Prescribed<T>{}); }, label);
 }
 
 #define KF_INSTANTIATE(T)                                                                          \
@@ -85,7 +108,9 @@ void kick_bounds(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t
   template void motion_bounds_to<T>(const exec::Exec&, const Vec3<T>*, const Vec3<T>*,             \
                                     std::size_t, MotionBounds<T>*, const char*);                   \
   template void kick_bounds<T>(const exec::Exec&, Vec3<T>*, const Vec3<T>*, std::size_t, T, T,     \
-                               MotionBounds<T>*, const char*);
+                               MotionBounds<T>*, const char*, const std::uint32_t*);               \
+  template void kick_rows<T>(const exec::Exec&, Vec3<T>*, const Vec3<T>*, const exec::Rows&, T, T, \
+                             const char*);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

@@ -58,8 +58,14 @@ void motion_bounds_to(const exec::Exec& ex, const Vec3<T>* v, const Vec3<T>* a, 
                       MotionBounds<T>* out, const char* label);
 /// kick, and the motion bounds of the kicked velocities written to *out, in one pass: the step's
 /// last stage and the next step's time-step reduction read the same arrays (fused: one read).
+/// `only` (null: all): the rows with only[i] != 0 are kicked and bounded, the others left as
+/// they are (a split's ghosts whose accelerations are still in flight: kick_rows later).
 template <typename T>
 void kick_bounds(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, std::size_t n, T dt, T keep,
-                 MotionBounds<T>* out, const char* label);
+                 MotionBounds<T>* out, const char* label, const std::uint32_t* only = nullptr);
+/// The same kick (v = keep (v + a dt/2), as kick_bounds does it) of the rows `rows` names.
+template <typename T>
+void kick_rows(const exec::Exec& ex, Vec3<T>* v, const Vec3<T>* a, const exec::Rows& rows, T dt,
+               T keep, const char* label);
 
 } // namespace kf
