@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds side by side with 2 ranks sharing one GPU (run it under jobs/gpu/with_mps.sh; the
+# Builds side by side with RANKS (2) ranks sharing one GPU (run it under jobs/gpu/with_mps.sh; the
 # MPI transport, rows staged through the host): the dam break with "verlet" lists, output off,
 # at 4M in all (2M a rank) and 8M in all (4M a rank), each run for STEPS_A and STEPS_B steps so
 # that the marginal step (their difference) leaves the start out; the builds alternated ROUNDS
@@ -11,7 +11,7 @@ set -uo pipefail
 rounds=${ROUNDS:-2} sa=${STEPS_A:-300} sb=${STEPS_B:-1500}
 run() { # exe spacing steps -> "seconds | split line"
   local log
-  log=$(mpirun -n 2 "$1" run scenes/dambreak.toml --device "${DEVICE:-cuda}" --threads 4 \
+  log=$(mpirun -n "${RANKS:-2}" --oversubscribe "$1" run scenes/dambreak.toml --device "${DEVICE:-cuda}" --threads 4 \
     --set output.enabled=false --set fluid.spacing="$2" --set 'solver.neighbour_list="verlet"' \
     --set solver.max_steps="$3" 2>&1)
   local secs
