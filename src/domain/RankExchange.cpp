@@ -229,9 +229,9 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   // A re-partition saves about what the slowest rank spends over the mean an interval, for about
   // as many intervals as the last one held; it must save what the last one cost. Ranks sharing
   // a GPU measure an imbalance a re-partition cannot remove (each rank's passes stretched by the
-  // others'): 2 ranks on one H200 re-partitioned the 8M dam break 4 times in 1,500 steps, 0.7 s
-  // each, half the run (docs/PERFORMANCE.md, P5 on one H200). Every rank decides alike: most,
-  // mean and the cost are the job's.
+  // others'): 2 ranks on one H200 re-partitioned the 8M dam break 3-9 times in 1,500 steps, up
+  // to 0.77 s each, half the run (docs/PERFORMANCE.md, P5 on one H200). Every rank decides
+  // alike: most, mean and the cost are the job's.
   if (scene_.parallel.payback &&
       !Decomposition::repartition_pays(most, mean, checks_held_, last_repartition_seconds_)) {
     ++declined_;
