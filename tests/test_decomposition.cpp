@@ -301,6 +301,8 @@ TEST(Decomposition, ARepartitionMustPayForItself) {
     const auto drift = [d](std::uint64_t k) { return d * double(k); };
     const double best = best_period(n, cost, drift);
     const double ruled = time_lost(n, cost, drift, rule);
-    EXPECT_LE(ruled, 2.0 * best + cost) << "drift " << d;
+    // Measured 1.02-1.11x the best period here (a growing imbalance: the rule's moment is near
+    // the best one); 1.75-1.94x on the constant excess above (the bound: 2x).
+    EXPECT_LE(ruled, 1.2 * best) << "drift " << d;
   }
 }
