@@ -2,12 +2,14 @@
 
 #include "domain/KnitBuilder.hpp"
 #include "domain/Samplers.hpp"
+#include "kernels/grid/NeighbourGrid.hpp"
+#include "kernels/grid/RankSelection.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <set>
-#include <unordered_set>
 
 namespace kf {
 
@@ -75,31 +77,34 @@ PartitionReport plan_partition(const Scene& scene, const std::array<std::vector<
   r.imbalance = Decomposition::imbalance(per);
   r.rank.resize(ranks);
   const auto bytes = ghost_bytes_per_step(scene);
-  // The cells of the boundary's ghost width with a boundary particle in them or next to them:
-  // the fluid there is sent as far as fluid_beside_walls (the run's rule, by its grid's cells).
-  const double wall_cell = widths.of(Phase::Boundary);
-  std::unordered_set<std::uint64_t> walls;
-  const auto key = [&](const Vec3d& q, int dx, int dy, int dz) {
-    const auto c = [&](double u, double u0, int o) {
-      return static_cast<std::uint64_t>(std::floor((u - u0) / wall_cell) + o + (1 << 20));
-    };
-    return c(q.x, lo.x, dx) | c(q.y, lo.y, dy) << 21 | c(q.z, lo.z, dz) << 42;
-  };
-  if (widths.fluid_beside_walls > 0 && wall_cell > 0)
-    for (const Vec3d& q : x[static_cast<int>(Phase::Boundary)])
-      for (int dz = -1; dz <= 1; ++dz)
-        for (int dy = -1; dy <= 1; ++dy)
-          for (int dx = -1; dx <= 1; ++dx)
-            walls.insert(key(q, dx, dy, dz));
+  // The fluid beside walls goes as far as fluid_beside_walls: the run's rule (RankExchange),
+  // by the run's cells (the fluid grid's: support + skin over the span) with boundary
+  // particles in the cells a walk from them visits.
+  const auto& xb = x[static_cast<int>(Phase::Boundary)];
+  const exec::Exec host{exec::Backend::Cpu};
+  std::optional<NeighbourGrid<double>> walls;
+  exec::DeviceBuffer<std::uint8_t> near(exec::Backend::Cpu, 0, "plan.beside_walls");
+  if (widths.fluid_beside_walls > 0 && !xb.empty()) {
+    const int span = static_cast<int>(scene.solver.cell_span);
+    walls.emplace(exec::Backend::Cpu,
+                  NeighbourGrid<double>::cover(scene.domain.min, scene.domain.max,
+                                               widths.of(Phase::Boundary) / span, span),
+                  span);
+    walls->build(host, xb.data(), xb.size());
+    walls->occupied_around(host, near);
+  }
+  const WiderCells<double> beside{walls ? walls->geometry() : GridGeometry<double>{},
+                                  walls ? near.data() : nullptr, widths.fluid_beside_walls};
   std::vector<std::set<int>> sources(ranks);
   std::vector<int> to;
   for (int p = 0; p < kPhases; ++p)
     for (const Vec3d& q : x[p]) {
       const int own = d.owner(q);
       ++r.rank[own].owned[p];
-      const bool beside =
-          p == static_cast<int>(Phase::Fluid) && !walls.empty() && walls.count(key(q, 0, 0, 0)) > 0;
-      d.ghost_ranks(q, beside ? widths.fluid_beside_walls : widths.width[p], to);
+      d.ghost_ranks(q,
+                    p == static_cast<int>(Phase::Fluid) ? beside.width_at(q, widths.width[p])
+                                                        : widths.width[p],
+                    to);
       for (int g : to) {
         ++r.rank[g].ghosts[p];
         r.rank[g].bytes_per_step += bytes[p];

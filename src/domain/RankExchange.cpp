@@ -235,7 +235,6 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   if (scene_.parallel.payback &&
       !Decomposition::repartition_pays(most, mean, checks_held_, last_repartition_seconds_)) {
     ++declined_;
-    b.declined = true;
     return b;
   }
   const auto started = std::chrono::steady_clock::now();
@@ -584,8 +583,7 @@ template <typename T>
 void RankExchange<T>::walls_pass(std::size_t n, const Pass& pass) {
   // Every wall, owned and ghost: a ghost wall's fluid is at hand (walls_width_), so its pressure
   // is its owner's, bit for bit, without an exchange (test_distributed_mpi).
-  on_clock(2 * 1, [&] { pass(exec::Rows{nullptr, n}); });
-  on_clock(2 * 1 + 1, [] {});
+  on_clock(2 * 1, [&] { pass(exec::Rows{nullptr, n}); }); // (its exchange's clock stays 0)
 }
 
 template <typename T>

@@ -156,8 +156,6 @@ public:
   struct Balance {
     double imbalance = 0; // slowest rank's compute over the mean since the last check (0: none)
     bool repartitioned = false;
-    bool declined =
-        false; // past the threshold, but a re-partition would not pay ([parallel] payback)
   };
   /// Whether balance() at this step checks the imbalance (and may re-partition: the fluid must
   /// then hold only what this rank owns).
