@@ -1,6 +1,7 @@
 #pragma once
 // The MPI transport: nonblocking point-to-point messages (MPI_Isend/MPI_Irecv, MPI_Waitall) of
-// host buffers. The CPU build's only transport, and the GPU build's when ranks share a device.
+// host buffers. The CPU build's only transport, and the GPU build's when ranks share a device on
+// several nodes, or where the node refuses CUDA IPC.
 #include "comm/Transport.hpp"
 
 namespace kf::comm {

@@ -1,18 +1,11 @@
 #include "comm/NcclTransport.hpp"
 
+#include "comm/DeviceMessages.hpp"
 #include "core/Error.hpp"
-
-#include <cstring>
 
 namespace kf::comm {
 
 namespace {
-
-// Keeps only the file name: full build paths make one-line messages unreadable.
-const char* base_name(const char* file) {
-  const char* slash = std::strrchr(file, '/');
-  return slash ? slash + 1 : file;
-}
 
 [[noreturn]] void throw_nccl(ncclResult_t r, ncclComm_t comm, const char* call, const char* file,
                              int line) {
@@ -29,11 +22,6 @@ const char* base_name(const char* file) {
   throw Error(text);
 }
 
-[[noreturn]] void throw_cuda(cudaError_t e, const char* call, const char* file, int line) {
-  throw Error(std::string("nccl transport: ") + call + " failed at " + base_name(file) + ":" +
-              std::to_string(line) + ": " + cudaGetErrorName(e) + ": " + cudaGetErrorString(e));
-}
-
 } // namespace
 
 // Local to comm (kernels' KF_CUDA lives in a layer comm does not depend on).
@@ -48,7 +36,7 @@ const char* base_name(const char* file) {
   do {                                                                                             \
     const cudaError_t kf_e_ = (call);                                                              \
     if (kf_e_ != cudaSuccess)                                                                      \
-      throw_cuda(kf_e_, #call, __FILE__, __LINE__);                                                \
+      throw_cuda("nccl transport", kf_e_, #call, __FILE__, __LINE__);                              \
   } while (0)
 
 NcclTransport::NcclTransport(const MpiContext& ctx, int device, cudaStream_t stream)
@@ -110,51 +98,15 @@ NcclTransport::~NcclTransport() {
 
 void NcclTransport::do_start(std::span<const SendBuffer> sends,
                              std::span<const RecvBuffer> receives) {
-  // Host memory handed to NCCL faults on the device or hangs; a clear error costs one query per
-  // buffer, a few per exchange.
-  auto check_device = [&](const void* p, std::size_t bytes, const char* what, int peer) {
-    if (bytes == 0)
-      return;
-    cudaPointerAttributes a{};
-    KF_COMM_CUDA(cudaPointerGetAttributes(&a, p));
-    if (a.type != cudaMemoryTypeDevice && a.type != cudaMemoryTypeManaged)
-      throw Error("nccl transport on rank " + std::to_string(rank()) + ": the " + what +
-                  " buffer for rank " + std::to_string(peer) +
-                  " is host memory; NCCL moves device buffers (stage through the device, or use "
-                  "the mpi transport)");
-  };
-  for (const SendBuffer& s : sends)
-    check_device(s.data, s.bytes, "send", s.peer);
-  for (const RecvBuffer& r : receives)
-    check_device(r.data, r.bytes, "receive", r.peer);
+  const std::string who = "nccl transport on rank " + std::to_string(rank());
+  require_device_buffers(who, sends, receives);
 
   // The send buffers are filled by kernels on the legacy default stream (and the receive buffers
   // read by the last exchange's unpacking there): NCCL's stream waits for them on the device.
   KF_COMM_CUDA(cudaEventRecord(filled_, cudaStreamLegacy));
   KF_COMM_CUDA(cudaStreamWaitEvent(stream_, filled_, 0));
 
-  // Messages to this rank are device copies, paired in order like any peer's messages.
-  self_sends_.clear();
-  self_receives_.clear();
-  for (const SendBuffer& s : sends)
-    if (s.peer == rank())
-      self_sends_.push_back(&s);
-  for (const RecvBuffer& r : receives)
-    if (r.peer == rank())
-      self_receives_.push_back(&r);
-  if (self_sends_.size() != self_receives_.size())
-    throw Error("nccl transport on rank " + std::to_string(rank()) + ": " +
-                std::to_string(self_sends_.size()) + " sends to itself but " +
-                std::to_string(self_receives_.size()) + " receives from itself");
-  for (std::size_t k = 0; k < self_sends_.size(); ++k)
-    if (self_sends_[k]->bytes != self_receives_[k]->bytes)
-      throw Error("nccl transport on rank " + std::to_string(rank()) + ": message " +
-                  std::to_string(k) + " to itself sends " + std::to_string(self_sends_[k]->bytes) +
-                  " bytes into a receive of " + std::to_string(self_receives_[k]->bytes));
-  for (std::size_t k = 0; k < self_sends_.size(); ++k)
-    if (self_sends_[k]->bytes > 0)
-      KF_COMM_CUDA(cudaMemcpyAsync(self_receives_[k]->data, self_sends_[k]->data,
-                                   self_sends_[k]->bytes, cudaMemcpyDeviceToDevice, stream_));
+  copy_to_self(who, rank(), sends, receives, stream_);
 
   // NCCL has no tags: operations between two ranks within a group run in the order they were
   // issued, which pairs the k-th send with the k-th receive. Empty messages are skipped on both

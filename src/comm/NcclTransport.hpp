@@ -41,8 +41,6 @@ private:
   cudaEvent_t filled_ = nullptr; // the default stream's work before start()
   cudaEvent_t moved_ = nullptr;  // the exchange's end on NCCL's stream
   ncclComm_t nccl_ = nullptr;
-  std::vector<const SendBuffer*> self_sends_; // scratch: messages to this rank, in order
-  std::vector<const RecvBuffer*> self_receives_;
 };
 
 } // namespace kf::comm

@@ -8,6 +8,7 @@
 #include <cstring>
 
 #if defined(KF_WITH_CUDA)
+#include "comm/IpcTransport.hpp"
 #include "comm/NcclTransport.hpp"
 
 #include <cuda_runtime.h>
@@ -56,15 +57,18 @@ std::string_view to_string(TransportKind k) {
     return "mpi";
   case TransportKind::Nccl:
     return "nccl";
+  case TransportKind::Ipc:
+    return "ipc";
   }
   return "?";
 }
 
 TransportKind parse_transport_kind(std::string_view text) {
-  for (TransportKind k : {TransportKind::Auto, TransportKind::Mpi, TransportKind::Nccl})
+  for (TransportKind k :
+       {TransportKind::Auto, TransportKind::Mpi, TransportKind::Nccl, TransportKind::Ipc})
     if (text == to_string(k))
       return k;
-  throw Error("unknown transport '" + std::string(text) + "': expected auto, mpi or nccl");
+  throw Error("unknown transport '" + std::string(text) + "': expected auto, mpi, nccl or ipc");
 }
 
 // ---- Transport ----------------------------------------------------------------------------------
@@ -220,10 +224,16 @@ void Transport::post_and_wait(std::span<const SendBuffer> sends,
 
 namespace {
 
-/// Why NCCL cannot carry this job's device buffers ("" if it can), and the GPU this rank would
-/// use. Collective over ctx: every rank gets the same verdict.
-std::string nccl_unusable(const MpiContext& ctx, int& device) {
-  device = -1;
+/// What this job's GPUs allow, the same on every rank: why NCCL cannot carry its device buffers
+/// ("" if it can), why CUDA IPC cannot ("" if it may: the node has the last word, at the
+/// transport's start), and the GPU this rank uses. Collective over ctx.
+struct DeviceLayout {
+  std::string no_nccl, no_ipc;
+  int device = -1;
+};
+
+DeviceLayout device_layout(const MpiContext& ctx) {
+  DeviceLayout layout;
 #if defined(KF_WITH_CUDA)
   // No early return before the collectives below: every rank must reach them.
   int count = 0;
@@ -237,6 +247,7 @@ std::string nccl_unusable(const MpiContext& ctx, int& device) {
   std::array<char, 32> bus{};
   // The device this process already uses (knitflow and the tests choose local rank % count):
   // the transport must not move the process to another one under its buffers.
+  int& device = layout.device;
   if (count > 0 && cudaGetDevice(&device) != cudaSuccess) {
     (void)cudaGetLastError();
     count = 0;
@@ -259,21 +270,27 @@ std::string nccl_unusable(const MpiContext& ctx, int& device) {
   int sharing = 0;
   for (int r = 0; r < local_size; ++r)
     sharing += std::memcmp(all.data() + bus.size() * std::size_t(r), bus.data(), bus.size()) == 0;
-  const int bad = count == 0 || sharing > 1;
-  int bad_ranks = 0;
-  MPI_Allreduce(&bad, &bad_ranks, 1, MPI_INT, MPI_SUM, ctx.comm());
-  if (bad_ranks == 0)
-    return "";
-  std::string why = std::to_string(bad_ranks) + " of " + std::to_string(ctx.size()) +
-                    " ranks have no GPU of their own (NCCL refuses two ranks on one device)";
-  if (bad)
-    why += "; rank " + std::to_string(ctx.rank()) + " sees " + std::to_string(count) +
-           " device(s) for " + std::to_string(local_size) + " rank(s) on its node";
-  return why;
+  // [ranks without a GPU of their own, ranks without a GPU, ranks whose node lacks some]
+  std::array<int, 3> bad{count == 0 || sharing > 1, count == 0, local_size != ctx.size()}, sums{};
+  MPI_Allreduce(bad.data(), sums.data(), 3, MPI_INT, MPI_SUM, ctx.comm());
+  if (sums[0] > 0) {
+    layout.no_nccl = std::to_string(sums[0]) + " of " + std::to_string(ctx.size()) +
+                     " ranks have no GPU of their own (NCCL refuses two ranks on one device)";
+    if (bad[0])
+      layout.no_nccl += "; rank " + std::to_string(ctx.rank()) + " sees " + std::to_string(count) +
+                        " device(s) for " + std::to_string(local_size) + " rank(s) on its node";
+  }
+  if (sums[1] > 0)
+    layout.no_ipc =
+        std::to_string(sums[1]) + " of " + std::to_string(ctx.size()) + " ranks see no GPU";
+  else if (sums[2] > 0)
+    layout.no_ipc = "the job's ranks run on more than one node (CUDA IPC joins the processes "
+                    "of one)";
 #else
   (void)ctx;
-  return "this build has no CUDA (configure with -DKF_ENABLE_CUDA=ON)";
+  layout.no_nccl = layout.no_ipc = "this build has no CUDA (configure with -DKF_ENABLE_CUDA=ON)";
 #endif
+  return layout;
 }
 
 } // namespace
@@ -283,18 +300,31 @@ std::unique_ptr<Transport> make_transport(const MpiContext& ctx, TransportKind k
   if (kind == TransportKind::Mpi)
     return std::make_unique<MpiTransport>(ctx);
   // `data` and `kind` are the same on every rank (the job's settings), so every rank either
-  // enters the collective check or skips it.
-  int device = -1;
-  const std::string why = data == MemorySpace::Host
-                              ? "the data lives in host memory and NCCL moves device buffers"
-                              : nccl_unusable(ctx, device);
-  if (why.empty()) {
-#if defined(KF_WITH_CUDA)
-    return std::make_unique<NcclTransport>(ctx, device, stream);
-#endif
+  // enters the collective checks or skips them.
+  if (data == MemorySpace::Host) {
+    if (kind != TransportKind::Auto)
+      throw Error("transport " + std::string(to_string(kind)) +
+                  " cannot run here: the data lives in host memory and it moves device buffers; "
+                  "choose auto or mpi");
+    return std::make_unique<MpiTransport>(ctx);
   }
+  const DeviceLayout layout = device_layout(ctx);
+#if defined(KF_WITH_CUDA)
+  if (layout.no_nccl.empty() && kind != TransportKind::Ipc)
+    return std::make_unique<NcclTransport>(ctx, layout.device, stream);
+  if (layout.no_ipc.empty() && kind != TransportKind::Nccl) {
+    if (kind == TransportKind::Ipc)
+      return std::make_unique<IpcTransport>(ctx, stream);
+    try { // the node may refuse (every rank alike): MPI then
+      return std::make_unique<IpcTransport>(ctx, stream);
+    } catch (const Error&) {
+    }
+  }
+#endif
   if (kind == TransportKind::Nccl)
-    throw Error("transport nccl cannot run here: " + why + "; choose auto or mpi");
+    throw Error("transport nccl cannot run here: " + layout.no_nccl + "; choose auto or mpi");
+  if (kind == TransportKind::Ipc)
+    throw Error("transport ipc cannot run here: " + layout.no_ipc + "; choose auto or mpi");
   return std::make_unique<MpiTransport>(ctx);
 }
 

@@ -1,7 +1,8 @@
 #pragma once
-// Moves packed byte buffers between neighbour ranks (halos, migration). One interface, two
-// transports: MPI for host buffers, NCCL for device buffers in the CUDA build. Knows nothing of
-// physics: the caller packs and unpacks.
+// Moves packed byte buffers between neighbour ranks (halos, migration). One interface, three
+// transports: MPI for host buffers; in the CUDA build, NCCL for device buffers where every rank has
+// a GPU of its own, CUDA IPC where ranks of one node share GPUs. Knows nothing of physics: the
+// caller packs and unpacks.
 //
 // Matching rule: the k-th send from rank A to rank B in A's `start` is received by the k-th receive
 // from A in B's `start`, and both must name the same byte count (exchange_sizes tells a receiver
@@ -26,11 +27,11 @@ namespace kf::comm {
 /// Where a transport's buffers must live.
 enum class MemorySpace { Host, Device };
 
-enum class TransportKind { Auto, Mpi, Nccl };
+enum class TransportKind { Auto, Mpi, Nccl, Ipc };
 
 std::string_view to_string(MemorySpace s);
 std::string_view to_string(TransportKind k);
-/// "auto", "mpi" or "nccl"; anything else is a kf::Error naming the choices.
+/// "auto", "mpi", "nccl" or "ipc"; anything else is a kf::Error naming the choices.
 TransportKind parse_transport_kind(std::string_view text);
 
 struct SendBuffer {
@@ -51,7 +52,7 @@ public:
   Transport& operator=(const Transport&) = delete;
   virtual ~Transport();
 
-  /// "mpi" or "nccl".
+  /// "mpi", "nccl" or "ipc".
   virtual std::string_view name() const = 0;
   /// Where the buffers given to start() must live.
   virtual MemorySpace memory_space() const = 0;
@@ -126,12 +127,13 @@ private:
 std::string mpi_error_string(int rc);
 
 /// Builds the transport for this job. Collective over ctx's communicator.
-/// `data`: where the caller's buffers live. Auto picks NCCL only in a CUDA build, for device data,
-/// when every rank of the job has a GPU of its own (NCCL refuses two ranks on one device); MPI
-/// otherwise, whose buffers are host memory (staging device data is the caller's job). Every rank
-/// makes the same choice. Nccl where it cannot work is a kf::Error saying why.
-/// `stream`: the CUDA stream NCCL work is queued on (null: the legacy default stream); unused by
-/// MPI. NCCL runs on the device the process already uses (knitflow selects local rank % device
+/// `data`: where the caller's buffers live. Auto, for device data in a CUDA build: NCCL when every
+/// rank of the job has a GPU of its own (NCCL refuses two ranks on one device); else CUDA IPC when
+/// every rank runs on one node with a GPU (ranks sharing GPUs), unless the node refuses IPC; else
+/// MPI, whose buffers are host memory (staging device data is the caller's job). Every rank makes
+/// the same choice. Nccl or Ipc where it cannot work is a kf::Error saying why.
+/// `stream`: the CUDA stream NCCL's or IPC's work is queued on (null: one of its own); unused by
+/// MPI. Both run on the device the process already uses (knitflow selects local rank % device
 /// count at start).
 std::unique_ptr<Transport> make_transport(const MpiContext& ctx, TransportKind kind,
                                           MemorySpace data, CUstream_st* stream = nullptr);

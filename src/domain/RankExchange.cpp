@@ -63,14 +63,16 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   keeps_ghosts_ = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet &&
                   scene.has(Module::Fluid);
   overlap_ = scene.parallel.overlap;
-  // NCCL between device buffers where every rank has a GPU of its own (auto), else MPI through
-  // page-locked host memory.
+  // NCCL between device buffers where every rank has a GPU of its own (auto), CUDA IPC where
+  // ranks of one node share GPUs, else MPI through page-locked host memory.
   const auto kind = [&] {
     switch (scene.parallel.transport) {
     case Scene::Parallel::Transport::Mpi:
       return comm::TransportKind::Mpi;
     case Scene::Parallel::Transport::Nccl:
       return comm::TransportKind::Nccl;
+    case Scene::Parallel::Transport::Ipc:
+      return comm::TransportKind::Ipc;
     case Scene::Parallel::Transport::Auto:
       break;
     }

@@ -267,9 +267,9 @@ struct Scene {
     // must reach what the last re-partition cost (false: at every check past `imbalance`).
     bool payback = true;
     // How the ranks' messages move: "auto" (NCCL between device buffers when every rank has a
-    // GPU of its own, else MPI through host memory), "mpi" or "nccl" (an error where it cannot
-    // run).
-    enum class Transport { Auto, Mpi, Nccl } transport = Transport::Auto;
+    // GPU of its own; CUDA IPC, device to device, when ranks of one node share GPUs; else MPI
+    // through host memory), "mpi", "nccl" or "ipc" (an error where it cannot run).
+    enum class Transport { Auto, Mpi, Nccl, Ipc } transport = Transport::Auto;
     // The passes whose results refresh ghosts compute the rows their peers receive first, then
     // the rest while the exchange is in flight (false: all rows, then the exchange).
     bool overlap = true;

@@ -48,7 +48,8 @@ constexpr std::array kNeighbourLists{
 constexpr std::array kTransports{
     Choice<Scene::Parallel::Transport>{"auto", Scene::Parallel::Transport::Auto},
     Choice<Scene::Parallel::Transport>{"mpi", Scene::Parallel::Transport::Mpi},
-    Choice<Scene::Parallel::Transport>{"nccl", Scene::Parallel::Transport::Nccl}};
+    Choice<Scene::Parallel::Transport>{"nccl", Scene::Parallel::Transport::Nccl},
+    Choice<Scene::Parallel::Transport>{"ipc", Scene::Parallel::Transport::Ipc}};
 constexpr std::array kDensityModels{Choice<DensityModel>{"summation", DensityModel::Summation},
                                     Choice<DensityModel>{"continuity", DensityModel::Continuity}};
 constexpr std::array kShifting{

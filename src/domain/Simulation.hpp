@@ -145,7 +145,7 @@ public:
     double imbalance = 0, exchange_seconds = 0;
     double migration_seconds = 0, refresh_seconds = 0, rebalance_seconds = 0, packing_seconds = 0;
     double reduction_seconds = 0; // the step size's all-reduce (the wait for the slowest rank)
-    std::string transport;        // "mpi" or "nccl"
+    std::string transport;        // "mpi", "nccl" or "ipc"
     // With profile_on_device: the density's, the walls' and the forces' passes and the exchange
     // after each, on the device (seconds from the start, not synchronised).
     std::array<double, 3> refresh_pass_device{}, refresh_exchange_device{};

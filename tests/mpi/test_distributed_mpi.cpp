@@ -411,6 +411,11 @@ TEST(Distributed, OnTheGpuTheSplitIsTheOneRankGpuRun) {
   expect_same_run(verlet, 200, 50, "GPU dam break, verlet lists", gpu, true);
   verlet.parallel.overlap = false;
   expect_same_run(verlet, 200, 50, "GPU dam break, verlet lists, no overlap", gpu, true);
+  // Device data staged through the host, which "auto" leaves to ranks sharing GPUs on several
+  // nodes (on one: CUDA IPC).
+  verlet.parallel.overlap = true;
+  verlet.parallel.transport = Scene::Parallel::Transport::Mpi;
+  expect_same_run(verlet, 200, 50, "GPU dam break, verlet lists, mpi transport", gpu, true);
   expect_same_run(moving_sphere(), 200, 50, "GPU sphere moving through a tank", gpu, true);
   // The fluid's options: the GPU's shift reads the ghosts the forces' pass read and the kept
   // ghosts take their owners' shifted positions on the device (refresh_positions); the

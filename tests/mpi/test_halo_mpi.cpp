@@ -333,24 +333,26 @@ TEST_F(Halo, DeviceRowsMoveTheSameBytesAsTheHost) {
   const std::size_t n = mine.x.size();
   const GhostLists gl = select_ghosts(d, mpi.rank(), mine.x, 0.04);
   // Each way: the host copier; on a GPU, device packing staged through page-locked host
-  // messages (MPI) and, where every rank has a GPU of its own, device messages over NCCL.
+  // messages (MPI) and device messages: over NCCL where every rank has a GPU of its own, over
+  // CUDA IPC where ranks of this node share them.
   struct Way {
     exec::Backend backend;
     comm::Transport* transport;
     bool device_messages;
   };
   std::vector<Way> ways{{exec::Backend::Cpu, t.get(), false}};
-  std::unique_ptr<comm::Transport> nccl;
+  std::unique_ptr<comm::Transport> device;
   if (exec::cuda_available()) {
     ways.push_back({exec::Backend::Cuda, t.get(), false});
-    nccl = comm::make_transport(mpi, comm::TransportKind::Auto, comm::MemorySpace::Device);
-    if (nccl->name() == std::string_view("nccl"))
-      ways.push_back({exec::Backend::Cuda, nccl.get(), true});
+    device = comm::make_transport(mpi, comm::TransportKind::Auto, comm::MemorySpace::Device);
+    if (device->memory_space() == comm::MemorySpace::Device)
+      ways.push_back({exec::Backend::Cuda, device.get(), true});
   }
   for (const Way& way : ways) {
     const exec::Backend b = way.backend;
     const std::string name =
-        std::string(exec::to_string(b)) + (way.device_messages ? " over nccl" : "");
+        std::string(exec::to_string(b)) +
+        (way.device_messages ? " over " + std::string(way.transport->name()) : "");
     SCOPED_TRACE(name);
     // The reference: the host's copier on host vectors.
     comm::HaloExchange host(*t, gl.peers, gl.send);

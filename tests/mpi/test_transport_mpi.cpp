@@ -351,7 +351,8 @@ TEST(TransportMpi, BadArgumentsAreClearErrors) {
   EXPECT_NE(e.find("1 peers but 0 sizes"), std::string::npos) << e;
   EXPECT_EQ(parse_transport_kind("nccl"), TransportKind::Nccl);
   e = error_of([] { parse_transport_kind("gloo"); });
-  EXPECT_NE(e.find("expected auto, mpi or nccl"), std::string::npos) << e;
+  EXPECT_NE(e.find("expected auto, mpi, nccl or ipc"), std::string::npos) << e;
+  EXPECT_EQ(parse_transport_kind("ipc"), TransportKind::Ipc);
 }
 
 TEST(TransportMpi, FactoryChoosesByBuildAndDevices) {
@@ -362,19 +363,26 @@ TEST(TransportMpi, FactoryChoosesByBuildAndDevices) {
     EXPECT_EQ(t->name(), "mpi");
     EXPECT_EQ(t->memory_space(), MemorySpace::Host);
   }
-  std::string e = error_of([&] { make_transport(ctx, TransportKind::Nccl, MemorySpace::Host); });
-  EXPECT_NE(e.find("host memory"), std::string::npos) << e;
+  std::string e;
+  for (TransportKind k : {TransportKind::Nccl, TransportKind::Ipc}) {
+    e = error_of([&] { make_transport(ctx, k, MemorySpace::Host); });
+    EXPECT_NE(e.find("host memory"), std::string::npos) << e;
+  }
 #if !defined(KF_WITH_CUDA)
-  // A CPU build has no NCCL: auto falls back to MPI, and asking for NCCL says why it cannot.
+  // A CPU build has no NCCL or IPC: auto falls back to MPI, and asking for either says why.
   EXPECT_EQ(make_transport(ctx, TransportKind::Auto, MemorySpace::Device)->name(), "mpi");
   e = error_of([&] { make_transport(ctx, TransportKind::Nccl, MemorySpace::Device); });
   EXPECT_NE(e.find("no CUDA"), std::string::npos) << e;
+  e = error_of([&] { make_transport(ctx, TransportKind::Ipc, MemorySpace::Device); });
+  EXPECT_NE(e.find("transport ipc cannot run here"), std::string::npos) << e;
+  EXPECT_NE(e.find("no CUDA"), std::string::npos) << e;
 #else
-  // Device data: NCCL where every rank has a GPU of its own (whatever is chosen, every rank
-  // chose the same), and the ring's bytes arrive through it.
+  // Device data: NCCL where every rank has a GPU of its own, IPC where ranks of this node share
+  // them (whatever is chosen, every rank chose the same), and the ring's bytes arrive through it.
   const auto t = make_transport(ctx, TransportKind::Auto, MemorySpace::Device);
-  const double nccl = t->name() == "nccl";
+  const double nccl = t->name() == "nccl", ipc = t->name() == "ipc";
   EXPECT_EQ(ctx.min(nccl), ctx.max(nccl));
+  EXPECT_EQ(ctx.min(ipc), ctx.max(ipc));
   exchange_and_check(*t, ring(ctx.size(), 2, 500), 0);
   exchange_and_check(*t, all_pairs(ctx.size(), 501), 1);
   if (t->name() == "mpi") {
@@ -463,19 +471,17 @@ std::unique_ptr<Transport> device_transport(const MpiContext& ctx, TransportKind
   return t;
 }
 
-} // namespace
-
 // Many exchanges queued without a host wait between them, as a run's refreshes are: one send and
 // one receive buffer a peer reused by every round, filled and read by work on the legacy default
-// stream only (NCCL's stream is ordered after and before it by events, never by the host). Each
-// round's message is a byte that names its round and pair, its size changes from round to round,
-// and what arrives is copied into a history read once at the end: a message read before it was
-// written, or overwritten before it was read, shows.
-TEST(TransportMpi, NcclKeepsBackToBackExchangesInOrder) {
-  MpiContext ctx;
+// stream only (the transport's stream is ordered after and before it by events, never by the
+// host). Each round's message is a byte that names its round and pair, its size changes from
+// round to round (up to 600 kB: IPC's mailboxes, 64 kB at first, grow several times, in both of
+// a pair's turns), and what arrives is copied into a history read once at the end: a message
+// read before it was written, or overwritten before it was read, shows.
+void check_back_to_back(Transport& t, const MpiContext& ctx) {
   const int me = ctx.rank(), n = ctx.size();
   constexpr int kRounds = 48;
-  auto bytes_of = [](int round) { return std::size_t(1000 + (round * 7919) % 60000); };
+  auto bytes_of = [](int round) { return std::size_t(1000 + (round * 79193) % 600000); };
   auto byte_of_round = [](int round, int from, int to) {
     return static_cast<unsigned char>((round * 31 + from * 7 + to * 3) % 251 + 1);
   };
@@ -489,10 +495,6 @@ TEST(TransportMpi, NcclKeepsBackToBackExchangesInOrder) {
     offset[std::size_t(r)] = history_bytes;
     history_bytes += bytes_of(r);
   }
-  std::string why;
-  const auto t = device_transport(ctx, TransportKind::Nccl, why);
-  if (!t)
-    GTEST_SKIP() << why; // no GPU a rank here (CI)
   std::vector<unsigned char*> send(peers.size()), recv(peers.size()), history(peers.size());
   for (std::size_t i = 0; i < peers.size(); ++i) {
     ASSERT_EQ(cudaMalloc(&send[i], largest), cudaSuccess);
@@ -509,8 +511,8 @@ TEST(TransportMpi, NcclKeepsBackToBackExchangesInOrder) {
       sends.push_back({peers[i], send[i], bytes_of(r)});
       receives.push_back({peers[i], recv[i], bytes_of(r)});
     }
-    t->start(sends, receives);
-    t->finish();
+    t.start(sends, receives);
+    t.finish();
     for (std::size_t i = 0; i < peers.size(); ++i)
       ASSERT_EQ(cudaMemcpyAsync(history[i] + offset[std::size_t(r)], recv[i], bytes_of(r),
                                 cudaMemcpyDeviceToDevice, cudaStreamLegacy),
@@ -525,11 +527,83 @@ TEST(TransportMpi, NcclKeepsBackToBackExchangesInOrder) {
       const auto* at = host.data() + offset[std::size_t(r)];
       const auto wrong =
           std::count_if(at, at + bytes_of(r), [&](unsigned char b) { return b != want; });
-      EXPECT_EQ(wrong, 0) << "rank " << me << ", from rank " << peers[i] << ", round " << r;
+      EXPECT_EQ(wrong, 0) << t.name() << ": rank " << me << ", from rank " << peers[i] << ", round "
+                          << r;
     }
     cudaFree(send[i]);
     cudaFree(recv[i]);
     cudaFree(history[i]);
+  }
+}
+
+} // namespace
+
+TEST(TransportMpi, NcclKeepsBackToBackExchangesInOrder) {
+  MpiContext ctx;
+  std::string why;
+  const auto t = device_transport(ctx, TransportKind::Nccl, why);
+  if (!t)
+    GTEST_SKIP() << why; // no GPU a rank here (CI)
+  check_back_to_back(*t, ctx);
+}
+
+TEST(TransportMpi, IpcKeepsBackToBackExchangesInOrder) {
+  MpiContext ctx;
+  std::string why;
+  const auto t = device_transport(ctx, TransportKind::Ipc, why);
+  if (!t)
+    GTEST_SKIP() << why; // no GPU here (CI)
+  check_back_to_back(*t, ctx);
+}
+
+// IPC through every pattern the host transports pass (several messages a pair, empty ones, a
+// rank sending itself, sizes over the first mailbox, ranks without peers, compute between start
+// and finish), its all-reduce of maxima, and what it refuses: sizes that disagree.
+TEST(TransportMpi, IpcCarriesEveryPattern) {
+  MpiContext ctx;
+  std::string why;
+  const auto t = device_transport(ctx, TransportKind::Ipc, why);
+  if (!t)
+    GTEST_SKIP() << why; // no GPU here (CI)
+  EXPECT_EQ(t->memory_space(), MemorySpace::Device);
+  for (int round = 0; round < 6; ++round) {
+    exchange_and_check(*t, ring(ctx.size(), 3, 900 + unsigned(round)), 2 * round);
+    exchange_and_check(*t, all_pairs(ctx.size(), 950 + unsigned(round)), 2 * round + 1);
+  }
+  // Only rank 0 and the last talk; the others pass an empty exchange.
+  const int last = ctx.size() - 1;
+  exchange_and_check(*t, {{0, last, 0, 300000}, {last, 0, 0, 5}}, 20);
+  exchange_and_check(*t, {{0, 0, 0, 1000}, {0, 0, 1, 70000}}, 21, [] {
+    EXPECT_EQ(cudaDeviceSynchronize(), cudaSuccess); // the device idle between start and finish
+  });
+  check_max_in_place<float>(*t);
+  check_max_in_place<double>(*t);
+  // A receive that expects less or more than was sent: the receiver says so; the sender is done;
+  // the exchanges after it go through.
+  if (ctx.size() >= 2) {
+    unsigned char *out = nullptr, *in = nullptr;
+    ASSERT_EQ(cudaMalloc(&out, 100), cudaSuccess);
+    ASSERT_EQ(cudaMalloc(&in, 200), cudaSuccess);
+    for (std::size_t expect : {60, 140}) {
+      std::vector<SendBuffer> sends;
+      std::vector<RecvBuffer> receives;
+      if (ctx.rank() == 0)
+        sends.push_back({last, out, 100});
+      if (ctx.rank() == last)
+        receives.push_back({0, in, expect});
+      t->start(sends, receives);
+      const std::string e = error_of([&] { t->finish(); });
+      if (ctx.rank() == last) {
+        EXPECT_NE(e.find("receive from rank 0"), std::string::npos) << e;
+        EXPECT_NE(e.find("disagree on the size"), std::string::npos) << e;
+      } else {
+        EXPECT_EQ(e, "");
+      }
+      EXPECT_FALSE(t->in_flight());
+      exchange_and_check(*t, ring(ctx.size(), 2, 990 + unsigned(expect)), 30);
+    }
+    cudaFree(out);
+    cudaFree(in);
   }
 }
 #endif
