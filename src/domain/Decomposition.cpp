@@ -35,6 +35,16 @@ BlockGrid::BlockGrid(const Vec3d& lo, const Vec3d& hi, double block) : lo_(lo), 
                 std::to_string(n_[2]) + " blocks; make [parallel] block_cells larger");
 }
 
+BlockGrid BlockGrid::coarsened(int m) const {
+  if (m < 1)
+    throw Error("decomposition: blocks are grouped by at least 1, got " + std::to_string(m));
+  BlockGrid g = *this;
+  g.edge_ = edge_ * m;
+  for (int d = 0; d < 3; ++d)
+    g.n_[d] = (n_[d] + m - 1) / m;
+  return g;
+}
+
 std::array<int, 3> BlockGrid::coords(int b) const {
   return {b % n_[0], (b / n_[0]) % n_[1], b / (n_[0] * n_[1])};
 }
@@ -115,6 +125,33 @@ Decomposition Decomposition::partition(const BlockGrid& grid,
                                        const std::vector<std::array<double, kPhases>>& all_counts,
                                        const PhaseCosts& costs, int ranks, double ghost_width,
                                        double tolerance) {
+  const int nb = grid.count();
+  if (nb <= kMostGraphVertices || ranks == 1 ||
+      all_counts.size() != static_cast<std::size_t>(nb)) // partition_blocks says what is wrong
+    return partition_blocks(grid, all_counts, costs, ranks, ghost_width, tolerance);
+  int m = 2;
+  while (grid.coarsened(m).count() > kMostGraphVertices)
+    ++m;
+  const BlockGrid groups = grid.coarsened(m);
+  std::vector<std::array<double, kPhases>> sums(std::size_t(groups.count()), {0, 0, 0});
+  std::vector<int> group_of(static_cast<std::size_t>(nb));
+  for (int b = 0; b < nb; ++b) {
+    const auto c = grid.coords(b);
+    group_of[b] = groups.index(c[0] / m, c[1] / m, c[2] / m);
+    for (int p = 0; p < kPhases; ++p)
+      sums[group_of[b]][p] += all_counts[b][p];
+  }
+  const Decomposition g = partition_blocks(groups, sums, costs, ranks, ghost_width, tolerance);
+  Decomposition d(grid);
+  d.ranks_ = ranks;
+  for (int b = 0; b < nb; ++b)
+    d.owner_[b] = g.owner_[group_of[b]];
+  return d;
+}
+
+Decomposition Decomposition::partition_blocks(
+    const BlockGrid& grid, const std::vector<std::array<double, kPhases>>& all_counts,
+    const PhaseCosts& costs, int ranks, double ghost_width, double tolerance) {
   const int nb = grid.count();
   if (static_cast<int>(all_counts.size()) != nb)
     throw Error("decomposition: " + std::to_string(all_counts.size()) + " block counts for " +

@@ -283,7 +283,10 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   if (c_fluid > 0 && c_knit > 0)
     costs_.per_particle[static_cast<int>(Phase::Knit)] =
         c_knit / c_fluid / std::max(1, costs_.knit_substeps);
+  const auto partitioning = std::chrono::steady_clock::now();
   decomposition_.emplace(Decomposition::partition(grid, per_block, costs(), ranks(), fluid_width_));
+  const double partition_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - partitioning).count();
   select_.set(*decomposition_, rank());
   migration_peers_ = neighbour_ranks(*decomposition_, rank(), grid.edge());
   // A block may change hands across the domain: every rank is a peer of this one exchange.
@@ -303,6 +306,7 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   checks_held_ = 0;
   last_repartition_seconds_ =
       mpi_.max(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+  last_partition_seconds_ = mpi_.max(partition_seconds);
   return b;
 }
 

@@ -210,6 +210,8 @@ public:
   std::uint64_t declined_repartitions() const { return declined_; }
   /// The job's slowest rank's seconds in the last re-partition (0: none yet).
   double last_repartition_seconds() const { return last_repartition_seconds_; }
+  /// What METIS took of it (the slowest rank's seconds).
+  double last_partition_seconds() const { return last_partition_seconds_; }
   /// The split's seconds by part (within exchange_seconds(); the knit's ghosts are the rest).
   struct Parts {
     double migration = 0; // fluid leaving, migrating, its ghosts chosen and received
@@ -300,7 +302,7 @@ private:
   Parts parts_; // all but packing (the copier's)
   double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
   std::uint64_t repartitions_ = 0, declined_ = 0;
-  double last_repartition_seconds_ = 0;
+  double last_repartition_seconds_ = 0, last_partition_seconds_ = 0;
   std::uint64_t checks_held_ = 0; // imbalance checks since the last re-partition (this one too)
   double block_scale_ = 0;        // a block's edge over parallel.block_cells
   bool keeps_ghosts_ = false;

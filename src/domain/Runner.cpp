@@ -353,12 +353,15 @@ std::string format_summary(const RunSummary& s) {
                     "ranks: compute imbalance %.3f at the last check, %llu re-partition(s)",
                     d.imbalance, static_cast<unsigned long long>(d.repartitions));
       o << buf;
+      if (d.repartitions > 0) {
+        std::snprintf(buf, sizeof buf, " (the last took %.3g s, METIS %.3g s of it)",
+                      d.repartition_seconds, d.partition_seconds);
+        o << buf;
+      }
       if (d.declined_repartitions > 0) {
         std::snprintf(buf, sizeof buf,
-                      ", %llu declined (the imbalance lost less than a re-partition costs: the "
-                      "last took %.3g s)",
-                      static_cast<unsigned long long>(d.declined_repartitions),
-                      d.repartition_seconds);
+                      ", %llu declined (the imbalance lost less than a re-partition costs)",
+                      static_cast<unsigned long long>(d.declined_repartitions));
         o << buf;
       }
       o << "\n";

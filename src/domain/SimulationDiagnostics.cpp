@@ -87,6 +87,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
         d.repartitions = ranks_->repartitions();
         d.declined_repartitions = ranks_->declined_repartitions();
         d.repartition_seconds = ranks_->last_repartition_seconds();
+        d.partition_seconds = ranks_->last_partition_seconds();
       }
     }
   }
@@ -140,6 +141,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.repartitions = ranks_->repartitions();
     d.declined_repartitions = ranks_->declined_repartitions();
     d.repartition_seconds = ranks_->last_repartition_seconds();
+    d.partition_seconds = ranks_->last_partition_seconds();
   }
   return d;
 }
