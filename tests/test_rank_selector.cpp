@@ -191,6 +191,37 @@ TEST(RankSelector, DeparturesAreTheHostsOwnersAndOpenSides) {
   }
 }
 
+// A re-partition's counts, made where the particles are: each block's are the host's count of
+// the points BlockGrid::block_of puts in it (points outside the box clamped into its edge blocks),
+// only the flagged ones where flags are given, with every block counted (none left stale).
+TEST(RankSelector, BlockCountsAreTheHostsCounts) {
+  const BlockGrid g({0, 0, 0}, {0.6, 0.3, 0.4}, 0.05);
+  const auto xd = uniform_points(30000, {-0.03, -0.03, -0.03}, {0.63, 0.33, 0.43}, 9);
+  std::vector<std::uint32_t> only(xd.size());
+  for (std::size_t i = 0; i < only.size(); ++i)
+    only[i] = (i * 7919) % 3 != 0;
+  for (exec::Backend b : backends()) {
+    SCOPED_TRACE(std::string(exec::to_string(b)));
+    const Decomposition d = split(g, xd, 3);
+    RankSelector<float> sel(b);
+    sel.set(d, 1);
+    exec::DeviceBuffer<Vec3<float>> x(b, 0, "test.x");
+    x.assign(as<float>(xd));
+    exec::DeviceBuffer<std::uint32_t> flags(b, 0, "test.only");
+    flags.assign(only);
+    for (bool flagged : {false, true}) {
+      std::vector<std::uint32_t> want(std::size_t(g.count()), 0);
+      for (std::size_t i = 0; i < xd.size(); ++i)
+        if (!flagged || only[i])
+          ++want[std::size_t(g.block_of(vec_cast<double>(vec_cast<float>(xd[i]))))];
+      // Twice: the second call finds the counts of the first and must start from zero.
+      for (int round = 0; round < 2; ++round)
+        EXPECT_EQ(sel.block_counts(x, xd.size(), flagged ? flags.data() : nullptr), want)
+            << (flagged ? "flagged" : "all") << ", round " << round;
+    }
+  }
+}
+
 // Widths below, at and above a block edge (0.05): one and two blocks of reach.
 TEST(RankSelector, GhostsAreSelectGhostsLists) {
   for (exec::Backend b : backends()) {

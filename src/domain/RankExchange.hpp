@@ -250,10 +250,13 @@ private:
   /// The boundary ghosts of this rank's region from their owners, appended after the `owned`
   /// particles (which come first in the set).
   void receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t owned);
-  /// The owned boundary (positions x, host memory) to its blocks' owners among `peers`, the
-  /// ghosts dropped and received anew.
-  void migrate_boundary(BoundarySet<T>& boundary, std::span<const Vec3<T>> x,
-                        const std::vector<int>& peers);
+  /// The owned boundary to its blocks' owners among `peers` (chosen on the backend), the ghosts
+  /// dropped and received anew.
+  void migrate_boundary(BoundarySet<T>& boundary, const std::vector<int>& peers);
+  /// boundary_owned_ as flags on the backend (1 owned, 0 a ghost), valid until the next call.
+  const std::uint32_t* boundary_owned_flags();
+  exec::DeviceBuffer<std::uint32_t> boundary_owned_flags_{exec::Backend::Cpu, 0,
+                                                          "ranks.boundary_owned"};
   /// After a sort of `rows` rows that kept the first `kept` of perm, the halo's lists (of kept
   /// rows) follow their particles; its ghosts were received at row `first_ghost`.
   void remap(comm::HaloExchange& halo, const exec::DeviceBuffer<std::uint32_t>& perm,

@@ -13,8 +13,8 @@ RankSelector<T>::RankSelector(exec::Backend backend)
       slot_(backend, 0, "ranks.peer_slot"), dest_(backend, 0, "ranks.destination"),
       picked_dest_(backend, 0, "ranks.leaver_destination"), flags_(backend, 0, "ranks.flags"),
       offsets_(backend, 0, "ranks.offsets"), idx_(backend, 0, "ranks.indices"),
-      stay_(backend, 0, "ranks.stay"), mask_(backend, 0, "ranks.ghost_mask"),
-      picked_m_(backend, 0, "ranks.leaver_mass") {}
+      stay_(backend, 0, "ranks.stay"), counts_(backend, 0, "ranks.block_counts"),
+      mask_(backend, 0, "ranks.ghost_mask"), picked_m_(backend, 0, "ranks.leaver_mass") {}
 
 template <typename T>
 void RankSelector<T>::set(const Decomposition& d, int rank) {
@@ -23,6 +23,22 @@ void RankSelector<T>::set(const Decomposition& d, int rank) {
   grid_ = d.grid().view();
   owner_.assign(d.owners());
   peers_.clear();
+}
+
+template <typename T>
+std::vector<std::uint32_t> RankSelector<T>::block_counts(const exec::DeviceBuffer<Vec3<T>>& x,
+                                                         std::size_t n, const std::uint32_t* only) {
+  if (!decomposition_)
+    throw Error("internal: blocks counted before the blocks' owners were set");
+  const exec::Exec ex{backend_};
+  const std::size_t blocks = static_cast<std::size_t>(decomposition_->grid().count());
+  counts_.resize(blocks);
+  exec::fill_flags(ex, counts_.data(), blocks, 0u, "ranks.block_counts");
+  kf::block_counts(ex, x.data(), n, grid_, only, counts_.data());
+  std::vector<std::uint32_t> out(blocks);
+  exec::copy_bytes(out.data(), exec::Backend::Cpu, counts_.data(), backend_,
+                   blocks * sizeof(std::uint32_t));
+  return out;
 }
 
 template <typename T>

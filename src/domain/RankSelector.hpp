@@ -36,6 +36,11 @@ public:
   Departures departures(const exec::DeviceBuffer<Vec3<T>>& x, const exec::DeviceBuffer<T>& m,
                         std::size_t n, const Vec3<T>& lo, const Vec3<T>& hi,
                         const std::array<bool, 6>& walls, const std::uint32_t* owned = nullptr);
+  /// The points per block of the partition set last, of the first n positions (where `only` is
+  /// given, on the backend: the rows with only[i] != 0), counted on the backend: a block a count
+  /// comes to the host, not the positions.
+  std::vector<std::uint32_t> block_counts(const exec::DeviceBuffer<Vec3<T>>& x, std::size_t n,
+                                          const std::uint32_t* only = nullptr);
   /// For the first n positions (owned by this rank): the local indices each neighbouring rank
   /// needs as ghosts, those within `width` of its blocks (select_ghosts' lists, ascending), held
   /// by `rows` (a device copier keeps them on the device: P9, their trip through the host at
@@ -64,7 +69,7 @@ private:
   int rank_ = 0;
   BlockGridView grid_;
   exec::DeviceBuffer<int> owner_, slot_, dest_, picked_dest_;
-  exec::DeviceBuffer<std::uint32_t> flags_, offsets_, idx_, stay_;
+  exec::DeviceBuffer<std::uint32_t> flags_, offsets_, idx_, stay_, counts_;
   exec::DeviceBuffer<std::uint64_t> mask_;
   exec::DeviceBuffer<T> picked_m_;
   // The neighbours within a width, found over the blocks once a partition and width.

@@ -33,6 +33,19 @@ struct Destination {
 };
 
 template <typename T>
+struct BlockCount {
+  const Vec3<T>* x;
+  BlockGridView grid;
+  const std::uint32_t* only;
+  std::uint32_t* counts;
+  KF_HD KF_INLINE void operator()(std::size_t i) const {
+    if (only && !only[i])
+      return;
+    exec::atomic_fetch_add(counts + grid.block_of(vec_cast<double>(x[i])), 1u);
+  }
+};
+
+template <typename T>
 struct GhostMask {
   const Vec3<T>* x;
   BlockOwners owners;
@@ -103,6 +116,12 @@ void block_destinations(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
 }
 
 template <typename T>
+void block_counts(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const BlockGridView& grid,
+                  const std::uint32_t* only, std::uint32_t* counts) {
+  exec::for_each(ex, n, BlockCount<T>{x, grid, only, counts}, "ranks.block_counts");
+}
+
+template <typename T>
 void ghost_peer_masks(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                       const BlockOwners& owners, double width, int reach, const int* slot_of_rank,
                       int first_slot, std::uint64_t* mask, const std::uint32_t* alive,
@@ -132,6 +151,8 @@ void flag_below(const exec::Exec& ex, const std::uint32_t* perm, std::size_t n, 
                                       const BlockOwners&, const Vec3<T>&, const Vec3<T>&,          \
                                       const std::array<bool, 6>&, int, int*, std::uint32_t*,       \
                                       const std::uint32_t*, std::uint32_t*);                       \
+  template void block_counts<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                    \
+                                const BlockGridView&, const std::uint32_t*, std::uint32_t*);       \
   template void ghost_peer_masks<T>(const exec::Exec&, const Vec3<T>*, std::size_t,                \
                                     const BlockOwners&, double, int, const int*, int,              \
                                     std::uint64_t*, const std::uint32_t*, const WiderCells<T>&);

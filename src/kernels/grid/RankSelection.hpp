@@ -34,6 +34,13 @@ void block_destinations(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,
                         const std::array<bool, 6>& walls, int me, int* dest, std::uint32_t* leaving,
                         const std::uint32_t* owned = nullptr, std::uint32_t* stay = nullptr);
 
+/// counts[b] += the points among the first n of x in block b of `grid` (where `only` is given,
+/// those with only[i] != 0): a re-partition's counts, where the positions are (counts zeroed by
+/// the caller, one a block, in ex.backend's memory).
+template <typename T>
+void block_counts(const exec::Exec& ex, const Vec3<T>* x, std::size_t n, const BlockGridView& grid,
+                  const std::uint32_t* only, std::uint32_t* counts);
+
 /// A wider ghost width for the points of some cells: those in a cell of `geo` flagged in `cells`
 /// (per linear cell; null: none) go to the ranks within `width` of them. The fluid beside walls:
 /// a peer's ghost walls then find all their fluid there and compute their own pressure.
