@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <exception>
 #include <thread>
 
 namespace kf::comm {
@@ -123,9 +124,11 @@ IpcTransport::~IpcTransport() {
   MPI_Finalized(&finalized);
   // A peer's mailboxes and events may be freed only once nothing here still maps them: each
   // rank lets go of what it opened, then they meet, then each frees its own. A job failing on
-  // another rank never meets: this rank's own then go with the process.
+  // another rank never meets: this rank's own then go with the process. Destroyed while an
+  // exception unwinds (this rank failing: the job is about to be aborted) it does not wait for
+  // the others at all, so the abort and its message come at once.
   bool met = false;
-  if (!finalized) {
+  if (!finalized && std::uncaught_exceptions() == 0) {
     release(false);
     MPI_Request request = MPI_REQUEST_NULL;
     if (MPI_Ibarrier(comm(), &request) == MPI_SUCCESS) {
