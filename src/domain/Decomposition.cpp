@@ -302,6 +302,10 @@ bool Decomposition::repartition_pays(double most, double mean, std::uint64_t int
   return !(last_cost > 0) || (most - mean) * static_cast<double>(intervals_held) >= last_cost;
 }
 
+bool Decomposition::repartition_promises(double counted, double tolerance) {
+  return counted > 1.0 + 2.0 * (tolerance - 1.0);
+}
+
 double Decomposition::imbalance(const std::vector<double>& per_rank) {
   if (per_rank.empty())
     return 1.0;

@@ -84,7 +84,9 @@ public:
   static Decomposition partition(const BlockGrid& grid,
                                  const std::vector<std::array<double, kPhases>>& counts,
                                  const PhaseCosts& costs, int ranks, double ghost_width,
-                                 double tolerance = 1.03);
+                                 double tolerance = kTolerance);
+  /// METIS's load imbalance allowance by default: 3%.
+  static constexpr double kTolerance = 1.03;
   /// METIS's time grows with the graph, and every rank pays it at each re-partition: the 8M dam
   /// break's 100,800 blocks took 0.23 s on one core of the 2-core VM, its 13,200 groups of 2 x 2
   /// x 2 0.02 s (balanced within 2.3% against 1.5%; docs/PERFORMANCE.md). 20,000 groups leave
@@ -94,7 +96,7 @@ public:
   static Decomposition partition_blocks(const BlockGrid& grid,
                                         const std::vector<std::array<double, kPhases>>& counts,
                                         const PhaseCosts& costs, int ranks, double ghost_width,
-                                        double tolerance = 1.03);
+                                        double tolerance = kTolerance);
 
   const BlockGrid& grid() const { return grid_; }
   int ranks() const { return ranks_; }
@@ -127,6 +129,12 @@ public:
   /// `last_cost`, the seconds the last re-partition took (0: none yet, which always pays).
   static bool repartition_pays(double most, double mean, std::uint64_t intervals_held,
                                double last_cost);
+  /// Whether a new partition promises a better balance of the counts than the current one's
+  /// `counted` imbalance (rank_costs' slowest over the mean): METIS lands within its allowance
+  /// (1.028-1.031 measured for 3%), so a partition counted within twice it has at most that to
+  /// gain, and a measured imbalance past the trigger is not the particles' (ranks sharing a GPU
+  /// stretch each other's passes: docs/PERFORMANCE.md, P5 on one H200).
+  static bool repartition_promises(double counted, double tolerance = kTolerance);
 
 private:
   BlockGrid grid_;

@@ -208,6 +208,11 @@ public:
   std::uint64_t repartitions() const { return repartitions_; }
   /// Checks past the threshold where a re-partition would not have paid ([parallel] payback).
   std::uint64_t declined_repartitions() const { return declined_; }
+  /// Checks past the threshold where the particles' counts were balanced already (within twice
+  /// METIS's allowance: Decomposition::repartition_promises; [parallel] payback).
+  std::uint64_t balanced_declines() const { return declined_balanced_; }
+  /// The current partition's imbalance by the counts at the last check that counted (0: none).
+  double last_counted_imbalance() const { return last_counted_imbalance_; }
   /// The job's slowest rank's seconds in the last re-partition (0: none yet).
   double last_repartition_seconds() const { return last_repartition_seconds_; }
   /// What METIS took of it (the slowest rank's seconds).
@@ -253,7 +258,8 @@ private:
   /// The owned boundary to its blocks' owners among `peers` (chosen on the backend), the ghosts
   /// dropped and received anew.
   void migrate_boundary(BoundarySet<T>& boundary, const std::vector<int>& peers);
-  /// boundary_owned_ as flags on the backend (1 owned, 0 a ghost), valid until the next call.
+  /// boundary_owned_ as flags on the backend (1 owned, 0 a ghost), valid while boundary_owned_
+  /// stands (uploaded once after each change).
   const std::uint32_t* boundary_owned_flags();
   exec::DeviceBuffer<std::uint32_t> boundary_owned_flags_{exec::Backend::Cpu, 0,
                                                           "ranks.boundary_owned"};
@@ -304,7 +310,8 @@ private:
   std::unique_ptr<comm::RowCopier> rows_;
   Parts parts_; // all but packing (the copier's)
   double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
-  std::uint64_t repartitions_ = 0, declined_ = 0;
+  std::uint64_t repartitions_ = 0, declined_ = 0, declined_balanced_ = 0;
+  double last_counted_imbalance_ = 0;
   double last_repartition_seconds_ = 0, last_partition_seconds_ = 0;
   std::uint64_t checks_held_ = 0; // imbalance checks since the last re-partition (this one too)
   double block_scale_ = 0;        // a block's edge over parallel.block_cells
@@ -329,6 +336,7 @@ private:
   std::optional<comm::HaloExchange> fluid_halo_, boundary_halo_;
   std::size_t fluid_owned_ = 0, boundary_own_count_ = 0;
   std::vector<std::uint8_t> boundary_owned_;
+  bool boundary_flags_uploaded_ = false; // boundary_owned_flags_ holds boundary_owned_
   // The fluid's 1 owned, 0 ghost, in the set's order (as keep_flagged takes them), on the
   // backend; a sort's inverse permutation.
   exec::DeviceBuffer<std::uint32_t> keep_, inverse_;

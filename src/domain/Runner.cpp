@@ -364,6 +364,13 @@ std::string format_summary(const RunSummary& s) {
                       static_cast<unsigned long long>(d.declined_repartitions));
         o << buf;
       }
+      if (d.balanced_declines > 0) {
+        std::snprintf(buf, sizeof buf,
+                      ", %llu declined (the particles balanced already: %.3f by their counts at "
+                      "the last)",
+                      static_cast<unsigned long long>(d.balanced_declines), d.counted_imbalance);
+        o << buf;
+      }
       o << "\n";
     }
     if (d.outflow_particles) {

@@ -264,7 +264,8 @@ struct Scene {
     int check_every = 100;
     // A re-partition must pay for itself: the time the imbalance loses (the slowest rank's
     // compute over the mean, a check's interval) times the intervals the last re-partition held
-    // must reach what the last re-partition cost (false: at every check past `imbalance`).
+    // must reach what the last re-partition cost, and the particles' counts must be off balance
+    // by more than twice METIS's allowance (false: at every check past `imbalance`).
     bool payback = true;
     // How the ranks' messages move: "auto" (NCCL between device buffers when every rank has a
     // GPU of its own; CUDA IPC, device to device, when ranks of one node share GPUs; else MPI

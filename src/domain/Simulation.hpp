@@ -54,9 +54,11 @@ struct Diagnostics {
   std::uint64_t absorbed_particles = 0, emitted_particles = 0;
   // Several ranks: the compute imbalance measured at the last check (slowest over the mean), the
   // re-partitions so far, the checks past the threshold where one would not have paid
-  // ([parallel] payback), and what the last one cost (the slowest rank's seconds; METIS's part).
-  double imbalance = 0;
-  std::uint64_t repartitions = 0, declined_repartitions = 0;
+  // ([parallel] payback: its time would not come back, or the particles' counts were balanced
+  // already, `balanced_declines` of them, the counted imbalance then `counted_imbalance`), and
+  // what the last one cost (the slowest rank's seconds; METIS's part).
+  double imbalance = 0, counted_imbalance = 0;
+  std::uint64_t repartitions = 0, declined_repartitions = 0, balanced_declines = 0;
   double repartition_seconds = 0, partition_seconds = 0;
   double diffused_mass = 0; // moved between knit points [kg]
 };

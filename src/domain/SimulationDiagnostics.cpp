@@ -86,6 +86,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
         d.imbalance = ranks_->last_imbalance();
         d.repartitions = ranks_->repartitions();
         d.declined_repartitions = ranks_->declined_repartitions();
+        d.balanced_declines = ranks_->balanced_declines();
+        d.counted_imbalance = ranks_->last_counted_imbalance();
         d.repartition_seconds = ranks_->last_repartition_seconds();
         d.partition_seconds = ranks_->last_partition_seconds();
       }
@@ -140,6 +142,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.imbalance = ranks_->last_imbalance();
     d.repartitions = ranks_->repartitions();
     d.declined_repartitions = ranks_->declined_repartitions();
+    d.balanced_declines = ranks_->balanced_declines();
+    d.counted_imbalance = ranks_->last_counted_imbalance();
     d.repartition_seconds = ranks_->last_repartition_seconds();
     d.partition_seconds = ranks_->last_partition_seconds();
   }

@@ -22,6 +22,7 @@
 //   the one-rank GPU run, also bit for bit: the GPU's passes gather in the same cell order.
 #include "comm/MpiContext.hpp"
 #include "core/Error.hpp"
+#include "domain/Decomposition.hpp"
 #include "domain/Simulation.hpp"
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
@@ -310,6 +311,26 @@ TEST(Distributed, RepartitioningKeepsTheOneRankRun) {
   const Diagnostics d = split->diagnostics();
   EXPECT_EQ(d.repartitions, 2u) << "checks at steps 20 and 40";
   EXPECT_GE(d.imbalance, 1.0);
+  EXPECT_EQ(d.balanced_declines, 0u) << "payback off: at every check";
+  // Paid for (the default), in a full tank without gravity (the fluid at rest, balanced by the
+  // start's partition): the first re-partition would pay (nothing measured yet), and a threshold
+  // of 1 passes at each check, but the counts stay balanced: both checks decline.
+  Scene still = test::tank_scene({0.2, 0.1, 0.2}, {0.2, 0.1, 0.2}, 0.01);
+  still.gravity = {0, 0, 0};
+  still.parallel.block_cells = 1;
+  still.parallel.imbalance = 1.0;
+  still.parallel.check_every = 20;
+  ASSERT_TRUE(still.parallel.payback) << "the default";
+  auto paid = Simulation::create(still, exec::Backend::Cpu, &mpi);
+  for (int k = 0; k < 60; ++k)
+    paid->step(1e9);
+  const Diagnostics p = paid->diagnostics();
+  std::printf("counted imbalance at the last check: %.4f\n", p.counted_imbalance);
+  EXPECT_EQ(p.repartitions, 0u);
+  EXPECT_EQ(p.balanced_declines, 2u) << "checks at steps 20 and 40";
+  EXPECT_EQ(p.declined_repartitions, 0u) << "none declined for its time";
+  EXPECT_GE(p.counted_imbalance, 1.0);
+  EXPECT_FALSE(Decomposition::repartition_promises(p.counted_imbalance));
 }
 
 // `run --profile-device` times each refresh's pass and the exchange after it: each inside its
