@@ -301,6 +301,7 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
       Decomposition::imbalance(decomposition_->rank_costs(per_block, costs()));
   if (scene_.parallel.payback && !Decomposition::repartition_promises(last_counted_imbalance_)) {
     ++declined_balanced_;
+    declined_counted_ = std::max(declined_counted_, last_counted_imbalance_);
     return b;
   }
   part_now.emplace("balance: METIS (re-partition)");

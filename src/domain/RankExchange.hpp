@@ -213,6 +213,8 @@ public:
   std::uint64_t balanced_declines() const { return declined_balanced_; }
   /// The current partition's imbalance by the counts at the last check that counted (0: none).
   double last_counted_imbalance() const { return last_counted_imbalance_; }
+  /// The largest counted imbalance among those declines (0: none).
+  double declined_counted_imbalance() const { return declined_counted_; }
   /// The job's slowest rank's seconds in the last re-partition (0: none yet).
   double last_repartition_seconds() const { return last_repartition_seconds_; }
   /// What METIS took of it (the slowest rank's seconds).
@@ -311,7 +313,7 @@ private:
   Parts parts_; // all but packing (the copier's)
   double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
   std::uint64_t repartitions_ = 0, declined_ = 0, declined_balanced_ = 0;
-  double last_counted_imbalance_ = 0;
+  double last_counted_imbalance_ = 0, declined_counted_ = 0;
   double last_repartition_seconds_ = 0, last_partition_seconds_ = 0;
   std::uint64_t checks_held_ = 0; // imbalance checks since the last re-partition (this one too)
   double block_scale_ = 0;        // a block's edge over parallel.block_cells

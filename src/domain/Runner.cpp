@@ -366,9 +366,9 @@ std::string format_summary(const RunSummary& s) {
       }
       if (d.balanced_declines > 0) {
         std::snprintf(buf, sizeof buf,
-                      ", %llu declined (the particles balanced already: %.3f by their counts at "
-                      "the last)",
-                      static_cast<unsigned long long>(d.balanced_declines), d.counted_imbalance);
+                      ", %llu declined (the particles balanced already: within %.3f by their "
+                      "counts)",
+                      static_cast<unsigned long long>(d.balanced_declines), d.declined_counted);
         o << buf;
       }
       o << "\n";

@@ -55,9 +55,10 @@ struct Diagnostics {
   // Several ranks: the compute imbalance measured at the last check (slowest over the mean), the
   // re-partitions so far, the checks past the threshold where one would not have paid
   // ([parallel] payback: its time would not come back, or the particles' counts were balanced
-  // already, `balanced_declines` of them, the counted imbalance then `counted_imbalance`), and
-  // what the last one cost (the slowest rank's seconds; METIS's part).
-  double imbalance = 0, counted_imbalance = 0;
+  // already, `balanced_declines` of them, the counted imbalance at the last check that counted
+  // `counted_imbalance`, the largest among those declines `declined_counted`), and what the last
+  // one cost (the slowest rank's seconds; METIS's part).
+  double imbalance = 0, counted_imbalance = 0, declined_counted = 0;
   std::uint64_t repartitions = 0, declined_repartitions = 0, balanced_declines = 0;
   double repartition_seconds = 0, partition_seconds = 0;
   double diffused_mass = 0; // moved between knit points [kg]

@@ -88,6 +88,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
         d.declined_repartitions = ranks_->declined_repartitions();
         d.balanced_declines = ranks_->balanced_declines();
         d.counted_imbalance = ranks_->last_counted_imbalance();
+        d.declined_counted = ranks_->declined_counted_imbalance();
         d.repartition_seconds = ranks_->last_repartition_seconds();
         d.partition_seconds = ranks_->last_partition_seconds();
       }
@@ -144,6 +145,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.declined_repartitions = ranks_->declined_repartitions();
     d.balanced_declines = ranks_->balanced_declines();
     d.counted_imbalance = ranks_->last_counted_imbalance();
+    d.declined_counted = ranks_->declined_counted_imbalance();
     d.repartition_seconds = ranks_->last_repartition_seconds();
     d.partition_seconds = ranks_->last_partition_seconds();
   }
