@@ -156,7 +156,23 @@ TEST(Decomposition, EachPhaseIsBalancedOnItsOwn) {
     EXPECT_LT(all, 1.05) << ranks << " ranks";
     EXPECT_LT(f, 1.05) << ranks << " ranks: the fluid's stages";
     EXPECT_LT(kn, 1.05) << ranks << " ranks: the knit's substeps";
+    EXPECT_NEAR(d.worst_phase_imbalance(counts, costs), std::max(f, kn), 1e-12);
+    EXPECT_FALSE(Decomposition::repartition_promises(d.worst_phase_imbalance(counts, costs)));
   }
+  // A partition that balanced the summed cost alone (the knit's weight counted as fluid: METIS
+  // cuts the box across its length, the fluid's half from the knit's): balanced by the sum, but
+  // each rank idle through the other's stages. The re-partition's rule reads the phases.
+  Counts lumped(g.count(), {0, 0, 0});
+  for (int b = 0; b < g.count(); ++b)
+    lumped[b][static_cast<int>(Phase::Fluid)] =
+        counts[b][static_cast<int>(Phase::Fluid)] + 4.0 * counts[b][static_cast<int>(Phase::Knit)];
+  const Decomposition by_sum = Decomposition::partition(g, lumped, PhaseCosts{}, 2, 0.02);
+  const double sum = Decomposition::imbalance(by_sum.rank_costs(counts, costs));
+  const double phases = by_sum.worst_phase_imbalance(counts, costs);
+  std::printf("balanced by the sum: %.4f summed, %.3f by its worst phase\n", sum, phases);
+  EXPECT_LT(sum, 1.05);
+  EXPECT_GT(phases, 1.8) << "the cut across the box's length: each phase on one rank";
+  EXPECT_TRUE(Decomposition::repartition_promises(phases));
 }
 
 // A dam break's tank: the walls far from the fluid cost the walls' pass next to nothing (it skips

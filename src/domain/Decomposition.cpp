@@ -297,6 +297,19 @@ Decomposition::rank_costs(const std::vector<std::array<double, kPhases>>& all_co
   return per;
 }
 
+double Decomposition::worst_phase_imbalance(const std::vector<std::array<double, kPhases>>& counts,
+                                            const PhaseCosts& costs) const {
+  PhaseCosts stages = costs, knit = costs; // partition_blocks' two constraints
+  stages.per_particle[static_cast<int>(Phase::Knit)] = 0;
+  knit.per_particle[static_cast<int>(Phase::Fluid)] = 0;
+  knit.per_particle[static_cast<int>(Phase::Boundary)] = 0;
+  double worst = imbalance(rank_costs(counts, stages));
+  const auto k = rank_costs(counts, knit);
+  if (std::accumulate(k.begin(), k.end(), 0.0) > 0)
+    worst = std::max(worst, imbalance(k));
+  return worst;
+}
+
 bool Decomposition::repartition_pays(double most, double mean, std::uint64_t intervals_held,
                                      double last_cost) {
   return !(last_cost > 0) || (most - mean) * static_cast<double>(intervals_held) >= last_cost;

@@ -121,6 +121,12 @@ public:
   /// Cost per rank of the given per-block counts (their working_counts).
   std::vector<double> rank_costs(const std::vector<std::array<double, kPhases>>& counts,
                                  const PhaseCosts& costs) const;
+  /// The worst of the loads METIS balances, each over its mean: the fluid's stages (fluid and
+  /// boundary particles) and, where there is knit, the knit's substeps. The summed cost can
+  /// hide a rank with all of one and another with all of the other, each idle through the
+  /// other's stages.
+  double worst_phase_imbalance(const std::vector<std::array<double, kPhases>>& counts,
+                               const PhaseCosts& costs) const;
   /// Slowest rank over the mean (1: perfect balance).
   static double imbalance(const std::vector<double>& per_rank);
   /// Whether a re-partition pays for itself: it saves about what the slowest rank spends over
@@ -130,10 +136,10 @@ public:
   static bool repartition_pays(double most, double mean, std::uint64_t intervals_held,
                                double last_cost);
   /// Whether a new partition promises a better balance of the counts than the current one's
-  /// `counted` imbalance (rank_costs' slowest over the mean): METIS lands within its allowance
-  /// (1.028-1.031 measured for 3%), so a partition counted within twice it has at most that to
-  /// gain, and a measured imbalance past the trigger is not the particles' (ranks sharing a GPU
-  /// stretch each other's passes: docs/PERFORMANCE.md, P5 on one H200).
+  /// `counted` imbalance (worst_phase_imbalance, as METIS balances): METIS lands within its
+  /// allowance (1.028-1.031 measured for 3%), so a partition counted within twice it has at most
+  /// that to gain, and a measured imbalance past the trigger is not the particles' (ranks sharing a
+  /// GPU stretch each other's passes: docs/PERFORMANCE.md, P5 on one H200).
   static bool repartition_promises(double counted, double tolerance = kTolerance);
 
 private:

@@ -294,11 +294,10 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   if (c_fluid > 0 && c_knit > 0)
     costs_.per_particle[static_cast<int>(Phase::Knit)] =
         c_knit / c_fluid / std::max(1, costs_.knit_substeps);
-  // The particles balanced on the ranks already (by the costs just measured): a new partition
-  // would balance them no better, and the time measured is not theirs. Only the counts were
-  // spent (3.5 ms of the 8M dam break's 61 ms re-partition on 2 ranks sharing an H200).
-  last_counted_imbalance_ =
-      Decomposition::imbalance(decomposition_->rank_costs(per_block, costs()));
+  // The particles balanced on the ranks already (each phase, by the costs just measured): a new
+  // partition would balance them no better, and the time measured is not theirs. Only the counts
+  // were spent (3.5 ms of the 8M dam break's 61 ms re-partition on 2 ranks sharing an H200).
+  last_counted_imbalance_ = decomposition_->worst_phase_imbalance(per_block, costs());
   if (scene_.parallel.payback && !Decomposition::repartition_promises(last_counted_imbalance_)) {
     ++declined_balanced_;
     declined_counted_ = std::max(declined_counted_, last_counted_imbalance_);
