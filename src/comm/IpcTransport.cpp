@@ -147,6 +147,11 @@ IpcTransport::~IpcTransport() {
 }
 
 void IpcTransport::release(bool peers_done) noexcept {
+  const auto destroy = [](cudaEvent_t& e) {
+    if (e)
+      (void)cudaEventDestroy(e);
+    e = nullptr;
+  };
   if (stream_)
     (void)cudaStreamSynchronize(stream_);
   for (auto& [key, box] : outboxes_)
@@ -155,10 +160,7 @@ void IpcTransport::release(bool peers_done) noexcept {
       box.data = nullptr;
     }
   for (cudaEvent_t& e : peer_copied_)
-    if (e) {
-      (void)cudaEventDestroy(e);
-      e = nullptr;
-    }
+    destroy(e);
   if (!peers_done)
     return;
   for (auto& [key, box] : inboxes_) {
@@ -168,20 +170,12 @@ void IpcTransport::release(bool peers_done) noexcept {
     if (box.data)
       (void)cudaFree(box.data);
     box.data = nullptr;
-    if (box.drained)
-      (void)cudaEventDestroy(box.drained);
-    box.drained = nullptr;
+    destroy(box.drained);
   }
   for (cudaEvent_t& e : copied_)
-    if (e) {
-      (void)cudaEventDestroy(e);
-      e = nullptr;
-    }
-  for (cudaEvent_t* e : {&filled_, &moved_})
-    if (*e) {
-      (void)cudaEventDestroy(*e);
-      *e = nullptr;
-    }
+    destroy(e);
+  destroy(filled_);
+  destroy(moved_);
   if (own_stream_ && stream_) {
     (void)cudaStreamDestroy(stream_);
     stream_ = nullptr;

@@ -313,11 +313,11 @@ std::unique_ptr<Transport> make_transport(const MpiContext& ctx, TransportKind k
   if (layout.no_nccl.empty() && kind != TransportKind::Ipc)
     return std::make_unique<NcclTransport>(ctx, layout.device, stream);
   if (layout.no_ipc.empty() && kind != TransportKind::Nccl) {
-    if (kind == TransportKind::Ipc)
+    try {
       return std::make_unique<IpcTransport>(ctx, stream);
-    try { // the node may refuse (every rank alike): MPI then
-      return std::make_unique<IpcTransport>(ctx, stream);
-    } catch (const Error&) {
+    } catch (const Error&) { // the node refused (every rank alike): MPI then, unless asked for
+      if (kind == TransportKind::Ipc)
+        throw;
     }
   }
 #endif

@@ -297,17 +297,20 @@ Decomposition::rank_costs(const std::vector<std::array<double, kPhases>>& all_co
   return per;
 }
 
-double Decomposition::worst_phase_imbalance(const std::vector<std::array<double, kPhases>>& counts,
-                                            const PhaseCosts& costs) const {
-  PhaseCosts stages = costs, knit = costs; // partition_blocks' two constraints
-  stages.per_particle[static_cast<int>(Phase::Knit)] = 0;
-  knit.per_particle[static_cast<int>(Phase::Fluid)] = 0;
-  knit.per_particle[static_cast<int>(Phase::Boundary)] = 0;
-  double worst = imbalance(rank_costs(counts, stages));
-  const auto k = rank_costs(counts, knit);
-  if (std::accumulate(k.begin(), k.end(), 0.0) > 0)
-    worst = std::max(worst, imbalance(k));
-  return worst;
+double
+Decomposition::worst_phase_imbalance(const std::vector<std::array<double, kPhases>>& all_counts,
+                                     const PhaseCosts& costs) const {
+  // partition_blocks' two constraints, per rank: the fluid's stages and the knit's substeps.
+  const auto counts = working_counts(grid_, all_counts);
+  std::vector<double> stages(ranks_, 0.0), knit(ranks_, 0.0);
+  for (int b = 0; b < grid_.count(); ++b) {
+    const auto& c = counts[b];
+    stages[owner_[b]] += c[static_cast<int>(Phase::Fluid)] * costs.of(Phase::Fluid) +
+                         c[static_cast<int>(Phase::Boundary)] * costs.of(Phase::Boundary);
+    knit[owner_[b]] += c[static_cast<int>(Phase::Knit)] * costs.of(Phase::Knit);
+  }
+  const bool has_knit = std::accumulate(knit.begin(), knit.end(), 0.0) > 0;
+  return std::max(imbalance(stages), has_knit ? imbalance(knit) : 1.0);
 }
 
 bool Decomposition::repartition_pays(double most, double mean, std::uint64_t intervals_held,

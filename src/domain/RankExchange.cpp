@@ -158,18 +158,7 @@ template <typename T>
 void RankExchange<T>::boundary_moved(BoundarySet<T>& boundary) {
   settle_forces();
   const Timed timed{exchange_seconds_}, part{parts_.migration};
-  const HostValues<Vec3<T>> bx(boundary.x);
-  // To the neighbours, or to anyone where a solid moved more than a block in a step.
-  const int me = rank();
-  int far = 0;
-  for (std::size_t i = 0; i < bx.size() && !far; ++i)
-    if (boundary_owned_[i]) {
-      const int o = decomposition_->owner(vec_cast<double>(bx[i]));
-      far = o != me && std::find(migration_peers_.begin(), migration_peers_.end(), o) ==
-                           migration_peers_.end();
-    }
-  MPI_Allreduce(MPI_IN_PLACE, &far, 1, MPI_INT, MPI_MAX, mpi_.comm());
-  migrate_boundary(boundary, far ? other_ranks() : migration_peers_);
+  migrate_boundary(boundary, false);
 }
 
 template <typename T>
@@ -183,15 +172,30 @@ const std::uint32_t* RankExchange<T>::boundary_owned_flags() {
 }
 
 template <typename T>
-void RankExchange<T>::migrate_boundary(BoundarySet<T>& boundary, const std::vector<int>& peers) {
+void RankExchange<T>::migrate_boundary(BoundarySet<T>& boundary, bool to_everyone) {
   // The owned boundary goes to its blocks' owners, chosen on the backend; the ghosts are
   // dropped (without a message) and received anew. Every wall closed: none leaves the domain
   // (the volume stands in for the mass the departures count of those that would).
   auto leaving =
       select_.departures(boundary.x, boundary.volume, boundary.size(), Vec3<T>{}, Vec3<T>{},
                          {true, true, true, true, true, true}, boundary_owned_flags());
+  if (!to_everyone) {
+    // To the neighbours, or to anyone where a solid moved more than a block in a step: read
+    // from the leavers' destinations (the job's verdict, every rank taking the same peers).
+    int far = 0;
+    for (const int to : leaving.leaving.to)
+      if (to >= 0 && to != rank() &&
+          std::find(migration_peers_.begin(), migration_peers_.end(), to) ==
+              migration_peers_.end()) {
+        far = 1;
+        break;
+      }
+    MPI_Allreduce(MPI_IN_PLACE, &far, 1, MPI_INT, MPI_MAX, mpi_.comm());
+    to_everyone = far != 0;
+  }
   auto state = boundary_state(boundary);
-  const std::size_t n = comm::migrate(*transport_, peers, leaving.leaving, state, rows());
+  const std::size_t n = comm::migrate(*transport_, to_everyone ? other_ranks() : migration_peers_,
+                                      leaving.leaving, state, rows());
   boundary.resize(n);
   receive_boundary_ghosts(boundary, n);
 }
@@ -326,7 +330,7 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   }
   part_now.emplace("balance: the boundary migrated (re-partition)");
   if (boundary)
-    migrate_boundary(*boundary, everyone);
+    migrate_boundary(*boundary, true);
   part_now.reset();
   b.repartitioned = true;
   ++repartitions_;

@@ -257,9 +257,10 @@ private:
   /// The boundary ghosts of this rank's region from their owners, appended after the `owned`
   /// particles (which come first in the set).
   void receive_boundary_ghosts(BoundarySet<T>& boundary, std::size_t owned);
-  /// The owned boundary to its blocks' owners among `peers` (chosen on the backend), the ghosts
-  /// dropped and received anew.
-  void migrate_boundary(BoundarySet<T>& boundary, const std::vector<int>& peers);
+  /// The owned boundary to its blocks' owners (chosen on the backend), the ghosts dropped and
+  /// received anew. The peers: every other rank where `to_everyone` (the same on every rank),
+  /// else the neighbours unless a leaver somewhere goes farther (collective).
+  void migrate_boundary(BoundarySet<T>& boundary, bool to_everyone);
   /// boundary_owned_ as flags on the backend (1 owned, 0 a ghost), valid while boundary_owned_
   /// stands (uploaded once after each change).
   const std::uint32_t* boundary_owned_flags();
