@@ -875,6 +875,80 @@ TEST(NeighbourGrid, OccupiedAroundFlagsExactlyTheCellsWithCandidates) {
   }
 }
 
+// A rank's grid is a window of the whole grid (NeighbourGrid::within): the points inside it
+// must get the cells and sub-cells they get on the whole grid, go in the order the whole grid
+// sorts them, and a walk from any point (outside the window too) must meet every point within
+// the reach that the whole grid's walk meets, in the same order (the split's sums are one
+// rank's). Reference: the whole grid over the same points.
+template <typename T>
+void check_window_is_the_whole_grid(int span, int levels) {
+  const double h = 0.1;
+  const Vec3d lo{0, 0, 0}, hi{1.2, 0.9, 0.7};
+  const auto whole = NeighbourGrid<T>::cover(lo, hi, h / span, span);
+  const auto geo =
+      NeighbourGrid<T>::within(whole, {5, 2, 3}, {whole.nx - 4, whole.ny + 7, whole.nz - 2});
+  ASSERT_EQ(geo.ox, 5);
+  ASSERT_EQ(geo.nx, whole.nx - 4 - 5 + 1);
+  ASSERT_EQ(geo.ny, whole.ny - 2); // clamped to the whole grid
+  ASSERT_LT(geo.cells(), whole.cells());
+  // The window's points: those whose cell on the whole grid lies inside it.
+  std::vector<Vec3<T>> all = test_points<T>(3000, h, lo, hi, 5), inside;
+  for (const auto& p : all) {
+    int cx, cy, cz;
+    whole.coords(p, cx, cy, cz);
+    if (cx >= geo.ox && cx < geo.ox + geo.nx && cy >= geo.oy && cy < geo.oy + geo.ny &&
+        cz >= geo.oz && cz < geo.oz + geo.nz)
+      inside.push_back(p);
+  }
+  ASSERT_GT(inside.size(), 500u);
+  ASSERT_LT(inside.size(), all.size());
+  for (const auto& p : inside) {
+    int wx, wy, wz, cx, cy, cz;
+    whole.coords(p, wx, wy, wz);
+    geo.coords(p, cx, cy, cz);
+    ASSERT_EQ(cx + geo.ox, wx);
+    ASSERT_EQ(cy + geo.oy, wy);
+    ASSERT_EQ(cz + geo.oz, wz);
+    ASSERT_EQ(geo.sub_cell_code(p, cx, cy, cz, levels), whole.sub_cell_code(p, wx, wy, wz, levels));
+  }
+  const exec::Exec ex{exec::Backend::Cpu};
+  exec::DeviceBuffer<Vec3<T>> x(exec::Backend::Cpu);
+  x.assign(inside);
+  NeighbourGrid<T> big(exec::Backend::Cpu, whole, span, levels),
+      win(exec::Backend::Cpu, geo, span, levels);
+  big.build(ex, x.data(), inside.size());
+  win.build(ex, x.data(), inside.size());
+  ASSERT_EQ(big.order_levels(), win.order_levels());
+  EXPECT_EQ(big.permutation().to_host(), win.permutation().to_host()); // one order
+  // Walks from every point of the test set, inside the window or not.
+  const auto pb = big.permutation().to_host(), pw = win.permutation().to_host();
+  const T r2 = T(h * h);
+  std::size_t met = 0;
+  for (const auto& q : all) {
+    std::vector<std::uint32_t> a, b;
+    big.view().for_each_candidate(q, [&](std::uint32_t j) {
+      if (norm2(inside[pb[j]] - q) <= r2)
+        a.push_back(pb[j]);
+    });
+    win.view().for_each_candidate(q, [&](std::uint32_t j) {
+      if (norm2(inside[pw[j]] - q) <= r2)
+        b.push_back(pw[j]);
+    });
+    ASSERT_EQ(a, b);
+    met += a.size();
+  }
+  EXPECT_GT(met, all.size()); // the walks met points (not a vacuous comparison)
+}
+
+TEST(NeighbourGrid, AWindowSortsAndWalksAsTheWholeGrid) {
+  for (int span : {1, 2})
+    for (int levels : {0, 2}) {
+      SCOPED_TRACE("span " + std::to_string(span) + ", levels " + std::to_string(levels));
+      check_window_is_the_whole_grid<float>(span, levels);
+      check_window_is_the_whole_grid<double>(span, levels);
+    }
+}
+
 TEST(NeighbourGrid, CellsAlongXHaveConsecutiveRanks) {
   // The neighbour loop reads a row of cells along x as one range of particles; that needs
   // rank(x + 1, y, z) = rank(x, y, z) + 1, and the ranks a permutation of the cells.

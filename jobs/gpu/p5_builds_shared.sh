@@ -19,7 +19,7 @@ run() { # exe[@key=value] spacing steps -> "seconds | split line"
     --set solver.max_steps="$3" "${extra[@]}" 2>&1)
   local secs
   secs=$(echo "$log" | grep -E '^done' | grep -oE 'in [0-9.]+ s wall' | head -1 | tr -dc '0-9.')
-  echo "$secs | $(echo "$log" | grep -E '^(split|ranks:)' | tr '\n' ' ')"
+  echo "$secs | $(echo "$log" | grep -E '^(split|ranks:|grids)' | tr '\n' ' ')"
 }
 for r in $(seq "$rounds"); do
   for exe in "$@"; do

@@ -20,6 +20,7 @@
 #include "kernels/exec/Stopwatch.hpp"
 #include "kernels/particles/FluidSet.hpp"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstdint>
@@ -52,6 +53,11 @@ public:
   /// How the exchanges read and write the particles' buffers (the backend's memory).
   comm::RowCopier& rows() { return *rows_; }
   const Decomposition& decomposition() const { return *decomposition_; }
+  /// The farthest any particle this rank holds at a sort lies outside its blocks: the widest
+  /// ghost width of the fluid (beside walls too) and the boundary.
+  double widest_ghost_width() const {
+    return std::max({fluid_width_, boundary_width_, walls_width_});
+  }
   const comm::MpiContext& mpi() const { return mpi_; }
 
   /// At the start, every rank holding the whole scene: partitions by its particles' costs, keeps

@@ -319,6 +319,14 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
   }
   if (opt.profile && mpi.size() > 1)
     sum.stage_seconds_slowest = slowest(&Pipeline::Stage::seconds);
+  if (mpi.size() > 1 && sum.split.domain_cells > 0) {
+    const double share = double(sum.split.grid_cells) / double(sum.split.domain_cells);
+    double lo = share, hi = share, total = share;
+    MPI_Reduce(&share, &lo, 1, MPI_DOUBLE, MPI_MIN, 0, mpi.comm());
+    MPI_Reduce(&share, &hi, 1, MPI_DOUBLE, MPI_MAX, 0, mpi.comm());
+    MPI_Reduce(&share, &total, 1, MPI_DOUBLE, MPI_SUM, 0, mpi.comm());
+    sum.grid_shares = {lo, total / mpi.size(), hi};
+  }
   return sum;
 }
 
@@ -391,6 +399,13 @@ std::string format_summary(const RunSummary& s) {
                   r.refresh_seconds, r.rebalance_seconds, knit, r.reduction_seconds,
                   r.packing_seconds);
     o << buf;
+    if (s.grid_shares[2] > 0) {
+      std::snprintf(buf, sizeof buf,
+                    "grids: each rank's covers its blocks and the ghosts' reach, %.0f-%.0f%% of "
+                    "the domain's cells (mean %.0f%%)\n",
+                    100 * s.grid_shares[0], 100 * s.grid_shares[2], 100 * s.grid_shares[1]);
+      o << buf;
+    }
     if (r.refresh_pass_device[0] + r.refresh_exchange_device[0] > 0) {
       const auto& p = r.refresh_pass_device;
       const auto& x = r.refresh_exchange_device;

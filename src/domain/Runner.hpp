@@ -56,6 +56,8 @@ struct RunSummary {
   // waits for the slowest rank's pass, so rank 0's exchange is that minus its own pass plus the
   // transfer.
   decltype(Simulation::RankReport::refresh_pass_device) refresh_pass_slowest{};
+  // The ranks' grids over the domain's cells: the smallest, the mean and the largest share.
+  std::array<double, 3> grid_shares{};
 };
 
 RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,

@@ -152,6 +152,9 @@ public:
     // With profile_on_device: the density's, the walls' and the forces' passes and the exchange
     // after each, on the device (seconds from the start, not synchronised).
     std::array<double, 3> refresh_pass_device{}, refresh_exchange_device{};
+    // This rank's fluid (or boundary) grid: its cells and the whole domain's (a rank's grid
+    // covers its region, NeighbourGrid::within; 0 without either set).
+    std::uint64_t grid_cells = 0, domain_cells = 0;
   };
   virtual RankReport rank_report() const { return {}; }
   /// Measure each stage's time (synchronising the device after each stage).

@@ -28,9 +28,11 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
     if (ranks_
             ->balance(steps_, &*fluid_, boundary_on_ ? &*boundary_ : nullptr,
                       knit_halo_ ? &knit_->set().x : nullptr, knit_halo_ ? knit_->owned() : 0)
-            .repartitioned &&
-        boundary_on_)
-      sort_boundary();
+            .repartitioned) {
+      fit_grids_to_region();
+      if (boundary_on_)
+        sort_boundary();
+    }
     // Migration and the ghosts first, then the same sort over owned and ghost particles.
     const auto& d = scene_.domain;
     std::array<bool, 6> walls = d.walls;
@@ -94,6 +96,63 @@ double SimulationT<T>::fluid_step_motion() const {
   // A shift moves a particle at most |v| dt more, v the half kick's (sph_shift): one drift more.
   const double drifts = (solids_.empty() ? 1.0 : 2.0) + (shifting() ? 1.0 : 0.0);
   return drifts * drift * (1 + 1e-6) + rounding;
+}
+
+template <typename T>
+void SimulationT<T>::fit_grids_to_region() {
+  // A grid of the whole domain on every rank would cost each rank the domain's cells (tables,
+  // and every pass over cells), however small its share: at 512 ranks, the job's. The window
+  // holds every particle this rank sorts (its blocks' particles, the ghosts within their widths
+  // of them, the motion since the last rebuild within the skin) in the whole grid's cells.
+  if (!ranks_ || (!fluid_grid_ && !boundary_grid_))
+    return;
+  const Decomposition& dec = ranks_->decomposition();
+  const BlockGrid& blocks = dec.grid();
+  std::array<int, 3> blo{blocks.nx(), blocks.ny(), blocks.nz()}, bhi{-1, -1, -1};
+  for (int b = 0; b < blocks.count(); ++b)
+    if (dec.owner_of_block(b) == ranks_->rank()) {
+      const auto c = blocks.coords(b);
+      for (int a = 0; a < 3; ++a) {
+        blo[a] = std::min(blo[a], c[a]);
+        bhi[a] = std::max(bhi[a], c[a]);
+      }
+    }
+  const GridGeometry<T>& whole = whole_grid_;
+  const int n[3] = {whole.nx, whole.ny, whole.nz};
+  const double origin[3] = {double(whole.origin.x), double(whole.origin.y), double(whole.origin.z)};
+  const double margin = ranks_->widest_ghost_width() + skin_;
+  const Vec3d& bo = blocks.origin();
+  const double block_origin[3] = {bo.x, bo.y, bo.z};
+  std::array<int, 3> lo{0, 0, 0}, hi{n[0] - 1, n[1] - 1, n[2] - 1};
+  if (bhi[0] >= 0) // a rank without blocks keeps the whole grid
+    for (int a = 0; a < 3; ++a) {
+      // Edge blocks are open outward (the points past them clamped into them): so is the
+      // window. One cell more each side for the rounding of a cell's index.
+      const double b0 = block_origin[a] + blo[a] * blocks.edge() - margin;
+      const double b1 = block_origin[a] + (bhi[a] + 1) * blocks.edge() + margin;
+      if (blo[a] > 0)
+        lo[a] = std::max(0, int(std::floor((b0 - origin[a]) / double(whole.cell))) - 1);
+      if (bhi[a] < blocks.dim(a) - 1)
+        hi[a] = std::min(n[a] - 1, int(std::floor((b1 - origin[a]) / double(whole.cell))) + 1);
+    }
+  const GridGeometry<T> geo = NeighbourGrid<T>::within(whole, lo, hi);
+  const auto& now = (fluid_grid_ ? *fluid_grid_ : *boundary_grid_).geometry();
+  if (geo.ox == now.ox && geo.oy == now.oy && geo.oz == now.oz && geo.nx == now.nx &&
+      geo.ny == now.ny && geo.nz == now.nz)
+    return;
+  const int span = static_cast<int>(scene_.solver.cell_span);
+  // The sub-cell order of the whole grid (a window's fewer cells might leave room for more
+  // levels): a cell's particles then go in the order one rank gives them.
+  const int levels = NeighbourGrid<T>::usable_order_levels(
+      whole.cells() + 1, static_cast<int>(scene_.solver.cell_order));
+  if (fluid_grid_) {
+    fluid_grid_.emplace(ex_.backend, geo, span, levels);
+    fluid_near_.resize(0); // the last sort's flags: of the old grid
+    if (fluid_list_)
+      fluid_list_->forget();
+  }
+  if (boundary_grid_)
+    boundary_grid_.emplace(ex_.backend, geo, span, levels); // sorted by the caller next
 }
 
 template <typename T>
@@ -244,6 +303,7 @@ void SimulationT<T>::extrapolate_boundary_pressure() {
 
 template void SimulationT<float>::update_shapes(double);
 template void SimulationT<float>::sort_fluid(bool, typename FluidSet<float>::Carry);
+template void SimulationT<float>::fit_grids_to_region();
 template double SimulationT<float>::fluid_step_motion() const;
 template void SimulationT<float>::sort_boundary();
 template BoundaryNeighbours<float> SimulationT<float>::boundary_neighbours();
@@ -254,6 +314,7 @@ template void SimulationT<float>::compute_forces();
 template void SimulationT<float>::extrapolate_boundary_pressure();
 template void SimulationT<double>::update_shapes(double);
 template void SimulationT<double>::sort_fluid(bool, typename FluidSet<double>::Carry);
+template void SimulationT<double>::fit_grids_to_region();
 template double SimulationT<double>::fluid_step_motion() const;
 template void SimulationT<double>::sort_boundary();
 template BoundaryNeighbours<double> SimulationT<double>::boundary_neighbours();

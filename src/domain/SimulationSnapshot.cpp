@@ -294,6 +294,7 @@ void SimulationT<T>::restore(const io::Frame& fr) {
                        all_knit_positions(), steps_);
     if (fluid_list_) // "verlet" lists: built at the next step for the positions then
       fluid_list_->forget();
+    fit_grids_to_region();
     if (boundary_on_)
       sort_boundary();
     if (knit_halo_) {

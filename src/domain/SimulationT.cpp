@@ -85,6 +85,7 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
         absorption_ranks_.emplace(*ranks_, *knit_halo_, *knit_, *absorption_);
       knit_halo_->distribute();
     }
+    fit_grids_to_region();
   }
   if (boundary_on_)
     sort_boundary();
@@ -186,9 +187,8 @@ void SimulationT<T>::init_particles() {
     const int span = static_cast<int>(scene_.solver.cell_span);
     // Cells reach the support plus the lists' skin: a walk of the grid then stays exact between
     // the lists' builds (no point has moved more than the skin since the sort; SphLists).
-    fluid_grid_.emplace(ex_.backend,
-                        NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span), span,
-                        static_cast<int>(scene_.solver.cell_order));
+    whole_grid_ = NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span);
+    fluid_grid_.emplace(ex_.backend, whole_grid_, span, static_cast<int>(scene_.solver.cell_order));
     if (scene_.solver.neighbour_list != Scene::Solver::NeighbourLists::Off)
       fluid_list_.emplace(ex_.backend, static_cast<T>(skin_));
   }
@@ -213,8 +213,8 @@ void SimulationT<T>::init_particles() {
     boundary_->volume.assign(vol);
     boundary_->id.assign(ids);
     const int span = static_cast<int>(scene_.solver.cell_span);
-    boundary_grid_.emplace(ex_.backend,
-                           NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span), span,
+    whole_grid_ = NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span);
+    boundary_grid_.emplace(ex_.backend, whole_grid_, span,
                            static_cast<int>(scene_.solver.cell_order));
   }
   if (coupling_on_)

@@ -79,7 +79,11 @@ public:
             p.reduction,
             std::string(ranks_->transport_name()),
             refresh_times_.pass,
-            refresh_times_.exchange};
+            refresh_times_.exchange,
+            fluid_grid_      ? fluid_grid_->geometry().cells()
+            : boundary_grid_ ? boundary_grid_->geometry().cells()
+                             : 0u,
+            fluid_grid_ || boundary_grid_ ? whole_grid_.cells() : 0u};
   }
   void set_profiling(bool on) override {
     profiling_ = on;
@@ -107,6 +111,9 @@ private:
   /// acceleration false: a is not carried (a forces pass follows before anything reads it).
   void sort_fluid(bool remove_outflow = false, typename FluidSet<T>::Carry carry = {});
   void sort_boundary();
+  /// On N ranks, after each partition: the fluid's and the boundary's grids cover this rank's
+  /// blocks and the ghosts' reach, not the whole domain (NeighbourGrid::within).
+  void fit_grids_to_region();
   /// Restart: the fluid's grid (and lists) as the run that wrote fr holds them (see restore).
   void restore_fluid_grid(const io::Frame& fr);
   void compute_forces();
@@ -280,6 +287,7 @@ private:
   std::optional<FluidSet<T>> fluid_;
   std::optional<BoundarySet<T>> boundary_;
   std::optional<NeighbourGrid<T>> fluid_grid_, boundary_grid_;
+  GridGeometry<T> whole_grid_; // the grids' geometry on one rank: the domain's cells
   // solver.neighbour_list "on" or "verlet"; "verlet" lists reach skin_ past the support and are
   // kept, with the fluid's order and grid, over steps (SphLists).
   std::optional<SphLists<T>> fluid_list_;

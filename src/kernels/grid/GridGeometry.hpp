@@ -20,6 +20,10 @@ struct GridGeometry {
   T cell = T(1);
   T inv_cell = T(1);
   int nx = 1, ny = 1, nz = 1;
+  // The first cell's index on the whole grid this one is a window of (a rank's region,
+  // NeighbourGrid::within): its cells are the whole grid's cells, numbered from there, so a
+  // point's cell and sub-cell come out as on the whole grid (same origin, integers subtracted).
+  int ox = 0, oy = 0, oz = 0;
 
   KF_HD KF_INLINE std::uint32_t cells() const {
     return static_cast<std::uint32_t>(nx) * static_cast<std::uint32_t>(ny) *
@@ -30,9 +34,9 @@ struct GridGeometry {
   }
   /// Cell coordinates of a point; points outside the grid fall into the nearest edge cell.
   KF_HD KF_INLINE void coords(const Vec3<T>& x, int& ix, int& iy, int& iz) const {
-    ix = clampi(static_cast<int>(kfloor((x.x - origin.x) * inv_cell)), 0, nx - 1);
-    iy = clampi(static_cast<int>(kfloor((x.y - origin.y) * inv_cell)), 0, ny - 1);
-    iz = clampi(static_cast<int>(kfloor((x.z - origin.z) * inv_cell)), 0, nz - 1);
+    ix = clampi(static_cast<int>(kfloor((x.x - origin.x) * inv_cell)) - ox, 0, nx - 1);
+    iy = clampi(static_cast<int>(kfloor((x.y - origin.y) * inv_cell)) - oy, 0, ny - 1);
+    iz = clampi(static_cast<int>(kfloor((x.z - origin.z) * inv_cell)) - oz, 0, nz - 1);
   }
   /// Morton code (x lowest) of the sub-cell of x in cell (ix, iy, iz) when the cell is split
   /// into 2^levels a side (levels 0-2; points outside the grid take the nearest sub-cell).
@@ -40,15 +44,23 @@ struct GridGeometry {
                                               int levels) const {
     const int n = 1 << levels;
     const T scale = inv_cell * T(n);
-    const int sx = clampi(static_cast<int>(kfloor((x.x - origin.x) * scale)) - ix * n, 0, n - 1);
-    const int sy = clampi(static_cast<int>(kfloor((x.y - origin.y) * scale)) - iy * n, 0, n - 1);
-    const int sz = clampi(static_cast<int>(kfloor((x.z - origin.z) * scale)) - iz * n, 0, n - 1);
+    const int sx =
+        clampi(static_cast<int>(kfloor((x.x - origin.x) * scale)) - (ix + ox) * n, 0, n - 1);
+    const int sy =
+        clampi(static_cast<int>(kfloor((x.y - origin.y) * scale)) - (iy + oy) * n, 0, n - 1);
+    const int sz =
+        clampi(static_cast<int>(kfloor((x.z - origin.z) * scale)) - (iz + oz) * n, 0, n - 1);
     std::uint32_t code = 0;
     for (int b = 0; b < levels; ++b)
       code |= ((std::uint32_t(sx) >> b & 1u) | (std::uint32_t(sy) >> b & 1u) << 1 |
                (std::uint32_t(sz) >> b & 1u) << 2)
               << (3 * b);
     return code;
+  }
+  /// The centre of cell (ix, iy, iz) of this grid.
+  KF_HD KF_INLINE Vec3<T> centre(int ix, int iy, int iz) const {
+    return {origin.x + (T(ix + ox) + T(0.5)) * cell, origin.y + (T(iy + oy) + T(0.5)) * cell,
+            origin.z + (T(iz + oz) + T(0.5)) * cell};
   }
   KF_HD KF_INLINE std::uint32_t linear(int ix, int iy, int iz) const {
     return (static_cast<std::uint32_t>(iz) * static_cast<std::uint32_t>(ny) +

@@ -143,6 +143,26 @@ GridGeometry<T> NeighbourGrid<T>::cover(const Vec3d& lo, const Vec3d& hi, double
 }
 
 template <typename T>
+GridGeometry<T> NeighbourGrid<T>::within(const GridGeometry<T>& whole, std::array<int, 3> lo,
+                                         std::array<int, 3> hi) {
+  GridGeometry<T> g = whole;
+  const int n[3] = {whole.nx, whole.ny, whole.nz};
+  const int o[3] = {whole.ox, whole.oy, whole.oz};
+  int first[3], count[3];
+  for (int a = 0; a < 3; ++a) {
+    first[a] = std::clamp(lo[a], o[a], o[a] + n[a] - 1);
+    count[a] = std::clamp(hi[a], first[a], o[a] + n[a] - 1) - first[a] + 1;
+  }
+  g.ox = first[0];
+  g.oy = first[1];
+  g.oz = first[2];
+  g.nx = count[0];
+  g.ny = count[1];
+  g.nz = count[2];
+  return g;
+}
+
+template <typename T>
 NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span,
                                 int order_levels)
     : geo_(geo), span_(span), rank_(b, 0, "grid.rank"), start_(b, 0, "grid.start"),
@@ -157,7 +177,10 @@ NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int
   // running within a row. Sorting particles by rank groups each cell's particles and keeps
   // nearby cells nearby in memory; cells next to each other along x are next to each other in
   // rank, so a neighbour loop reads each row of its cells as one range. Only the rows are
-  // sorted (ny nz of them), so a large grid costs O(cells) to set up.
+  // sorted (ny nz of them), so a large grid costs O(cells) to set up. A window of a whole grid
+  // (within) orders its rows by their codes on the whole grid: any two particles then go in the
+  // order the whole grid gives them (passes that sum over particles in their order, as a
+  // transposed list does, sum as on one rank).
   const std::uint32_t rows =
       static_cast<std::uint32_t>(geo.ny) * static_cast<std::uint32_t>(geo.nz);
   std::vector<std::uint32_t> order(rows);
@@ -166,7 +189,7 @@ NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int
   for (int z = 0; z < geo.nz; ++z)
     for (int y = 0; y < geo.ny; ++y)
       code[std::uint32_t(z) * std::uint32_t(geo.ny) + std::uint32_t(y)] =
-          spread2(std::uint64_t(y)) | spread2(std::uint64_t(z)) << 1;
+          spread2(std::uint64_t(y + geo.oy)) | spread2(std::uint64_t(z + geo.oz)) << 1;
   std::sort(order.begin(), order.end(),
             [&](std::uint32_t a, std::uint32_t b) { return code[a] < code[b]; });
   std::vector<std::uint32_t> rank(n);
@@ -276,10 +299,7 @@ struct OccupiedAround {
     const int y = static_cast<int>((c / std::size_t(nx)) % std::size_t(ny));
     const int z = static_cast<int>(c / (std::size_t(nx) * std::size_t(ny)));
     // The centre of the cell: for_each_candidate from any point of it visits the same cells.
-    const Vec3<T> centre{g.origin.x + (T(x) + T(0.5)) * g.cell,
-                         g.origin.y + (T(y) + T(0.5)) * g.cell,
-                         g.origin.z + (T(z) + T(0.5)) * g.cell};
-    flag[c] = cells.has_candidates(centre) ? 1 : 0;
+    flag[c] = cells.has_candidates(g.centre(x, y, z)) ? 1 : 0;
   }
 };
 

@@ -3,6 +3,7 @@
 #include "kernels/exec/PendingRead.hpp"
 #include "kernels/grid/GridGeometry.hpp"
 
+#include <array>
 #include <limits>
 #include <optional>
 
@@ -59,6 +60,15 @@ public:
 
   /// Grid covering [lo, hi] with cells of edge `cell` plus `pad` cells of padding on every side.
   static GridGeometry<T> cover(const Vec3d& lo, const Vec3d& hi, double cell, int pad = 1);
+
+  /// The cells lo .. hi (indices on `whole`'s own whole grid, inclusive, clamped to `whole`) as a
+  /// grid of their own: a rank's region. A point inside it has the cell and sub-cell it has on
+  /// `whole`, so sorts and walks over it visit the same particles in the same order; a point
+  /// outside falls into the nearest edge cell, as one outside `whole` does there. A walk from
+  /// such a point still meets every particle sorted into the window within its reach
+  /// (clamping a cell index towards the window only brings it nearer the cells inside).
+  static GridGeometry<T> within(const GridGeometry<T>& whole, std::array<int, 3> lo,
+                                std::array<int, 3> hi);
 
   /// tie_id (optional, per point): points sharing a sort key (one sub-cell) go in ascending id,
   /// not in their input order. The input order is the run's history; on N ranks it differs

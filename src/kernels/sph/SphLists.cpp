@@ -163,7 +163,8 @@ void build_rows(const exec::Exec& ex, Lists& lists, const Built& k, bool wait) {
 template <typename T>
 bool same_geometry(const GridGeometry<T>& a, const GridGeometry<T>& b) {
   return a.origin.x == b.origin.x && a.origin.y == b.origin.y && a.origin.z == b.origin.z &&
-         a.cell == b.cell && a.nx == b.nx && a.ny == b.ny && a.nz == b.nz;
+         a.cell == b.cell && a.nx == b.nx && a.ny == b.ny && a.nz == b.nz && a.ox == b.ox &&
+         a.oy == b.oy && a.oz == b.oz;
 }
 
 } // namespace
