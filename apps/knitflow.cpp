@@ -103,16 +103,24 @@ void print_partition(const kf::Scene& scene, const kf::PlanReport& plan, int ran
               p.widths.of(Phase::Boundary), p.widths.of(Phase::Knit));
   if (ranks == 1)
     return;
-  std::printf("  rank %10s %10s %10s | %9s %9s %9s | %5s %10s %8s\n", "fluid", "boundary", "knit",
-              "ghosts:fl", "bnd", "knit", "peers", "recv/step", "cost");
+  std::printf("  rank %10s %10s %10s | %9s %9s %9s | %5s %10s %8s | %s\n", "fluid", "boundary",
+              "knit", "ghosts:fl", "bnd", "knit", "peers", "recv/step", "cost", "grid cells");
   std::size_t total = 0;
   for (int k = 0; k < ranks; ++k) {
     const kf::RankShare& s = p.rank[k];
-    std::printf("  %4d %10zu %10zu %10zu | %9zu %9zu %9zu | %5d %10s %8.4g\n", k, s.owned[0],
+    char grid[48] = "-";
+    if (p.domain_cells > 0)
+      std::snprintf(grid, sizeof grid, "%zu (%.0f%%)", s.grid_cells,
+                    100.0 * double(s.grid_cells) / double(p.domain_cells));
+    std::printf("  %4d %10zu %10zu %10zu | %9zu %9zu %9zu | %5d %10s %8.4g | %s\n", k, s.owned[0],
                 s.owned[1], s.owned[2], s.ghosts[0], s.ghosts[1], s.ghosts[2], s.neighbours,
-                kf::format_bytes(double(s.bytes_per_step)).c_str(), s.cost);
+                kf::format_bytes(double(s.bytes_per_step)).c_str(), s.cost, grid);
     total += s.bytes_per_step;
   }
+  if (p.domain_cells > 0)
+    std::printf("grids      each rank's a window of the domain's %zu cells (its blocks and the "
+                "ghosts' reach)\n",
+                p.domain_cells);
   std::printf("exchange   %s a step over all ranks (ghost refreshes between rebuilds)\n",
               kf::format_bytes(double(total)).c_str());
 }

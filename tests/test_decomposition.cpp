@@ -98,6 +98,73 @@ TEST(Decomposition, GhostRanksAreExactlyTheRanksWithinTheWidthByBruteForce) {
   EXPECT_GT(ghosts_total, checked / 20) << "too few ghosts for the check to mean much";
 }
 
+// A rank's grids are a window of the whole grid (Decomposition::window): it must hold the cell
+// of every point within `margin` of the rank's blocks (brute force over points near and past the
+// blocks, the domain's outside included: those clamp into the edge cells) and be no larger than
+// the blocks' box widened by the margin and a cell each side (open where a block is at the edge).
+TEST(Decomposition, AWindowHoldsEveryPointWithinTheMarginOfTheRanksBlocks) {
+  const Vec3d lo{0, 0, 0}, hi{0.8, 0.4, 0.6};
+  const BlockGrid g(lo, hi, 0.05);
+  auto x = uniform_points(6000, lo, {0.4, 0.4, 0.3}, 3);
+  const auto spread = uniform_points(2000, lo, hi, 4);
+  x.insert(x.end(), spread.begin(), spread.end());
+  const auto counts = count_points(g, x, Phase::Fluid);
+  // The run's grid: cells of 0.0137 m from one cell below the domain (NeighbourGrid::cover).
+  const double cell = 0.0137;
+  const Vec3d origin{-cell, -cell, -cell};
+  const std::array<int, 3> n{int(std::ceil(0.8 / cell)) + 2, int(std::ceil(0.4 / cell)) + 2,
+                             int(std::ceil(0.6 / cell)) + 2};
+  const auto cell_of = [&](const Vec3d& q, int a) {
+    const double o[3] = {origin.x, origin.y, origin.z}, v[3] = {q.x, q.y, q.z};
+    return std::clamp(int(std::floor((v[a] - o[a]) / cell)), 0, n[a] - 1);
+  };
+  const auto probes = uniform_points(20000, {-0.1, -0.1, -0.1}, {0.9, 0.5, 0.7}, 9);
+  std::size_t near = 0;
+  for (int ranks : {2, 3, 5}) {
+    const Decomposition d = Decomposition::partition(g, counts, PhaseCosts{}, ranks, 0.02);
+    for (double margin : {0.011, 0.034}) {
+      double total = 0;
+      for (int r = 0; r < ranks; ++r) {
+        const auto [wlo, whi] = d.window(r, origin, cell, n, margin);
+        for (const Vec3d& q : probes) {
+          if (d.distance_to_region(q, r) > margin)
+            continue;
+          ++near;
+          for (int a = 0; a < 3; ++a)
+            ASSERT_TRUE(cell_of(q, a) >= wlo[a] && cell_of(q, a) <= whi[a])
+                << ranks << " ranks, rank " << r << ", margin " << margin << ", axis " << a;
+        }
+        // No larger than the blocks' box, the margin and a cell (two for the rounding).
+        std::array<int, 3> blo{g.nx(), g.ny(), g.nz()}, bhi{-1, -1, -1};
+        for (int b = 0; b < g.count(); ++b)
+          if (d.owner_of_block(b) == r)
+            for (int a = 0; a < 3; ++a) {
+              blo[a] = std::min(blo[a], g.coords(b)[a]);
+              bhi[a] = std::max(bhi[a], g.coords(b)[a]);
+            }
+        const double o[3] = {origin.x, origin.y, origin.z};
+        const double go[3] = {g.origin().x, g.origin().y, g.origin().z};
+        for (int a = 0; a < 3; ++a) {
+          const double b0 = go[a] + blo[a] * g.edge() - margin,
+                       b1 = go[a] + (bhi[a] + 1) * g.edge() + margin;
+          if (blo[a] > 0)
+            EXPECT_GE(wlo[a], int(std::floor((b0 - o[a]) / cell)) - 2);
+          else
+            EXPECT_EQ(wlo[a], 0);
+          if (bhi[a] < g.dim(a) - 1)
+            EXPECT_LE(whi[a], int(std::floor((b1 - o[a]) / cell)) + 2);
+          else
+            EXPECT_EQ(whi[a], n[a] - 1);
+        }
+        total += double(whi[0] - wlo[0] + 1) * (whi[1] - wlo[1] + 1) * (whi[2] - wlo[2] + 1);
+      }
+      // Some rank's window is smaller than the grid (else the check above is the trivial one).
+      EXPECT_LT(total, double(ranks) * n[0] * n[1] * n[2]) << ranks << " ranks";
+    }
+  }
+  EXPECT_GT(near, 20000u);
+}
+
 // All the fluid in one corner of a large box (a skewed scene): cost-weighted parts put the
 // corner's blocks on every rank, so the ranks' costs are balanced well under the default
 // re-partition threshold of 1.1; equal-volume slabs would leave it all on one rank.

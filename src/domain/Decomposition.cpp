@@ -278,6 +278,35 @@ void Decomposition::ghost_ranks(const Vec3d& x, double width, std::vector<int>& 
   std::sort(out.begin(), out.end());
 }
 
+std::array<std::array<int, 3>, 2> Decomposition::window(int r, const Vec3d& origin, double cell,
+                                                        const std::array<int, 3>& n,
+                                                        double margin) const {
+  std::array<int, 3> blo{grid_.nx(), grid_.ny(), grid_.nz()}, bhi{-1, -1, -1};
+  for (int b = 0; b < grid_.count(); ++b)
+    if (owner_[b] == r) {
+      const auto c = grid_.coords(b);
+      for (int a = 0; a < 3; ++a) {
+        blo[a] = std::min(blo[a], c[a]);
+        bhi[a] = std::max(bhi[a], c[a]);
+      }
+    }
+  std::array<int, 3> lo{0, 0, 0}, hi{n[0] - 1, n[1] - 1, n[2] - 1};
+  if (bhi[0] < 0)
+    return {lo, hi};
+  const double o[3] = {origin.x, origin.y, origin.z};
+  const double bo[3] = {grid_.origin().x, grid_.origin().y, grid_.origin().z};
+  for (int a = 0; a < 3; ++a) {
+    if (blo[a] > 0)
+      lo[a] = std::clamp(
+          int(std::floor((bo[a] + blo[a] * grid_.edge() - margin - o[a]) / cell)) - 1, 0, n[a] - 1);
+    if (bhi[a] < grid_.dim(a) - 1)
+      hi[a] = std::clamp(
+          int(std::floor((bo[a] + (bhi[a] + 1) * grid_.edge() + margin - o[a]) / cell)) + 1, lo[a],
+          n[a] - 1);
+  }
+  return {lo, hi};
+}
+
 double Decomposition::distance_to_region(const Vec3d& x, int r) const {
   double best = 1e300;
   for (int b = 0; b < grid_.count(); ++b)

@@ -107,6 +107,13 @@ public:
   /// The ranks other than x's owner within `width` of x (distance to one of their blocks below
   /// width), ascending, appended to `out` (cleared first).
   void ghost_ranks(const Vec3d& x, double width, std::vector<int>& out) const;
+  /// The cells of a grid (its first cell's corner `origin`, edge `cell`, `n` cells an axis)
+  /// that hold what rank r sorts: the box of its blocks widened by `margin` (the widest ghost
+  /// width and the lists' skin) and one cell for the rounding of a cell's index, open to the
+  /// grid's edge where a block is at the block grid's (points past it clamp into it). First and
+  /// last cell an axis, inclusive; the whole grid for a rank without blocks.
+  std::array<std::array<int, 3>, 2> window(int r, const Vec3d& origin, double cell,
+                                           const std::array<int, 3>& n, double margin) const;
   /// Distance from x to rank r's region (the union of its blocks); 1e300 for a rank without
   /// blocks. Brute force over every block: for tests and reports.
   double distance_to_region(const Vec3d& x, int r) const;

@@ -115,6 +115,27 @@ PartitionReport plan_partition(const Scene& scene, const std::array<std::vector<
     r.rank[k].cost = per[k];
     r.rank[k].neighbours = static_cast<int>(sources[k].size());
   }
+  // The run's grids (SimulationT: cells of the support plus the lists' skin over the span) and
+  // each rank's window of them.
+  if (scene.has(Module::Fluid) || scene.has(Module::Boundary)) {
+    const double h = scene.support_radius();
+    const double skin = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet
+                            ? scene.solver.neighbour_skin * h
+                            : 0.0;
+    const int span = static_cast<int>(scene.solver.cell_span);
+    const auto whole =
+        NeighbourGrid<double>::cover(scene.domain.min, scene.domain.max, (h + skin) / span, span);
+    r.domain_cells = whole.cells();
+    const double margin =
+        std::max({widths.of(Phase::Fluid), widths.of(Phase::Boundary), widths.fluid_beside_walls}) +
+        skin;
+    for (int k = 0; k < ranks; ++k) {
+      const auto [wlo, whi] =
+          d.window(k, whole.origin, whole.cell, {whole.nx, whole.ny, whole.nz}, margin);
+      r.rank[k].grid_cells = std::size_t(whi[0] - wlo[0] + 1) * std::size_t(whi[1] - wlo[1] + 1) *
+                             std::size_t(whi[2] - wlo[2] + 1);
+    }
+  }
   return r;
 }
 

@@ -41,6 +41,7 @@ struct RankShare {
   double cost = 0;
   std::size_t bytes_per_step = 0; // received
   int neighbours = 0;             // ranks it receives ghosts from
+  std::size_t grid_cells = 0;     // its fluid and boundary grids' window (Decomposition::window)
 };
 
 struct PartitionReport {
@@ -50,6 +51,7 @@ struct PartitionReport {
   GhostWidths widths;
   PhaseCosts costs;
   double imbalance = 1;
+  std::size_t domain_cells = 0; // the grids' on one rank (0: no fluid or boundary)
   std::vector<RankShare> rank;
 };
 

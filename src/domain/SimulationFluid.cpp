@@ -106,35 +106,10 @@ void SimulationT<T>::fit_grids_to_region() {
   // of them, the motion since the last rebuild within the skin) in the whole grid's cells.
   if (!ranks_ || (!fluid_grid_ && !boundary_grid_))
     return;
-  const Decomposition& dec = ranks_->decomposition();
-  const BlockGrid& blocks = dec.grid();
-  std::array<int, 3> blo{blocks.nx(), blocks.ny(), blocks.nz()}, bhi{-1, -1, -1};
-  for (int b = 0; b < blocks.count(); ++b)
-    if (dec.owner_of_block(b) == ranks_->rank()) {
-      const auto c = blocks.coords(b);
-      for (int a = 0; a < 3; ++a) {
-        blo[a] = std::min(blo[a], c[a]);
-        bhi[a] = std::max(bhi[a], c[a]);
-      }
-    }
   const GridGeometry<T>& whole = whole_grid_;
-  const int n[3] = {whole.nx, whole.ny, whole.nz};
-  const double origin[3] = {double(whole.origin.x), double(whole.origin.y), double(whole.origin.z)};
-  const double margin = ranks_->widest_ghost_width() + skin_;
-  const Vec3d& bo = blocks.origin();
-  const double block_origin[3] = {bo.x, bo.y, bo.z};
-  std::array<int, 3> lo{0, 0, 0}, hi{n[0] - 1, n[1] - 1, n[2] - 1};
-  if (bhi[0] >= 0) // a rank without blocks keeps the whole grid
-    for (int a = 0; a < 3; ++a) {
-      // Edge blocks are open outward (the points past them clamped into them): so is the
-      // window. One cell more each side for the rounding of a cell's index.
-      const double b0 = block_origin[a] + blo[a] * blocks.edge() - margin;
-      const double b1 = block_origin[a] + (bhi[a] + 1) * blocks.edge() + margin;
-      if (blo[a] > 0)
-        lo[a] = std::max(0, int(std::floor((b0 - origin[a]) / double(whole.cell))) - 1);
-      if (bhi[a] < blocks.dim(a) - 1)
-        hi[a] = std::min(n[a] - 1, int(std::floor((b1 - origin[a]) / double(whole.cell))) + 1);
-    }
+  const auto [lo, hi] = ranks_->decomposition().window(
+      ranks_->rank(), vec_cast<double>(whole.origin), double(whole.cell),
+      {whole.nx, whole.ny, whole.nz}, ranks_->widest_ghost_width() + skin_);
   const GridGeometry<T> geo = NeighbourGrid<T>::within(whole, lo, hi);
   const auto& now = (fluid_grid_ ? *fluid_grid_ : *boundary_grid_).geometry();
   if (geo.ox == now.ox && geo.oy == now.oy && geo.oz == now.oz && geo.nx == now.nx &&
