@@ -32,6 +32,15 @@ Counts count_points(const BlockGrid& g, const std::vector<Vec3d>& x, Phase p) {
 
 using test::uniform_points;
 
+// Fluid piled into one half of the box [0, 0.8] x [0, 0.4] x [0, 0.6] and some spread over all
+// of it, so the parts are uneven in shape.
+std::vector<Vec3d> piled_points(const Vec3d& lo, const Vec3d& hi) {
+  auto x = uniform_points(6000, lo, {0.4, 0.4, 0.3}, 3);
+  const auto spread = uniform_points(2000, lo, hi, 4);
+  x.insert(x.end(), spread.begin(), spread.end());
+  return x;
+}
+
 } // namespace
 
 TEST(BlockGrid, PointsFallInTheBlockWhoseBoxHoldsThemAndOutsidePointsInAnEdgeBlock) {
@@ -69,10 +78,7 @@ TEST(Decomposition, OneRankOwnsEverythingAndNeedsNoGhosts) {
 TEST(Decomposition, GhostRanksAreExactlyTheRanksWithinTheWidthByBruteForce) {
   const Vec3d lo{0, 0, 0}, hi{0.8, 0.4, 0.6};
   const BlockGrid g(lo, hi, 0.05);
-  // Fluid piled into one half, so the parts are uneven in shape.
-  auto x = uniform_points(6000, lo, {0.4, 0.4, 0.3}, 3);
-  const auto spread = uniform_points(2000, lo, hi, 4);
-  x.insert(x.end(), spread.begin(), spread.end());
+  const auto x = piled_points(lo, hi);
   const auto counts = count_points(g, x, Phase::Fluid);
   std::size_t checked = 0, ghosts_total = 0;
   for (int ranks : {2, 3, 4, 7}) {
@@ -105,9 +111,7 @@ TEST(Decomposition, GhostRanksAreExactlyTheRanksWithinTheWidthByBruteForce) {
 TEST(Decomposition, AWindowHoldsEveryPointWithinTheMarginOfTheRanksBlocks) {
   const Vec3d lo{0, 0, 0}, hi{0.8, 0.4, 0.6};
   const BlockGrid g(lo, hi, 0.05);
-  auto x = uniform_points(6000, lo, {0.4, 0.4, 0.3}, 3);
-  const auto spread = uniform_points(2000, lo, hi, 4);
-  x.insert(x.end(), spread.begin(), spread.end());
+  const auto x = piled_points(lo, hi);
   const auto counts = count_points(g, x, Phase::Fluid);
   // The run's grid: cells of 0.0137 m from one cell below the domain (NeighbourGrid::cover).
   const double cell = 0.0137;

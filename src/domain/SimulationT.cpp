@@ -151,6 +151,12 @@ void SimulationT<T>::measure_boundary_work() {
 template <typename T>
 void SimulationT<T>::init_particles() {
   const auto& d = scene_.domain;
+  const int span = static_cast<int>(scene_.solver.cell_span);
+  // The fluid's and the boundary's grids (on N ranks each rank's a window of it): cells reach the
+  // support plus the lists' skin, so a walk of the grid stays exact between the lists' builds
+  // (no point has moved more than the skin since the sort; SphLists).
+  if (fluid_on_ || boundary_on_)
+    whole_grid_ = NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span);
   if (knit_on_)
     knit_.emplace(scene_, ex_);
   if (fluid_on_) {
@@ -184,10 +190,6 @@ void SimulationT<T>::init_particles() {
     fluid_->drho_prev.assign(std::vector<T>(x.size(), T(0)));
     fluid_->id.assign(ids);
     next_fluid_id_ = ids.size();
-    const int span = static_cast<int>(scene_.solver.cell_span);
-    // Cells reach the support plus the lists' skin: a walk of the grid then stays exact between
-    // the lists' builds (no point has moved more than the skin since the sort; SphLists).
-    whole_grid_ = NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span);
     fluid_grid_.emplace(ex_.backend, whole_grid_, span, static_cast<int>(scene_.solver.cell_order));
     if (scene_.solver.neighbour_list != Scene::Solver::NeighbourLists::Off)
       fluid_list_.emplace(ex_.backend, static_cast<T>(skin_));
@@ -212,8 +214,6 @@ void SimulationT<T>::init_particles() {
     boundary_->obstacle.assign(s.obstacle);
     boundary_->volume.assign(vol);
     boundary_->id.assign(ids);
-    const int span = static_cast<int>(scene_.solver.cell_span);
-    whole_grid_ = NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span);
     boundary_grid_.emplace(ex_.backend, whole_grid_, span,
                            static_cast<int>(scene_.solver.cell_order));
   }
