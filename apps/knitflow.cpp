@@ -88,19 +88,16 @@ void check_scene_size(const kf::Scene& scene, kf::exec::Backend b, const kf::com
 
 /// The split over `ranks`: blocks, ghost widths, and per rank what it owns, what it receives and
 /// the bytes a step exchanges (domain/PartitionPlan).
-void print_partition(const kf::Scene& scene, const kf::PlanReport& plan, int ranks) {
-  using kf::Phase;
-  const kf::PartitionReport p = kf::plan_partition(scene, plan, ranks);
-  std::printf(
-      "ranks      %d: %d x %d x %d blocks of %.4g m (%d cells), imbalance %.3f (slowest rank's "
-      "cost over the mean)\n",
-      ranks, p.blocks[0], p.blocks[1], p.blocks[2], p.block_edge, scene.parallel.block_cells,
-      p.imbalance);
+void print_partition(const kf::Scene& scene, int ranks) {
+  const kf::PartitionReport p = kf::Simulation::plan_split(scene, ranks);
+  std::printf("ranks      %d: %d x %d x %d blocks of %.4g m (%d ghost widths), imbalance %.3f "
+              "(slowest rank's cost over the mean)\n",
+              ranks, p.blocks[0], p.blocks[1], p.blocks[2], p.block_edge,
+              scene.parallel.block_cells, p.imbalance);
   std::printf("halo       ghost width fluid %.4g m (%.4g m beside walls), boundary %.4g m, knit "
               "%.4g m\n",
-              p.widths.of(Phase::Fluid),
-              std::max(p.widths.fluid_beside_walls, p.widths.of(Phase::Fluid)),
-              p.widths.of(Phase::Boundary), p.widths.of(Phase::Knit));
+              p.widths.fluid, std::max(p.widths.walls, p.widths.fluid), p.widths.boundary,
+              p.widths.knit);
   if (ranks == 1)
     return;
   std::printf("  rank %10s %10s %10s | %9s %9s %9s | %5s %10s %8s | %s\n", "fluid", "boundary",
@@ -242,7 +239,7 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
               kf::format_bytes(r.bytes_fluid).c_str(), kf::format_bytes(r.bytes_boundary).c_str(),
               kf::format_bytes(r.bytes_knit).c_str(), kf::format_bytes(r.bytes_grid).c_str(),
               kf::format_bytes(r.bytes_solids).c_str());
-  print_partition(scene, r, a.ranks > 0 ? a.ranks : mpi.size());
+  print_partition(scene, a.ranks > 0 ? a.ranks : mpi.size());
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
   print_cost(a, scene, r);
   std::printf("output     %s every %.4g s to t = %.4g s\n",

@@ -1,7 +1,5 @@
 #include "domain/PartitionPlan.hpp"
 
-#include "domain/KnitBuilder.hpp"
-#include "domain/Samplers.hpp"
 #include "kernels/grid/NeighbourGrid.hpp"
 #include "kernels/grid/RankSelection.hpp"
 
@@ -12,25 +10,6 @@
 #include <set>
 
 namespace kf {
-
-GhostWidths ghost_widths(const Scene& scene, double longest_spring, double self_radius,
-                         double coupling_reach) {
-  GhostWidths g;
-  if (scene.has(Module::Fluid)) {
-    double h = scene.support_radius();
-    if (scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet)
-      h *= 1 + scene.solver.neighbour_skin;
-    g.width[static_cast<int>(Phase::Fluid)] = std::max(h, coupling_reach);
-    if (scene.has(Module::Boundary)) {
-      g.width[static_cast<int>(Phase::Boundary)] = h;
-      g.fluid_beside_walls = std::max(2 * h, g.of(Phase::Fluid)); // as RankExchange's
-    }
-  }
-  if (scene.has(Module::Knit))
-    g.width[static_cast<int>(Phase::Knit)] =
-        std::max({1.5 * longest_spring, 2 * self_radius, coupling_reach});
-  return g;
-}
 
 std::array<std::size_t, kPhases> ghost_bytes_per_step(const Scene& scene) {
   const std::size_t t = scene.precision == Precision::Double ? 8 : 4;
@@ -45,66 +24,53 @@ std::array<std::size_t, kPhases> ghost_bytes_per_step(const Scene& scene) {
   return b;
 }
 
-PartitionReport plan_partition(const Scene& scene, const std::array<std::vector<Vec3d>, kPhases>& x,
-                               const GhostWidths& widths, int ranks) {
+template <typename T>
+PartitionReport describe_partition(const Scene& scene, const Decomposition& d, const HaloWidths& w,
+                                   const PhaseCosts& costs,
+                                   const std::array<std::span<const Vec3<T>>, kPhases>& x,
+                                   const GridGeometry<T>* whole) {
   PartitionReport r;
+  const int ranks = d.ranks();
   r.ranks = ranks;
-  r.widths = widths;
-  r.costs.knit_substeps = scene.knit.substeps;
-  // Blocks of block_cells support radii (the knit's contact reach where there is no fluid).
-  const double cell =
-      scene.has(Module::Fluid) ? scene.support_radius() : std::max(widths.of(Phase::Knit), 1e-6);
-  r.block_edge = scene.parallel.block_cells * cell;
-  // The box the blocks cover: the domain, widened to every particle (knit may start outside it).
-  Vec3d lo = scene.domain.min, hi = scene.domain.max;
-  for (const auto& phase : x)
-    for (const Vec3d& q : phase)
-      for (int d = 0; d < 3; ++d) {
-        (&lo.x)[d] = std::min((&lo.x)[d], (&q.x)[d]);
-        (&hi.x)[d] = std::max((&hi.x)[d], (&q.x)[d]);
-      }
-  const BlockGrid grid(lo, hi, r.block_edge);
+  r.widths = w;
+  r.costs = costs;
+  const BlockGrid& grid = d.grid();
+  r.block_edge = grid.edge();
   r.blocks[0] = grid.nx();
   r.blocks[1] = grid.ny();
   r.blocks[2] = grid.nz();
   std::vector<std::array<double, kPhases>> counts(grid.count(), {0, 0, 0});
   for (int p = 0; p < kPhases; ++p)
-    for (const Vec3d& q : x[p])
-      counts[grid.block_of(q)][p] += 1;
-  const double widest = *std::max_element(widths.width.begin(), widths.width.end());
-  const Decomposition d = Decomposition::partition(grid, counts, r.costs, ranks, widest);
-  const auto per = d.rank_costs(counts, r.costs);
+    for (const Vec3<T>& q : x[p])
+      counts[grid.block_of(vec_cast<double>(q))][p] += 1;
+  const auto per = d.rank_costs(counts, costs);
   r.imbalance = Decomposition::imbalance(per);
   r.rank.resize(ranks);
   const auto bytes = ghost_bytes_per_step(scene);
-  // The fluid beside walls goes as far as fluid_beside_walls: the run's rule (RankExchange),
-  // by the run's cells (the fluid grid's: support + skin over the span) with boundary
-  // particles in the cells a walk from them visits.
+  // The fluid beside walls goes as far as w.walls: the run's rule (RankExchange), by the
+  // boundary grid's cells (the whole grid's) with boundary particles in the cells a walk from
+  // them visits.
   const auto& xb = x[static_cast<int>(Phase::Boundary)];
   const exec::Exec host{exec::Backend::Cpu};
-  std::optional<NeighbourGrid<double>> walls;
+  std::optional<NeighbourGrid<T>> walls;
   exec::DeviceBuffer<std::uint8_t> near(exec::Backend::Cpu, 0, "plan.beside_walls");
-  if (widths.fluid_beside_walls > 0 && !xb.empty()) {
-    const int span = static_cast<int>(scene.solver.cell_span);
-    walls.emplace(exec::Backend::Cpu,
-                  NeighbourGrid<double>::cover(scene.domain.min, scene.domain.max,
-                                               widths.of(Phase::Boundary) / span, span),
-                  span);
+  if (w.walls > 0 && !xb.empty() && whole) {
+    walls.emplace(exec::Backend::Cpu, *whole, static_cast<int>(scene.solver.cell_span));
     walls->build(host, xb.data(), xb.size());
     walls->occupied_around(host, near);
   }
-  const WiderCells<double> beside{walls ? walls->geometry() : GridGeometry<double>{},
-                                  walls ? near.data() : nullptr, widths.fluid_beside_walls};
+  const WiderCells<T> beside{walls ? walls->geometry() : GridGeometry<T>{},
+                             walls ? near.data() : nullptr, w.walls};
+  const std::array<double, kPhases> width{w.fluid, w.boundary, w.knit};
   std::vector<std::set<int>> sources(ranks);
   std::vector<int> to;
   for (int p = 0; p < kPhases; ++p)
-    for (const Vec3d& q : x[p]) {
+    for (const Vec3<T>& qt : x[p]) {
+      const Vec3d q = vec_cast<double>(qt);
       const int own = d.owner(q);
       ++r.rank[own].owned[p];
-      d.ghost_ranks(q,
-                    p == static_cast<int>(Phase::Fluid) ? beside.width_at(q, widths.width[p])
-                                                        : widths.width[p],
-                    to);
+      d.ghost_ranks(
+          q, p == static_cast<int>(Phase::Fluid) ? beside.width_at(qt, width[p]) : width[p], to);
       for (int g : to) {
         ++r.rank[g].ghosts[p];
         r.rank[g].bytes_per_step += bytes[p];
@@ -115,46 +81,22 @@ PartitionReport plan_partition(const Scene& scene, const std::array<std::vector<
     r.rank[k].cost = per[k];
     r.rank[k].neighbours = static_cast<int>(sources[k].size());
   }
-  // The run's grids (SimulationT: cells of the support plus the lists' skin over the span) and
-  // each rank's window of them.
-  if (scene.has(Module::Fluid) || scene.has(Module::Boundary)) {
-    const double h = scene.support_radius();
-    const double skin = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet
-                            ? scene.solver.neighbour_skin * h
-                            : 0.0;
-    const int span = static_cast<int>(scene.solver.cell_span);
-    const auto whole =
-        NeighbourGrid<double>::cover(scene.domain.min, scene.domain.max, (h + skin) / span, span);
-    r.domain_cells = whole.cells();
-    const double margin =
-        std::max({widths.of(Phase::Fluid), widths.of(Phase::Boundary), widths.fluid_beside_walls}) +
-        skin;
-    for (int k = 0; k < ranks; ++k) {
-      const auto [wlo, whi] =
-          d.window(k, whole.origin, whole.cell, {whole.nx, whole.ny, whole.nz}, margin);
-      r.rank[k].grid_cells = std::size_t(whi[0] - wlo[0] + 1) * std::size_t(whi[1] - wlo[1] + 1) *
-                             std::size_t(whi[2] - wlo[2] + 1);
-    }
+  // Each rank's window of the run's grids (SimulationT::fit_grids_to_region).
+  if (whole) {
+    r.domain_cells = whole->cells();
+    for (int k = 0; k < ranks; ++k)
+      r.rank[k].grid_cells = rank_grid(d, k, *whole, w).cells();
   }
   return r;
 }
 
-PartitionReport plan_partition(const Scene& scene, const PlanReport& plan, int ranks) {
-  std::array<std::vector<Vec3d>, kPhases> x;
-  if (scene.has(Module::Fluid))
-    x[static_cast<int>(Phase::Fluid)] = sample_fluid(scene).x;
-  if (scene.has(Module::Boundary))
-    x[static_cast<int>(Phase::Boundary)] =
-        sample_boundaries(scene, scene.fluid.spacing, scene.support_radius()).x;
-  double longest = 0;
-  if (scene.has(Module::Knit)) {
-    KnitMesh mesh = build_knit(scene);
-    for (const Spring& s : mesh.springs)
-      longest = std::max(longest, s.rest);
-    x[static_cast<int>(Phase::Knit)] = std::move(mesh.x);
-  }
-  const GhostWidths w = ghost_widths(scene, longest, plan.knit_self_radius, plan.coupling_reach);
-  return plan_partition(scene, x, w, ranks);
-}
+template PartitionReport
+describe_partition<float>(const Scene&, const Decomposition&, const HaloWidths&, const PhaseCosts&,
+                          const std::array<std::span<const Vec3<float>>, kPhases>&,
+                          const GridGeometry<float>*);
+template PartitionReport
+describe_partition<double>(const Scene&, const Decomposition&, const HaloWidths&, const PhaseCosts&,
+                           const std::array<std::span<const Vec3<double>>, kPhases>&,
+                           const GridGeometry<double>*);
 
 } // namespace kf

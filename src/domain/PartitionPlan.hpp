@@ -1,34 +1,19 @@
 #pragma once
-// What `knitflow plan --ranks N` prints about the split: the scene's particles placed as they
-// start, the blocks partitioned (domain/Decomposition), and per rank the particles it owns and
-// the ghosts it receives for each phase, with the bytes a step would exchange. Host-only.
+// What `knitflow plan --ranks N` prints about the split: the scene's particles placed as a run
+// starts them, the blocks partitioned as the run partitions them (domain/RankLayout), and per
+// rank the particles it owns and the ghosts it receives for each phase, with the bytes a step
+// would exchange. Host-only.
 #include "domain/Decomposition.hpp"
+#include "domain/RankLayout.hpp"
 #include "domain/Scene.hpp"
-#include "domain/Simulation.hpp"
+#include "kernels/grid/GridGeometry.hpp"
 
 #include <array>
 #include <cstddef>
+#include <span>
 #include <vector>
 
 namespace kf {
-
-/// Ghost widths per phase: the farthest another rank's particle of that phase can act on one of
-/// this rank's (DESIGN §6).
-struct GhostWidths {
-  std::array<double, kPhases> width{0, 0, 0};
-  /// The fluid's beside walls (twice the boundary's: a ghost wall finds all its fluid; 0: no
-  /// walls).
-  double fluid_beside_walls = 0;
-  double of(Phase p) const { return width[static_cast<int>(p)]; }
-};
-
-/// The widths a scene needs: fluid and boundary the support radius (plus the "verlet" lists'
-/// skin) or the fluid-knit contact reach if larger, the fluid twice the boundary's beside walls;
-/// knit the longest spring stretched by half, the self-contact diameter or the contact reach.
-/// `longest_spring`, `self_radius` and `coupling_reach` come from the built knit and coupling
-/// (0 where absent).
-GhostWidths ghost_widths(const Scene& scene, double longest_spring, double self_radius,
-                         double coupling_reach);
 
 /// Bytes a ghost of each phase costs a step: the fields refreshed in place between rebuilds
 /// (fluid x, v before the density pass and rho, P before the forces; knit x, v every substep and
@@ -48,19 +33,22 @@ struct PartitionReport {
   int ranks = 1;
   int blocks[3] = {1, 1, 1};
   double block_edge = 0;
-  GhostWidths widths;
+  HaloWidths widths;
   PhaseCosts costs;
   double imbalance = 1;
   std::size_t domain_cells = 0; // the grids' on one rank (0: no fluid or boundary)
   std::vector<RankShare> rank;
 };
 
-/// Partitions the scene's initial particles `x[phase]` over `ranks`.
-PartitionReport plan_partition(const Scene& scene, const std::array<std::vector<Vec3d>, kPhases>& x,
-                               const GhostWidths& widths, int ranks);
-
-/// The same from the scene alone: its particles sampled and its knit built as a run starts them,
-/// the widths from `plan` (Simulation::plan's coupling reach and self-contact radius).
-PartitionReport plan_partition(const Scene& scene, const PlanReport& plan, int ranks);
+/// What each rank of `d` owns and receives of the particles `x[phase]` (in the run's precision:
+/// a point's block and cell as the run finds them), by the widths `w` (the ghosts as
+/// RankExchange chooses them at the start; the knit's as KnitHalo first chooses them) and each
+/// rank's window of `whole` (the fluid's and the boundary's grid on one rank; nullptr where the
+/// scene has neither).
+template <typename T>
+PartitionReport describe_partition(const Scene& scene, const Decomposition& d, const HaloWidths& w,
+                                   const PhaseCosts& costs,
+                                   const std::array<std::span<const Vec3<T>>, kPhases>& x,
+                                   const GridGeometry<T>* whole);
 
 } // namespace kf

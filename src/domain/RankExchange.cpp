@@ -45,8 +45,7 @@ std::vector<comm::MigrationColumn> boundary_state(BoundarySet<T>& b) {
 
 template <typename T>
 RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
-                              exec::Backend backend, double knit_width, double coupling_reach,
-                              double skin)
+                              exec::Backend backend, const SplitInputs& split)
     : mpi_(mpi), backend_(backend), scene_(scene), select_(backend),
       keep_(backend, 0, "ranks.owned"), inverse_(backend, 0, "ranks.inverse"),
       alive_(backend, 0, "ranks.alive") {
@@ -89,22 +88,12 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   // forces' pass (a: one column) runs whole, then exchanges. On two H200s this took 58 us off
   // the 4M-a-GPU dam break's step (docs/PERFORMANCE.md, P9).
   overlap_short_ = overlap_ && transport_->memory_space() == comm::MemorySpace::Host;
-  costs_.knit_substeps = scene.knit.substeps;
-  // A pair within the support now was within support + skin at the sort.
-  fluid_width_ = std::max(scene.support_radius(), coupling_reach) + (keeps_ghosts_ ? skin : 0.0);
-  // The owned fluid strays up to the skin out of the region between sorts ("verlet").
-  boundary_width_ = scene.support_radius() + (keeps_ghosts_ ? skin : 0.0);
-  // A ghost wall (within boundary_width_ of the region) computes its own pressure from the fluid
-  // within the support (+ skin: its list's reach) of it, so the fluid beside walls goes twice
-  // as far: no exchange of the walls' pressures, one meeting of the ranks a step fewer.
-  walls_width_ = scene.has(Module::Boundary) && scene.has(Module::Fluid)
-                     ? std::max(fluid_width_, 2 * boundary_width_)
-                     : 0.0;
-  // Blocks of block_cells support radii; the knit's ghost width where there is no fluid (as
-  // `knitflow plan` cuts them).
-  block_scale_ = scene.has(Module::Fluid) ? fluid_width_ : std::max(knit_width, 1e-6);
-  if (!scene.has(Module::Fluid))
-    fluid_width_ = block_scale_; // the blocks' halo weights
+  costs_ = initial_costs(scene);
+  // The widths and the blocks as `knitflow plan` takes them (RankLayout).
+  widths_ = halo_widths(scene, split);
+  fluid_width_ = widths_.fluid;
+  boundary_width_ = widths_.boundary;
+  walls_width_ = widths_.walls;
 }
 
 template <typename T>
@@ -118,24 +107,8 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
     fx = fluid->x.to_host();
   if (boundary)
     bx = boundary->x.to_host();
-  // Blocks over the domain, widened to every particle (walls' particles lie outside it).
-  Vec3d lo = scene_.domain.min, hi = scene_.domain.max;
-  for (const std::span<const Vec3<T>> set :
-       {std::span<const Vec3<T>>(fx), std::span<const Vec3<T>>(bx), knit})
-    for (const auto& q : set)
-      for (int d = 0; d < 3; ++d) {
-        (&lo.x)[d] = std::min((&lo.x)[d], double((&q.x)[d]));
-        (&hi.x)[d] = std::max((&hi.x)[d], double((&q.x)[d]));
-      }
-  const BlockGrid grid(lo, hi, scene_.parallel.block_cells * block_scale_);
-  std::vector<std::array<double, kPhases>> counts(grid.count(), {0, 0, 0});
-  for (const auto& q : fx)
-    counts[grid.block_of(vec_cast<double>(q))][static_cast<int>(Phase::Fluid)] += 1;
-  for (const auto& q : bx)
-    counts[grid.block_of(vec_cast<double>(q))][static_cast<int>(Phase::Boundary)] += 1;
-  for (const auto& q : knit)
-    counts[grid.block_of(vec_cast<double>(q))][static_cast<int>(Phase::Knit)] += 1;
-  decomposition_.emplace(Decomposition::partition(grid, counts, costs(), ranks(), fluid_width_));
+  decomposition_.emplace(first_partition<T>(scene_, widths_, costs(), ranks(), fx, bx, knit));
+  const BlockGrid& grid = decomposition_->grid();
   select_.set(*decomposition_, me);
   // A particle moves less than a support radius a step (CFL): the blocks next to this rank's.
   migration_peers_ = neighbour_ranks(*decomposition_, me, grid.edge());
@@ -309,7 +282,8 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   }
   part_now.emplace("balance: METIS (re-partition)");
   const auto partitioning = std::chrono::steady_clock::now();
-  decomposition_.emplace(Decomposition::partition(grid, per_block, costs(), ranks(), fluid_width_));
+  decomposition_.emplace(
+      Decomposition::partition(grid, per_block, costs(), ranks(), widths_.halo_weight));
   const double partition_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - partitioning).count();
   select_.set(*decomposition_, rank());

@@ -15,6 +15,7 @@
 #include "comm/Transport.hpp"
 #include "domain/Decomposition.hpp"
 #include "domain/DeviceRows.hpp"
+#include "domain/RankLayout.hpp"
 #include "domain/RankSelector.hpp"
 #include "domain/Scene.hpp"
 #include "kernels/exec/Stopwatch.hpp"
@@ -35,15 +36,12 @@ namespace kf {
 template <typename T>
 class RankExchange {
 public:
-  /// Refuses (kf::Error) what the split does not carry yet: the knit on the GPU backend.
-  /// knit_width: the knit's ghost width (KnitHalo::base_width; 0 without knit), the blocks'
-  /// scale where there is no fluid.
-  /// coupling_reach: how far the knit-fluid coupling reaches (0 without): the fluid's ghosts
-  /// then reach that far too.
-  /// With "verlet" lists (skin: theirs, absolute) the fluid's ghosts reach the skin farther and
-  /// are kept between the sorts (keeps_ghosts()), their state refreshed after each forces pass.
+  /// `split`: the knit's width (the blocks' scale where there is no fluid), the coupling's
+  /// reach (the fluid's ghosts reach that far too) and the "verlet" lists' skin (the fluid's
+  /// ghosts then reach the skin farther and are kept between the sorts, keeps_ghosts(), their
+  /// state refreshed after each forces pass); the widths follow from them (halo_widths).
   RankExchange(const comm::MpiContext& mpi, const Scene& scene, exec::Backend backend,
-               double knit_width = 0, double coupling_reach = 0, double skin = 0);
+               const SplitInputs& split = {});
 
   int rank() const { return mpi_.rank(); }
   /// Whether the fluid's ghosts stay from one sort to the next ("verlet" lists).
@@ -53,11 +51,8 @@ public:
   /// How the exchanges read and write the particles' buffers (the backend's memory).
   comm::RowCopier& rows() { return *rows_; }
   const Decomposition& decomposition() const { return *decomposition_; }
-  /// The farthest any particle this rank holds at a sort lies outside its blocks: the widest
-  /// ghost width of the fluid (beside walls too) and the boundary.
-  double widest_ghost_width() const {
-    return std::max({fluid_width_, boundary_width_, walls_width_});
-  }
+  /// Each phase's ghost width, the blocks' edge (RankLayout).
+  const HaloWidths& widths() const { return widths_; }
   const comm::MpiContext& mpi() const { return mpi_; }
 
   /// At the start, every rank holding the whole scene: partitions by its particles' costs, keeps
@@ -147,6 +142,7 @@ public:
   /// for the output's cadence).
   std::vector<std::uint32_t> fluid_owned() const { return keep_.to_host(); }
   std::size_t fluid_owned_count() const { return fluid_owned_; }
+  std::size_t boundary_owned_count() const { return boundary_own_count_; }
   /// fluid_owned() on the backend (valid until the fluid's next sort or resize).
   const std::uint32_t* owned_flags() const { return keep_.data(); }
 
@@ -323,7 +319,6 @@ private:
   double last_counted_imbalance_ = 0, declined_counted_ = 0;
   double last_repartition_seconds_ = 0, last_partition_seconds_ = 0;
   std::uint64_t checks_held_ = 0; // imbalance checks since the last re-partition (this one too)
-  double block_scale_ = 0;        // a block's edge over parallel.block_cells
   bool keeps_ghosts_ = false;
   bool overlap_ = false;          // [parallel] overlap, where it applies
   bool overlap_short_ = false;    // the same for the forces' refresh (host messages)
@@ -339,6 +334,7 @@ private:
   std::unique_ptr<comm::Transport> transport_;
   std::optional<Decomposition> decomposition_;
   RankSelector<T> select_;
+  HaloWidths widths_;
   double fluid_width_ = 0, boundary_width_ = 0;
   double walls_width_ = 0; // the fluid's ghost width beside walls (0: no walls)
   std::vector<int> migration_peers_;

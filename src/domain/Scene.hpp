@@ -257,7 +257,7 @@ struct Scene {
 
   // [parallel]: how the domain is shared out among MPI ranks (DESIGN §6; domain/Decomposition).
   struct Parallel {
-    int block_cells = 4; // block edge, in grid cells (support radii)
+    int block_cells = 4; // block edge, in fluid ghost widths (support + skin; RankLayout)
     // Re-partition when the slowest rank's compute time over the mean passes `imbalance`,
     // measured over every `check_every` steps.
     double imbalance = 1.1;

@@ -3,6 +3,7 @@
 // adaptive time step. Precision is chosen at run time (SimulationT<float|double> behind this
 // interface); the backend too.
 #include "comm/MpiContext.hpp"
+#include "domain/PartitionPlan.hpp"
 #include "domain/Pipeline.hpp"
 #include "domain/Scene.hpp"
 #include "io/Frame.hpp"
@@ -105,6 +106,10 @@ class Simulation {
 public:
   /// The stages, particle counts, memory and initial dt of a scene, without running it.
   static PlanReport plan(const Scene& scene);
+  /// The split over `ranks` a run of the scene starts with, and what each rank owns and receives
+  /// (`knitflow plan --ranks N`): the particles, knit and coupling built on the host as a run
+  /// builds them (no forces evaluated), split by the run's rules (RankLayout).
+  static PartitionReport plan_split(const Scene& scene, int ranks);
 
   virtual ~Simulation() = default;
 
@@ -155,6 +160,7 @@ public:
     // This rank's fluid (or boundary) grid: its cells and the whole domain's (a rank's grid
     // covers its region, NeighbourGrid::within; 0 without either set).
     std::uint64_t grid_cells = 0, domain_cells = 0;
+    std::array<std::uint64_t, 3> owned{}; // particles this rank owns: fluid, boundary, knit
   };
   virtual RankReport rank_report() const { return {}; }
   /// Measure each stage's time (synchronising the device after each stage).

@@ -107,13 +107,9 @@ void SimulationT<T>::fit_grids_to_region() {
   if (!ranks_ || (!fluid_grid_ && !boundary_grid_))
     return;
   const GridGeometry<T>& whole = whole_grid_;
-  const auto [lo, hi] = ranks_->decomposition().window(
-      ranks_->rank(), vec_cast<double>(whole.origin), double(whole.cell),
-      {whole.nx, whole.ny, whole.nz}, ranks_->widest_ghost_width() + skin_);
-  const GridGeometry<T> geo = NeighbourGrid<T>::within(whole, lo, hi);
-  const auto& now = (fluid_grid_ ? *fluid_grid_ : *boundary_grid_).geometry();
-  if (geo.ox == now.ox && geo.oy == now.oy && geo.oz == now.oz && geo.nx == now.nx &&
-      geo.ny == now.ny && geo.nz == now.nz)
+  const GridGeometry<T> geo =
+      rank_grid(ranks_->decomposition(), ranks_->rank(), whole, ranks_->widths());
+  if (geo.same_cells((fluid_grid_ ? *fluid_grid_ : *boundary_grid_).geometry()))
     return;
   const int span = static_cast<int>(scene_.solver.cell_span);
   // The sub-cell order of the whole grid (a window's fewer cells might leave room for more

@@ -31,9 +31,11 @@ PlanReport Simulation::plan(const Scene& scene) {
   const bool dbl = scene.precision == Precision::Double;
   std::unique_ptr<Simulation> shell;
   if (dbl)
-    shell.reset(new SimulationT<double>(scene, exec::Backend::Cpu, true));
+    shell.reset(
+        new SimulationT<double>(scene, exec::Backend::Cpu, SimulationT<double>::Build::Stages));
   else
-    shell.reset(new SimulationT<float>(scene, exec::Backend::Cpu, true));
+    shell.reset(
+        new SimulationT<float>(scene, exec::Backend::Cpu, SimulationT<float>::Build::Stages));
   for (const auto& s : shell->pipeline().stages())
     r.stages.push_back({s.name + " [" + s.module + "]", s.what});
   r.support_radius = scene.support_radius();
@@ -41,8 +43,7 @@ PlanReport Simulation::plan(const Scene& scene) {
     r.obstacles.push_back(describe_obstacle(o));
   r.bytes_solids = dbl ? RigidShapes<double>(scene).bytes() : RigidShapes<float>(scene).bytes();
   const double h = r.support_radius;
-  const int span = static_cast<int>(scene.solver.cell_span);
-  const auto geo = NeighbourGrid<double>::cover(scene.domain.min, scene.domain.max, h / span, span);
+  const auto geo = whole_grid<double>(scene); // the run's fluid and boundary grid on one rank
   r.grid[0] = geo.nx;
   r.grid[1] = geo.ny;
   r.grid[2] = geo.nz;
@@ -135,6 +136,14 @@ PlanReport Simulation::plan(const Scene& scene) {
   if (scene.output.enabled && scene.output.interval > 0)
     r.output_frames = std::floor(scene.end_time / scene.output.interval + 1e-9) + 1;
   return r;
+}
+
+PartitionReport Simulation::plan_split(const Scene& scene, int ranks) {
+  if (scene.precision == Precision::Double)
+    return SimulationT<double>(scene, exec::Backend::Cpu, SimulationT<double>::Build::Particles)
+        .split_plan(ranks);
+  return SimulationT<float>(scene, exec::Backend::Cpu, SimulationT<float>::Build::Particles)
+      .split_plan(ranks);
 }
 
 } // namespace kf

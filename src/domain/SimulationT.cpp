@@ -8,7 +8,7 @@
 namespace kf {
 
 template <typename T>
-SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan_only,
+SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, Build build,
                             const comm::MpiContext* mpi)
     : scene_(scene), ex_{backend}, shift_(backend, 0, "sph.shift"),
       guard_count_(backend, 0, "boundary.guard_count"),
@@ -54,23 +54,17 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
       static_cast<T>(scene.solver.density_diffusion * 0.5 * h_ * scene.fluid.speed_of_sound);
 
   build_pipeline();
-  if (plan_only)
+  if (build == Build::Stages)
     return; // the stage list is all `plan` needs
   init_particles();
   update_shapes(0.0);
+  if (build == Build::Particles)
+    return; // what the split is made from (split_plan)
   init_work_measures();
   // On N ranks each keeps what it owns (every rank sampled the whole scene above).
   if (mpi && mpi->size() > 1) {
-    const KnitFluidCoupling<T>* c = coupling_ ? &*coupling_ : nullptr;
-    const double reach =
-        c ? std::max(double(coupling_reach(c->params())), c->params().capillary ? h_ : 0.0) : 0.0;
-    // With the coupling, a knit point may stray half the knit's skin (one support radius)
-    // outside the region it is owned by until its ghosts are chosen anew: the fluid's ghosts
-    // reach that much farther.
-    const double knit_skin = c ? h_ : 0.0;
-    ranks_.emplace(*mpi, scene_, backend,
-                   knit_ ? KnitHalo<T>::base_width(*knit_, c, sheet_guard_width_) : 0.0,
-                   c ? reach + 0.5 * knit_skin : 0.0, skin_);
+    const SplitInputs split = split_inputs();
+    ranks_.emplace(*mpi, scene_, backend, split);
     if (fluid_list_) // every rank keeps or builds its lists at the same steps
       fluid_list_->combine_readings([this](T* m, int k) {
         MPI_Allreduce(MPI_IN_PLACE, m, k, std::is_same_v<T, float> ? MPI_FLOAT : MPI_DOUBLE,
@@ -79,7 +73,7 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, bool plan
     ranks_->distribute(fluid_ ? &*fluid_ : nullptr, boundary_ ? &*boundary_ : nullptr,
                        all_knit_positions());
     if (knit_) {
-      knit_halo_.emplace(*ranks_, *knit_, coupling_ ? &*coupling_ : nullptr, knit_skin,
+      knit_halo_.emplace(*ranks_, *knit_, coupling_ ? &*coupling_ : nullptr, split.knit_skin,
                          sheet_guard_width_);
       if (absorption_)
         absorption_ranks_.emplace(*ranks_, *knit_halo_, *knit_, *absorption_);
@@ -149,14 +143,46 @@ void SimulationT<T>::measure_boundary_work() {
 }
 
 template <typename T>
+SplitInputs SimulationT<T>::split_inputs() {
+  SplitInputs in;
+  in.skin = skin_;
+  const KnitFluidCoupling<T>* c = coupling_ ? &*coupling_ : nullptr;
+  // With the coupling, a knit point may stray half the knit's skin (one support radius)
+  // outside the region it is owned by until its ghosts are chosen anew: the fluid's ghosts
+  // reach that much farther.
+  in.knit_skin = c ? h_ : 0.0;
+  if (c)
+    in.coupling_reach =
+        std::max(double(coupling_reach(c->params())), c->params().capillary ? h_ : 0.0) +
+        0.5 * in.knit_skin;
+  if (knit_)
+    in.knit_width = KnitHalo<T>::base_width(*knit_, c, sheet_guard_width_);
+  return in;
+}
+
+template <typename T>
+PartitionReport SimulationT<T>::split_plan(int ranks) {
+  const HaloWidths w = halo_widths(scene_, split_inputs());
+  std::vector<Vec3<T>> fx, bx;
+  if (fluid_)
+    fx = fluid_->x.to_host();
+  if (boundary_)
+    bx = boundary_->x.to_host();
+  const std::span<const Vec3<T>> knit = all_knit_positions();
+  const PhaseCosts costs = initial_costs(scene_);
+  const Decomposition d = first_partition<T>(scene_, w, costs, ranks, fx, bx, knit);
+  return describe_partition<T>(scene_, d, w, costs, {std::span<const Vec3<T>>(fx), bx, knit},
+                               fluid_on_ || boundary_on_ ? &whole_grid_ : nullptr);
+}
+
+template <typename T>
 void SimulationT<T>::init_particles() {
-  const auto& d = scene_.domain;
   const int span = static_cast<int>(scene_.solver.cell_span);
   // The fluid's and the boundary's grids (on N ranks each rank's a window of it): cells reach the
   // support plus the lists' skin, so a walk of the grid stays exact between the lists' builds
   // (no point has moved more than the skin since the sort; SphLists).
   if (fluid_on_ || boundary_on_)
-    whole_grid_ = NeighbourGrid<T>::cover(d.min, d.max, (h_ + skin_) / span, span);
+    whole_grid_ = whole_grid<T>(scene_);
   if (knit_on_)
     knit_.emplace(scene_, ex_);
   if (fluid_on_) {
@@ -525,10 +551,12 @@ void SimulationT<T>::build_pipeline() {
   }
 }
 
-template SimulationT<float>::SimulationT(const Scene&, exec::Backend, bool,
+template SimulationT<float>::SimulationT(const Scene&, exec::Backend, Build,
                                          const comm::MpiContext*);
-template SimulationT<double>::SimulationT(const Scene&, exec::Backend, bool,
+template SimulationT<double>::SimulationT(const Scene&, exec::Backend, Build,
                                           const comm::MpiContext*);
+template PartitionReport SimulationT<float>::split_plan(int);
+template PartitionReport SimulationT<double>::split_plan(int);
 
 std::unique_ptr<Simulation> Simulation::create(const Scene& scene, exec::Backend backend,
                                                const comm::MpiContext* mpi) {
@@ -536,8 +564,9 @@ std::unique_ptr<Simulation> Simulation::create(const Scene& scene, exec::Backend
     throw Error(exec::cuda_compiled() ? "--device cuda: no CUDA device is visible"
                                       : "--device cuda: this knitflow was built without CUDA");
   if (scene.precision == Precision::Double)
-    return std::make_unique<SimulationT<double>>(scene, backend, false, mpi);
-  return std::make_unique<SimulationT<float>>(scene, backend, false, mpi);
+    return std::make_unique<SimulationT<double>>(scene, backend, SimulationT<double>::Build::Run,
+                                                 mpi);
+  return std::make_unique<SimulationT<float>>(scene, backend, SimulationT<float>::Build::Run, mpi);
 }
 
 } // namespace kf

@@ -12,6 +12,7 @@
 #include "domain/KnitSystem.hpp"
 #include "domain/LocalWork.hpp"
 #include "domain/MeshObstacle.hpp"
+#include "domain/PartitionPlan.hpp"
 #include "domain/RankExchange.hpp"
 #include "domain/RigidShapes.hpp"
 #include "domain/Samplers.hpp"
@@ -49,8 +50,16 @@ namespace kf {
 template <typename T>
 class SimulationT final : public Simulation {
 public:
-  SimulationT(const Scene& scene, exec::Backend backend, bool plan_only = false,
+  /// How far the constructor goes: the stage list only (`knitflow plan`); the particles, knit
+  /// and coupling as a run starts them, not split and no forces evaluated (the plan's partition,
+  /// split_plan()); a run.
+  enum class Build { Stages, Particles, Run };
+  SimulationT(const Scene& scene, exec::Backend backend, Build build = Build::Run,
               const comm::MpiContext* mpi = nullptr);
+  /// The split over `ranks` the run would start with (RankLayout's rules, as RankExchange takes
+  /// them), with what each rank would own and receive (PartitionPlan). Built with
+  /// Build::Particles on one rank.
+  PartitionReport split_plan(int ranks);
 
   double step(double t_limit) override;
   double time() const override { return time_; }
@@ -83,7 +92,9 @@ public:
             fluid_grid_      ? fluid_grid_->geometry().cells()
             : boundary_grid_ ? boundary_grid_->geometry().cells()
                              : 0u,
-            fluid_grid_ || boundary_grid_ ? whole_grid_.cells() : 0u};
+            fluid_grid_ || boundary_grid_ ? whole_grid_.cells() : 0u,
+            {ranks_->fluid_owned_count(), ranks_->boundary_owned_count(),
+             knit_halo_ ? knit_halo_->owned() : 0u}};
   }
   void set_profiling(bool on) override {
     profiling_ = on;
@@ -114,6 +125,8 @@ private:
   /// On N ranks, after each partition: the fluid's and the boundary's grids cover this rank's
   /// blocks and the ghosts' reach, not the whole domain (NeighbourGrid::within).
   void fit_grids_to_region();
+  /// What the split over ranks takes from the knit and the coupling (halo_widths).
+  SplitInputs split_inputs();
   /// Restart: the fluid's grid (and lists) as the run that wrote fr holds them (see restore).
   void restore_fluid_grid(const io::Frame& fr);
   void compute_forces();

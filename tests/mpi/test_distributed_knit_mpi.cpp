@@ -23,6 +23,7 @@
 #include "support/CouplingScenes.hpp"
 #include "support/KnitScenes.hpp"
 #include "support/MpiGather.hpp"
+#include "support/PlanSplit.hpp"
 #include "support/RestartCases.hpp"
 #include "support/TestPaths.hpp"
 
@@ -195,7 +196,8 @@ TEST(DistributedKnit, GhostsAreThePointsWithinTheWidthAndEveryPartner) {
   KnitSystem<double> whole(s, ex), knit(s, ex); // whole: the reference, never split
   const auto all_x = whole.set().x.to_host();
   const auto all_m = whole.set().m.to_host();
-  RankExchange<double> ranks(mpi, s, exec::Backend::Cpu, KnitHalo<double>::base_width(knit));
+  RankExchange<double> ranks(mpi, s, exec::Backend::Cpu,
+                             SplitInputs{KnitHalo<double>::base_width(knit)});
   ranks.distribute(nullptr, nullptr, all_x);
   KnitHalo<double> halo(ranks, knit);
   halo.distribute();
@@ -503,6 +505,13 @@ TEST(DistributedKnit, CoupledPourIsTheOneRankRun) {
   Scene verlet = fixed(hammock("float"));
   verlet.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
   expect_same_coupled_run(verlet, 400, 200, "hammock pour, float, verlet lists");
+}
+
+// `knitflow plan --ranks N` is the run's split with the knit and its coupling too: the knit's
+// width (springs, volume cells, the contact cells) and the coupling's reach widen the ghosts.
+TEST(DistributedKnit, ThePlanIsTheRunsSplit) {
+  test::expect_plan_is_the_runs_split(hammock("float"), "hammock pour");
+  test::expect_plan_is_the_runs_split(small_drape("double"), "drape");
 }
 
 // Restart across rank counts with the fluid coupled to the knit (the paper's capillary model):

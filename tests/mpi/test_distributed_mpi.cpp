@@ -27,6 +27,7 @@
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
 #include "support/MpiGather.hpp"
+#include "support/PlanSplit.hpp"
 #include "support/RestartCases.hpp"
 #include "support/SceneFactory.hpp"
 #include "support/TestPaths.hpp"
@@ -419,6 +420,14 @@ TEST(Distributed, EachRankGridsItsRegionOnly) {
   // whose box is the domain. A grid of the domain on every rank would sum to the rank count.
   EXPECT_LT(sum, (mpi.size() == 2 ? 0.7 : 0.6) * mpi.size());
   EXPECT_LT(*std::min_element(shares.begin(), shares.end()), 0.35);
+}
+
+// `knitflow plan --ranks N` is the run's split: owners and grid windows (support/PlanSplit).
+TEST(Distributed, ThePlanIsTheRunsSplit) {
+  Scene s = dambreak("float", "summation");
+  test::expect_plan_is_the_runs_split(s, "dam break, lists off");
+  s.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
+  test::expect_plan_is_the_runs_split(s, "dam break, verlet lists");
 }
 
 // Fluid splashing onto three static obstacles in a box open at the top and the sides: the

@@ -25,6 +25,12 @@ struct GridGeometry {
   // point's cell and sub-cell come out as on the whole grid (same origin, integers subtracted).
   int ox = 0, oy = 0, oz = 0;
 
+  /// The same cells (origin, edge, counts and window offsets): grids whose cell indices agree.
+  bool same_cells(const GridGeometry& o) const {
+    return origin.x == o.origin.x && origin.y == o.origin.y && origin.z == o.origin.z &&
+           cell == o.cell && nx == o.nx && ny == o.ny && nz == o.nz && ox == o.ox && oy == o.oy &&
+           oz == o.oz;
+  }
   KF_HD KF_INLINE std::uint32_t cells() const {
     return static_cast<std::uint32_t>(nx) * static_cast<std::uint32_t>(ny) *
            static_cast<std::uint32_t>(nz);
