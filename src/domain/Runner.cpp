@@ -227,6 +227,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
     }
     throw InstabilityError(why + where);
   };
+  double last_dt = 0; // the last line shows the last step's size
   try {
     while (sim->time() < end - eps) {
       if (scene.solver.max_steps > 0 &&
@@ -262,6 +263,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
         progress.set_note(note);
       }
       progress.update(sim->steps(), sim->time(), dt, particles);
+      last_dt = dt;
       if (sim->time() >= next_out - eps) {
         ++frame_index;
         if (output)
@@ -285,7 +287,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
         (sum.last_checkpoint.empty() ? std::string()
                                      : ", last checkpoint: " + sum.last_checkpoint));
   }
-  progress.update(sim->steps(), sim->time(), 0, 0, true);
+  progress.update(sim->steps(), sim->time(), last_dt, 0, true);
   progress.finish();
 
   sum.steps = sim->steps() - start_steps;
