@@ -14,7 +14,8 @@ HaloWidths halo_widths(const Scene& scene, const SplitInputs& in) {
   if (fluid) // A pair within the support now was within support + skin at the sort.
     w.fluid = std::max(h, in.coupling_reach) + w.skin;
   // The owned fluid strays up to the skin out of the region between sorts.
-  w.boundary = h + w.skin;
+  if (scene.has(Module::Boundary))
+    w.boundary = h + w.skin;
   // A ghost wall (within w.boundary of the region) computes its own pressure from the fluid
   // within the support (+ skin: its list's reach) of it, so the fluid beside walls goes twice
   // as far: no exchange of the walls' pressures, one meeting of the ranks a step fewer.

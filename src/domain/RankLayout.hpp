@@ -25,7 +25,7 @@ struct SplitInputs {
 /// act on one of this rank's before the ghosts are chosen again.
 struct HaloWidths {
   double fluid = 0;    // the support or the coupling's reach, plus the skin
-  double boundary = 0; // the support plus the skin
+  double boundary = 0; // the support plus the skin (0: no boundary)
   double walls = 0;    // the fluid's beside walls: a ghost wall finds all its fluid (0: no walls)
   double knit = 0;     // the knit's first choice (KnitHalo widens it where a spring stretched)
   double skin = 0;     // the fluid's lists' skin

@@ -256,9 +256,11 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
         }
       }
       if (const auto r = since_start(sim->rank_report()); r.ranks > 1) {
-        char note[128];
-        std::snprintf(note, sizeof note, "%d ranks, imbalance %.3f, exchanges %.1f%% of the step",
-                      r.ranks, r.imbalance,
+        char note[128], imbalance[16] = "-"; // "-": not measured yet (the first check's)
+        if (r.imbalance > 0)
+          std::snprintf(imbalance, sizeof imbalance, "%.3f", r.imbalance);
+        std::snprintf(note, sizeof note, "%d ranks, imbalance %s, exchanges %.1f%% of the step",
+                      r.ranks, imbalance,
                       100 * r.exchange_seconds / std::max(1e-9, progress.wall_seconds()));
         progress.set_note(note);
       }
