@@ -100,19 +100,13 @@ template <typename T>
 void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
                                  std::span<const Vec3<T>> knit, std::uint64_t step) {
   settle_forces();
-  const int me = rank();
   last_window_ = window_of(step);
   std::vector<Vec3<T>> fx, bx;
   if (fluid)
     fx = fluid->x.to_host();
   if (boundary)
     bx = boundary->x.to_host();
-  decomposition_.emplace(first_partition<T>(scene_, widths_, costs(), ranks(), fx, bx, knit));
-  const BlockGrid& grid = decomposition_->grid();
-  select_.set(*decomposition_, me);
-  // A particle moves less than a support radius a step (CFL): the blocks next to this rank's.
-  migration_peers_ = neighbour_ranks(*decomposition_, me, grid.edge());
-
+  take_partition(first_partition<T>(scene_, widths_, costs(), ranks(), fx, bx, knit));
   // Each rank keeps what it owns: a migration to nobody (destination -1 drops a particle).
   if (fluid) {
     auto state = fluid_state(*fluid, true);
@@ -125,6 +119,28 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
     boundary->resize(comm::migrate(*transport_, {}, owners(bx, true), state, rows()));
     receive_boundary_ghosts(*boundary, boundary->size());
   }
+}
+
+template <typename T>
+void RankExchange<T>::adopt(Decomposition d, FluidSet<T>* fluid, BoundarySet<T>* boundary,
+                            std::uint64_t step) {
+  settle_forces();
+  last_window_ = window_of(step);
+  take_partition(std::move(d));
+  if (fluid) {
+    fluid_owned_ = fluid->size();
+    all_owned();
+  }
+  if (boundary)
+    receive_boundary_ghosts(*boundary, boundary->size());
+}
+
+template <typename T>
+void RankExchange<T>::take_partition(Decomposition d) {
+  decomposition_.emplace(std::move(d));
+  select_.set(*decomposition_, rank());
+  // A particle moves less than a support radius a step (CFL): the blocks next to this rank's.
+  migration_peers_ = neighbour_ranks(*decomposition_, rank(), decomposition_->grid().edge());
 }
 
 template <typename T>

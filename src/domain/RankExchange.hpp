@@ -63,6 +63,11 @@ public:
   /// step: the run's (a restart's), from which the imbalance checks count.
   void distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary, std::span<const Vec3<T>> knit = {},
                   std::uint64_t step = 0);
+  /// At the start, each rank holding only the fluid and the boundary it owns by `d` (the first
+  /// partition every rank computed alike from the whole scene, first_partition): takes `d` and
+  /// receives the boundary ghosts from their owners, as distribute() ends (sort the boundary
+  /// after, then boundary_sorted()). No rank then ever holds the whole scene on its device.
+  void adopt(Decomposition d, FluidSet<T>* fluid, BoundarySet<T>* boundary, std::uint64_t step = 0);
   void boundary_sorted(const exec::DeviceBuffer<std::uint32_t>& perm, std::size_t n);
   /// After moving solids moved their boundary particles (every rank its owned and ghost ones,
   /// alike): the owned go to their blocks' owners and the ghosts are chosen anew (collective;
@@ -274,6 +279,8 @@ private:
              std::size_t rows, std::size_t kept, std::size_t first_ghost);
   /// The fluid holds only what this rank owns: every flag 1.
   void all_owned();
+  /// The blocks' owners from now on, and the ranks a particle may migrate to.
+  void take_partition(Decomposition d);
   /// Finishes a deferred forces' refresh (before anything else uses the halo).
   void settle_forces();
   /// The fluid's rows moved or changed hands: the split lists and the ghosts' list are stale.

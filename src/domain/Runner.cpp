@@ -1,4 +1,5 @@
 #include "domain/Runner.hpp"
+#include "domain/SceneSize.hpp"
 #include "domain/StageParts.hpp"
 #include "domain/Watchdog.hpp"
 
@@ -111,6 +112,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
     if (opt.profile_device)
       s.profile_on_device();
   };
+  exec::reset_peak_bytes(opt.backend); // the summary's memory line: this run's most
   auto sim = Simulation::create(scene, opt.backend, &mpi);
   profiled(*sim);
   std::uint64_t frame_index = 0;
@@ -323,6 +325,14 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
   }
   if (opt.profile && mpi.size() > 1)
     sum.stage_seconds_slowest = slowest(&Pipeline::Stage::seconds);
+  { // The most the backend held at once on a rank: the largest over the ranks, and their mean.
+    const double peak = double(exec::held_bytes(opt.backend).peak);
+    double most = peak, total = peak;
+    MPI_Reduce(&peak, &most, 1, MPI_DOUBLE, MPI_MAX, 0, mpi.comm());
+    MPI_Reduce(&peak, &total, 1, MPI_DOUBLE, MPI_SUM, 0, mpi.comm());
+    sum.peak_bytes = {most, total / mpi.size()};
+    sum.backend = opt.backend;
+  }
   if (mpi.size() > 1 && sum.split.domain_cells > 0) {
     const double share = double(sum.split.grid_cells) / double(sum.split.domain_cells);
     double lo = share, hi = share, total = share;
@@ -390,6 +400,15 @@ std::string format_summary(const RunSummary& s) {
                     static_cast<unsigned long long>(d.outflow_particles), d.outflow_mass);
       o << buf;
     }
+  }
+  if (s.peak_bytes[0] > 0) {
+    std::snprintf(buf, sizeof buf, "memory: the %s backend held at most %s at once",
+                  std::string(exec::to_string(s.backend)).c_str(),
+                  format_bytes(s.peak_bytes[0]).c_str());
+    o << buf;
+    if (s.split.ranks > 1)
+      o << " on a rank (the mean rank " << format_bytes(s.peak_bytes[1]) << ")";
+    o << "\n";
   }
   if (const auto& r = s.split; r.ranks > 1) {
     const double knit = std::max(0.0, r.exchange_seconds - r.migration_seconds - r.refresh_seconds -

@@ -58,6 +58,10 @@ struct RunSummary {
   decltype(Simulation::RankReport::refresh_pass_device) refresh_pass_slowest{};
   // The ranks' grids over the domain's cells: the smallest, the mean and the largest share.
   std::array<double, 3> grid_shares{};
+  // The most the backend held at once (exec::held_bytes) on a rank: the largest over the
+  // ranks and their mean (rank 0).
+  std::array<double, 2> peak_bytes{};
+  exec::Backend backend = exec::Backend::Cpu;
 };
 
 RunSummary run_scene(const Scene& scene, const RunOptions& opt, const comm::MpiContext& mpi,

@@ -104,25 +104,27 @@ void SimulationT<T>::fit_grids_to_region() {
   // and every pass over cells), however small its share: at 512 ranks, the job's. The window
   // holds every particle this rank sorts (its blocks' particles, the ghosts within their widths
   // of them, the motion since the last rebuild within the skin) in the whole grid's cells.
-  if (!ranks_ || (!fluid_grid_ && !boundary_grid_))
+  if (!ranks_ || (!fluid_on_ && !boundary_on_))
     return;
   const GridGeometry<T>& whole = whole_grid_;
   const GridGeometry<T> geo =
       rank_grid(ranks_->decomposition(), ranks_->rank(), whole, ranks_->widths());
-  if (geo.same_cells((fluid_grid_ ? *fluid_grid_ : *boundary_grid_).geometry()))
+  // (none yet at the start: init_particles leaves them to this)
+  const auto& now = fluid_on_ ? fluid_grid_ : boundary_grid_;
+  if (now && geo.same_cells(now->geometry()))
     return;
   const int span = static_cast<int>(scene_.solver.cell_span);
   // The sub-cell order of the whole grid (a window's fewer cells might leave room for more
   // levels): a cell's particles then go in the order one rank gives them.
   const int levels = NeighbourGrid<T>::usable_order_levels(
       whole.cells() + 1, static_cast<int>(scene_.solver.cell_order));
-  if (fluid_grid_) {
+  if (fluid_on_) {
     fluid_grid_.emplace(ex_.backend, geo, span, levels);
     fluid_near_.resize(0); // the last sort's flags: of the old grid
     if (fluid_list_)
       fluid_list_->forget();
   }
-  if (boundary_grid_)
+  if (boundary_on_)
     boundary_grid_.emplace(ex_.backend, geo, span, levels); // sorted by the caller next
 }
 

@@ -81,6 +81,26 @@ void rows_by_id(io::Phase& p) {
   }
 }
 
+/// The rows listed (ascending) of every field with a row a particle; the others as they are.
+io::Phase rows_kept(const io::Phase& p, const std::vector<std::size_t>& rows) {
+  const io::Field* idf = p.find("id");
+  const std::size_t n = idf ? idf->count : 0;
+  io::Phase out{p.name, {}};
+  for (const io::Field& f : p.fields) {
+    if (f.count != n) {
+      out.fields.push_back(f);
+      continue;
+    }
+    const std::size_t row = f.bytes.size() / std::max<std::size_t>(1, f.count);
+    io::Field g{f.name, f.type, f.components, rows.size(), {}};
+    g.bytes.resize(rows.size() * row);
+    for (std::size_t k = 0; k < rows.size(); ++k)
+      std::copy_n(f.bytes.begin() + rows[k] * row, row, g.bytes.begin() + k * row);
+    out.fields.push_back(std::move(g));
+  }
+  return out;
+}
+
 /// out[k] = v[perm[k]]: a host copy put in a sort's order.
 template <typename U>
 std::vector<U> permuted(const std::vector<U>& v, const std::vector<std::uint32_t>& perm) {
@@ -230,10 +250,47 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     } else if (k == "next_fluid_id")
       next_fluid_id_ = static_cast<std::uint64_t>(v);
   update_shapes(time_);
-  if (fluid_on_) {
-    const io::Phase* p = fr.find("fluid");
+  const io::Phase* fluid_phase = fluid_on_ ? fr.find("fluid") : nullptr;
+  const io::Phase* boundary_phase = boundary_on_ ? fr.find("boundary") : nullptr;
+  if (fluid_on_ && !fluid_phase)
+    throw Error("restart: the snapshot has no fluid phase but the scene has fluid");
+  if (boundary_on_ && !boundary_phase)
+    throw Error("restart: the snapshot has no boundary phase but the scene has one");
+  std::optional<io::Phase> knit_phase;
+  if (knit_on_) {
+    const io::Phase* p = fr.find("knit");
     if (!p)
-      throw Error("restart: the snapshot has no fluid phase but the scene has fluid");
+      throw Error("restart: the snapshot has no knit phase but the scene has knit");
+    knit_phase = *p;
+    rows_by_id(*knit_phase); // in mesh order, whatever rank count wrote it
+  }
+  // On N ranks the blocks are partitioned anew from the frame's particles (the results do not
+  // depend on the partition), as every rank does alike, and only this rank's fluid and boundary
+  // go to the backend (the whole frame stays on the host; the knit is shared out by KnitHalo).
+  std::optional<Decomposition> split;
+  io::Phase fluid_mine, boundary_mine;
+  if (ranks_) {
+    const auto positions = [](const io::Phase* p) {
+      return p ? unflatten(require(*p, "position").as<T>()) : std::vector<Vec3<T>>{};
+    };
+    const auto fx = positions(fluid_phase), bx = positions(boundary_phase),
+               kx = positions(knit_phase ? &*knit_phase : nullptr);
+    split.emplace(first_partition<T>(scene_, ranks_->widths(), ranks_->phase_costs(),
+                                     ranks_->ranks(), fx, bx, kx));
+    const auto mine = [&](const std::vector<Vec3<T>>& x) {
+      std::vector<std::size_t> rows;
+      for (std::size_t i = 0; i < x.size(); ++i)
+        if (split->owner(vec_cast<double>(x[i])) == ranks_->rank())
+          rows.push_back(i);
+      return rows;
+    };
+    if (fluid_phase)
+      fluid_phase = &(fluid_mine = rows_kept(*fluid_phase, mine(fx)));
+    if (boundary_phase)
+      boundary_phase = &(boundary_mine = rows_kept(*boundary_phase, mine(bx)));
+  }
+  if (fluid_on_) {
+    const io::Phase* p = fluid_phase;
     const auto x = unflatten(require(*p, "position").as<T>());
     fluid_->resize(x.size());
     fluid_->x.assign(x);
@@ -257,9 +314,7 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     fluid_->id.assign(require(*p, "id").as<std::uint64_t>());
   }
   if (boundary_on_) {
-    const io::Phase* p = fr.find("boundary");
-    if (!p)
-      throw Error("restart: the snapshot has no boundary phase but the scene has one");
+    const io::Phase* p = boundary_phase;
     const auto x = unflatten(require(*p, "position").as<T>());
     boundary_->resize(x.size());
     boundary_->x.assign(x);
@@ -271,13 +326,7 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     if (!ranks_)
       sort_boundary();
   }
-  std::optional<io::Phase> knit_phase;
   if (knit_on_) {
-    const io::Phase* p = fr.find("knit");
-    if (!p)
-      throw Error("restart: the snapshot has no knit phase but the scene has knit");
-    knit_phase = *p;
-    rows_by_id(*knit_phase); // in mesh order, whatever rank count wrote it
     knit_->restore(*knit_phase);
     if (absorption_) { // the whole knit's, before N ranks share the points out again
       const io::Field* a = knit_phase->find("fluid_mass");
@@ -288,10 +337,9 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     }
   }
   if (ranks_) {
-    // The blocks are partitioned anew from the frame's particles (the results do not depend on
-    // the partition), each rank keeps its share, and the next step's sort rebuilds the rest.
-    ranks_->distribute(fluid_on_ ? &*fluid_ : nullptr, boundary_on_ ? &*boundary_ : nullptr,
-                       all_knit_positions(), steps_);
+    // Each rank holds its share (above); the next step's sort rebuilds the rest.
+    ranks_->adopt(std::move(*split), fluid_on_ ? &*fluid_ : nullptr,
+                  boundary_on_ ? &*boundary_ : nullptr, steps_);
     if (fluid_list_) // "verlet" lists: built at the next step for the positions then
       fluid_list_->forget();
     fit_grids_to_region();

@@ -56,24 +56,26 @@ SimulationT<T>::SimulationT(const Scene& scene, exec::Backend backend, Build bui
   build_pipeline();
   if (build == Build::Stages)
     return; // the stage list is all `plan` needs
-  init_particles();
+  const bool split = build == Build::Run && mpi && mpi->size() > 1;
+  init_particles(split ? mpi : nullptr);
   update_shapes(0.0);
   if (build == Build::Particles)
     return; // what the split is made from (split_plan)
   init_work_measures();
-  // On N ranks each keeps what it owns (every rank sampled the whole scene above).
-  if (mpi && mpi->size() > 1) {
-    const SplitInputs split = split_inputs();
-    ranks_.emplace(*mpi, scene_, backend, split);
+  // On N ranks each holds what it owns of the fluid and the boundary (init_particles kept it by
+  // the first partition), and the whole knit until KnitHalo keeps its share.
+  if (split) {
+    ranks_.emplace(*mpi, scene_, backend, split_);
     if (fluid_list_) // every rank keeps or builds its lists at the same steps
       fluid_list_->combine_readings([this](T* m, int k) {
         MPI_Allreduce(MPI_IN_PLACE, m, k, std::is_same_v<T, float> ? MPI_FLOAT : MPI_DOUBLE,
                       MPI_MAX, ranks_->mpi().comm());
       });
-    ranks_->distribute(fluid_ ? &*fluid_ : nullptr, boundary_ ? &*boundary_ : nullptr,
-                       all_knit_positions());
+    ranks_->adopt(std::move(*first_split_), fluid_ ? &*fluid_ : nullptr,
+                  boundary_ ? &*boundary_ : nullptr);
+    first_split_.reset();
     if (knit_) {
-      knit_halo_.emplace(*ranks_, *knit_, coupling_ ? &*coupling_ : nullptr, split.knit_skin,
+      knit_halo_.emplace(*ranks_, *knit_, coupling_ ? &*coupling_ : nullptr, split_.knit_skin,
                          sheet_guard_width_);
       if (absorption_)
         absorption_ranks_.emplace(*ranks_, *knit_halo_, *knit_, *absorption_);
@@ -116,10 +118,7 @@ void SimulationT<T>::init_contact_work() {
   // domain's height, or moving at the speed of sound or the fastest solid's speed), so one
   // correction rounds by 1e-15 of it and the sum holds 2^13 of it. Every rank sampled the whole
   // scene (before the split).
-  double mass = 0, speed = fluid_on_ ? scene_.fluid.speed_of_sound : 0.0;
-  if (fluid_on_)
-    for (const T m : fluid_->m.to_host())
-      mass += double(m);
+  double mass = whole_fluid_mass_, speed = fluid_on_ ? scene_.fluid.speed_of_sound : 0.0;
   if (knit_on_)
     for (const T m : knit_->set().m.to_host())
       mass += double(m);
@@ -176,75 +175,121 @@ PartitionReport SimulationT<T>::split_plan(int ranks) {
 }
 
 template <typename T>
-void SimulationT<T>::init_particles() {
+void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
   const int span = static_cast<int>(scene_.solver.cell_span);
-  // The fluid's and the boundary's grids (on N ranks each rank's a window of it): cells reach the
-  // support plus the lists' skin, so a walk of the grid stays exact between the lists' builds
-  // (no point has moved more than the skin since the sort; SphLists).
+  // The fluid's and the boundary's grids (on N ranks each rank's a window of it, made once the
+  // partition is known: fit_grids_to_region): cells reach the support plus the lists' skin, so a
+  // walk of the grid stays exact between the lists' builds (no point has moved more than the
+  // skin since the sort; SphLists).
   if (fluid_on_ || boundary_on_)
     whole_grid_ = whole_grid<T>(scene_);
   if (knit_on_)
     knit_.emplace(scene_, ex_);
+  // The knit and the coupling first: the split's widths come from them.
+  if (coupling_on_)
+    init_coupling();
+  // Every rank samples the whole scene on the host (ids are the samples' indices, as on one
+  // rank); on N ranks it partitions them as every other rank does (first_partition) and puts
+  // only its own on the backend: no rank's device ever holds the whole scene.
+  FluidSamples fs;
+  std::vector<Vec3<T>> fx, bx;
   if (fluid_on_) {
-    const FluidSamples fs = sample_fluid(scene_);
-    const auto& x = fs.x;
+    fs = sample_fluid(scene_);
+    fx.resize(fs.x.size());
+    for (std::size_t i = 0; i < fx.size(); ++i)
+      fx[i] = vec_cast<T>(fs.x[i]);
+  }
+  BoundarySamples bs;
+  if (boundary_on_) {
+    bs = sample_boundaries(scene_, scene_.fluid.spacing, h_);
+    bx.resize(bs.x.size());
+    for (std::size_t i = 0; i < bx.size(); ++i)
+      bx[i] = vec_cast<T>(bs.x[i]);
+  }
+  if (split_over) {
+    split_ = split_inputs();
+    first_split_.emplace(first_partition<T>(scene_, halo_widths(scene_, split_),
+                                            initial_costs(scene_), split_over->size(), fx, bx,
+                                            all_knit_positions()));
+  }
+  // The rows this rank keeps (every row on one rank), in the samples' order.
+  const auto kept = [&](const std::vector<Vec3<T>>& x) {
+    std::vector<std::size_t> rows;
+    rows.reserve(split_over ? x.size() / split_over->size() + 1 : x.size());
+    for (std::size_t i = 0; i < x.size(); ++i)
+      if (!first_split_ || first_split_->owner(vec_cast<double>(x[i])) == split_over->rank())
+        rows.push_back(i);
+    return rows;
+  };
+  if (fluid_on_) {
     const double m = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support,
                                            scene_.fluid.spacing, scene_.fluid.rest_density);
-    std::vector<Vec3<T>> xs(x.size()), vs(x.size());
-    std::vector<std::uint64_t> ids(x.size());
-    for (std::size_t i = 0; i < x.size(); ++i) {
-      xs[i] = vec_cast<T>(x[i]);
-      vs[i] = vec_cast<T>(fs.v[i]);
-      ids[i] = i;
+    // The continuity equation's start (summation recomputes the density).
+    std::vector<double> hydrostatic;
+    if (continuity() && scene_.fluid.initial_density == Scene::Fluid::InitialDensity::Hydrostatic)
+      hydrostatic =
+          hydrostatic_density(fs, scene_.gravity, scene_.fluid.spacing, scene_eos<double>(scene_));
+    const auto rows = kept(fx);
+    const std::size_t n = rows.size();
+    std::vector<Vec3<T>> xs(n), vs(n);
+    std::vector<T> rho(n, static_cast<T>(scene_.fluid.rest_density));
+    std::vector<std::uint64_t> ids(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t i = rows[k];
+      xs[k] = fx[i];
+      vs[k] = vec_cast<T>(fs.v[i]);
+      ids[k] = i;
+      if (!hydrostatic.empty())
+        rho[k] = static_cast<T>(hydrostatic[i]);
     }
     fluid_.emplace(ex_.backend);
-    fluid_->resize(x.size());
+    fluid_->resize(n);
     fluid_->x.assign(xs);
     fluid_->v.assign(vs);
-    fluid_->a.assign(std::vector<Vec3<T>>(x.size(), Vec3<T>{}));
-    fluid_->m.assign(std::vector<T>(x.size(), static_cast<T>(m)));
-    // The continuity equation's start (summation recomputes the density).
-    std::vector<T> rho(x.size(), static_cast<T>(scene_.fluid.rest_density));
-    if (continuity() && scene_.fluid.initial_density == Scene::Fluid::InitialDensity::Hydrostatic) {
-      const auto h =
-          hydrostatic_density(fs, scene_.gravity, scene_.fluid.spacing, scene_eos<double>(scene_));
-      for (std::size_t i = 0; i < h.size(); ++i)
-        rho[i] = static_cast<T>(h[i]);
-    }
+    fluid_->a.assign(std::vector<Vec3<T>>(n, Vec3<T>{}));
+    fluid_->m.assign(std::vector<T>(n, static_cast<T>(m)));
     fluid_->rho.assign(rho);
-    fluid_->drho.assign(std::vector<T>(x.size(), T(0)));
-    fluid_->drho_prev.assign(std::vector<T>(x.size(), T(0)));
+    fluid_->drho.assign(std::vector<T>(n, T(0)));
+    fluid_->drho_prev.assign(std::vector<T>(n, T(0)));
     fluid_->id.assign(ids);
-    next_fluid_id_ = ids.size();
-    fluid_grid_.emplace(ex_.backend, whole_grid_, span, static_cast<int>(scene_.solver.cell_order));
+    next_fluid_id_ = fx.size();
+    // The whole fluid's mass as one rank sums its particles' (init_contact_work's scale).
+    for (std::size_t i = 0; i < fx.size(); ++i)
+      whole_fluid_mass_ += double(static_cast<T>(m));
+    if (!split_over)
+      fluid_grid_.emplace(ex_.backend, whole_grid_, span,
+                          static_cast<int>(scene_.solver.cell_order));
     if (scene_.solver.neighbour_list != Scene::Solver::NeighbourLists::Off)
       fluid_list_.emplace(ex_.backend, static_cast<T>(skin_));
   }
   if (boundary_on_) {
-    const auto s = sample_boundaries(scene_, scene_.fluid.spacing, h_);
     // Lattice particles: each stands for the volume of one lattice site, 1 / sum W.
     const double volume = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support,
                                                 scene_.fluid.spacing, 1.0);
-    std::vector<Vec3<T>> xs(s.x.size());
-    std::vector<T> vol(s.x.size());
-    std::vector<std::uint64_t> ids(s.x.size());
-    for (std::size_t i = 0; i < s.x.size(); ++i) {
-      xs[i] = vec_cast<T>(s.x[i]);
-      vol[i] = static_cast<T>(volume * s.volume_scale[i]);
-      ids[i] = i;
+    const auto rows = kept(bx);
+    const std::size_t n = rows.size();
+    std::vector<Vec3<T>> xs(n);
+    std::vector<T> vol(n);
+    std::vector<std::uint64_t> ids(n);
+    std::vector<std::uint32_t> obstacle(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t i = rows[k];
+      xs[k] = bx[i];
+      vol[k] = static_cast<T>(volume * bs.volume_scale[i]);
+      ids[k] = i;
+      obstacle[k] = bs.obstacle[i];
     }
     boundary_.emplace(ex_.backend);
-    boundary_->resize(xs.size());
+    boundary_->resize(n);
     boundary_->x.assign(xs);
     boundary_->x0.assign(xs);
-    boundary_->obstacle.assign(s.obstacle);
+    boundary_->obstacle.assign(obstacle);
     boundary_->volume.assign(vol);
     boundary_->id.assign(ids);
-    boundary_grid_.emplace(ex_.backend, whole_grid_, span,
-                           static_cast<int>(scene_.solver.cell_order));
+    if (!split_over)
+      boundary_grid_.emplace(ex_.backend, whole_grid_, span,
+                             static_cast<int>(scene_.solver.cell_order));
   }
-  if (coupling_on_)
-    init_coupling();
 }
 
 template <typename T>

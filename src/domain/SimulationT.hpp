@@ -114,7 +114,13 @@ public:
 private:
   typename RankExchange<T>::RefreshTimes refresh_times_; // collect_device_profile()
   void build_pipeline();
-  void init_particles();
+  /// The particles, the knit and the coupling as the scene starts them. split_over (N ranks):
+  /// the fluid and the boundary kept by the first partition (first_split_, split_), this
+  /// rank's share only; their grids are made by fit_grids_to_region then.
+  void init_particles(const comm::MpiContext* split_over = nullptr);
+  std::optional<Decomposition> first_split_; // until RankExchange::adopt takes it
+  SplitInputs split_;
+  double whole_fluid_mass_ = 0; // every rank's, summed as one rank sums its particles'
   void init_coupling();
   void init_absorption(const CouplingParams<T>& cp);
   void update_shapes(double t);

@@ -31,6 +31,14 @@ std::string describe(Backend b);
 /// Raw memory on a backend. All host<->device traffic goes through copy_bytes.
 void* alloc_bytes(Backend b, std::size_t bytes, const char* what);
 void free_bytes(Backend b, void* p) noexcept;
+/// Bytes alloc_bytes holds on a backend now, and the most it held at once since
+/// reset_peak_bytes (the process's: every buffer of that backend, the CPU's plain host buffers
+/// included; a device's page-locked staging is not the device's).
+struct HeldBytes {
+  std::size_t now = 0, peak = 0;
+};
+HeldBytes held_bytes(Backend b);
+void reset_peak_bytes(Backend b);
 void copy_bytes(void* dst, Backend dst_b, const void* src, Backend src_b, std::size_t bytes);
 /// Waits until all work queued on the backend is finished (no-op on CPU).
 void synchronize(Backend b);

@@ -7,7 +7,9 @@
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
+#include <mutex>
 #include <new>
+#include <unordered_map>
 #include <vector>
 
 #if defined(_OPENMP)
@@ -106,27 +108,75 @@ std::string describe(Backend b) {
 #endif
 }
 
+namespace {
+
+/// What alloc_bytes holds on each backend (held_bytes): buffers grow rarely (capacities are
+/// kept), so a lock an allocation costs nothing measurable.
+struct Ledger {
+  std::mutex lock;
+  std::unordered_map<void*, std::size_t> size;
+  HeldBytes held[2];
+  static Ledger& get() {
+    static Ledger l;
+    return l;
+  }
+  void add(Backend b, void* p, std::size_t bytes) {
+    const std::lock_guard<std::mutex> g(lock);
+    size[p] = bytes;
+    HeldBytes& h = held[static_cast<int>(b)];
+    h.now += bytes;
+    h.peak = std::max(h.peak, h.now);
+  }
+  void remove(Backend b, void* p) noexcept {
+    const std::lock_guard<std::mutex> g(lock);
+    const auto it = size.find(p);
+    if (it == size.end())
+      return;
+    held[static_cast<int>(b)].now -= it->second;
+    size.erase(it);
+  }
+};
+
+} // namespace
+
+HeldBytes held_bytes(Backend b) {
+  Ledger& l = Ledger::get();
+  const std::lock_guard<std::mutex> g(l.lock);
+  return l.held[static_cast<int>(b)];
+}
+
+void reset_peak_bytes(Backend b) {
+  Ledger& l = Ledger::get();
+  const std::lock_guard<std::mutex> g(l.lock);
+  HeldBytes& h = l.held[static_cast<int>(b)];
+  h.peak = h.now;
+}
+
 void* alloc_bytes(Backend b, std::size_t bytes, const char* what) {
   if (bytes == 0)
     return nullptr;
+  void* p = nullptr;
   if (b == Backend::Cuda) {
 #if defined(KF_WITH_CUDA)
-    return cuda_alloc(bytes, what);
+    p = cuda_alloc(bytes, what);
 #else
     no_cuda(what);
 #endif
+  } else {
+    // 64-byte alignment: one cache line, and what SIMD loads like.
+    p = std::aligned_alloc(64, (bytes + 63) / 64 * 64);
+    if (!p)
+      throw Error(std::string("out of host memory allocating ") + std::to_string(bytes) +
+                  " bytes for " + what);
   }
-  // 64-byte alignment: one cache line, and what SIMD loads like.
-  void* p = std::aligned_alloc(64, (bytes + 63) / 64 * 64);
-  if (!p)
-    throw Error(std::string("out of host memory allocating ") + std::to_string(bytes) +
-                " bytes for " + what);
+  Ledger::get().add(b, p, bytes);
   return p;
 }
 
 void free_bytes(Backend b, void* p) noexcept {
   if (!p)
     return;
+  Ledger::get().remove(b, p);
   if (b == Backend::Cuda) {
 #if defined(KF_WITH_CUDA)
     cuda_free(p);
