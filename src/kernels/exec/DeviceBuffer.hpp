@@ -43,6 +43,31 @@ public:
   std::size_t bytes() const { return size_ * sizeof(T); }
   std::size_t capacity_bytes() const { return capacity_ * sizeof(T); }
 
+  std::size_t capacity() const { return capacity_; }
+
+  /// Room for n elements exactly, where there is less (the first size() kept): for a column
+  /// whose length its owner knows ahead, where resize()'s geometric growth would leave half of
+  /// it unused.
+  void reserve(std::size_t n) {
+    if (n <= capacity_)
+      return;
+    T* p = static_cast<T*>(alloc_bytes(backend_, n * sizeof(T), what_));
+    if (size_ > 0)
+      copy_bytes(p, backend_, ptr_, backend_, size_ * sizeof(T));
+    free_bytes(backend_, ptr_);
+    ptr_ = p;
+    capacity_ = n;
+  }
+
+  /// resize(), growing to n and a sixteenth more where it grows: for a column of particles, whose
+  /// count moves a little between sorts (migration, ghosts, drops), and which is most of what a
+  /// rank holds: geometric growth would leave up to a third of it unused.
+  void resize_snug(std::size_t n) {
+    if (n > capacity_)
+      reserve(capacity_ == 0 ? n : n + n / 16); // the first exactly, as resize()
+    size_ = n;
+  }
+
   /// Grows geometrically; the first min(old, new) elements are kept.
   void resize(std::size_t n) {
     if (n > capacity_) {

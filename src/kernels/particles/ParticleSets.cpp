@@ -30,15 +30,15 @@ std::size_t FluidSet<T>::keep_flagged(const exec::Exec& ex,
 
 template <typename T>
 void FluidSet<T>::resize(std::size_t n) {
-  x.resize(n);
-  v.resize(n);
-  a.resize(n);
-  m.resize(n);
-  rho.resize(n);
-  p.resize(n);
-  drho.resize(n);
-  drho_prev.resize(n);
-  id.resize(n);
+  x.resize_snug(n);
+  v.resize_snug(n);
+  a.resize_snug(n);
+  m.resize_snug(n);
+  rho.resize_snug(n);
+  p.resize_snug(n);
+  drho.resize_snug(n);
+  drho_prev.resize_snug(n);
+  id.resize_snug(n);
 }
 
 namespace {
@@ -82,7 +82,7 @@ void FluidSet<T>::reorder(const exec::Exec& ex, const exec::DeviceBuffer<std::ui
     throw Error("fluid.reorder: a permutation of " + std::to_string(n) + " for " +
                 std::to_string(size()) + " particles");
   const FluidView<T> from = view(); // sizes xm, vp and vol
-  each_sorted(*this, carry, [n](auto&, auto& twin) { twin.resize(n); });
+  each_sorted(*this, carry, [n](auto&, auto& twin) { twin.resize_snug(n); });
   Sorted& s = sorted_;
   FluidView<T> to = from;
   to.x = s.x.data();
@@ -132,9 +132,9 @@ FluidView<T> FluidSet<T>::view() {
   // Each on its own: reorder() swaps vp and vol (carried copies) but not xm.
   for (auto* b : {&xm, &vp})
     if (b->size() < n)
-      b->resize(n);
+      b->resize_snug(n);
   if (vol.size() < n)
-    vol.resize(n);
+    vol.resize_snug(n);
   return {x.data(),    v.data(),         a.data(), m.data(),  rho.data(), p.data(),  id.data(),
           drho.data(), drho_prev.data(), n,        xm.data(), vp.data(),  vol.data()};
 }
@@ -166,15 +166,15 @@ BoundarySet<T>::BoundarySet(exec::Backend b)
 
 template <typename T>
 void BoundarySet<T>::resize(std::size_t n) {
-  x.resize(n);
-  x0.resize(n);
-  obstacle.resize(n);
-  volume.resize(n);
-  p.resize(n);
-  id.resize(n);
-  xv.resize(n);
-  vp.resize(n);
-  inv_rho.resize(n);
+  x.resize_snug(n);
+  x0.resize_snug(n);
+  obstacle.resize_snug(n);
+  volume.resize_snug(n);
+  p.resize_snug(n);
+  id.resize_snug(n);
+  xv.resize_snug(n);
+  vp.resize_snug(n);
+  inv_rho.resize_snug(n);
 }
 
 namespace {

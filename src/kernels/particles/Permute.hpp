@@ -8,7 +8,7 @@ namespace kf {
 template <typename U>
 void permute(const exec::Exec& ex, const exec::DeviceBuffer<std::uint32_t>& perm,
              exec::DeviceBuffer<U>& field, exec::DeviceBuffer<U>& scratch, const char* label) {
-  scratch.resize(perm.size());
+  scratch.resize_snug(perm.size());
   exec::gather(ex, perm, field, scratch, label);
   field.swap(scratch);
 }
