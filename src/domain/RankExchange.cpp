@@ -91,9 +91,6 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   costs_ = initial_costs(scene);
   // The widths and the blocks as `knitflow plan` takes them (RankLayout).
   widths_ = halo_widths(scene, split);
-  fluid_width_ = widths_.fluid;
-  boundary_width_ = widths_.boundary;
-  walls_width_ = widths_.walls;
 }
 
 template <typename T>
@@ -194,7 +191,7 @@ void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::siz
   settle_forces();
   // The ghosts come from their owners (not from this rank's copy of the scene), so their order
   // is the one the owners' refreshes will send in.
-  auto gl = select_.ghost_rows(boundary.x, n, boundary_width_, rows());
+  auto gl = select_.ghost_rows(boundary.x, n, widths_.boundary, rows());
   boundary_halo_.emplace(*transport_, std::move(gl.peers), std::move(gl.send), rows());
   const std::size_t total = n + boundary_halo_->received();
   boundary.resize(total);
@@ -523,7 +520,7 @@ RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& h
                          const std::array<bool, 6>& walls, bool acceleration,
                          const WiderCells<T>& beside_walls) {
   settle_forces();
-  if (walls_width_ > 0 && !beside_walls.cells)
+  if (widths_.walls > 0 && !beside_walls.cells)
     throw Error("internal: the fluid's ghosts chosen without the cells beside walls");
   const Timed timed{exchange_seconds_}, part{parts_.migration};
   const std::size_t n = fluid.size();
@@ -552,9 +549,9 @@ RankExchange<T>::rebuild(FluidSet<T>& fluid, const Vec3<T>& lo, const Vec3<T>& h
   // The ghosts: every owned particle within the support of another rank's region goes there.
   part_now.emplace("grid.fluid: the ghosts chosen (N ranks)");
   WiderCells<T> wider = beside_walls;
-  wider.width = walls_width_;
-  auto gl = select_.ghost_rows(fluid.x, rows_now, fluid_width_, rows(), alive_.data(),
-                               walls_width_ > 0 ? wider : WiderCells<T>{});
+  wider.width = widths_.walls;
+  auto gl = select_.ghost_rows(fluid.x, rows_now, widths_.fluid, rows(), alive_.data(),
+                               widths_.walls > 0 ? wider : WiderCells<T>{});
   part_now.emplace("grid.fluid: the ghosts' halo set up (N ranks)");
   fluid_halo_.emplace(*transport_, std::move(gl.peers), std::move(gl.send), rows());
   part_now.emplace("grid.fluid: the ghosts received (N ranks)");
@@ -609,7 +606,7 @@ void RankExchange<T>::refresh_density(FluidSet<T>& fluid, const Pass& pass) {
 
 template <typename T>
 void RankExchange<T>::walls_pass(std::size_t n, const Pass& pass) {
-  // Every wall, owned and ghost: a ghost wall's fluid is at hand (walls_width_), so its pressure
+  // Every wall, owned and ghost: a ghost wall's fluid is at hand (widths_.walls), so its pressure
   // is its owner's, bit for bit, without an exchange (test_distributed_mpi).
   on_clock(2 * 1, [&] { pass(exec::Rows{nullptr, n}); }); // (its exchange's clock stays 0)
 }

@@ -342,8 +342,6 @@ private:
   std::optional<Decomposition> decomposition_;
   RankSelector<T> select_;
   HaloWidths widths_;
-  double fluid_width_ = 0, boundary_width_ = 0;
-  double walls_width_ = 0; // the fluid's ghost width beside walls (0: no walls)
   std::vector<int> migration_peers_;
   std::optional<comm::HaloExchange> fluid_halo_, boundary_halo_;
   std::size_t fluid_owned_ = 0, boundary_own_count_ = 0;

@@ -58,6 +58,16 @@ Decomposition first_partition(const Scene& scene, const HaloWidths& w, const Pha
 }
 
 template <typename T>
+std::vector<std::size_t> owned_rows(const Decomposition& d, int r, std::span<const Vec3<T>> x) {
+  std::vector<std::size_t> rows;
+  rows.reserve(x.size() / std::max(1, d.ranks()) + 1);
+  for (std::size_t i = 0; i < x.size(); ++i)
+    if (d.owner(vec_cast<double>(x[i])) == r)
+      rows.push_back(i);
+  return rows;
+}
+
+template <typename T>
 GridGeometry<T> whole_grid(const Scene& scene) {
   const double h = scene.support_radius();
   const double skin = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet
@@ -79,6 +89,8 @@ GridGeometry<T> rank_grid(const Decomposition& d, int r, const GridGeometry<T>& 
   template Decomposition first_partition<T>(const Scene&, const HaloWidths&, const PhaseCosts&,    \
                                             int, std::span<const Vec3<T>>,                         \
                                             std::span<const Vec3<T>>, std::span<const Vec3<T>>);   \
+  template std::vector<std::size_t> owned_rows<T>(const Decomposition&, int,                       \
+                                                  std::span<const Vec3<T>>);                       \
   template GridGeometry<T> whole_grid<T>(const Scene&);                                            \
   template GridGeometry<T> rank_grid<T>(const Decomposition&, int, const GridGeometry<T>&,         \
                                         const HaloWidths&);

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <span>
+#include <vector>
 
 namespace kf {
 
@@ -55,6 +56,11 @@ template <typename T>
 Decomposition first_partition(const Scene& scene, const HaloWidths& w, const PhaseCosts& costs,
                               int ranks, std::span<const Vec3<T>> fluid,
                               std::span<const Vec3<T>> boundary, std::span<const Vec3<T>> knit);
+
+/// The indices of the points of `x` rank r owns by `d`, ascending (a rank keeps its share of a
+/// whole scene or frame in its order).
+template <typename T>
+std::vector<std::size_t> owned_rows(const Decomposition& d, int r, std::span<const Vec3<T>> x);
 
 /// The fluid's and the boundary's grid on one rank: the domain in cells of the support plus the
 /// skin over the span (a walk stays exact between the lists' builds: SphLists).

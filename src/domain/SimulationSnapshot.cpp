@@ -278,11 +278,7 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     split.emplace(first_partition<T>(scene_, ranks_->widths(), ranks_->phase_costs(),
                                      ranks_->ranks(), fx, bx, kx));
     const auto mine = [&](const std::vector<Vec3<T>>& x) {
-      std::vector<std::size_t> rows;
-      for (std::size_t i = 0; i < x.size(); ++i)
-        if (split->owner(vec_cast<double>(x[i])) == ranks_->rank())
-          rows.push_back(i);
-      return rows;
+      return owned_rows<T>(*split, ranks_->rank(), x);
     };
     if (fluid_phase)
       fluid_phase = &(fluid_mine = rows_kept(*fluid_phase, mine(fx)));

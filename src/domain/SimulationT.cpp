@@ -5,6 +5,8 @@
 #include "domain/PoreNetwork.hpp"
 #include "domain/SheetFaces.hpp"
 
+#include <numeric>
+
 namespace kf {
 
 template <typename T>
@@ -214,11 +216,10 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
   }
   // The rows this rank keeps (every row on one rank), in the samples' order.
   const auto kept = [&](const std::vector<Vec3<T>>& x) {
-    std::vector<std::size_t> rows;
-    rows.reserve(split_over ? x.size() / split_over->size() + 1 : x.size());
-    for (std::size_t i = 0; i < x.size(); ++i)
-      if (!first_split_ || first_split_->owner(vec_cast<double>(x[i])) == split_over->rank())
-        rows.push_back(i);
+    if (first_split_)
+      return owned_rows<T>(*first_split_, split_over->rank(), x);
+    std::vector<std::size_t> rows(x.size());
+    std::iota(rows.begin(), rows.end(), std::size_t(0));
     return rows;
   };
   if (fluid_on_) {

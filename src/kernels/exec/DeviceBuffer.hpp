@@ -70,15 +70,8 @@ public:
 
   /// Grows geometrically; the first min(old, new) elements are kept.
   void resize(std::size_t n) {
-    if (n > capacity_) {
-      std::size_t cap = capacity_ == 0 ? n : std::max(n, capacity_ + capacity_ / 2);
-      T* p = static_cast<T*>(alloc_bytes(backend_, cap * sizeof(T), what_));
-      if (size_ > 0)
-        copy_bytes(p, backend_, ptr_, backend_, size_ * sizeof(T));
-      free_bytes(backend_, ptr_);
-      ptr_ = p;
-      capacity_ = cap;
-    }
+    if (n > capacity_)
+      reserve(capacity_ == 0 ? n : std::max(n, capacity_ + capacity_ / 2));
     size_ = n;
   }
 
