@@ -37,24 +37,42 @@ PhaseCosts initial_costs(const Scene& scene) {
 
 template <typename T>
 Decomposition first_partition(const Scene& scene, const HaloWidths& w, const PhaseCosts& costs,
-                              int ranks, std::span<const Vec3<T>> fluid,
-                              std::span<const Vec3<T>> boundary, std::span<const Vec3<T>> knit) {
-  const std::span<const Vec3<T>> sets[kPhases] = {fluid, boundary, knit};
+                              int ranks, const std::array<PointSource<T>, kPhases>& points) {
   static_assert(static_cast<int>(Phase::Fluid) == 0 && static_cast<int>(Phase::Boundary) == 1 &&
                 static_cast<int>(Phase::Knit) == 2);
   Vec3d lo = scene.domain.min, hi = scene.domain.max;
-  for (const auto& set : sets)
-    for (const auto& q : set)
-      for (int d = 0; d < 3; ++d) {
-        (&lo.x)[d] = std::min((&lo.x)[d], double((&q.x)[d]));
-        (&hi.x)[d] = std::max((&hi.x)[d], double((&q.x)[d]));
-      }
+  for (const auto& source : points)
+    if (source)
+      source([&](const Vec3<T>& q) {
+        for (int d = 0; d < 3; ++d) {
+          (&lo.x)[d] = std::min((&lo.x)[d], double((&q.x)[d]));
+          (&hi.x)[d] = std::max((&hi.x)[d], double((&q.x)[d]));
+        }
+      });
   const BlockGrid grid(lo, hi, w.block);
   std::vector<std::array<double, kPhases>> counts(grid.count(), {0, 0, 0});
   for (int p = 0; p < kPhases; ++p)
-    for (const auto& q : sets[p])
-      counts[grid.block_of(vec_cast<double>(q))][p] += 1;
+    if (points[p])
+      points[p]([&](const Vec3<T>& q) { counts[grid.block_of(vec_cast<double>(q))][p] += 1; });
   return Decomposition::partition(grid, counts, costs, ranks, w.halo_weight);
+}
+
+template <typename T>
+Decomposition first_partition(const Scene& scene, const HaloWidths& w, const PhaseCosts& costs,
+                              int ranks, std::span<const Vec3<T>> fluid,
+                              std::span<const Vec3<T>> boundary, std::span<const Vec3<T>> knit) {
+  const auto held = [](std::span<const Vec3<T>> x) -> PointSource<T> {
+    return [x](const std::function<void(const Vec3<T>&)>& f) {
+      for (const auto& q : x)
+        f(q);
+    };
+  };
+  return first_partition<T>(scene, w, costs, ranks, {held(fluid), held(boundary), held(knit)});
+}
+
+template <typename T>
+bool owns(const Decomposition& d, int r, const Vec3<T>& q) {
+  return d.owner(vec_cast<double>(q)) == r;
 }
 
 template <typename T>
@@ -62,7 +80,7 @@ std::vector<std::size_t> owned_rows(const Decomposition& d, int r, std::span<con
   std::vector<std::size_t> rows;
   rows.reserve(x.size() / std::max(1, d.ranks()) + 1);
   for (std::size_t i = 0; i < x.size(); ++i)
-    if (d.owner(vec_cast<double>(x[i])) == r)
+    if (owns(d, r, x[i]))
       rows.push_back(i);
   return rows;
 }
@@ -87,8 +105,11 @@ GridGeometry<T> rank_grid(const Decomposition& d, int r, const GridGeometry<T>& 
 
 #define KF_RANK_LAYOUT(T)                                                                          \
   template Decomposition first_partition<T>(const Scene&, const HaloWidths&, const PhaseCosts&,    \
+                                            int, const std::array<PointSource<T>, kPhases>&);      \
+  template Decomposition first_partition<T>(const Scene&, const HaloWidths&, const PhaseCosts&,    \
                                             int, std::span<const Vec3<T>>,                         \
                                             std::span<const Vec3<T>>, std::span<const Vec3<T>>);   \
+  template bool owns<T>(const Decomposition&, int, const Vec3<T>&);                                \
   template std::vector<std::size_t> owned_rows<T>(const Decomposition&, int,                       \
                                                   std::span<const Vec3<T>>);                       \
   template GridGeometry<T> whole_grid<T>(const Scene&);                                            \

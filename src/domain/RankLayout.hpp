@@ -8,6 +8,8 @@
 #include "kernels/grid/GridGeometry.hpp"
 
 #include <algorithm>
+#include <array>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -50,12 +52,31 @@ inline double knit_ghost_skin(double knit_width, double knit_skin) {
 /// The phases' costs a particle until the run has measured them.
 PhaseCosts initial_costs(const Scene& scene);
 
+/// A phase's points, handed to a sink one by one each time it is called: a sampler run again
+/// instead of a scene kept whole (a rank of a split job keeps only its share).
+template <typename T>
+using PointSource = std::function<void(const std::function<void(const Vec3<T>&)>&)>;
+
 /// The first partition: blocks of `w.block` over the domain widened to every particle (walls'
-/// particles and knit may lie outside it), weighted by each phase's count and `costs`.
+/// particles and knit may lie outside it), weighted by each phase's count and `costs`. Each
+/// source is run twice (the box, then the counts a block).
+template <typename T>
+Decomposition first_partition(const Scene& scene, const HaloWidths& w, const PhaseCosts& costs,
+                              int ranks, const std::array<PointSource<T>, kPhases>& points);
+/// The same over points held whole.
 template <typename T>
 Decomposition first_partition(const Scene& scene, const HaloWidths& w, const PhaseCosts& costs,
                               int ranks, std::span<const Vec3<T>> fluid,
                               std::span<const Vec3<T>> boundary, std::span<const Vec3<T>> knit);
+
+/// Whether rank r owns a point by `d`, the point where the run holds it (in T). Out of line on
+/// purpose: inlined into the start's sampling loop, GCC 12 at -O2 and -O3 (its SLP vectorizer;
+/// -O1 and -fno-tree-slp-vectorize did not) took a sample's x and y from the double it was
+/// rounded from, not from the float, so a rank kept samples the owners' rule gives to another
+/// (test_distributed_mpi's ThePlanIsTheRunsSplit on 4 ranks: 7,308 walls against 7,300). A
+/// point passed by reference to another unit is the float in memory.
+template <typename T>
+bool owns(const Decomposition& d, int r, const Vec3<T>& q);
 
 /// The indices of the points of `x` rank r owns by `d`, ascending (a rank keeps its share of a
 /// whole scene or frame in its order).

@@ -19,6 +19,8 @@
 #include <ostream>
 #include <sstream>
 
+#include <sys/resource.h>
+
 namespace kf {
 
 RunOptions::Fault parse_fault(const std::string& text) {
@@ -331,6 +333,13 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
     MPI_Reduce(&peak, &most, 1, MPI_DOUBLE, MPI_MAX, 0, mpi.comm());
     MPI_Reduce(&peak, &total, 1, MPI_DOUBLE, MPI_SUM, 0, mpi.comm());
     sum.peak_bytes = {most, total / mpi.size()};
+    rusage use{};
+    getrusage(RUSAGE_SELF, &use);
+    const double host = double(use.ru_maxrss) * 1024.0; // kilobytes on Linux
+    double host_most = host, host_total = host;
+    MPI_Reduce(&host, &host_most, 1, MPI_DOUBLE, MPI_MAX, 0, mpi.comm());
+    MPI_Reduce(&host, &host_total, 1, MPI_DOUBLE, MPI_SUM, 0, mpi.comm());
+    sum.host_peak_bytes = {host_most, host_total / mpi.size()};
     sum.backend = opt.backend;
   }
   if (mpi.size() > 1 && sum.split.domain_cells > 0) {
@@ -408,6 +417,11 @@ std::string format_summary(const RunSummary& s) {
     o << buf;
     if (s.split.ranks > 1)
       o << " on a rank (the mean rank " << format_bytes(s.peak_bytes[1]) << ")";
+    if (s.host_peak_bytes[0] > 0) {
+      o << "; the host's resident peak " << format_bytes(s.host_peak_bytes[0]);
+      if (s.split.ranks > 1)
+        o << " on a rank (the mean rank " << format_bytes(s.host_peak_bytes[1]) << ")";
+    }
     o << "\n";
   }
   if (const auto& r = s.split; r.ranks > 1) {

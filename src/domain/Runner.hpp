@@ -61,6 +61,10 @@ struct RunSummary {
   // The most the backend held at once (exec::held_bytes) on a rank: the largest over the
   // ranks and their mean (rank 0).
   std::array<double, 2> peak_bytes{};
+  // The process's resident peak (getrusage's ru_maxrss) the same way: what the host held, set-up
+  // included (each rank samples only its share of the scene), and on the CPU backend its
+  // buffers too.
+  std::array<double, 2> host_peak_bytes{};
   exec::Backend backend = exec::Backend::Cpu;
 };
 

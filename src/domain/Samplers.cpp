@@ -50,7 +50,7 @@ std::vector<Vec3d> sample_fluid_block(const FluidBlock& block, double dp) {
   return x;
 }
 
-FluidSamples sample_fluid(const Scene& scene) {
+void for_each_fluid_sample(const Scene& scene, const FluidSampleSink& f) {
   // Blocks are carved by the solids at t = 0 (a pool around a submerged sphere is one block):
   // a lattice point closer than dp/4 to a solid or inside it is left out. Walls aligned with the
   // lattice keep their first layer (dp/2 from the wall); the boundary shell starts inside the
@@ -59,7 +59,6 @@ FluidSamples sample_fluid(const Scene& scene) {
   const auto& shapes = solids.table();
   const bool carve = scene.has(Module::Boundary);
   const double keep = 0.25 * scene.fluid.spacing;
-  FluidSamples out;
   for (const auto& b : scene.fluid.blocks)
     for (const Vec3d& p : sample_fluid_block(b, scene.fluid.spacing)) {
       bool free = true;
@@ -67,46 +66,102 @@ FluidSamples sample_fluid(const Scene& scene) {
       if (carve)
         for (const auto& s : shapes)
           free = free && s.distance(p, n) >= keep;
-      if (!free)
-        continue;
-      out.x.push_back(p);
-      out.v.push_back(b.velocity);
+      if (free)
+        f(p, b.velocity);
     }
+}
+
+FluidSamples sample_fluid(const Scene& scene) {
+  FluidSamples out;
+  for_each_fluid_sample(scene, [&](const Vec3d& x, const Vec3d& v) {
+    out.x.push_back(x);
+    out.v.push_back(v);
+  });
   return out;
+}
+
+namespace {
+
+/// Depth along gravity and the column across it, dp wide (lattice points sit at cell centres, so
+/// floor() bins a column without ties).
+struct Columns {
+  Vec3d down, e1, e2;
+  double dp;
+  Columns(const Vec3d& gravity, double dp_) : dp(dp_) {
+    down = gravity * (1.0 / norm(gravity));
+    const Vec3d any = std::abs(down.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
+    e1 = cross(down, any);
+    e1 = e1 * (1.0 / norm(e1));
+    e2 = cross(down, e1);
+  }
+  std::pair<long long, long long> key(const Vec3d& x) const {
+    return {static_cast<long long>(std::floor(dot(x, e1) / dp)),
+            static_cast<long long>(std::floor(dot(x, e2) / dp))};
+  }
+  double depth(const Vec3d& x) const { return dot(x, down); }
+};
+
+bool at_rest(const Vec3d& v) {
+  return v.x == 0 && v.y == 0 && v.z == 0;
+}
+
+} // namespace
+
+std::vector<double> hydrostatic_density(const FluidSamples& mine,
+                                        const std::function<void(const FluidSampleSink&)>& all,
+                                        const Vec3d& gravity, double dp, const Eos<double>& eos) {
+  std::vector<double> rho(mine.size(), eos.rho0);
+  const double g = norm(gravity);
+  if (!(g > 0))
+    return rho;
+  const Columns c(gravity, dp);
+  // The columns of `mine`, each filled with the depths of every sample at rest in it.
+  std::map<std::pair<long long, long long>, std::vector<double>> columns;
+  for (std::size_t i = 0; i < mine.size(); ++i)
+    if (at_rest(mine.v[i]))
+      columns.try_emplace(c.key(mine.x[i]));
+  all([&](const Vec3d& x, const Vec3d& v) {
+    if (!at_rest(v))
+      return;
+    const auto it = columns.find(c.key(x));
+    if (it != columns.end())
+      it->second.push_back(c.depth(x));
+  });
+  // Each column's surfaces, from the top down: each contiguous run (a gap over 1.5 dp starts a
+  // new one, a new body of fluid) has its top sample dp / 2 below its surface.
+  std::map<std::pair<long long, long long>, std::vector<std::pair<double, double>>> surfaces;
+  for (auto& [key, depths] : columns) {
+    std::sort(depths.begin(), depths.end());
+    auto& s = surfaces[key]; // (depth, the surface above it), by depth
+    double surface = depths.front() - 0.5 * dp, previous = depths.front();
+    for (const double d : depths) {
+      if (d - previous > 1.5 * dp)
+        surface = d - 0.5 * dp;
+      previous = d;
+      s.emplace_back(d, surface);
+    }
+    depths = {};
+  }
+  for (std::size_t i = 0; i < mine.size(); ++i) {
+    if (!at_rest(mine.v[i]))
+      continue;
+    const auto& s = surfaces.at(c.key(mine.x[i]));
+    const double d = c.depth(mine.x[i]);
+    const auto it = std::lower_bound(s.begin(), s.end(), std::make_pair(d, -1e300));
+    rho[i] = eos.density(eos.rho0 * g * (d - it->second));
+  }
+  return rho;
 }
 
 std::vector<double> hydrostatic_density(const FluidSamples& fs, const Vec3d& gravity, double dp,
                                         const Eos<double>& eos) {
-  std::vector<double> rho(fs.size(), eos.rho0);
-  const double g = norm(gravity);
-  if (!(g > 0))
-    return rho;
-  const Vec3d down = gravity * (1.0 / g);
-  const Vec3d any = std::abs(down.x) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
-  Vec3d e1 = cross(down, any);
-  e1 = e1 * (1.0 / norm(e1));
-  const Vec3d e2 = cross(down, e1);
-  // Lattice points sit at cell centres, so floor() bins a column without ties.
-  std::map<std::pair<long long, long long>, std::vector<std::size_t>> columns;
-  for (std::size_t i = 0; i < fs.size(); ++i)
-    if (fs.v[i].x == 0 && fs.v[i].y == 0 && fs.v[i].z == 0)
-      columns[{static_cast<long long>(std::floor(dot(fs.x[i], e1) / dp)),
-               static_cast<long long>(std::floor(dot(fs.x[i], e2) / dp))}]
-          .push_back(i);
-  for (auto& [key, members] : columns) {
-    auto depth = [&](std::size_t i) { return dot(fs.x[i], down); };
-    std::sort(members.begin(), members.end(),
-              [&](std::size_t a, std::size_t b) { return depth(a) < depth(b); });
-    double surface = depth(members.front()) - 0.5 * dp, previous = depth(members.front());
-    for (std::size_t i : members) {
-      const double d = depth(i);
-      if (d - previous > 1.5 * dp)
-        surface = d - 0.5 * dp; // a new body of fluid below a gap
-      previous = d;
-      rho[i] = eos.density(eos.rho0 * g * (d - surface));
-    }
-  }
-  return rho;
+  return hydrostatic_density(
+      fs,
+      [&](const FluidSampleSink& f) {
+        for (std::size_t i = 0; i < fs.size(); ++i)
+          f(fs.x[i], fs.v[i]);
+      },
+      gravity, dp, eos);
 }
 
 double lattice_particle_mass(KernelType kernel, double support, double dp, double rho0) {
@@ -154,7 +209,8 @@ AxisLattice axis_lattice(double lo, double hi, double dp, double depth) {
 
 } // namespace
 
-BoundarySamples sample_boundaries(const Scene& scene, double dp, double depth) {
+void for_each_boundary_sample(const Scene& scene, double dp, double depth,
+                              const BoundarySampleSink& f) {
   // The lattice of the fluid (aligned with the domain) continued into every solid, one shell of
   // thickness `depth` deep: at rest a flat wall is then an exact mirror of the fluid, and one
   // rule samples walls, boxes, spheres, planes and meshes (their sampled distance) alike. When the
@@ -168,7 +224,6 @@ BoundarySamples sample_boundaries(const Scene& scene, double dp, double depth) {
   const AxisLattice ax = axis_lattice(lo.x, hi.x, dp, depth);
   const AxisLattice ay = axis_lattice(lo.y, hi.y, dp, depth);
   const AxisLattice az = axis_lattice(lo.z, hi.z, dp, depth);
-  BoundarySamples out;
   for (std::size_t k = 0; k < az.x.size(); ++k)
     for (std::size_t j = 0; j < ay.x.size(); ++j)
       for (std::size_t i = 0; i < ax.x.size(); ++i) {
@@ -177,14 +232,22 @@ BoundarySamples sample_boundaries(const Scene& scene, double dp, double depth) {
           Vec3d n;
           const double d = shapes[s].distance(p, n);
           if (d < 0 && d >= -depth) {
-            out.x.push_back(p);
-            out.obstacle.push_back(s == container ? kWallObstacle : static_cast<std::uint32_t>(s));
-            out.volume_scale.push_back(ax.spacing[i] * ay.spacing[j] * az.spacing[k] /
-                                       (dp * dp * dp));
+            f(p, s == container ? kWallObstacle : static_cast<std::uint32_t>(s),
+              ax.spacing[i] * ay.spacing[j] * az.spacing[k] / (dp * dp * dp));
             break;
           }
         }
       }
+}
+
+BoundarySamples sample_boundaries(const Scene& scene, double dp, double depth) {
+  BoundarySamples out;
+  for_each_boundary_sample(scene, dp, depth,
+                           [&](const Vec3d& x, std::uint32_t obstacle, double volume_scale) {
+                             out.x.push_back(x);
+                             out.obstacle.push_back(obstacle);
+                             out.volume_scale.push_back(volume_scale);
+                           });
   return out;
 }
 

@@ -8,6 +8,7 @@
 #include "kernels/sph/Eos.hpp"
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 namespace kf {
@@ -20,7 +21,13 @@ struct FluidSamples {
   std::size_t size() const { return x.size(); }
 };
 
-/// All fluid particles of the scene, blocks in order, less the lattice points in or at a solid.
+/// Calls f(x, v) for every fluid particle of the scene, blocks in order, less the lattice points
+/// in or at a solid: the n-th call is sample n (its id). Nothing is kept: a rank of a split job
+/// keeps its share as the samples go by (SimulationT::init_particles), not the whole scene.
+using FluidSampleSink = std::function<void(const Vec3d& x, const Vec3d& v)>;
+void for_each_fluid_sample(const Scene& scene, const FluidSampleSink& f);
+
+/// All fluid particles of the scene (for_each_fluid_sample's, in its order).
 FluidSamples sample_fluid(const Scene& scene);
 
 /// The density each fluid sample starts with under the weight of the fluid above it (continuity
@@ -30,6 +37,13 @@ FluidSamples sample_fluid(const Scene& scene);
 /// P = rho0 |g| d and the EOS's density. Moving samples, and all without gravity, start at rho0.
 std::vector<double> hydrostatic_density(const FluidSamples& fs, const Vec3d& gravity, double dp,
                                         const Eos<double>& eos);
+/// The same for a share of the samples (`mine`, any subset of the scene's): `all` calls its sink
+/// with every sample of the scene (for_each_fluid_sample), of which only those in the columns of
+/// `mine` are kept, so a rank holds its columns, not the scene. Equal, bit for bit, to the
+/// whole scene's densities of the same samples.
+std::vector<double> hydrostatic_density(const FluidSamples& mine,
+                                        const std::function<void(const FluidSampleSink&)>& all,
+                                        const Vec3d& gravity, double dp, const Eos<double>& eos);
 
 /// Particle mass that makes an interior particle of a perfect lattice sit at rest density with
 /// the chosen kernel (so a fluid at rest starts without a pressure jolt).
@@ -41,8 +55,15 @@ struct BoundarySamples {
   std::vector<double> volume_scale;    // volume / dp^3 (1 unless the lattice is stretched)
 };
 
-/// Boundary particles filling a shell `depth` thick (the kernel support) inside every solid: the
-/// domain walls and each obstacle, on the fluid's lattice of spacing dp.
+/// Calls f(x, obstacle, volume_scale) for each boundary particle filling a shell `depth` thick
+/// (the kernel support) inside every solid: the domain walls and each obstacle, on the fluid's
+/// lattice of spacing dp. The n-th call is particle n (its id).
+using BoundarySampleSink =
+    std::function<void(const Vec3d& x, std::uint32_t obstacle, double volume_scale)>;
+void for_each_boundary_sample(const Scene& scene, double dp, double depth,
+                              const BoundarySampleSink& f);
+
+/// All of them (for_each_boundary_sample's, in its order).
 BoundarySamples sample_boundaries(const Scene& scene, double dp, double depth);
 
 } // namespace kf

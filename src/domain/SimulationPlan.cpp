@@ -49,13 +49,16 @@ PlanReport Simulation::plan(const Scene& scene) {
   r.grid[2] = geo.nz;
   const std::size_t grid_bytes = std::size_t(geo.cells()) * 3 * sizeof(std::uint32_t);
   if (scene.has(Module::Fluid)) {
-    r.fluid = sample_fluid(scene).size();
+    r.fluid = 0; // counted, not kept: a plan of a scene too large for one host still runs
+    for_each_fluid_sample(scene, [&](const Vec3d&, const Vec3d&) { ++r.fluid; });
     r.bytes_fluid = r.fluid * (dbl ? FluidSet<double>::bytes_per_particle()
                                    : FluidSet<float>::bytes_per_particle());
     r.bytes_grid += grid_bytes;
   }
   if (scene.has(Module::Boundary)) {
-    r.boundary = sample_boundaries(scene, scene.fluid.spacing, h).x.size();
+    r.boundary = 0;
+    for_each_boundary_sample(scene, scene.fluid.spacing, h,
+                             [&](const Vec3d&, std::uint32_t, double) { ++r.boundary; });
     r.bytes_boundary = r.boundary * (dbl ? BoundarySet<double>::bytes_per_particle()
                                          : BoundarySet<float>::bytes_per_particle());
     r.bytes_grid += grid_bytes;

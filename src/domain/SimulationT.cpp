@@ -190,58 +190,72 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
   // The knit and the coupling first: the split's widths come from them.
   if (coupling_on_)
     init_coupling();
-  // Every rank samples the whole scene on the host (ids are the samples' indices, as on one
-  // rank); on N ranks it partitions them as every other rank does (first_partition) and puts
-  // only its own on the backend: no rank's device ever holds the whole scene.
-  FluidSamples fs;
-  std::vector<Vec3<T>> fx, bx;
-  if (fluid_on_) {
-    fs = sample_fluid(scene_);
-    fx.resize(fs.x.size());
-    for (std::size_t i = 0; i < fx.size(); ++i)
-      fx[i] = vec_cast<T>(fs.x[i]);
-  }
-  BoundarySamples bs;
-  if (boundary_on_) {
-    bs = sample_boundaries(scene_, scene_.fluid.spacing, h_);
-    bx.resize(bs.x.size());
-    for (std::size_t i = 0; i < bx.size(); ++i)
-      bx[i] = vec_cast<T>(bs.x[i]);
-  }
+  // No rank holds the whole scene, on its backend or its host: on N ranks the samplers run three
+  // times, for the box and the counts of the first partition (every rank computes the same), then
+  // for the samples this rank owns by it. The n-th sample's id is n, on any rank count.
+  const double dp = scene_.fluid.spacing;
   if (split_over) {
     split_ = split_inputs();
+    const auto knit = all_knit_positions();
+    std::array<PointSource<T>, kPhases> points;
+    if (fluid_on_)
+      points[static_cast<int>(Phase::Fluid)] = [&](const std::function<void(const Vec3<T>&)>& f) {
+        for_each_fluid_sample(scene_, [&](const Vec3d& x, const Vec3d&) { f(vec_cast<T>(x)); });
+      };
+    if (boundary_on_)
+      points[static_cast<int>(Phase::Boundary)] =
+          [&](const std::function<void(const Vec3<T>&)>& f) {
+            for_each_boundary_sample(
+                scene_, dp, h_, [&](const Vec3d& x, std::uint32_t, double) { f(vec_cast<T>(x)); });
+          };
+    points[static_cast<int>(Phase::Knit)] = [&](const std::function<void(const Vec3<T>&)>& f) {
+      for (const auto& q : knit)
+        f(q);
+    };
     first_split_.emplace(first_partition<T>(scene_, halo_widths(scene_, split_),
-                                            initial_costs(scene_), split_over->size(), fx, bx,
-                                            all_knit_positions()));
+                                            initial_costs(scene_), split_over->size(), points));
   }
-  // The rows this rank keeps (every row on one rank), in the samples' order.
-  const auto kept = [&](const std::vector<Vec3<T>>& x) {
-    if (first_split_)
-      return owned_rows<T>(*first_split_, split_over->rank(), x);
-    std::vector<std::size_t> rows(x.size());
-    std::iota(rows.begin(), rows.end(), std::size_t(0));
-    return rows;
+  // Whether this rank keeps a sample (as owned_rows chooses: its position in T; `owns` says why
+  // it is out of line).
+  const auto keeps = [&](const Vec3<T>& q) {
+    return !first_split_ || owns(*first_split_, split_over->rank(), q);
   };
   if (fluid_on_) {
-    const double m = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support,
-                                           scene_.fluid.spacing, scene_.fluid.rest_density);
+    const double m = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support, dp,
+                                           scene_.fluid.rest_density);
     // The continuity equation's start (summation recomputes the density).
-    std::vector<double> hydrostatic;
-    if (continuity() && scene_.fluid.initial_density == Scene::Fluid::InitialDensity::Hydrostatic)
-      hydrostatic =
-          hydrostatic_density(fs, scene_.gravity, scene_.fluid.spacing, scene_eos<double>(scene_));
-    const auto rows = kept(fx);
-    const std::size_t n = rows.size();
-    std::vector<Vec3<T>> xs(n), vs(n);
+    const bool hydrostatic =
+        continuity() && scene_.fluid.initial_density == Scene::Fluid::InitialDensity::Hydrostatic;
+    std::vector<Vec3<T>> xs, vs;
+    std::vector<std::uint64_t> ids;
+    FluidSamples mine; // in double, for the hydrostatic start
+    std::uint64_t count = 0;
+    for_each_fluid_sample(scene_, [&](const Vec3d& x, const Vec3d& v) {
+      const Vec3<T> q = vec_cast<T>(x);
+      if (keeps(q)) {
+        xs.push_back(q);
+        vs.push_back(vec_cast<T>(v));
+        ids.push_back(count);
+        if (hydrostatic) {
+          mine.x.push_back(x);
+          mine.v.push_back(v);
+        }
+      }
+      ++count;
+    });
+    const std::size_t n = xs.size();
     std::vector<T> rho(n, static_cast<T>(scene_.fluid.rest_density));
-    std::vector<std::uint64_t> ids(n);
-    for (std::size_t k = 0; k < n; ++k) {
-      const std::size_t i = rows[k];
-      xs[k] = fx[i];
-      vs[k] = vec_cast<T>(fs.v[i]);
-      ids[k] = i;
-      if (!hydrostatic.empty())
-        rho[k] = static_cast<T>(hydrostatic[i]);
+    if (hydrostatic) {
+      const auto eos = scene_eos<double>(scene_);
+      // One rank holds every sample already; N ranks sample again for their columns.
+      const std::vector<double> r =
+          first_split_
+              ? hydrostatic_density(
+                    mine, [&](const FluidSampleSink& f) { for_each_fluid_sample(scene_, f); },
+                    scene_.gravity, dp, eos)
+              : hydrostatic_density(mine, scene_.gravity, dp, eos);
+      for (std::size_t k = 0; k < n; ++k)
+        rho[k] = static_cast<T>(r[k]);
     }
     fluid_.emplace(ex_.backend);
     fluid_->resize(n);
@@ -253,9 +267,9 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
     fluid_->drho.assign(std::vector<T>(n, T(0)));
     fluid_->drho_prev.assign(std::vector<T>(n, T(0)));
     fluid_->id.assign(ids);
-    next_fluid_id_ = fx.size();
+    next_fluid_id_ = count;
     // The whole fluid's mass as one rank sums its particles' (init_contact_work's scale).
-    for (std::size_t i = 0; i < fx.size(); ++i)
+    for (std::uint64_t i = 0; i < count; ++i)
       whole_fluid_mass_ += double(static_cast<T>(m));
     if (!split_over)
       fluid_grid_.emplace(ex_.backend, whole_grid_, span,
@@ -265,21 +279,24 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
   }
   if (boundary_on_) {
     // Lattice particles: each stands for the volume of one lattice site, 1 / sum W.
-    const double volume = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support,
-                                                scene_.fluid.spacing, 1.0);
-    const auto rows = kept(bx);
-    const std::size_t n = rows.size();
-    std::vector<Vec3<T>> xs(n);
-    std::vector<T> vol(n);
-    std::vector<std::uint64_t> ids(n);
-    std::vector<std::uint32_t> obstacle(n);
-    for (std::size_t k = 0; k < n; ++k) {
-      const std::size_t i = rows[k];
-      xs[k] = bx[i];
-      vol[k] = static_cast<T>(volume * bs.volume_scale[i]);
-      ids[k] = i;
-      obstacle[k] = bs.obstacle[i];
-    }
+    const double volume =
+        lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support, dp, 1.0);
+    std::vector<Vec3<T>> xs;
+    std::vector<T> vol;
+    std::vector<std::uint64_t> ids;
+    std::vector<std::uint32_t> obstacle;
+    std::uint64_t count = 0;
+    for_each_boundary_sample(scene_, dp, h_, [&](const Vec3d& x, std::uint32_t o, double scale) {
+      const Vec3<T> q = vec_cast<T>(x);
+      if (keeps(q)) {
+        xs.push_back(q);
+        vol.push_back(static_cast<T>(volume * scale));
+        ids.push_back(count);
+        obstacle.push_back(o);
+      }
+      ++count;
+    });
+    const std::size_t n = xs.size();
     boundary_.emplace(ex_.backend);
     boundary_->resize(n);
     boundary_->x.assign(xs);

@@ -469,6 +469,40 @@ TEST(Distributed, NoRankHoldsTheWholeSceneAtTheStart) {
   EXPECT_LT(most, (mpi.size() == 2 ? 0.95 : 0.8) * one);
 }
 
+// Each rank samples only its share of the scene (SimulationT::init_particles), the hydrostatic
+// start too: a column's surfaces come from every sample in it, on whichever rank they lie
+// (hydrostatic_density over the samples again, keeping this rank's columns). A second body of
+// water hangs over part of the column, 5 dp above it: its columns hold two surfaces; blocks of
+// two ghost widths cut the columns across. Start and run equal the one rank's, bit for bit.
+TEST(Distributed, TheHydrostaticStartIsTheOneRanks) {
+  Scene s = dambreak("double", "continuity");
+  s.fluid.initial_density = Scene::Fluid::InitialDensity::Hydrostatic;
+  FluidBlock top = s.fluid.blocks.front();
+  top.min.z = top.max.z + 5 * s.fluid.spacing;
+  top.max.z = top.min.z + 4 * s.fluid.spacing;
+  top.max.x = top.min.x + 0.5 * (top.max.x - top.min.x);
+  s.fluid.blocks.push_back(top);
+  comm::MpiContext mpi;
+  auto one = Simulation::create(s, exec::Backend::Cpu);
+  auto split = Simulation::create(s, exec::Backend::Cpu, &mpi);
+  const Gathered a = by_id(one->frame(), false), b = by_id(split->frame(), true);
+  ASSERT_EQ(a.id, b.id) << "a sample is owned by no rank or by two";
+  EXPECT_EQ(a.bytes.at("position"), b.bytes.at("position"));
+  EXPECT_EQ(a.bytes.at("density"), b.bytes.at("density"));
+  // A start that a split could not match by chance: not rho0 everywhere (as the "rest" start),
+  // none below it, the deepest water denser by the weight above it.
+  const auto& rho = a.bytes.at("density");
+  double lo = 1e300, hi = 0;
+  for (std::size_t k = 0; k + 8 <= rho.size(); k += 8) {
+    double r = 0;
+    std::memcpy(&r, &rho[k], 8);
+    lo = std::min(lo, r), hi = std::max(hi, r);
+  }
+  EXPECT_GE(lo, s.fluid.rest_density);
+  EXPECT_GT(hi, lo * (1 + 1e-4)); // 0.4 m of water: rho0 g H / c^2, a few 1e-3 of rho0
+  expect_same_run(s, 100, 50, "hydrostatic start, a body over the column");
+}
+
 // Fluid splashing onto three static obstacles in a box open at the top and the sides: the
 // obstacles' boundary particles are owned and shared like the walls'.
 TEST(Distributed, ObstaclesAreTheOneRankRun) {
