@@ -37,7 +37,8 @@ PhaseCosts initial_costs(const Scene& scene) {
 
 template <typename T>
 Decomposition first_partition(const Scene& scene, const HaloWidths& w, const PhaseCosts& costs,
-                              int ranks, const std::array<PointSource<T>, kPhases>& points) {
+                              int ranks, const std::array<PointSource<T>, kPhases>& points,
+                              const PointShares& shares) {
   static_assert(static_cast<int>(Phase::Fluid) == 0 && static_cast<int>(Phase::Boundary) == 1 &&
                 static_cast<int>(Phase::Knit) == 2);
   Vec3d lo = scene.domain.min, hi = scene.domain.max;
@@ -49,11 +50,15 @@ Decomposition first_partition(const Scene& scene, const HaloWidths& w, const Pha
           (&hi.x)[d] = std::max((&hi.x)[d], double((&q.x)[d]));
         }
       });
+  if (shares.box)
+    shares.box(lo, hi);
   const BlockGrid grid(lo, hi, w.block);
   std::vector<std::array<double, kPhases>> counts(grid.count(), {0, 0, 0});
   for (int p = 0; p < kPhases; ++p)
     if (points[p])
       points[p]([&](const Vec3<T>& q) { counts[grid.block_of(vec_cast<double>(q))][p] += 1; });
+  if (shares.counts)
+    shares.counts(counts);
   return Decomposition::partition(grid, counts, costs, ranks, w.halo_weight);
 }
 
@@ -105,7 +110,8 @@ GridGeometry<T> rank_grid(const Decomposition& d, int r, const GridGeometry<T>& 
 
 #define KF_RANK_LAYOUT(T)                                                                          \
   template Decomposition first_partition<T>(const Scene&, const HaloWidths&, const PhaseCosts&,    \
-                                            int, const std::array<PointSource<T>, kPhases>&);      \
+                                            int, const std::array<PointSource<T>, kPhases>&,       \
+                                            const PointShares&);                                   \
   template Decomposition first_partition<T>(const Scene&, const HaloWidths&, const PhaseCosts&,    \
                                             int, std::span<const Vec3<T>>,                         \
                                             std::span<const Vec3<T>>, std::span<const Vec3<T>>);   \

@@ -57,12 +57,21 @@ PhaseCosts initial_costs(const Scene& scene);
 template <typename T>
 using PointSource = std::function<void(const std::function<void(const Vec3<T>&)>&)>;
 
+/// Where each rank holds a share of the points (a restart's frame read in shares): how the box
+/// and the counts a block are combined over the ranks before the partition (unset: every rank
+/// holds all the points).
+struct PointShares {
+  std::function<void(Vec3d& lo, Vec3d& hi)> box;
+  std::function<void(std::vector<std::array<double, kPhases>>& counts)> counts;
+};
+
 /// The first partition: blocks of `w.block` over the domain widened to every particle (walls'
 /// particles and knit may lie outside it), weighted by each phase's count and `costs`. Each
 /// source is run twice (the box, then the counts a block).
 template <typename T>
 Decomposition first_partition(const Scene& scene, const HaloWidths& w, const PhaseCosts& costs,
-                              int ranks, const std::array<PointSource<T>, kPhases>& points);
+                              int ranks, const std::array<PointSource<T>, kPhases>& points,
+                              const PointShares& shares = {});
 /// The same over points held whole.
 template <typename T>
 Decomposition first_partition(const Scene& scene, const HaloWidths& w, const PhaseCosts& costs,

@@ -23,6 +23,12 @@
 
 namespace kf {
 
+namespace {
+/// What a restart reads in shares, each rank a part, sent on to the rows' owners: no rank's host
+/// holds the whole fluid or boundary (SimulationT::restore). The knit, small, is read whole.
+const std::vector<std::string> kSharedPhases{"fluid", "boundary"};
+} // namespace
+
 RunOptions::Fault parse_fault(const std::string& text) {
   RunOptions::Fault f;
   if (text.empty())
@@ -120,7 +126,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
   std::uint64_t frame_index = 0;
   if (!opt.restart.empty()) {
     const std::string from = opt.restart == "latest" ? latest_state(scene, mpi) : opt.restart;
-    io::Frame fr = io::read_snapshot(mpi.comm(), from);
+    io::Frame fr = io::read_snapshot_shares(mpi.comm(), from, kSharedPhases);
     sim->restore(fr);
     frame_index = restart_frame_index(fr, scene.output.interval);
   }
@@ -220,7 +226,7 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
             << scene.knit.substeps << "\n";
       sim = Simulation::create(scene, opt.backend, &mpi);
       profiled(*sim);
-      io::Frame fr = io::read_snapshot(mpi.comm(), sum.last_checkpoint);
+      io::Frame fr = io::read_snapshot_shares(mpi.comm(), sum.last_checkpoint, kSharedPhases);
       sim->restore(fr);
       frame_index = restart_frame_index(fr, interval);
       next_out = (frame_index + 1) * interval;

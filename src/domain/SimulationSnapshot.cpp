@@ -2,6 +2,8 @@
 // any rank count, with the grids and lists as the writing run held them.
 #include "domain/SimulationT.hpp"
 
+#include "comm/ByteExchange.hpp"
+
 namespace kf {
 
 namespace {
@@ -107,6 +109,32 @@ std::vector<U> permuted(const std::vector<U>& v, const std::vector<std::uint32_t
   std::vector<U> out(perm.size());
   for (std::size_t k = 0; k < perm.size(); ++k)
     out[k] = v[perm[k]];
+  return out;
+}
+
+/// A phase whose rows are this rank's share of the file's (the shares in rank order) sent to the
+/// rows' owners (`owner`, one a row): every rank gets the rows it owns in the file's order, each
+/// share's in its order, the shares in rank order, as rows_kept of the whole phase would keep
+/// them. Fields without a row a particle stay as they are.
+io::Phase rows_to_owners(MPI_Comm comm, int ranks, const io::Phase& p,
+                         const std::vector<int>& owner) {
+  const io::Field* idf = p.find("id");
+  const std::size_t n = idf ? idf->count : 0;
+  io::Phase out{p.name, {}};
+  for (const io::Field& f : p.fields) {
+    if (f.count != n) {
+      out.fields.push_back(f);
+      continue;
+    }
+    const std::size_t row = std::size_t(f.components) * io::dtype_size(f.type);
+    std::vector<std::vector<unsigned char>> to(static_cast<std::size_t>(ranks));
+    for (std::size_t i = 0; i < n; ++i)
+      to[owner[i]].insert(to[owner[i]].end(), f.bytes.begin() + i * row,
+                          f.bytes.begin() + (i + 1) * row);
+    io::Field g{f.name, f.type, f.components, 0, comm::exchange_bytes(comm, to)};
+    g.count = row ? g.bytes.size() / row : 0;
+    out.fields.push_back(std::move(g));
+  }
   return out;
 }
 
@@ -266,7 +294,10 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   }
   // On N ranks the blocks are partitioned anew from the frame's particles (the results do not
   // depend on the partition), as every rank does alike, and only this rank's fluid and boundary
-  // go to the backend (the whole frame stays on the host; the knit is shared out by KnitHalo).
+  // go to the backend; the knit is shared out by KnitHalo. A frame read whole on every rank
+  // (tests) keeps each rank's rows of it; one read in shares (a run's restart: no host holds the
+  // whole frame) combines the shares' box and counts over the ranks and sends each row to its
+  // owner.
   std::optional<Decomposition> split;
   io::Phase fluid_mine, boundary_mine;
   if (ranks_) {
@@ -275,16 +306,51 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     };
     const auto fx = positions(fluid_phase), bx = positions(boundary_phase),
                kx = positions(knit_phase ? &*knit_phase : nullptr);
-    split.emplace(first_partition<T>(scene_, ranks_->widths(), ranks_->phase_costs(),
-                                     ranks_->ranks(), fx, bx, kx));
-    const auto mine = [&](const std::vector<Vec3<T>>& x) {
-      return owned_rows<T>(*split, ranks_->rank(), x);
+    const bool fluid_shared = fluid_phase && fr.shared("fluid");
+    const bool boundary_shared = boundary_phase && fr.shared("boundary");
+    const bool shares = fluid_shared || boundary_shared;
+    // With shares, a phase every rank holds whole counts on rank 0 alone (the counts are summed).
+    const auto source = [&](const std::vector<Vec3<T>>& x, bool shared) -> PointSource<T> {
+      const bool counted = !shares || shared || ranks_->rank() == 0;
+      return [&x, counted](const std::function<void(const Vec3<T>&)>& f) {
+        if (counted)
+          for (const auto& q : x)
+            f(q);
+      };
+    };
+    PointShares over;
+    if (shares) {
+      const MPI_Comm comm = ranks_->mpi().comm();
+      over.box = [comm](Vec3d& lo, Vec3d& hi) {
+        MPI_Allreduce(MPI_IN_PLACE, &lo.x, 3, MPI_DOUBLE, MPI_MIN, comm);
+        MPI_Allreduce(MPI_IN_PLACE, &hi.x, 3, MPI_DOUBLE, MPI_MAX, comm);
+      };
+      over.counts = [comm](std::vector<std::array<double, kPhases>>& c) {
+        MPI_Allreduce(MPI_IN_PLACE, c.data(), static_cast<int>(c.size() * kPhases), MPI_DOUBLE,
+                      MPI_SUM, comm);
+      };
+    }
+    split.emplace(first_partition<T>(
+        scene_, ranks_->widths(), ranks_->phase_costs(), ranks_->ranks(),
+        {source(fx, fluid_shared), source(bx, boundary_shared), source(kx, false)}, over));
+    const auto keep = [&](const io::Phase& p, const std::vector<Vec3<T>>& x, bool shared) {
+      if (!shared)
+        return rows_kept(p, owned_rows<T>(*split, ranks_->rank(), x));
+      std::vector<int> owner(x.size());
+      for (std::size_t i = 0; i < x.size(); ++i)
+        owner[i] = split->owner(vec_cast<double>(x[i]));
+      return rows_to_owners(ranks_->mpi().comm(), ranks_->ranks(), p, owner);
     };
     if (fluid_phase)
-      fluid_phase = &(fluid_mine = rows_kept(*fluid_phase, mine(fx)));
+      fluid_phase = &(fluid_mine = keep(*fluid_phase, fx, fluid_shared));
     if (boundary_phase)
-      boundary_phase = &(boundary_mine = rows_kept(*boundary_phase, mine(bx)));
+      boundary_phase = &(boundary_mine = keep(*boundary_phase, bx, boundary_shared));
   }
+  // Shares are a rank's part of the file only among the ranks that read them.
+  if ((fr.shared("fluid") || fr.shared("boundary")) &&
+      fr.share_ranks != (ranks_ ? ranks_->ranks() : 1))
+    throw Error("restart: the frame was read in shares over " + std::to_string(fr.share_ranks) +
+                " ranks, the simulation runs on " + std::to_string(ranks_ ? ranks_->ranks() : 1));
   if (fluid_on_) {
     const io::Phase* p = fluid_phase;
     const auto x = unflatten(require(*p, "position").as<T>());

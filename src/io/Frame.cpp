@@ -8,22 +8,32 @@ namespace kf::io {
 
 std::size_t dtype_size(DType t) {
   switch (t) {
-  case DType::F32: return 4;
-  case DType::F64: return 8;
-  case DType::U32: return 4;
-  case DType::U64: return 8;
-  case DType::I32: return 4;
+  case DType::F32:
+    return 4;
+  case DType::F64:
+    return 8;
+  case DType::U32:
+    return 4;
+  case DType::U64:
+    return 8;
+  case DType::I32:
+    return 4;
   }
   return 0;
 }
 
 template <typename T>
 static constexpr DType dtype_of() {
-  if constexpr (std::is_same_v<T, float>) return DType::F32;
-  else if constexpr (std::is_same_v<T, double>) return DType::F64;
-  else if constexpr (std::is_same_v<T, std::uint32_t>) return DType::U32;
-  else if constexpr (std::is_same_v<T, std::uint64_t>) return DType::U64;
-  else return DType::I32;
+  if constexpr (std::is_same_v<T, float>)
+    return DType::F32;
+  else if constexpr (std::is_same_v<T, double>)
+    return DType::F64;
+  else if constexpr (std::is_same_v<T, std::uint32_t>)
+    return DType::U32;
+  else if constexpr (std::is_same_v<T, std::uint64_t>)
+    return DType::U64;
+  else
+    return DType::I32;
 }
 
 template <typename T>
@@ -37,7 +47,8 @@ Field Field::from(std::string name, const std::vector<T>& v, int components) {
   f.components = components;
   f.count = v.size() / components;
   f.bytes.resize(v.size() * sizeof(T));
-  if (!v.empty()) std::memcpy(f.bytes.data(), v.data(), f.bytes.size());
+  if (!v.empty())
+    std::memcpy(f.bytes.data(), v.data(), f.bytes.size());
   return f;
 }
 
@@ -46,13 +57,14 @@ std::vector<T> Field::as() const {
   if (type != dtype_of<T>())
     throw Error("field '" + name + "' holds another element type than the one asked for");
   std::vector<T> v(bytes.size() / sizeof(T));
-  if (!v.empty()) std::memcpy(v.data(), bytes.data(), bytes.size());
+  if (!v.empty())
+    std::memcpy(v.data(), bytes.data(), bytes.size());
   return v;
 }
 
 #define KF_FIELD_TYPES(X) X(float) X(double) X(std::uint32_t) X(std::uint64_t) X(std::int32_t)
 #define KF_INSTANTIATE(T)                                                                          \
-  template Field Field::from<T>(std::string, const std::vector<T>&, int);                         \
+  template Field Field::from<T>(std::string, const std::vector<T>&, int);                          \
   template std::vector<T> Field::as<T>() const;
 KF_FIELD_TYPES(KF_INSTANTIATE)
 #undef KF_INSTANTIATE
@@ -60,13 +72,22 @@ KF_FIELD_TYPES(KF_INSTANTIATE)
 
 const Field* Phase::find(const std::string& field) const {
   for (const auto& f : fields)
-    if (f.name == field) return &f;
+    if (f.name == field)
+      return &f;
   return nullptr;
+}
+
+bool Frame::shared(const std::string& phase) const {
+  for (const auto& p : shared_phases)
+    if (p == phase)
+      return true;
+  return false;
 }
 
 const Phase* Frame::find(const std::string& phase) const {
   for (const auto& p : phases)
-    if (p.name == phase) return &p;
+    if (p.name == phase)
+      return &p;
   return nullptr;
 }
 

@@ -19,7 +19,7 @@ struct Field {
   std::string name; // "position", "velocity", "id", "density", ...
   DType type = DType::F64;
   int components = 1;
-  std::size_t count = 0; // rows on this rank
+  std::size_t count = 0;            // rows on this rank
   std::vector<unsigned char> bytes; // count * components * dtype_size(type)
 
   template <typename T>
@@ -37,12 +37,17 @@ struct Phase {
 struct Frame {
   double time = 0;
   std::uint64_t step = 0;
-  std::uint64_t index = 0;   // frame number (file frame_%06d.h5)
-  std::string scene_text;    // the scene the run used
-  std::string precision;     // "float" | "double"
+  std::uint64_t index = 0;                             // frame number (file frame_%06d.h5)
+  std::string scene_text;                              // the scene the run used
+  std::string precision;                               // "float" | "double"
   std::vector<std::pair<std::string, double>> scalars; // extra attributes (dt, energy, ...)
   std::vector<Phase> phases;
+  // Phases whose rows here are this rank's contiguous share of the file's, the shares in rank
+  // order (read_snapshot_shares); the others hold every row.
+  std::vector<std::string> shared_phases;
+  int share_ranks = 1; // the ranks the shares were read over
   const Phase* find(const std::string& phase) const;
+  bool shared(const std::string& phase) const;
 };
 
 } // namespace kf::io

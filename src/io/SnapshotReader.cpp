@@ -152,7 +152,9 @@ Rows share_of(std::uint64_t n, int r, int p) {
   return {first, end - first};
 }
 
-Frame read_frame(MPI_Comm comm, const std::string& path, bool share) {
+/// `share(phase)`: whether a phase is read as this rank's share or whole.
+template <typename Share>
+Frame read_frame(MPI_Comm comm, const std::string& path, Share&& share) {
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
@@ -161,7 +163,12 @@ Frame read_frame(MPI_Comm comm, const std::string& path, bool share) {
   read_header(file, path, f);
   h5::Plist dxpl = h5::collective_transfer(path);
   for (const PhaseLayout& layout : read_layout(file, path)) {
-    const Rows rows = share ? share_of(layout.count, rank, size) : Rows{0, layout.count};
+    const bool shared = share(layout.name);
+    const Rows rows = shared ? share_of(layout.count, rank, size) : Rows{0, layout.count};
+    if (shared) {
+      f.shared_phases.push_back(layout.name);
+      f.share_ranks = size;
+    }
     h5::Group group(h5::check(H5Gopen2(file, layout.name.c_str(), H5P_DEFAULT), path,
                               "opening group /" + layout.name));
     Phase phase{layout.name, {}};
@@ -176,11 +183,18 @@ Frame read_frame(MPI_Comm comm, const std::string& path, bool share) {
 } // namespace
 
 Frame read_snapshot(MPI_Comm comm, const std::string& path) {
-  return read_frame(comm, path, false);
+  return read_frame(comm, path, [](const std::string&) { return false; });
 }
 
 Frame read_snapshot_share(MPI_Comm comm, const std::string& path) {
-  return read_frame(comm, path, true);
+  return read_frame(comm, path, [](const std::string&) { return true; });
+}
+
+Frame read_snapshot_shares(MPI_Comm comm, const std::string& path,
+                           const std::vector<std::string>& shared) {
+  return read_frame(comm, path, [&](const std::string& phase) {
+    return std::find(shared.begin(), shared.end(), phase) != shared.end();
+  });
 }
 
 SnapshotInfo read_snapshot_info(const std::string& path) {

@@ -725,6 +725,9 @@ TEST(Distributed, RestartContinuesOnAnyRankCount) {
     auto three = Simulation::create(s, exec::Backend::Cpu, &world);
     three->restore(io::read_snapshot(MPI_COMM_WORLD, snap2));
     expect_equal(want, finish(*three, true), "2 ranks -> 3 ranks");
+    auto shares = Simulation::create(s, exec::Backend::Cpu, &world);
+    shares->restore(io::read_snapshot_shares(MPI_COMM_WORLD, snap2, {"fluid", "boundary"}));
+    expect_equal(want, finish(*shares, true), "2 ranks -> 3 ranks, read in shares");
     if (pair != MPI_COMM_NULL)
       MPI_Comm_free(&pair);
   }

@@ -3,11 +3,13 @@
 // a snapshot written collectively by N ranks (on N ranks and on one) and of a one-rank frame (on
 // N ranks), each handed to the test's check at the restart step.
 #include "comm/MpiContext.hpp"
+#include "core/Error.hpp"
 #include "domain/Simulation.hpp"
 #include "io/SnapshotReader.hpp"
 #include "io/SnapshotWriter.hpp"
 #include "support/TestPaths.hpp"
 
+#include <gtest/gtest.h>
 #include <mpi.h>
 
 #include <functional>
@@ -67,9 +69,22 @@ inline void restart_on_any_rank_count(const comm::MpiContext& world, const Scene
     check(*again, true, "N ranks -> N ranks");
   }
   {
+    // As a run restarts: each rank reads a share of the fluid and the boundary (whose rows go on
+    // to their owners), the rest whole.
+    auto again = Simulation::create(s, exec::Backend::Cpu, &world);
+    again->restore(io::read_snapshot_shares(world.comm(), snap, {"fluid", "boundary"}));
+    check(*again, true, "N ranks -> N ranks, read in shares");
+  }
+  {
     auto alone = Simulation::create(s, exec::Backend::Cpu);
     alone->restore(frame);
     check(*alone, false, "N ranks -> 1 rank");
+    // Shares of N ranks are not a one-rank run's frame (where the frame has fluid or walls).
+    const io::Frame shares = io::read_snapshot_shares(world.comm(), snap, {"fluid", "boundary"});
+    if (world.size() > 1 && !shares.shared_phases.empty()) {
+      auto wrong = Simulation::create(s, exec::Backend::Cpu);
+      EXPECT_THROW(wrong->restore(shares), Error);
+    }
   }
   {
     auto split = Simulation::create(s, exec::Backend::Cpu, &world);
