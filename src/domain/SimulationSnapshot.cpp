@@ -83,24 +83,28 @@ void rows_by_id(io::Phase& p) {
   }
 }
 
-/// The rows listed (ascending) of every field with a row a particle; the others as they are.
-io::Phase rows_kept(const io::Phase& p, const std::vector<std::size_t>& rows) {
+/// The phase with every field that has a row a particle (as many rows as "id") replaced by
+/// remake(field); the others as they are.
+template <typename Remake>
+io::Phase per_particle_fields(const io::Phase& p, Remake&& remake) {
   const io::Field* idf = p.find("id");
   const std::size_t n = idf ? idf->count : 0;
   io::Phase out{p.name, {}};
-  for (const io::Field& f : p.fields) {
-    if (f.count != n) {
-      out.fields.push_back(f);
-      continue;
-    }
+  for (const io::Field& f : p.fields)
+    out.fields.push_back(f.count == n ? remake(f) : f);
+  return out;
+}
+
+/// The rows listed (ascending) of every field with a row a particle; the others as they are.
+io::Phase rows_kept(const io::Phase& p, const std::vector<std::size_t>& rows) {
+  return per_particle_fields(p, [&](const io::Field& f) {
     const std::size_t row = f.bytes.size() / std::max<std::size_t>(1, f.count);
     io::Field g{f.name, f.type, f.components, rows.size(), {}};
     g.bytes.resize(rows.size() * row);
     for (std::size_t k = 0; k < rows.size(); ++k)
       std::copy_n(f.bytes.begin() + rows[k] * row, row, g.bytes.begin() + k * row);
-    out.fields.push_back(std::move(g));
-  }
-  return out;
+    return g;
+  });
 }
 
 /// out[k] = v[perm[k]]: a host copy put in a sort's order.
@@ -118,24 +122,16 @@ std::vector<U> permuted(const std::vector<U>& v, const std::vector<std::uint32_t
 /// them. Fields without a row a particle stay as they are.
 io::Phase rows_to_owners(MPI_Comm comm, int ranks, const io::Phase& p,
                          const std::vector<int>& owner) {
-  const io::Field* idf = p.find("id");
-  const std::size_t n = idf ? idf->count : 0;
-  io::Phase out{p.name, {}};
-  for (const io::Field& f : p.fields) {
-    if (f.count != n) {
-      out.fields.push_back(f);
-      continue;
-    }
+  return per_particle_fields(p, [&](const io::Field& f) {
     const std::size_t row = std::size_t(f.components) * io::dtype_size(f.type);
     std::vector<std::vector<unsigned char>> to(static_cast<std::size_t>(ranks));
-    for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t i = 0; i < f.count; ++i)
       to[owner[i]].insert(to[owner[i]].end(), f.bytes.begin() + i * row,
                           f.bytes.begin() + (i + 1) * row);
     io::Field g{f.name, f.type, f.components, 0, comm::exchange_bytes(comm, to)};
     g.count = row ? g.bytes.size() / row : 0;
-    out.fields.push_back(std::move(g));
-  }
-  return out;
+    return g;
+  });
 }
 
 } // namespace
