@@ -294,6 +294,11 @@ void SimulationT<T>::restore(const io::Frame& fr) {
   // (tests) keeps each rank's rows of it; one read in shares (a run's restart: no host holds the
   // whole frame) combines the shares' box and counts over the ranks and sends each row to its
   // owner.
+  // Shares are a rank's part of the file only among the ranks that read them.
+  if ((fr.shared("fluid") || fr.shared("boundary")) &&
+      fr.share_ranks != (ranks_ ? ranks_->ranks() : 1))
+    throw Error("restart: the frame was read in shares over " + std::to_string(fr.share_ranks) +
+                " ranks, the simulation runs on " + std::to_string(ranks_ ? ranks_->ranks() : 1));
   std::optional<Decomposition> split;
   io::Phase fluid_mine, boundary_mine;
   if (ranks_) {
@@ -342,11 +347,6 @@ void SimulationT<T>::restore(const io::Frame& fr) {
     if (boundary_phase)
       boundary_phase = &(boundary_mine = keep(*boundary_phase, bx, boundary_shared));
   }
-  // Shares are a rank's part of the file only among the ranks that read them.
-  if ((fr.shared("fluid") || fr.shared("boundary")) &&
-      fr.share_ranks != (ranks_ ? ranks_->ranks() : 1))
-    throw Error("restart: the frame was read in shares over " + std::to_string(fr.share_ranks) +
-                " ranks, the simulation runs on " + std::to_string(ranks_ ? ranks_->ranks() : 1));
   if (fluid_on_) {
     const io::Phase* p = fluid_phase;
     const auto x = unflatten(require(*p, "position").as<T>());
