@@ -67,6 +67,15 @@ void write_index(const Exec& ex, DeviceBuffer<std::uint32_t>& out) {
   write_index(ex, out, out.size());
 }
 
+/// out[i] = 3i + 1 for the rows `rows` names (kf::exec::for_rows).
+void write_index_rows(const Exec& ex, DeviceBuffer<std::uint32_t>& out,
+                      const kf::exec::Rows& rows) {
+  std::uint32_t* p = out.data();
+  kf::exec::for_rows(
+      ex, rows, [=] KF_HD(std::size_t i) { p[i] = static_cast<std::uint32_t>(3 * i + 1); },
+      "test.write_index_rows");
+}
+
 /// A float computation whose rounding cannot differ between host and device (a single multiply
 /// cannot be contracted into an FMA), plus an integer hash.
 void mix(const Exec& ex, const DeviceBuffer<double>& in, DeviceBuffer<double>& out_f,
@@ -299,6 +308,34 @@ TEST_P(ExecTest, ForEachWritesEveryElement) {
     for (std::size_t i = 0; i < n; ++i)
       bad += h[i] != 3 * i + 1;
     EXPECT_EQ(bad, 0u) << "n=" << n;
+  }
+}
+
+// A pass over rows: a range, an index list, or the flagged rows of a range (a rank's owned rows
+// among its ghosts). Every named row written once, every other left poisoned.
+TEST_P(ExecTest, ForRowsVisitsExactlyTheNamedRows) {
+  for (std::size_t n : {std::size_t{257}, std::size_t{100003}}) {
+    const auto flags = random_u32(n, 3, 7); // about a quarter of the rows flagged 0
+    std::vector<std::uint32_t> listed;
+    for (std::size_t i = 0; i < n; ++i)
+      if (flags[i] != 0)
+        listed.push_back(static_cast<std::uint32_t>(i));
+    DeviceBuffer<std::uint32_t> only(b(), n, "only"), index(b(), listed.size(), "index");
+    only.assign(flags);
+    index.assign(listed);
+    for (int mode = 0; mode < 3; ++mode) {
+      DeviceBuffer<std::uint32_t> out(b(), n, "out");
+      out.poison();
+      const kf::exec::Rows rows = mode == 0   ? kf::exec::Rows{nullptr, n}
+                                  : mode == 1 ? kf::exec::Rows{index.data(), index.size()}
+                                              : kf::exec::Rows{nullptr, n, only.data()};
+      write_index_rows(ex(), out, rows);
+      const auto h = out.to_host();
+      std::size_t bad = 0;
+      for (std::size_t i = 0; i < n; ++i)
+        bad += h[i] != (mode == 0 || flags[i] != 0 ? 3 * i + 1 : 0xFFFFFFFFu);
+      EXPECT_EQ(bad, 0u) << "n=" << n << ", mode " << mode;
+    }
   }
 }
 

@@ -24,6 +24,13 @@ H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, a
       sort. Fitted on the multi-GPU runs: the mean of (T - X) / T1(N + G).
   G   ghosts of a rank: the geometric count (a cube a rank, LAYERS deep on each face, edge and
       corner it shares) times `ghost_factor` (1.3: `knitflow plan --ranks N` on the 4M dam break).
+      A ghost costs a share c of an owned particle's step: it is sorted, listed, drifted and
+      kicked, but the passes whose results its owner sends skip it. So T1(N + c G), not
+      T1(N + G). In the calibration runs' code (P9, 2026-11-30) the density pass skipped the
+      ghosts (overlapped over the owned rows) and the forces pass did not: c = 1 - 0.29 = 0.71;
+      since 2026-12-02 the forces pass skips them too: c = 1 - 0.29 - 0.39 = 0.32 (the two
+      passes' shares of one H200's 1M dam break step, 126 and 168 of 431 us: "The one-GPU
+      curve by stage"). The fit takes the runs' c, the predictions --ghost-cost.
   X   the step's exchanges as they show on rank 0's wall ("split" line: migration, refreshes):
       x0 + x1 * peers + w * T1(N + G) + bytes / link. Each refresh is a meeting point: it waits
       for the slower rank's pass of that stage, and those waits grow with the passes (w, the
@@ -52,6 +59,8 @@ import os
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 LAYERS = 2.0 * 1.1            # ghost width / dp: support 2 h ... in dp, with the lists' skin
+GHOST_COST_RUNS = 0.71        # a ghost's share of a particle-step in the calibration runs' code
+GHOST_COST_NOW = 0.32         # ... since the forces pass skips the ghosts (docstring)
 BYTES_PER_GHOST = 16          # a refresh: (x, v) 24 B or (rho, P) 8 B in float; 32 B over 2
 EXCHANGES = 3                 # a step: migration (and its ghosts) and two refreshes
 NVLINK, IB = 450e9, 50e9      # B/s a direction a GPU
@@ -104,8 +113,9 @@ def lstsq2(xs, ys):
 
 
 class Model:
-    def __init__(self, rows, ghost_factor):
+    def __init__(self, rows, ghost_factor, ghost_cost=GHOST_COST_RUNS):
         self.gf = ghost_factor
+        self.gc = ghost_cost  # the fit's; main() sets the predictions' after it
         one = [r for r in rows if r["ranks"] == 1]
         many = [r for r in rows if r["ranks"] > 1]
         if not one or not many:
@@ -128,7 +138,7 @@ class Model:
             n = r["fluid"] / r["ranks"]
             g, peers = ghosts(n, r["ranks"], self.gf)
             rest.append(r["exchange_ms"] * 1e-3 - 2 * g * BYTES_PER_GHOST / NVLINK)
-            size.append(self.one_gpu(n + g))
+            size.append(self.one_gpu(n + self.gc * g))
             peer.append(peers)
         self.x0, self.w = lstsq2(size, rest)
         if self.w < 0:  # waits that shrink as the passes grow: noise (the H100 runs), not a cost
@@ -140,7 +150,8 @@ class Model:
         for r in many:
             n = r["fluid"] / r["ranks"]
             g, _ = ghosts(n, r["ranks"], self.gf)
-            ks.append((r["ms_per_step"] * 1e-3 - self.exchange(n, r["ranks"])) / self.one_gpu(n + g))
+            ks.append((r["ms_per_step"] * 1e-3 - self.exchange(n, r["ranks"])) /
+                      self.one_gpu(n + self.gc * g))
         self.k = sum(ks) / len(ks)
 
     def one_gpu(self, n):
@@ -158,7 +169,8 @@ class Model:
         if p == 1:
             return 0.0
         g, peers = ghosts(n, p, self.gf)
-        x = self.x0 + self.x1 * peers + self.w * self.one_gpu(n + g) + 2 * g * BYTES_PER_GHOST / NVLINK
+        x = (self.x0 + self.x1 * peers + self.w * self.one_gpu(n + self.gc * g) +
+             2 * g * BYTES_PER_GHOST / NVLINK)
         if p > GPUS_PER_NODE:
             x += EXCHANGES * (LAT_NET - LAT_NODE) + 2 * g * BYTES_PER_GHOST * (1 / IB - 1 / NVLINK)
         return x
@@ -168,7 +180,7 @@ class Model:
         if p == 1:
             return self.one_gpu(n)
         g, _ = ghosts(n, p, self.gf)
-        return self.k * self.one_gpu(n + g) + self.exchange(n, p)
+        return self.k * self.one_gpu(n + self.gc * g) + self.exchange(n, p)
 
 
 def p5_step(n, p, factor):
@@ -207,11 +219,15 @@ def main():
                     help="a what-if: the exchanges' fixed cost a step lowered by this many us after "
                          "the fit (a change measured where the model's runs were not: a refresh "
                          "fewer); the predictions say so")
+    ap.add_argument("--ghost-cost-runs", type=float, default=GHOST_COST_RUNS,
+                    help="a ghost's share of a particle-step in the measured runs' code")
+    ap.add_argument("--ghost-cost", type=float, default=GHOST_COST_NOW,
+                    help="the same in the code the predictions are for")
     ap.add_argument("--out", default=os.path.join(HERE, "out"))
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     rows = read_rows([p for p in a.measured.split(",") if p])
-    m = Model(rows, a.ghost_factor)
+    m = Model(rows, a.ghost_factor, a.ghost_cost_runs)
     if a.x0_less_us:
         print("what-if: x0 lowered by %.1f us a step after the fit (not measured by these runs)"
               % a.x0_less_us)
@@ -239,6 +255,9 @@ def main():
         w.writerows(fit)
 
     m.x0 -= a.x0_less_us * 1e-6  # after the fit's comparison above: the runs had it
+    m.gc = a.ghost_cost  # likewise: the runs' ghosts cost what their code made them
+    print("\na ghost costs %.2f of a particle-step in the measured runs, %.2f in the predictions"
+          % (a.ghost_cost_runs, a.ghost_cost))
     ps = [1, 2, 4, 8, 64, 512]
     cases = [("weak 4M a GPU", lambda p: 4e6), ("strong 8M", lambda p: 8e6 / p),
              ("strong 32M", lambda p: 32e6 / p)]

@@ -464,7 +464,7 @@ void RankExchange<T>::overlapped(comm::HaloExchange& halo, const SplitRows* rows
     collect_refresh_times();
   if (!rows) {
     on_clock(2 * refresh, [&] {
-      pass(exec::Rows{nullptr, n});
+      pass(owned_rows(n)); // the ghosts take their owners' values in the exchange
       if (!finish) {
         const Timed timed{exchange_seconds_}, part{parts_.refresh};
         halo.start(cols, first_ghost);
@@ -493,9 +493,21 @@ void RankExchange<T>::overlapped(comm::HaloExchange& halo, const SplitRows* rows
 }
 
 template <typename T>
+exec::Rows RankExchange<T>::owned_rows(std::size_t n) const {
+  if (keep_.size() != n)
+    throw Error("internal: a pass over " + std::to_string(n) + " fluid rows, " +
+                std::to_string(keep_.size()) + " of them flagged owned or not");
+  return exec::Rows{nullptr, n, keep_.data()};
+}
+
+template <typename T>
 void RankExchange<T>::owned_pass(std::size_t n, const Pass& pass) {
-  if (!fluid_halo_ || !overlap_) {
+  if (!fluid_halo_) {
     pass(exec::Rows{nullptr, n});
+    return;
+  }
+  if (!overlap_) {
+    pass(owned_rows(n));
     return;
   }
   const SplitRows& rows = fluid_rows();

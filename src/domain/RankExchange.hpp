@@ -129,8 +129,11 @@ public:
   /// The rows the fluid's ghosts hold (on the backend; valid until the fluid's next sort).
   exec::Rows ghost_rows();
   /// The forces pass where the ghosts go after it (drop_ghosts): over the owned rows only (with
-  /// [parallel] overlap; else over all n).
+  /// [parallel] overlap the border's, then the rest; else in one pass that skips the ghosts).
   void owned_pass(std::size_t n, const Pass& pass);
+  /// The first n fluid rows with those this rank owns flagged: a pass over them skips the
+  /// ghosts (exec::Rows::only).
+  exec::Rows owned_rows(std::size_t n) const;
   /// Kept ghosts' positions and velocities from their owners (after a drift that moved a ghost
   /// otherwise than its owner).
   void refresh_positions(FluidSet<T>& fluid);

@@ -264,8 +264,9 @@ TEST(Distributed, VerletListsAreTheOneRankRun) {
 }
 
 // The passes that refresh ghosts run over the border's rows, then the interior's while the
-// exchange is in flight (the default), or over every row before it: the same values either way.
-// A row of neither list would keep last step's density and part the runs at once.
+// exchange is in flight (the default), or over the owned rows before it, skipping the ghosts,
+// whose values the exchange brings: the same values either way. A row of neither would keep
+// last step's density and part the runs at once.
 TEST(Distributed, OverlapOrNotIsTheOneRankRun) {
   Scene s = dambreak("float", "summation");
   s.parallel.overlap = false;

@@ -273,10 +273,12 @@ void for_each(const Exec& ex, std::size_t n, const F& f, const char* label) {
 
 /// The elements a pass runs over: the first n when index is null, else index[0 .. n) (a rank's
 /// owned particles its peers receive as ghosts, or the rest: the pass split around a halo
-/// exchange in flight).
+/// exchange in flight). With `only` (and no index), those of the first n whose flag is nonzero
+/// (a rank's owned rows among its ghosts, whose results the exchange after the pass brings).
 struct Rows {
   const std::uint32_t* index = nullptr;
   std::size_t n = 0;
+  const std::uint32_t* only = nullptr;
 };
 
 /// Adapts a per-element functor f(i) to the elements of an index list.
@@ -288,11 +290,25 @@ struct OnListedRows {
   KF_HD KF_INLINE void operator()(std::size_t k) const { f(index[k]); }
 };
 
+/// Adapts a per-element functor f(i) to the flagged elements of a range.
+template <typename F>
+struct OnFlaggedRows {
+  static constexpr unsigned kBlocksPerSm = BlocksPerSmOf<F>::value;
+  const std::uint32_t* only;
+  F f;
+  KF_HD KF_INLINE void operator()(std::size_t i) const {
+    if (only[i] != 0)
+      f(i);
+  }
+};
+
 /// Calls f(i) for the elements `rows` names, as for_each does for [0, n).
 template <typename F>
 void for_rows(const Exec& ex, const Rows& rows, const F& f, const char* label) {
   if (rows.index)
     for_each(ex, rows.n, OnListedRows<F>{rows.index, f}, label);
+  else if (rows.only)
+    for_each(ex, rows.n, OnFlaggedRows<F>{rows.only, f}, label);
   else
     for_each(ex, rows.n, f, label);
 }
