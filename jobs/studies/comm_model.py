@@ -7,7 +7,7 @@ particles plus two halo refreshes at the HBM floor for packing, NVLink/InfiniBan
 assumed 10/20 us latency, with the refreshes hidden behind the interior. P9's runs on 1, 2 and 4
 H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, and the model is now
 
-    T(P, N) = k * T1(N + G) + X(P)
+    T(P, N) = k * T1(N + c G) + X(P)
 
   T1  one GPU's step at N fluid particles. Where the measured runs hold one-GPU steps at three or
       more sizes (docs/data/p9_h200x2_2026-11-30/one_gpu_sizes.csv: 0.25M to 8M on an H200), the
@@ -21,7 +21,7 @@ H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, a
       a particle-step's cost) are printed either way.
   k   the split's inflation of a rank's step (1 on one GPU): the passes split into interior and
       border launches, the rows' lists, the imbalance left by METIS, the ghosts' share of the
-      sort. Fitted on the multi-GPU runs: the mean of (T - X) / T1(N + G).
+      sort. Fitted on the multi-GPU runs: the mean of (T - X) / T1(N + c G).
   G   ghosts of a rank: the geometric count (a cube a rank, LAYERS deep on each face, edge and
       corner it shares) times `ghost_factor` (1.3: `knitflow plan --ranks N` on the 4M dam break).
       A ghost costs a share c of an owned particle's step: it is sorted, listed, drifted and
@@ -32,7 +32,7 @@ H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, a
       passes' shares of one H200's 1M dam break step, 126 and 168 of 431 us: "The one-GPU
       curve by stage"). The fit takes the runs' c, the predictions --ghost-cost.
   X   the step's exchanges as they show on rank 0's wall ("split" line: migration, refreshes):
-      x0 + x1 * peers + w * T1(N + G) + bytes / link. Each refresh is a meeting point: it waits
+      x0 + x1 * peers + w * T1(N + c G) + bytes / link. Each refresh is a meeting point: it waits
       for the slower rank's pass of that stage, and those waits grow with the passes (w, the
       stages' imbalance as a share of a rank's step); x0 is what an exchange costs regardless
       (packing and unpacking launches, NCCL's latency, the streams' events). x0 and w are fitted
@@ -129,7 +129,7 @@ class Model:
         self.curve = sorted((n, sum(t) / len(t)) for n, t in sizes.items())
         if len(self.curve) < 3:
             self.curve = None
-        # X = x0 + x1 peers + w T1(N + G) + bytes / NVLink: x0 and w from the sizes a rank, x1
+        # X = x0 + x1 peers + w T1(N + c G) + bytes / NVLink: x0 and w from the sizes a rank, x1
         # from the peers (one of the two where the runs vary only the other; both varying is
         # fitted one after the other, sizes first).
         self.x1 = self.w = 0.0

@@ -76,8 +76,13 @@ Decomposition first_partition(const Scene& scene, const HaloWidths& w, const Pha
 }
 
 template <typename T>
+int owner_of(const Decomposition& d, const Vec3<T>& q) {
+  return d.owner(vec_cast<double>(q));
+}
+
+template <typename T>
 bool owns(const Decomposition& d, int r, const Vec3<T>& q) {
-  return d.owner(vec_cast<double>(q)) == r;
+  return owner_of(d, q) == r;
 }
 
 template <typename T>
@@ -115,6 +120,7 @@ GridGeometry<T> rank_grid(const Decomposition& d, int r, const GridGeometry<T>& 
   template Decomposition first_partition<T>(const Scene&, const HaloWidths&, const PhaseCosts&,    \
                                             int, std::span<const Vec3<T>>,                         \
                                             std::span<const Vec3<T>>, std::span<const Vec3<T>>);   \
+  template int owner_of<T>(const Decomposition&, const Vec3<T>&);                                  \
   template bool owns<T>(const Decomposition&, int, const Vec3<T>&);                                \
   template std::vector<std::size_t> owned_rows<T>(const Decomposition&, int,                       \
                                                   std::span<const Vec3<T>>);                       \

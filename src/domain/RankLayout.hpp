@@ -78,12 +78,15 @@ Decomposition first_partition(const Scene& scene, const HaloWidths& w, const Pha
                               int ranks, std::span<const Vec3<T>> fluid,
                               std::span<const Vec3<T>> boundary, std::span<const Vec3<T>> knit);
 
-/// Whether rank r owns a point by `d`, the point where the run holds it (in T). Out of line on
+/// The rank that owns a point by `d`, the point where the run holds it (in T). Out of line on
 /// purpose: inlined into the start's sampling loop, GCC 12 at -O2 and -O3 (its SLP vectorizer;
 /// -O1 and -fno-tree-slp-vectorize did not) took a sample's x and y from the double it was
 /// rounded from, not from the float, so a rank kept samples the owners' rule gives to another
 /// (test_distributed_mpi's ThePlanIsTheRunsSplit on 4 ranks: 7,308 walls against 7,300). A
 /// point passed by reference to another unit is the float in memory.
+template <typename T>
+int owner_of(const Decomposition& d, const Vec3<T>& q);
+/// Whether rank r owns a point by `d` (owner_of).
 template <typename T>
 bool owns(const Decomposition& d, int r, const Vec3<T>& q);
 

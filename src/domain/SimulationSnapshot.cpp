@@ -339,7 +339,7 @@ void SimulationT<T>::restore(const io::Frame& fr) {
         return rows_kept(p, owned_rows<T>(*split, ranks_->rank(), x));
       std::vector<int> owner(x.size());
       for (std::size_t i = 0; i < x.size(); ++i)
-        owner[i] = split->owner(vec_cast<double>(x[i]));
+        owner[i] = owner_of(*split, x[i]);
       return rows_to_owners(ranks_->mpi().comm(), ranks_->ranks(), p, owner);
     };
     if (fluid_phase)
