@@ -47,14 +47,19 @@ a node (the measured host: 4 H100 SXM, NV18 between every pair); InfiniBand NDR 
 a GPU (DGX H100: one ConnectX-7 a GPU). Latency between nodes: 20 us a message over 10 us within
 (assumed; no host pair was lent to measure it).
 
-    jobs/studies/comm_model.py                                  # calibrate from jobs/studies/data/p9_*.csv
+    jobs/studies/comm_model.py                                  # the documented calibration
     jobs/studies/comm_model.py --measured a.csv,b.csv --out DIR
+
+Without arguments it gives docs/PERFORMANCE.md's current figures: calibrated by the six CSVs of
+docs/data/p9_h200x2_2026-11-30/ (2 x H200, NCCL), the exchanges' fixed cost 30 us lower than
+those runs' (the walls' refresh they paid is gone since), a ghost at GHOST_COST_NOW. The older
+H100 runs (jobs/studies/data/p9_*.csv, code of 2026-11-29) calibrate it with
+`--measured "$(ls jobs/studies/data/p9_*.csv | paste -sd,)" --x0-less-us 0`.
 
 Writes DIR/comm_model.csv (predictions), DIR/comm_model_fit.csv (each measured run against the
 model) and DIR/comm_model.png."""
 import argparse
 import csv
-import glob
 import os
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -66,6 +71,12 @@ EXCHANGES = 3                 # a step: migration (and its ghosts) and two refre
 NVLINK, IB = 450e9, 50e9      # B/s a direction a GPU
 LAT_NODE, LAT_NET = 10e-6, 20e-6
 GPUS_PER_NODE = 8
+# The documented calibration (main()'s defaults): 2 x H200 runs of 2026-11-30, and the walls'
+# refresh those runs paid (30-31 us a step on rank 0) removed from the code since.
+CALIBRATION = os.path.join(HERE, "..", "..", "docs", "data", "p9_h200x2_2026-11-30")
+CALIBRATION_CSVS = ["one_gpu_sizes.csv", "weak_4M_steady_r1.csv", "weak_4M_steady_r2.csv",
+                    "strong_8M_steady_r1.csv", "strong_8M_steady_r2.csv", "strong_32M_steady.csv"]
+X0_LESS_US = 30.0
 # P5's inputs, for its column of the output.
 P5_T_P, P5_HBM, P5_LAUNCH = 1.0 / 3.33e9, 3.35e12 * 0.7, 4e-6
 
@@ -211,11 +222,11 @@ def read_rows(paths):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--measured", default=",".join(sorted(glob.glob(os.path.join(HERE, "data", "p9_*.csv")))),
+    ap.add_argument("--measured", default=",".join(os.path.join(CALIBRATION, c) for c in CALIBRATION_CSVS),
                     help="scaling.py CSVs (comma-separated) to calibrate by")
     ap.add_argument("--ghost-factor", type=float, default=1.3,
                     help="measured ghosts over the geometric count (knitflow plan --ranks)")
-    ap.add_argument("--x0-less-us", type=float, default=0.0,
+    ap.add_argument("--x0-less-us", type=float, default=X0_LESS_US,
                     help="a what-if: the exchanges' fixed cost a step lowered by this many us after "
                          "the fit (a change measured where the model's runs were not: a refresh "
                          "fewer); the predictions say so")
