@@ -265,10 +265,16 @@ struct WithoutLanes {
   KF_HD KF_INLINE void operator()(std::size_t i, Lanes) const { f(i); }
 };
 
+/// Threads per CUDA block of for_each. 128, not 256: a block's slot on an SM frees only when its
+/// last warp ends, and the pair passes' warps end far apart (rows of unequal length), so smaller
+/// blocks leave fewer warp slots idle (one H200, the dam break: the step 2-4% faster at 1M and
+/// 8M; 64 slower than 256; docs/PERFORMANCE.md, "P5: a piece of the split alone").
+constexpr unsigned kForEachBlock = 128;
+
 /// Calls f(i) for i in [0, n): a CUDA kernel launch or an OpenMP static loop.
 template <typename F>
 void for_each(const Exec& ex, std::size_t n, const F& f, const char* label) {
-  for_each_lanes<1, 256>(ex, n, WithoutLanes<F>{f}, label);
+  for_each_lanes<1, kForEachBlock>(ex, n, WithoutLanes<F>{f}, label);
 }
 
 /// The elements a pass runs over: the first n when index is null, else index[0 .. n) (a rank's
