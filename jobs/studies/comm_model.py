@@ -14,11 +14,11 @@ H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, a
       curve through them (linear between sizes, the end segments' lines beyond); else
       T1(N) = a + b N fitted on the one-GPU rows. A particle-step costs more in the smaller dam
       breaks (1M: 0.42 ms, 2.4e9 particle-steps/s; 8M: 2.47 ms, 3.2e9): the GPU's tails and
-      fixed work, and the coarser tank's walls (twice the walls a fluid particle at 1M). "A free
-      split" in the output is T1(N) / T1(N / P), what a split costing nothing would reach if its
-      pieces ran at the smaller dam breaks' rate: pessimistic, as a piece of the big tank has
-      the big tank's walls a particle (k < 1 on the H200 runs). a and b (a fixed cost a step and
-      a particle-step's cost) are printed either way.
+      fixed work (not the coarser tank's walls: a rank of the 8M split, its pair passes timed
+      alone by ncu, costs a particle what the 1M dam break does; docs/PERFORMANCE.md, "P5: a
+      piece of the split alone"). "A free split" in the output is T1(N) / T1(N / P), what a
+      split costing nothing would reach with its pieces at the smaller dam breaks' rate. a and
+      b (a fixed cost a step and a particle-step's cost) are printed either way.
   k   the split's inflation of a rank's step (1 on one GPU): the passes split into interior and
       border launches, the rows' lists, the imbalance left by METIS, the ghosts' share of the
       sort. Fitted on the multi-GPU runs: the mean of (T - X) / T1(N + c G).
