@@ -48,6 +48,7 @@ a GPU (DGX H100: one ConnectX-7 a GPU). Latency between nodes: 20 us a message o
 (assumed; no host pair was lent to measure it).
 
     jobs/studies/comm_model.py                                  # the documented calibration
+    jobs/studies/comm_model.py --split-fixed-us 30              # the density border's latency
     jobs/studies/comm_model.py --measured a.csv,b.csv --out DIR
 
 Without arguments it gives docs/PERFORMANCE.md's current figures: calibrated by the six CSVs of
@@ -124,8 +125,9 @@ def lstsq2(xs, ys):
 
 
 class Model:
-    def __init__(self, rows, ghost_factor, ghost_cost=GHOST_COST_RUNS):
+    def __init__(self, rows, ghost_factor, ghost_cost=GHOST_COST_RUNS, split_fixed=0.0):
         self.gf = ghost_factor
+        self.fixed = split_fixed  # seconds a step a split rank pays whatever its size
         self.gc = ghost_cost  # the fit's; main() sets the predictions' after it
         one = [r for r in rows if r["ranks"] == 1]
         many = [r for r in rows if r["ranks"] > 1]
@@ -161,7 +163,7 @@ class Model:
         for r in many:
             n = r["fluid"] / r["ranks"]
             g, _ = ghosts(n, r["ranks"], self.gf)
-            ks.append((r["ms_per_step"] * 1e-3 - self.exchange(n, r["ranks"])) /
+            ks.append((r["ms_per_step"] * 1e-3 - self.exchange(n, r["ranks"]) - self.fixed) /
                       self.one_gpu(n + self.gc * g))
         self.k = sum(ks) / len(ks)
 
@@ -191,7 +193,7 @@ class Model:
         if p == 1:
             return self.one_gpu(n)
         g, _ = ghosts(n, p, self.gf)
-        return self.k * self.one_gpu(n + self.gc * g) + self.exchange(n, p)
+        return self.k * self.one_gpu(n + self.gc * g) + self.fixed + self.exchange(n, p)
 
 
 def p5_step(n, p, factor):
@@ -230,6 +232,10 @@ def main():
                     help="a what-if: the exchanges' fixed cost a step lowered by this many us after "
                          "the fit (a change measured where the model's runs were not: a refresh "
                          "fewer); the predictions say so")
+    ap.add_argument("--split-fixed-us", type=float, default=0.0,
+                    help="a what-if: a cost a step every rank of a split pays whatever its size "
+                         "(the density's border launch: ~30 us, one warp's walk, measured by ncu "
+                         "on 8 ranks of the 8M dam break), taken out of k's fit")
     ap.add_argument("--ghost-cost-runs", type=float, default=GHOST_COST_RUNS,
                     help="a ghost's share of a particle-step in the measured runs' code")
     ap.add_argument("--ghost-cost", type=float, default=GHOST_COST_NOW,
@@ -238,7 +244,10 @@ def main():
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     rows = read_rows([p for p in a.measured.split(",") if p])
-    m = Model(rows, a.ghost_factor, a.ghost_cost_runs)
+    m = Model(rows, a.ghost_factor, a.ghost_cost_runs, a.split_fixed_us * 1e-6)
+    if a.split_fixed_us:
+        print("what-if: a split rank pays %.1f us a step whatever its size (out of k's fit)"
+              % a.split_fixed_us)
     if a.x0_less_us:
         print("what-if: x0 lowered by %.1f us a step after the fit (not measured by these runs)"
               % a.x0_less_us)
