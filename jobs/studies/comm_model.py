@@ -7,7 +7,7 @@ particles plus two halo refreshes at the HBM floor for packing, NVLink/InfiniBan
 assumed 10/20 us latency, with the refreshes hidden behind the interior. P9's runs on 1, 2 and 4
 H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, and the model is now
 
-    T(P, N) = k * T1(N + c G) + X(P)
+    T(P, N) = k * T1(N + c G) + F + X(P)
 
   T1  one GPU's step at N fluid particles. Where the measured runs hold one-GPU steps at three or
       more sizes (docs/data/p9_h200x2_2026-11-30/one_gpu_sizes.csv: 0.25M to 8M on an H200), the
@@ -19,9 +19,11 @@ H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, a
       piece of the split alone"). "A free split" in the output is T1(N) / T1(N / P), what a
       split costing nothing would reach with its pieces at the smaller dam breaks' rate. a and
       b (a fixed cost a step and a particle-step's cost) are printed either way.
+  F   a cost a step every rank of a split pays whatever its size: 0 unless --split-fixed-us
+      (a what-if: the density's border launch, one warp's walk, ~30 us by ncu).
   k   the split's inflation of a rank's step (1 on one GPU): the passes split into interior and
       border launches, the rows' lists, the imbalance left by METIS, the ghosts' share of the
-      sort. Fitted on the multi-GPU runs: the mean of (T - X) / T1(N + c G).
+      sort. Fitted on the multi-GPU runs: the mean of (T - F - X) / T1(N + c G).
   G   ghosts of a rank: the geometric count (a cube a rank, LAYERS deep on each face, edge and
       corner it shares) times `ghost_factor` (1.3: `knitflow plan --ranks N` on the 4M dam break).
       A ghost costs a share c of an owned particle's step: it is sorted, listed, drifted and

@@ -161,10 +161,10 @@ KF_HD KF_INLINE void add_wall_pair(Vec3<T>& acc, const WallPairSide<T>& i, const
 // Artificial: Monaghan's artificial viscosity between fluid particles (SphParams::artificial).
 template <typename T, typename K, typename N, bool Continuity = false, bool Artificial = false>
 struct ForceEvaluator {
-  // Eight blocks of exec::kForEachBlock = 128 (32 warps) an SM, so at most 64 registers: left to
-  // itself ptxas took 66 with the wall entries' three loads (24 warps an SM), and the column's
-  // whole run slowed by 8% (H100). Capped, it spills nothing.
-  static constexpr unsigned kBlocksPerSm = 8;
+  // 1,024 threads (32 warps) an SM in blocks of exec::for_each's size, so at most 64 registers:
+  // left to itself ptxas took 66 with the wall entries' three loads (24 warps an SM), and the
+  // column's whole run slowed by 8% (H100). Capped, it spills nothing.
+  static constexpr unsigned kBlocksPerSm = 1024 / exec::kForEachBlock;
   K kernel;
   SphParams<T> prm;
   FluidView<T> f;
