@@ -7,6 +7,7 @@
 #include "kernels/exec/Backend.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
 #include "kernels/exec/PendingRead.hpp"
+#include "kernels/exec/Streams.hpp"
 #include "kernels/integrate/StepSize.hpp"
 
 #if defined(KF_WITH_CUDA) && defined(__CUDACC__)
@@ -65,6 +66,30 @@ void write_index(const Exec& ex, DeviceBuffer<std::uint32_t>& out, std::size_t n
 }
 void write_index(const Exec& ex, DeviceBuffer<std::uint32_t>& out) {
   write_index(ex, out, out.size());
+}
+
+/// out[i] = 20,000 steps of a 32-bit LCG from i: about a millisecond for a million elements on
+/// an H200, long enough that a pass reading `out` from another stream without an order between
+/// the two would run beside it and read it unwritten.
+void write_slowly(const Exec& ex, DeviceBuffer<std::uint32_t>& out) {
+  std::uint32_t* p = out.data();
+  kf::exec::for_each(
+      ex, out.size(),
+      [=] KF_HD(std::size_t i) {
+        std::uint32_t x = static_cast<std::uint32_t>(i);
+        for (int k = 0; k < 20000; ++k)
+          x = x * 1664525u + 1013904223u;
+        p[i] = x;
+      },
+      "test.write_slowly");
+}
+/// out[i] = in[i] ^ salt.
+void xor_with(const Exec& ex, const DeviceBuffer<std::uint32_t>& in,
+              DeviceBuffer<std::uint32_t>& out, std::uint32_t salt) {
+  const std::uint32_t* a = in.data();
+  std::uint32_t* b = out.data();
+  kf::exec::for_each(
+      ex, out.size(), [=] KF_HD(std::size_t i) { b[i] = a[i] ^ salt; }, "test.xor_with");
 }
 
 /// out[i] = 3i + 1 for the rows `rows` names (kf::exec::for_rows).
@@ -883,6 +908,88 @@ TEST_F(ExecCpuVsCuda, SameInputsSameOutputs) {
     abs_sum += std::fabs(x);
   EXPECT_NEAR(reduce_f64(cpu, sc, 0.0, kf::exec::SumOp{}),
               reduce_f64(gpu, sg, 0.0, kf::exec::SumOp{}), 1e-12 * abs_sum);
+}
+
+// The CPU's side stream is inert: launches stay where they were and run at once.
+TEST(ExecSideStream, OnTheCpuItChangesNothing) {
+  kf::exec::SideStream side(Backend::Cpu);
+  EXPECT_FALSE(side.active());
+  side.fork();
+  const kf::exec::OnSideStream beside(side);
+  EXPECT_EQ(kf::exec::launch_stream(), nullptr);
+  DeviceBuffer<std::uint32_t> out(Backend::Cpu, 1000, "out");
+  out.poison();
+  write_index(Exec{Backend::Cpu}, out);
+  EXPECT_EQ(out.to_host()[999], 3u * 999u + 1u);
+  side.join();
+}
+
+// A rank's interior pass runs on the side stream beside its border's (RankExchange): fork must
+// order it after the legacy default stream's earlier work, join the legacy stream's later work
+// after it. Three passes, each reading the last one's output (a slow one first), against the
+// CPU's; poisoned outputs show a pass that ran early. (Without the fork the side's pass reads
+// the poison: checked by removing it.)
+TEST(ExecSideStream, ForkAndJoinOrderItsWorkWithTheDefaultStream) {
+  if (!kf::exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  const std::size_t n = std::size_t{1} << 20;
+  std::vector<std::uint32_t> want;
+  {
+    const Exec cpu{Backend::Cpu};
+    DeviceBuffer<std::uint32_t> a(Backend::Cpu, n, "a"), b(Backend::Cpu, n, "b"),
+        c(Backend::Cpu, n, "c");
+    write_slowly(cpu, a);
+    xor_with(cpu, a, b, 0x5A5A5A5Au);
+    xor_with(cpu, b, c, 0x0F0F0F0Fu);
+    want = c.to_host();
+  }
+  const Exec gpu{Backend::Cuda};
+  kf::exec::SideStream side(Backend::Cuda);
+  ASSERT_TRUE(side.active());
+  for (int round = 0; round < 3; ++round) {
+    DeviceBuffer<std::uint32_t> a(Backend::Cuda, n, "a"), b(Backend::Cuda, n, "b"),
+        c(Backend::Cuda, n, "c");
+    a.poison();
+    b.poison();
+    c.poison();
+    write_slowly(gpu, a); // the legacy default stream
+    side.fork();
+    {
+      const kf::exec::OnSideStream beside(side);
+      EXPECT_EQ(kf::exec::launch_stream(), side.stream());
+      xor_with(gpu, a, b, 0x5A5A5A5Au);
+    }
+    EXPECT_EQ(kf::exec::launch_stream(), nullptr);
+    side.join();
+    xor_with(gpu, b, c, 0x0F0F0F0Fu); // the legacy default stream again
+    const auto got = c.to_host();
+    std::size_t bad = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      bad += got[i] != want[i];
+    EXPECT_EQ(bad, 0u) << "round " << round;
+  }
+}
+
+// The scratch slots' users are ordered by the legacy default stream alone: one on the side
+// stream is refused, not raced.
+TEST(ExecSideStream, RefusesAScratchUser) {
+  if (!kf::exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  const Exec gpu{Backend::Cuda};
+  DeviceBuffer<std::uint32_t> in(Backend::Cuda, 1000, "in"), out(Backend::Cuda, 1000, "out");
+  write_index(gpu, in);
+  kf::exec::SideStream side(Backend::Cuda);
+  {
+    const kf::exec::OnSideStream beside(side);
+    try {
+      (void)kf::exec::exclusive_scan(gpu, in, out, "test.scan");
+      FAIL() << "a scan ran on the side stream";
+    } catch (const kf::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("side stream"), std::string::npos) << e.what();
+    }
+  }
+  // Outside the scope it runs.
+  EXPECT_EQ(kf::exec::exclusive_scan(gpu, in, out, "test.scan"), 1000u * 999u / 2u * 3u + 1000u);
 }
 
 #if defined(KF_WITH_CUDA) && defined(__CUDACC__)

@@ -8,7 +8,9 @@
 #include "kernels/grid/RankSelection.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
+#include <string_view>
 
 namespace kf {
 
@@ -88,6 +90,13 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   // forces' pass (a: one column) runs whole, then exchanges. On two H200s this took 58 us off
   // the 4M-a-GPU dam break's step (docs/PERFORMANCE.md, P9).
   overlap_short_ = overlap_ && transport_->memory_space() == comm::MemorySpace::Host;
+  // The border's pass (a tenth of a rank's rows at 1M: under one wave) lasts as long as its
+  // longest rows' walk, ~30 us on an H200 whatever its size, and the exchange starts after it:
+  // the interior runs beside it on a stream of its own instead of after it. KF_SIDE_STREAM=0
+  // puts it back after (for measuring the difference).
+  const char* side = std::getenv("KF_SIDE_STREAM");
+  if (overlap_ && backend != exec::Backend::Cpu && !(side && std::string_view(side) == "0"))
+    side_ = std::make_unique<exec::SideStream>(backend);
   costs_ = initial_costs(scene);
   // The widths and the blocks as `knitflow plan` takes them (RankLayout).
   widths_ = halo_widths(scene, split);
@@ -478,12 +487,30 @@ void RankExchange<T>::overlapped(comm::HaloExchange& halo, const SplitRows* rows
     return;
   }
   on_clock(2 * refresh, [&] {
-    pass(exec::Rows{rows->border.data(), rows->border.size()});
-    {
+    const exec::Rows border{rows->border.data(), rows->border.size()};
+    const exec::Rows interior{rows->interior.data(), rows->interior.size()};
+    const auto start = [&] {
       const Timed timed{exchange_seconds_}, part{parts_.refresh};
       halo.start(cols, first_ghost);
+    };
+    if (!side_) {
+      pass(border);
+      start();
+      pass(interior);
+      return;
     }
-    pass(exec::Rows{rows->interior.data(), rows->interior.size()});
+    // The border first (its blocks placed before the interior's fill the GPU), the interior
+    // beside it and the exchange; the pack and the transports stay ordered after the border on
+    // the legacy default stream. The two passes write disjoint rows and the pack reads only
+    // border rows, so nothing between fork and join needs more order than this.
+    side_->fork();
+    pass(border);
+    {
+      const exec::OnSideStream beside(*side_);
+      pass(interior);
+    }
+    start();
+    side_->join();
   });
   if (finish)
     on_clock(2 * refresh + 1, [&] {

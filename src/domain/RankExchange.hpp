@@ -19,6 +19,7 @@
 #include "domain/RankSelector.hpp"
 #include "domain/Scene.hpp"
 #include "kernels/exec/Stopwatch.hpp"
+#include "kernels/exec/Streams.hpp"
 #include "kernels/particles/FluidSet.hpp"
 
 #include <algorithm>
@@ -330,8 +331,11 @@ private:
   double last_repartition_seconds_ = 0, last_partition_seconds_ = 0;
   std::uint64_t checks_held_ = 0; // imbalance checks since the last re-partition (this one too)
   bool keeps_ghosts_ = false;
-  bool overlap_ = false;          // [parallel] overlap, where it applies
-  bool overlap_short_ = false;    // the same for the forces' refresh (host messages)
+  bool overlap_ = false;       // [parallel] overlap, where it applies
+  bool overlap_short_ = false; // the same for the forces' refresh (host messages)
+  // Where a split pass's interior runs beside its border and the exchange (a device; null: after
+  // them, on the CPU or with KF_SIDE_STREAM=0).
+  std::unique_ptr<exec::SideStream> side_;
   std::uint64_t last_window_ = 0; // window_of(step) at the last imbalance check
   std::uint64_t window_of(std::uint64_t step) const {
     return step / static_cast<std::uint64_t>(scene_.parallel.check_every);

@@ -7,6 +7,7 @@
 #include "core/Vec3.hpp"
 #include "kernels/exec/Backend.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
+#include "kernels/exec/Streams.hpp"
 
 #include <cstddef>
 #include <cstdint>
@@ -167,8 +168,8 @@ __device__ KF_INLINE void await_previous_kernel() {
 #endif
 }
 
-/// kernel<<<grid, block>>>(args...) on the legacy default stream, with programmatic dependent
-/// launch when launch_overlap().
+/// kernel<<<grid, block>>>(args...) on launch_stream() (the legacy default stream outside an
+/// OnSideStream scope), with programmatic dependent launch when launch_overlap().
 template <typename... P, typename... A>
 void launch(void (*kernel)(P...), std::size_t grid, unsigned block, const char* label,
             std::size_t n, A&&... args) {
@@ -176,7 +177,7 @@ void launch(void (*kernel)(P...), std::size_t grid, unsigned block, const char* 
   cfg.gridDim = dim3(static_cast<unsigned>(grid));
   cfg.blockDim = dim3(block);
   cfg.dynamicSmemBytes = 0;
-  cfg.stream = 0;
+  cfg.stream = launch_stream();
   cudaLaunchAttribute attr[1];
   attr[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
   attr[0].val.programmaticStreamSerializationAllowed = 1;

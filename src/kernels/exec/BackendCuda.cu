@@ -1,10 +1,12 @@
 // Device side of the execution layer: CUDA memory, copies, device selection, and the CUB radix
 // sort and scan. Declared in BackendCpu.cpp, which dispatches here for Backend::Cuda. Everything
-// runs on the legacy default stream, so it is ordered with the kernels Algorithms.hpp launches.
+// runs on the legacy default stream, so it is ordered with the kernels Algorithms.hpp launches
+// (a pass in an OnSideStream scope excepted: Streams.hpp).
 #include "core/Error.hpp"
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/exec/CudaCheck.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
+#include "kernels/exec/Streams.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -164,8 +166,9 @@ struct KernelTimes {
   void resolve() {
     if (pending.empty())
       return;
-    KF_CUDA(cudaEventSynchronize(pending.back().end), std::string("kernel times"));
     for (const Pending& p : pending) {
+      // Each end: a side stream's (Streams.hpp) may finish after the last one recorded.
+      KF_CUDA(cudaEventSynchronize(p.end), std::string("kernel times"));
       float ms = 0;
       KF_CUDA(cudaEventElapsedTime(&ms, p.start, p.end), std::string("kernel times"));
       add(totals, p.label, ms);
@@ -264,7 +267,7 @@ KernelTimeScope::KernelTimeScope(const char* label) {
   if (!t || t->depth++ > 0)
     return;
   cudaEvent_t start = t->event();
-  KF_CUDA(cudaEventRecord(start), std::string("kernel times"));
+  KF_CUDA(cudaEventRecord(start, launch_stream()), std::string("kernel times"));
   if (!t->first)
     t->first = start;
   t->pending.push_back({label, start, nullptr});
@@ -279,7 +282,7 @@ KernelTimeScope::~KernelTimeScope() {
   if (slot_ < 0)
     return;
   cudaEvent_t end = t->event();
-  if (cudaEventRecord(end) != cudaSuccess) {
+  if (cudaEventRecord(end, launch_stream()) != cudaSuccess) {
     // A destructor does not throw; the launch's own check reports the failure. The entry (the
     // last one: timed scopes do not nest) is dropped, so resolve() never sees a missing end.
     t->free_events.push_back(end);
@@ -429,8 +432,35 @@ void* cuda_timing_event_create(const char* what) {
 }
 
 void cuda_event_record(void* e, const char* label) {
-  KF_CUDA(cudaEventRecord(static_cast<cudaEvent_t>(e), 0),
+  KF_CUDA(cudaEventRecord(static_cast<cudaEvent_t>(e), launch_stream()),
           std::string(label) + ": recording an event");
+}
+
+// ---- the side stream (Streams.hpp) --------------------------------------------------------------
+
+CUstream_st* cuda_side_stream_create() {
+  cudaStream_t s = nullptr;
+  // Non-blocking: the legacy default stream's implicit waits would serialise the two again.
+  KF_CUDA(cudaStreamCreateWithFlags(&s, cudaStreamNonBlocking), std::string("creating a stream"));
+  return s;
+}
+
+void cuda_stream_destroy(CUstream_st* s) noexcept {
+  if (s && cudaStreamDestroy(s) != cudaSuccess)
+    (void)cudaGetLastError();
+}
+
+void* cuda_order_event_create(const char* what) {
+  cudaEvent_t e = nullptr;
+  KF_CUDA(cudaEventCreateWithFlags(&e, cudaEventDisableTiming),
+          std::string("creating an event for ") + what);
+  return e;
+}
+
+void cuda_stream_after(CUstream_st* waiter, CUstream_st* done, void* event, const char* label) {
+  const auto e = static_cast<cudaEvent_t>(event);
+  KF_CUDA(cudaEventRecord(e, done ? done : cudaStreamLegacy), std::string(label));
+  KF_CUDA(cudaStreamWaitEvent(waiter ? waiter : cudaStreamLegacy, e, 0), std::string(label));
 }
 
 double cuda_event_seconds(void* start, void* end, const char* label) {
@@ -486,6 +516,9 @@ void* pinned_staging(std::size_t bytes, const char* label) {
 
 void* cuda_scratch(ScratchSlot slot, std::size_t bytes, const char* label) {
   Scratch& s = g_scratch[static_cast<int>(slot)];
+  // A slot's users are ordered by the legacy default stream alone.
+  if (launch_stream() != nullptr)
+    throw Error(std::string("internal: '") + label + "' uses a scratch slot on a side stream");
   if (bytes <= s.bytes)
     return s.ptr;
   // Grow by half again so a slowly growing particle count does not reallocate every step.

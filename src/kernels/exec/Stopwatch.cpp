@@ -54,9 +54,11 @@ double Stopwatch::collect() {
   host_seconds_ = 0;
 #if defined(KF_WITH_CUDA)
   if (used_ > 0) {
-    cuda_event_wait(events_[used_ - 1], "stopwatch");
-    for (std::size_t k = 0; k < used_; k += 2)
+    // Every interval's end: one on a side stream (Streams.hpp) may end after a later one.
+    for (std::size_t k = 0; k < used_; k += 2) {
+      cuda_event_wait(events_[k + 1], "stopwatch");
       s += cuda_event_seconds(events_[k], events_[k + 1], "stopwatch");
+    }
     // An interval still open keeps its start: it moves to the front.
     if (open_)
       std::swap(events_[0], events_[used_]);
