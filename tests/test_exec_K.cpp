@@ -68,20 +68,21 @@ void write_index(const Exec& ex, DeviceBuffer<std::uint32_t>& out) {
   write_index(ex, out, out.size());
 }
 
-/// out[i] = 20,000 steps of a 32-bit LCG from i: about a millisecond for a million elements on
-/// an H200, long enough that a pass reading `out` from another stream without an order between
-/// the two would run beside it and read it unwritten.
-void write_slowly(const Exec& ex, DeviceBuffer<std::uint32_t>& out) {
+/// out[i] = 2^21 steps of a 32-bit LCG from in[i] (from i where `in` is null): a few
+/// milliseconds a thread on an H200, each element's steps dependent, so that a pass of a few
+/// hundred elements keeps a handful of SMs busy that long and a pass on another stream, with no
+/// order between the two, runs beside it.
+void mix_slowly(const Exec& ex, const std::uint32_t* in, DeviceBuffer<std::uint32_t>& out) {
   std::uint32_t* p = out.data();
   kf::exec::for_each(
       ex, out.size(),
       [=] KF_HD(std::size_t i) {
-        std::uint32_t x = static_cast<std::uint32_t>(i);
-        for (int k = 0; k < 20000; ++k)
+        std::uint32_t x = in ? in[i] : static_cast<std::uint32_t>(i);
+        for (int k = 0; k < (1 << 21); ++k)
           x = x * 1664525u + 1013904223u;
         p[i] = x;
       },
-      "test.write_slowly");
+      "test.mix_slowly");
 }
 /// out[i] = in[i] ^ salt.
 void xor_with(const Exec& ex, const DeviceBuffer<std::uint32_t>& in,
@@ -926,42 +927,43 @@ TEST(ExecSideStream, OnTheCpuItChangesNothing) {
 
 // A rank's interior pass runs on the side stream beside its border's (RankExchange): fork must
 // order it after the legacy default stream's earlier work, join the legacy stream's later work
-// after it. Three passes, each reading the last one's output (a slow one first), against the
-// CPU's; poisoned outputs show a pass that ran early. (Without the fork the side's pass reads
-// the poison: checked by removing it.)
+// after it. Three passes, each reading the last one's output (the first two slow, on a few SMs),
+// against the CPU's; poisoned outputs show a pass that ran early. Without the fork the side's
+// pass reads the poison at once, without the join the last pass runs while the side's still
+// does (both checked by removing them: every element wrong).
 TEST(ExecSideStream, ForkAndJoinOrderItsWorkWithTheDefaultStream) {
   if (!kf::exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
-  const std::size_t n = std::size_t{1} << 20;
+  const std::size_t n = 256;
   std::vector<std::uint32_t> want;
   {
     const Exec cpu{Backend::Cpu};
     DeviceBuffer<std::uint32_t> a(Backend::Cpu, n, "a"), b(Backend::Cpu, n, "b"),
         c(Backend::Cpu, n, "c");
-    write_slowly(cpu, a);
-    xor_with(cpu, a, b, 0x5A5A5A5Au);
-    xor_with(cpu, b, c, 0x0F0F0F0Fu);
+    mix_slowly(cpu, nullptr, a);
+    mix_slowly(cpu, a.data(), b);
+    xor_with(cpu, b, c, 0x5A5A5A5Au);
     want = c.to_host();
   }
   const Exec gpu{Backend::Cuda};
   kf::exec::SideStream side(Backend::Cuda);
   ASSERT_TRUE(side.active());
-  for (int round = 0; round < 3; ++round) {
+  for (int round = 0; round < 2; ++round) {
     DeviceBuffer<std::uint32_t> a(Backend::Cuda, n, "a"), b(Backend::Cuda, n, "b"),
         c(Backend::Cuda, n, "c");
     a.poison();
     b.poison();
     c.poison();
-    write_slowly(gpu, a); // the legacy default stream
+    mix_slowly(gpu, nullptr, a); // the legacy default stream
     side.fork();
     {
       const kf::exec::OnSideStream beside(side);
       EXPECT_EQ(kf::exec::launch_stream(), side.stream());
-      xor_with(gpu, a, b, 0x5A5A5A5Au);
+      mix_slowly(gpu, a.data(), b);
     }
     EXPECT_EQ(kf::exec::launch_stream(), nullptr);
     side.join();
-    xor_with(gpu, b, c, 0x0F0F0F0Fu); // the legacy default stream again
+    xor_with(gpu, b, c, 0x5A5A5A5Au); // the legacy default stream again
     const auto got = c.to_host();
     std::size_t bad = 0;
     for (std::size_t i = 0; i < n; ++i)

@@ -20,7 +20,10 @@ H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, a
       split costing nothing would reach with its pieces at the smaller dam breaks' rate. a and
       b (a fixed cost a step and a particle-step's cost) are printed either way.
   F   a cost a step every rank of a split pays whatever its size: 0 unless --split-fixed-us
-      (a what-if: the density's border launch, one warp's walk, ~30 us by ncu).
+      (a what-if: the density's border launch, one warp's walk, ~30 us by ncu). Since
+      2026-12-03 the interior runs beside that launch (a side stream) instead of after it:
+      --border-hidden-us H takes H a step out of the calibration runs' steps (their code paid
+      it) for k's fit and leaves it out of the predictions.
   k   the split's inflation of a rank's step (1 on one GPU): the passes split into interior and
       border launches, the rows' lists, the imbalance left by METIS, the ghosts' share of the
       sort. Fitted on the multi-GPU runs: the mean of (T - F - X) / T1(N + c G).
@@ -51,6 +54,7 @@ a GPU (DGX H100: one ConnectX-7 a GPU). Latency between nodes: 20 us a message o
 
     jobs/studies/comm_model.py                                  # the documented calibration
     jobs/studies/comm_model.py --split-fixed-us 30              # the density border's latency
+    jobs/studies/comm_model.py --border-hidden-us 30            # ... hidden (the side stream)
     jobs/studies/comm_model.py --measured a.csv,b.csv --out DIR
 
 Without arguments it gives docs/PERFORMANCE.md's current figures: calibrated by the six CSVs of
@@ -127,9 +131,11 @@ def lstsq2(xs, ys):
 
 
 class Model:
-    def __init__(self, rows, ghost_factor, ghost_cost=GHOST_COST_RUNS, split_fixed=0.0):
+    def __init__(self, rows, ghost_factor, ghost_cost=GHOST_COST_RUNS, split_fixed=0.0,
+                 border_hidden=0.0):
         self.gf = ghost_factor
         self.fixed = split_fixed  # seconds a step a split rank pays whatever its size
+        self.hidden = border_hidden  # ... that the runs paid and the predictions' code does not
         self.gc = ghost_cost  # the fit's; main() sets the predictions' after it
         one = [r for r in rows if r["ranks"] == 1]
         many = [r for r in rows if r["ranks"] > 1]
@@ -165,7 +171,8 @@ class Model:
         for r in many:
             n = r["fluid"] / r["ranks"]
             g, _ = ghosts(n, r["ranks"], self.gf)
-            ks.append((r["ms_per_step"] * 1e-3 - self.exchange(n, r["ranks"]) - self.fixed) /
+            ks.append((r["ms_per_step"] * 1e-3 - self.exchange(n, r["ranks"]) - self.fixed -
+                       self.hidden) /
                       self.one_gpu(n + self.gc * g))
         self.k = sum(ks) / len(ks)
 
@@ -190,12 +197,14 @@ class Model:
             x += EXCHANGES * (LAT_NET - LAT_NODE) + 2 * g * BYTES_PER_GHOST * (1 / IB - 1 / NVLINK)
         return x
 
-    def step(self, n, p):
-        """Seconds a step with n fluid particles a rank on p GPUs."""
+    def step(self, n, p, runs=False):
+        """Seconds a step with n fluid particles a rank on p GPUs (runs: in the calibration
+        runs' code, which paid `hidden`)."""
         if p == 1:
             return self.one_gpu(n)
         g, _ = ghosts(n, p, self.gf)
-        return self.k * self.one_gpu(n + self.gc * g) + self.fixed + self.exchange(n, p)
+        return (self.k * self.one_gpu(n + self.gc * g) + self.fixed +
+                (self.hidden if runs else 0.0) + self.exchange(n, p))
 
 
 def p5_step(n, p, factor):
@@ -238,6 +247,10 @@ def main():
                     help="a what-if: a cost a step every rank of a split pays whatever its size "
                          "(the density's border launch: ~30 us, one warp's walk, measured by ncu "
                          "on 8 ranks of the 8M dam break), taken out of k's fit")
+    ap.add_argument("--border-hidden-us", type=float, default=0.0,
+                    help="a what-if: a cost a step the calibration runs' split ranks paid and the "
+                         "code now hides (the density's border launch, ~30 us, now beside the "
+                         "interior on a side stream), taken out of k's fit, not added back")
     ap.add_argument("--ghost-cost-runs", type=float, default=GHOST_COST_RUNS,
                     help="a ghost's share of a particle-step in the measured runs' code")
     ap.add_argument("--ghost-cost", type=float, default=GHOST_COST_NOW,
@@ -246,7 +259,11 @@ def main():
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     rows = read_rows([p for p in a.measured.split(",") if p])
-    m = Model(rows, a.ghost_factor, a.ghost_cost_runs, a.split_fixed_us * 1e-6)
+    m = Model(rows, a.ghost_factor, a.ghost_cost_runs, a.split_fixed_us * 1e-6,
+              a.border_hidden_us * 1e-6)
+    if a.border_hidden_us:
+        print("what-if: the runs' split ranks paid %.1f us a step that the code now hides "
+              "(out of k's fit, not in the predictions)" % a.border_hidden_us)
     if a.split_fixed_us:
         print("what-if: a split rank pays %.1f us a step whatever its size (out of k's fit)"
               % a.split_fixed_us)
@@ -262,7 +279,7 @@ def main():
     print("\nmeasured against the model (and P5's):")
     for r in rows:
         n = r["fluid"] / r["ranks"]
-        t = m.step(n, r["ranks"])
+        t = m.step(n, r["ranks"], runs=True)
         fit.append({"series": r["series"], "gpus": r["ranks"], "fluid": int(r["fluid"]),
                     "measured_ms": r["ms_per_step"], "model_ms": 1e3 * t,
                     "p5_model_ms": 1e3 * p5_step(n, r["ranks"], a.ghost_factor),

@@ -295,6 +295,10 @@ DeviceLayout device_layout(const MpiContext& ctx) {
 
 } // namespace
 
+bool gpus_of_their_own(const MpiContext& ctx) {
+  return device_layout(ctx).no_nccl.empty();
+}
+
 std::unique_ptr<Transport> make_transport(const MpiContext& ctx, TransportKind kind,
                                           MemorySpace data, [[maybe_unused]] CUstream_st* stream) {
   if (kind == TransportKind::Mpi)

@@ -126,6 +126,11 @@ private:
 /// The MPI error class and text of rc ("MPI_ERR_TRUNCATE: message truncated").
 std::string mpi_error_string(int rc);
 
+/// Whether every rank of the job has a GPU of its own (no other rank of its node on the same
+/// device: the rule "auto" chooses NCCL by). False in a build without CUDA. Collective over ctx's
+/// communicator.
+bool gpus_of_their_own(const MpiContext& ctx);
+
 /// Builds the transport for this job. Collective over ctx's communicator.
 /// `data`: where the caller's buffers live. Auto, for device data in a CUDA build: NCCL when every
 /// rank of the job has a GPU of its own (NCCL refuses two ranks on one device); else CUDA IPC when

@@ -92,11 +92,17 @@ RankExchange<T>::RankExchange(const comm::MpiContext& mpi, const Scene& scene,
   overlap_short_ = overlap_ && transport_->memory_space() == comm::MemorySpace::Host;
   // The border's pass (a tenth of a rank's rows at 1M: under one wave) lasts as long as its
   // longest rows' walk, ~30 us on an H200 whatever its size, and the exchange starts after it:
-  // the interior runs beside it on a stream of its own instead of after it. KF_SIDE_STREAM=0
-  // puts it back after (for measuring the difference).
+  // where a rank has its GPU to itself the interior runs beside it on a stream of its own
+  // instead of after it. Ranks sharing a GPU fill it with each other's work: there it did not
+  // pay (8 ranks of the 8M dam break on one H200, 4% slower a step; docs/PERFORMANCE.md).
+  // KF_SIDE_STREAM=1 or 0 chooses either way, for measuring.
   const char* side = std::getenv("KF_SIDE_STREAM");
-  if (overlap_ && backend != exec::Backend::Cpu && !(side && std::string_view(side) == "0"))
-    side_ = std::make_unique<exec::SideStream>(backend);
+  const std::string_view forced = side ? side : "";
+  if (overlap_ && backend != exec::Backend::Cpu) {
+    const bool own = comm::gpus_of_their_own(mpi); // collective: every rank asks
+    if (forced == "1" || (forced != "0" && own))
+      side_ = std::make_unique<exec::SideStream>(backend);
+  }
   costs_ = initial_costs(scene);
   // The widths and the blocks as `knitflow plan` takes them (RankLayout).
   widths_ = halo_widths(scene, split);
