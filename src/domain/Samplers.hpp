@@ -25,7 +25,16 @@ struct FluidSamples {
 /// in or at a solid: the n-th call is sample n (its id). Nothing is kept: a rank of a split job
 /// keeps its share as the samples go by (SimulationT::init_particles), not the whole scene.
 using FluidSampleSink = std::function<void(const Vec3d& x, const Vec3d& v)>;
-void for_each_fluid_sample(const Scene& scene, const FluidSampleSink& f);
+/// What a sampler did: lattice points visited, boxes bounded (domain/LatticeSieve) and points
+/// whose distances were evaluated one by one (those near a solid's surface). `by_points` (in):
+/// no box bounded, every point by its own distances, as before the sieve (bench_samplers's
+/// reference; the same samples).
+struct SamplerWork {
+  bool by_points = false;
+  std::uint64_t points = 0, boxes = 0, tested = 0;
+};
+void for_each_fluid_sample(const Scene& scene, const FluidSampleSink& f,
+                           SamplerWork* work = nullptr);
 
 /// All fluid particles of the scene (for_each_fluid_sample's, in its order).
 FluidSamples sample_fluid(const Scene& scene);
@@ -61,7 +70,7 @@ struct BoundarySamples {
 using BoundarySampleSink =
     std::function<void(const Vec3d& x, std::uint32_t obstacle, double volume_scale)>;
 void for_each_boundary_sample(const Scene& scene, double dp, double depth,
-                              const BoundarySampleSink& f);
+                              const BoundarySampleSink& f, SamplerWork* work = nullptr);
 
 /// All of them (for_each_boundary_sample's, in its order).
 BoundarySamples sample_boundaries(const Scene& scene, double dp, double depth);
