@@ -9,6 +9,7 @@
 #include "domain/RigidShapes.hpp"
 #include "domain/Samplers.hpp"
 #include "domain/Scene.hpp"
+#include "domain/SceneSampler.hpp"
 #include "domain/ShapeBounds.hpp"
 #include "kernels/particles/FluidSet.hpp"
 #include "support/MeshReference.hpp"
@@ -21,6 +22,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 
 using namespace kf;
@@ -159,55 +161,139 @@ TEST(Samplers, EveryShippedSceneSamplesAsADistanceAPointDoes) {
   EXPECT_GE(scenes, 15);
 }
 
+namespace {
+
+/// A random tank: sides that are not multiples of dp (the boundary's lattice stretched), open
+/// walls, blocks reaching past the domain, into and around the solids (some jittered, some
+/// moving), and 0-4 solids of every kind.
+Scene random_scene(std::mt19937_64& rng, int trial) {
+  std::uniform_real_distribution<double> u(0, 1);
+  const double dp = 0.01;
+  // Sides that are not multiples of dp stretch the boundary's lattice (axis_lattice).
+  const Vec3d size{0.1 + 0.17 * u(rng), 0.1 + 0.13 * u(rng), 0.1 + 0.15 * u(rng)};
+  Scene s = test::tank_scene(size, size, dp);
+  s.fluid.support = 1.2 + 1.3 * u(rng); // the shell's depth, in dp
+  for (int w = 0; w < 6; ++w)
+    s.domain.walls[w] = u(rng) < 0.8;
+  // Blocks reaching past the domain, into and around the solids; some jittered, some moving.
+  s.fluid.blocks.clear();
+  for (int b = 0, nb = 1 + trial % 3; b < nb; ++b) {
+    FluidBlock blk;
+    blk.min = {-0.02 + 0.1 * u(rng) * size.x, -0.02 + 0.1 * u(rng) * size.y, -0.02};
+    blk.max = {size.x * (0.5 + 0.6 * u(rng)), size.y * (0.5 + 0.6 * u(rng)),
+               size.z * (0.4 + 0.6 * u(rng))};
+    blk.jitter = trial % 2 ? 0.4 * u(rng) : 0.0;
+    blk.velocity = {u(rng), 0, -u(rng)};
+    s.fluid.blocks.push_back(blk);
+  }
+  const auto somewhere = [&] { return Vec3d{size.x * u(rng), size.y * u(rng), size.z * u(rng)}; };
+  for (int o = 0, no = trial % 5; o < no; ++o) {
+    Obstacle ob;
+    switch ((trial + o) % 4) {
+    case 0:
+      ob.shape = ObstacleShape::Sphere;
+      ob.center = somewhere();
+      ob.radius = 0.01 + 0.05 * u(rng);
+      break;
+    case 1:
+      ob.shape = ObstacleShape::Box;
+      ob.min = somewhere();
+      ob.max = ob.min + Vec3d{0.01 + 0.08 * u(rng), 0.01 + 0.08 * u(rng), 0.005 + 0.05 * u(rng)};
+      break;
+    case 2:
+      ob.shape = ObstacleShape::Plane;
+      ob.point = somewhere();
+      ob.normal = random_unit(rng);
+      break;
+    default:
+      ob = icosphere("samplers_mesh_" + std::to_string(trial), somewhere(), 0.02 + 0.04 * u(rng));
+      break;
+    }
+    s.obstacles.push_back(ob);
+  }
+  return s;
+}
+
+} // namespace
+
 TEST(Samplers, RandomScenesSampleAsADistanceAPointDoes) {
   std::mt19937_64 rng(20261203);
+  for (int trial = 0; trial < 24; ++trial)
+    expect_reference_samples(random_scene(rng, trial), "trial " + std::to_string(trial));
+}
+
+TEST(SceneSampler, SharesAndRegionsGiveTheScenesSamplesWithTheirIds) {
+  // A rank of a split job samples a share of the layers, then its region with every layer's
+  // count: the share's samples, in turn, must be the whole scene's in its order, and a region's
+  // every sample of the scene in the box (by position), each with the whole pass's id, bit for
+  // bit, ascending, and nothing that is not a sample.
+  std::mt19937_64 rng(31);
   std::uniform_real_distribution<double> u(0, 1);
+  std::size_t regions = 0, found = 0;
   for (int trial = 0; trial < 24; ++trial) {
-    const double dp = 0.01;
-    // Sides that are not multiples of dp stretch the boundary's lattice (axis_lattice).
-    const Vec3d size{0.1 + 0.17 * u(rng), 0.1 + 0.13 * u(rng), 0.1 + 0.15 * u(rng)};
-    Scene s = test::tank_scene(size, size, dp);
-    s.fluid.support = 1.2 + 1.3 * u(rng); // the shell's depth, in dp
-    for (int w = 0; w < 6; ++w)
-      s.domain.walls[w] = u(rng) < 0.8;
-    // Blocks reaching past the domain, into and around the solids; some jittered, some moving.
-    s.fluid.blocks.clear();
-    for (int b = 0, nb = 1 + trial % 3; b < nb; ++b) {
-      FluidBlock blk;
-      blk.min = {-0.02 + 0.1 * u(rng) * size.x, -0.02 + 0.1 * u(rng) * size.y, -0.02};
-      blk.max = {size.x * (0.5 + 0.6 * u(rng)), size.y * (0.5 + 0.6 * u(rng)),
-                 size.z * (0.4 + 0.6 * u(rng))};
-      blk.jitter = trial % 2 ? 0.4 * u(rng) : 0.0;
-      blk.velocity = {u(rng), 0, -u(rng)};
-      s.fluid.blocks.push_back(blk);
-    }
-    const auto somewhere = [&] { return Vec3d{size.x * u(rng), size.y * u(rng), size.z * u(rng)}; };
-    for (int o = 0, no = trial % 5; o < no; ++o) {
-      Obstacle ob;
-      switch ((trial + o) % 4) {
-      case 0:
-        ob.shape = ObstacleShape::Sphere;
-        ob.center = somewhere();
-        ob.radius = 0.01 + 0.05 * u(rng);
-        break;
-      case 1:
-        ob.shape = ObstacleShape::Box;
-        ob.min = somewhere();
-        ob.max = ob.min + Vec3d{0.01 + 0.08 * u(rng), 0.01 + 0.08 * u(rng), 0.005 + 0.05 * u(rng)};
-        break;
-      case 2:
-        ob.shape = ObstacleShape::Plane;
-        ob.point = somewhere();
-        ob.normal = random_unit(rng);
-        break;
-      default:
-        ob = icosphere("samplers_mesh_" + std::to_string(trial), somewhere(), 0.02 + 0.04 * u(rng));
-        break;
+    const Scene scene = random_scene(rng, trial);
+    for (const auto kind : {SceneSampler::Kind::Fluid, SceneSampler::Kind::Boundary}) {
+      SCOPED_TRACE("trial " + std::to_string(trial) +
+                   (kind == SceneSampler::Kind::Fluid ? " fluid" : " boundary"));
+      const SceneSampler sampler(scene, kind, scene.fluid.spacing, scene.support_radius());
+      std::vector<Sample> whole;
+      const auto layers = sampler.layer_samples(0, sampler.layers(), 0,
+                                                [&](const Sample& q) { whole.push_back(q); });
+      ASSERT_EQ(layers.size(), std::size_t(sampler.layers()));
+      for (std::size_t i = 0; i < whole.size(); ++i)
+        ASSERT_EQ(whole[i].id, i);
+      const auto same = [](const Sample& a, const Sample& b) {
+        return a.id == b.id && same_bits(a.x, b.x) && same_bits(a.v, b.v) &&
+               a.obstacle == b.obstacle && a.volume_scale == b.volume_scale;
+      };
+      for (const int shares : {2, 3, 7}) {
+        std::uint64_t next = 0;
+        for (int r = 0; r < shares; ++r) {
+          const int first = sampler.layers() * r / shares,
+                    last = sampler.layers() * (r + 1) / shares;
+          const auto counts = sampler.layer_samples(first, last, next, [&](const Sample& q) {
+            ASSERT_LT(q.id, whole.size());
+            ASSERT_TRUE(same(q, whole[q.id]));
+            ASSERT_EQ(q.id, next);
+            ++next;
+          });
+          ASSERT_TRUE(std::equal(counts.begin(), counts.end(), layers.begin() + first));
+        }
+        ASSERT_EQ(next, whole.size());
       }
-      s.obstacles.push_back(ob);
+      const Vec3d size = scene.domain.max - scene.domain.min;
+      for (int box = 0; box < 6; ++box) {
+        Vec3d lo{u(rng) * size.x, u(rng) * size.y, u(rng) * size.z}, hi = lo;
+        hi += Vec3d{0.6 * u(rng) * size.x, 0.6 * u(rng) * size.y, 0.6 * u(rng) * size.z};
+        if (box % 3 == 1) // open sides, as a rank's blocks at the grid's edge give
+          lo.x = lo.z = -std::numeric_limits<double>::infinity();
+        if (box % 3 == 2)
+          hi.y = std::numeric_limits<double>::infinity();
+        std::vector<Sample> got;
+        sampler.samples_in(lo, hi, 0.0, layers, [&](const Sample& q) { got.push_back(q); });
+        for (std::size_t i = 0; i < got.size(); ++i) {
+          ASSERT_LT(got[i].id, whole.size());
+          ASSERT_TRUE(same(got[i], whole[got[i].id])) << "sample " << got[i].id;
+          if (i > 0) {
+            ASSERT_LT(got[i - 1].id, got[i].id);
+          }
+        }
+        std::size_t inside = 0, g = 0;
+        for (const Sample& q : whole)
+          if (q.x.x >= lo.x && q.x.x <= hi.x && q.x.y >= lo.y && q.x.y <= hi.y && q.x.z >= lo.z &&
+              q.x.z <= hi.z) {
+            ++inside;
+            while (g < got.size() && got[g].id < q.id)
+              ++g;
+            ASSERT_TRUE(g < got.size() && got[g].id == q.id) << "sample " << q.id << " missed";
+          }
+        ++regions;
+        found += inside;
+      }
     }
-    expect_reference_samples(s, "trial " + std::to_string(trial));
   }
+  EXPECT_GT(found, 10000u); // the boxes held samples, not only empty space
+  EXPECT_EQ(regions, 24u * 2 * 6);
 }
 
 TEST(Samplers, JitteredBlocksBesideDiagonalPlanes) {
@@ -235,14 +321,14 @@ TEST(Samplers, JitteredBlocksBesideDiagonalPlanes) {
   EXPECT_EQ(scenes, 16);
 }
 
-TEST(Samplers, TheBoundsDecideMostOfTheDamBreaksLattices) {
+TEST(Samplers, TheBoundsDecideTheDamBreaksLatticesByBoxes) {
   // The dam break at dp 2.5 mm (1,024,000 fluid; its walls' lattice 6.64M points, 496,704 of
-  // them samples): by distance a point, every point evaluated. With the sieve, boxes are bounded
-  // where the shells are far, and only the points of the boxes of at most 64 points straddling
-  // a shell's faces (or near the walls the fluid's block touches) are evaluated. Measured (the
-  // counts are deterministic): walls 18.4% of the points evaluated alone and 0.88% bounded as
-  // boxes; fluid 15.8% and 1.00%. Bounds 10% above: a sieve that halves too far or decides
-  // less fails (by points: 100%).
+  // them samples): by distance a point, every point evaluated. The container's bounds over a box
+  // are exact and its boxes are cut at the domain's faces first, so every point, the walls'
+  // shells' too, is decided by a box: none evaluated alone, 148 boxes bounded for the walls and
+  // 10 for the fluid (counted; deterministic). Twice those bound it: a sieve that halves where
+  // it need not, or bounds the container loosely (a ball's bound: 1.26M points evaluated and
+  // 59k boxes), fails.
   Scene s =
       load_scene((test::source_dir() / "scenes/dambreak.toml").string(), {"fluid.spacing=0.0025"});
   SamplerWork wall, fluid, reference;
@@ -259,20 +345,56 @@ TEST(Samplers, TheBoundsDecideMostOfTheDamBreaksLattices) {
   EXPECT_EQ(water, water_by_points);
   EXPECT_EQ(reference.tested, reference.points); // by points: each point evaluated
   EXPECT_EQ(reference.boxes, 0u);
-  const double pts = double(wall.points), fpts = double(fluid.points);
-  std::printf("walls: %llu points, %.4f tested, %.4f boxes; fluid: %llu points, %.4f tested, "
-              "%.4f boxes\n",
-              (unsigned long long)wall.points, wall.tested / pts, wall.boxes / pts,
-              (unsigned long long)fluid.points, fluid.tested / fpts, fluid.boxes / fpts);
-  EXPECT_LT(wall.tested / pts, 0.202);
-  EXPECT_LT(wall.boxes / pts, 0.0097);
-  EXPECT_LT(fluid.tested / fpts, 0.174);
-  EXPECT_LT(fluid.boxes / fpts, 0.011);
+  std::printf("walls: %llu points, %llu tested, %llu boxes; fluid: %llu points, %llu tested, "
+              "%llu boxes\n",
+              (unsigned long long)wall.points, (unsigned long long)wall.tested,
+              (unsigned long long)wall.boxes, (unsigned long long)fluid.points,
+              (unsigned long long)fluid.tested, (unsigned long long)fluid.boxes);
+  EXPECT_EQ(wall.points, 6640704u);
+  EXPECT_EQ(wall.tested, 0u);
+  EXPECT_LE(wall.boxes, 2u * 148);
+  EXPECT_EQ(fluid.tested, 0u);
+  EXPECT_LE(fluid.boxes, 2u * 10);
 }
 
-TEST(ShapeBounds, HoldAtEveryPointOfTheBall) {
-  // Each kind of solid, balls of every size around and across its surface; the distance at
-  // random points of each ball (and on its sphere, where a bound is nearest) must lie within.
+TEST(SceneSampler, ARegionReadsItsOwnPointsNotTheScenes) {
+  // The dam break at dp 2.5 mm: a rank's region 0.05 m of the domain's 0.8 along x (open in y
+  // and z, as a split along x gives) reads the lattice points of the box alone, 1/16 of the
+  // walls' lattice and a quarter of the fluid's block, and counts the rest of its layers by
+  // boxes. Measured: walls 409,920 of 6,640,704 points read, none evaluated alone, 316 boxes;
+  // fluid 256,000 of 1,024,000, 30 boxes. A pass over the scene reads every point.
+  const Scene s =
+      load_scene((test::source_dir() / "scenes/dambreak.toml").string(), {"fluid.spacing=0.0025"});
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const auto kind : {SceneSampler::Kind::Boundary, SceneSampler::Kind::Fluid}) {
+    const bool fluid = kind == SceneSampler::Kind::Fluid;
+    const SceneSampler whole(s, kind, s.fluid.spacing, s.support_radius());
+    std::size_t all = 0;
+    const auto layers = whole.layer_samples(0, whole.layers(), 0, [&](const Sample&) { ++all; });
+    const SamplerWork w = whole.work();
+    const SceneSampler part(s, kind, s.fluid.spacing, s.support_radius());
+    std::size_t mine = 0;
+    part.samples_in({0.05, -inf, -inf}, {0.1, inf, inf}, 0.0, layers,
+                    [&](const Sample&) { ++mine; });
+    const SamplerWork p = part.work();
+    std::printf("%s: the region read %llu of %llu points, evaluated %llu, %llu boxes; %zu of %zu "
+                "samples\n",
+                fluid ? "fluid" : "walls", (unsigned long long)p.points,
+                (unsigned long long)w.points, (unsigned long long)p.tested,
+                (unsigned long long)p.boxes, mine, all);
+    EXPECT_EQ(w.points, fluid ? 1024000u : 6640704u);
+    EXPECT_EQ(p.points,
+              fluid ? 256000u : 409920u); // the box's points: 20 (fluid) or 20 of 320 x-layers
+    EXPECT_EQ(mine, fluid ? 256000u : 25920u);
+    EXPECT_EQ(p.tested, 0u);
+    EXPECT_LE(p.boxes, fluid ? 60u : 632u); // twice the measured
+  }
+}
+
+TEST(ShapeBounds, HoldAtEveryPointOfTheBox) {
+  // Each kind of solid, boxes of every size and shape around and across its surface, with a
+  // spread; the distance at random points of each (at its corners, pushed out by the spread,
+  // where a bound is nearest, and anywhere within) must lie within.
   Scene s = test::tank_scene({0.3, 0.2, 0.25}, {0.1, 0.1, 0.1}, 0.01);
   s.domain.walls = {true, true, false, true, true, true};
   Obstacle sphere, box, plane;
@@ -292,23 +414,43 @@ TEST(ShapeBounds, HoldAtEveryPointOfTheBall) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> u(-0.1, 0.4);
   std::size_t bounded_mesh = 0;
+  std::size_t exact = 0;
   for (std::size_t k = 0; k < bounds.size(); ++k)
-    for (int ball = 0; ball < 400; ++ball) {
-      const Vec3d c{u(rng), u(rng), u(rng)};
-      const double r = 0.002 + 0.1 * std::abs(u(rng));
-      const DistanceBounds b = bounds.over(k, c, r);
+    for (int trial = 0; trial < 400; ++trial) {
+      const Vec3d lo{u(rng), u(rng), u(rng)};
+      const Vec3d hi = lo + Vec3d{0.15 * std::abs(u(rng)), 0.15 * std::abs(u(rng)),
+                                  trial % 4 == 0 ? 0.0 : 0.15 * std::abs(u(rng))};
+      const double spread = trial % 2 ? 0.0 : 0.01 * std::abs(u(rng));
+      const DistanceBounds b = bounds.over(k, {lo, hi, spread});
       ASSERT_LE(b.lower, b.upper);
       if (solids.table()[k].kind == ShapeKind::Mesh && std::isfinite(b.lower))
         ++bounded_mesh;
-      for (int p = 0; p < 50; ++p) {
-        const Vec3d dir = random_unit(rng);
-        const double t = p < 10 ? r : r * std::cbrt(std::abs(u(rng)) / 0.4);
+      double least = 1e300, most = -1e300;
+      for (int p = 0; p < 60; ++p) {
+        std::uniform_real_distribution<double> t(0, 1);
+        const Vec3d corner{p & 1 ? hi.x : lo.x, p & 2 ? hi.y : lo.y, p & 4 ? hi.z : lo.z};
+        const Vec3d inside{lo.x + t(rng) * (hi.x - lo.x), lo.y + t(rng) * (hi.y - lo.y),
+                           lo.z + t(rng) * (hi.z - lo.z)};
+        const Vec3d x =
+            (p < 16 ? corner : inside) + random_unit(rng) * (p < 32 ? spread : spread * t(rng));
         Vec3d n;
-        const double d = solids.table()[k].distance(c + dir * t, n);
-        ASSERT_GE(d, b.lower) << "shape " << k << " ball " << ball;
-        ASSERT_LE(d, b.upper) << "shape " << k << " ball " << ball;
+        const double d = solids.table()[k].distance(x, n);
+        ASSERT_GE(d, b.lower) << "shape " << k << " box " << trial;
+        ASSERT_LE(d, b.upper) << "shape " << k << " box " << trial;
+        least = std::min(least, d), most = std::max(most, d);
+      }
+      // A plane's and a container's bounds are attained (at a corner, pushed by the spread):
+      // the samples at the corners reach them within the spread's direction's miss.
+      const ShapeKind kind = solids.table()[k].kind;
+      if ((kind == ShapeKind::Plane || kind == ShapeKind::Container) && spread == 0) {
+        EXPECT_NEAR(least, b.lower, 1e-12) << "shape " << k << " box " << trial;
+        if (kind == ShapeKind::Plane) {
+          EXPECT_NEAR(most, b.upper, 1e-12) << "shape " << k << " box " << trial;
+        }
+        ++exact;
       }
     }
+  EXPECT_EQ(exact, 400u);        // two exact kinds, half their boxes without a spread
   EXPECT_GT(bounded_mesh, 100u); // the mesh is bounded outside its grid, not only unbounded
 }
 
@@ -327,7 +469,9 @@ TEST(LatticeSieve, AUniformBoxsClassHoldsAtEachOfItsPoints) {
   const double spread = 0.003;
   const Vec3d c1{0.2, 0.2, 0.25}, c2{0.05, 0.3, 0.1};
   const double r1 = 0.12, r2 = 0.06;
-  const BallClassifier classify = [&](const Vec3d& c, double r) -> std::uint8_t {
+  const BoxClassifier classify = [&](const Vec3d& lo, const Vec3d& hi, double e) -> std::uint8_t {
+    const Vec3d c = (lo + hi) * 0.5;
+    const double r = 0.5 * norm(hi - lo) + e;
     const double d1 = norm(c - c1) - r1, d2 = norm(c - c2) - r2;
     if (d1 + r < 0)
       return 1;
@@ -337,27 +481,42 @@ TEST(LatticeSieve, AUniformBoxsClassHoldsAtEachOfItsPoints) {
   };
   const LatticeSieve sieve(axes, spread, classify);
   std::size_t points = 0, decided = 0;
-  int last[3] = {-1, 0, 0};
-  sieve.for_each([&](int i, int j, int k, std::uint8_t c) {
-    // In order: x fastest, then y, then z.
-    const bool next = (i == last[0] + 1 && j == last[1] && k == last[2]) ||
-                      (i == 0 && j == last[1] + 1 && k == last[2]) ||
-                      (i == 0 && j == 0 && k == last[2] + 1);
-    ASSERT_TRUE(next) << i << " " << j << " " << k;
-    last[0] = i, last[1] = j, last[2] = k;
-    ++points;
-    if (c == kSieveMaybe)
-      return;
-    ++decided;
-    // A point anywhere within the spread of its lattice position.
-    const Vec3d p =
-        Vec3d{axes[0][i], axes[1][j], axes[2][k]} + random_unit(rng) * (spread * u(rng));
-    const double d1 = norm(p - c1) - r1, d2 = norm(p - c2) - r2;
-    if (c == 1)
-      ASSERT_LT(d1, 0.0);
-    else
-      ASSERT_TRUE(d1 >= 0.01 && d2 >= 0.01);
-  });
+  // Two slabs and a box inside, as the samplers ask for them: each point's class is its own,
+  // whatever box it was asked in.
+  const IndexBox whole = sieve.whole();
+  std::vector<std::uint8_t> cls, part;
+  sieve.classes(whole, cls);
+  const IndexBox inner{{3, 5, 7}, {30, 21, 40}};
+  sieve.classes(inner, part);
+  std::size_t q = 0;
+  for (int k = inner.lo[2]; k < inner.hi[2]; ++k)
+    for (int j = inner.lo[1]; j < inner.hi[1]; ++j)
+      for (int i = inner.lo[0]; i < inner.hi[0]; ++i, ++q) {
+        const std::uint8_t a = cls[(std::size_t(k) * whole.hi[1] + j) * whole.hi[0] + i],
+                           b = part[q];
+        // Both may be undecided or decided differently only where one is kSieveMaybe.
+        if (a != kSieveMaybe && b != kSieveMaybe) {
+          ASSERT_EQ(a, b);
+        }
+      }
+  q = 0;
+  for (int k = 0; k < whole.hi[2]; ++k)
+    for (int j = 0; j < whole.hi[1]; ++j)
+      for (int i = 0; i < whole.hi[0]; ++i, ++q) {
+        const std::uint8_t c = cls[q];
+        ++points;
+        if (c == kSieveMaybe)
+          continue;
+        ++decided;
+        // A point anywhere within the spread of its lattice position.
+        const Vec3d p =
+            Vec3d{axes[0][i], axes[1][j], axes[2][k]} + random_unit(rng) * (spread * u(rng));
+        const double d1 = norm(p - c1) - r1, d2 = norm(p - c2) - r2;
+        if (c == 1)
+          ASSERT_LT(d1, 0.0);
+        else
+          ASSERT_TRUE(d1 >= 0.01 && d2 >= 0.01);
+      }
   EXPECT_EQ(points, axes[0].size() * axes[1].size() * axes[2].size());
   EXPECT_GT(decided, points / 2);
 }

@@ -34,6 +34,18 @@ std::uint64_t MpiContext::sum(std::uint64_t v) const {
   MPI_Allreduce(&v, &r, 1, MPI_UINT64_T, MPI_SUM, comm_);
   return r;
 }
+void MpiContext::sum_in_place(std::span<std::uint64_t> v) const {
+  MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_UINT64_T, MPI_SUM, comm_);
+}
+void MpiContext::sum_in_place(std::span<double> v) const {
+  MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_SUM, comm_);
+}
+void MpiContext::min_in_place(std::span<double> v) const {
+  MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_MIN, comm_);
+}
+void MpiContext::max_in_place(std::span<double> v) const {
+  MPI_Allreduce(MPI_IN_PLACE, v.data(), static_cast<int>(v.size()), MPI_DOUBLE, MPI_MAX, comm_);
+}
 std::uint64_t MpiContext::exscan(std::uint64_t v) const {
   std::uint64_t r = 0;
   MPI_Exscan(&v, &r, 1, MPI_UINT64_T, MPI_SUM, comm_);

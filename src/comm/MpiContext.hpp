@@ -4,6 +4,7 @@
 #include <mpi.h>
 
 #include <cstdint>
+#include <span>
 
 namespace kf::comm {
 
@@ -27,6 +28,11 @@ public:
   double min(double v) const;
   double sum(double v) const;
   std::uint64_t sum(std::uint64_t v) const;
+  /// Each element replaced by its sum (min, max) over the ranks.
+  void sum_in_place(std::span<std::uint64_t> v) const;
+  void sum_in_place(std::span<double> v) const;
+  void min_in_place(std::span<double> v) const;
+  void max_in_place(std::span<double> v) const;
   /// Exclusive prefix sum of v over ranks (0 on rank 0): offsets of this rank's rows.
   std::uint64_t exscan(std::uint64_t v) const;
   void barrier() const;

@@ -278,9 +278,7 @@ void Decomposition::ghost_ranks(const Vec3d& x, double width, std::vector<int>& 
   std::sort(out.begin(), out.end());
 }
 
-std::array<std::array<int, 3>, 2> Decomposition::window(int r, const Vec3d& origin, double cell,
-                                                        const std::array<int, 3>& n,
-                                                        double margin) const {
+std::array<std::array<int, 3>, 2> Decomposition::block_span(int r) const {
   std::array<int, 3> blo{grid_.nx(), grid_.ny(), grid_.nz()}, bhi{-1, -1, -1};
   for (int b = 0; b < grid_.count(); ++b)
     if (owner_[b] == r) {
@@ -290,6 +288,13 @@ std::array<std::array<int, 3>, 2> Decomposition::window(int r, const Vec3d& orig
         bhi[a] = std::max(bhi[a], c[a]);
       }
     }
+  return {blo, bhi};
+}
+
+std::array<std::array<int, 3>, 2> Decomposition::window(int r, const Vec3d& origin, double cell,
+                                                        const std::array<int, 3>& n,
+                                                        double margin) const {
+  const auto [blo, bhi] = block_span(r);
   std::array<int, 3> lo{0, 0, 0}, hi{n[0] - 1, n[1] - 1, n[2] - 1};
   if (bhi[0] < 0)
     return {lo, hi};
@@ -305,6 +310,20 @@ std::array<std::array<int, 3>, 2> Decomposition::window(int r, const Vec3d& orig
           n[a] - 1);
   }
   return {lo, hi};
+}
+
+std::array<Vec3d, 2> Decomposition::region_box(int r) const {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const auto [blo, bhi] = block_span(r);
+  if (bhi[0] < 0)
+    return {Vec3d{inf, inf, inf}, Vec3d{-inf, -inf, -inf}};
+  const double o[3] = {grid_.origin().x, grid_.origin().y, grid_.origin().z};
+  double lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = blo[a] == 0 ? -inf : o[a] + blo[a] * grid_.edge();
+    hi[a] = bhi[a] == grid_.dim(a) - 1 ? inf : o[a] + (bhi[a] + 1) * grid_.edge();
+  }
+  return {Vec3d{lo[0], lo[1], lo[2]}, Vec3d{hi[0], hi[1], hi[2]}};
 }
 
 double Decomposition::distance_to_region(const Vec3d& x, int r) const {

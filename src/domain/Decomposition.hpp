@@ -114,6 +114,10 @@ public:
   /// last cell an axis, inclusive; the whole grid for a rank without blocks.
   std::array<std::array<int, 3>, 2> window(int r, const Vec3d& origin, double cell,
                                            const std::array<int, 3>& n, double margin) const;
+  /// The box of rank r's blocks, open (infinite) on a side where one of them is at the block
+  /// grid's edge (points past the grid clamp into it): every point r owns lies in it. Empty (lo
+  /// above hi) for a rank without blocks.
+  std::array<Vec3d, 2> region_box(int r) const;
   /// Distance from x to rank r's region (the union of its blocks); 1e300 for a rank without
   /// blocks. Brute force over every block: for tests and reports.
   double distance_to_region(const Vec3d& x, int r) const;
@@ -150,6 +154,9 @@ public:
   static bool repartition_promises(double counted, double tolerance = kTolerance);
 
 private:
+  /// The first and last block coordinates of rank r's blocks along each axis (last -1: none).
+  std::array<std::array<int, 3>, 2> block_span(int r) const;
+
   BlockGrid grid_;
   int ranks_ = 1;
   std::vector<int> owner_;

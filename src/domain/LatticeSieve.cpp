@@ -8,7 +8,7 @@
 namespace kf {
 
 LatticeSieve::LatticeSieve(std::array<std::vector<double>, 3> axes, double spread,
-                           BallClassifier classify)
+                           BoxClassifier classify)
     : axes_(std::move(axes)), spread_(spread), classify_(std::move(classify)) {
   for (const auto& a : axes_)
     for (std::size_t i = 1; i < a.size(); ++i)
@@ -17,26 +17,66 @@ LatticeSieve::LatticeSieve(std::array<std::vector<double>, 3> axes, double sprea
                     std::to_string(i) + ")");
 }
 
-void LatticeSieve::classify_layers(int k0, int k1, std::vector<std::uint8_t>& out) const {
-  out.assign(std::size_t(k1 - k0) * size(1) * size(0), kSieveMaybe);
-  if (out.empty() || !classify_)
-    return; // no classifier: every point alone
-  split(IndexBox{{0, 0, k0}, {size(0), size(1), k1}}, k0, out);
+void LatticeSieve::cover(const IndexBox& box,
+                         const std::function<void(const IndexBox&, std::uint8_t)>& on_box) const {
+  if (box.empty())
+    return;
+  if (!classify_) { // every point alone
+    on_box(box, kSieveMaybe);
+    return;
+  }
+  split(box, on_box);
 }
 
-void LatticeSieve::split(const IndexBox& b, int k0, std::vector<std::uint8_t>& out) const {
-  // The box of the points' lattice positions; its half-diagonal, widened by the spread, reaches
-  // every point from its centre.
+void LatticeSieve::classes(const IndexBox& box, std::vector<std::uint8_t>& out) const {
+  out.assign(box.count(), kSieveMaybe);
+  const std::size_t nx = box.hi[0] - box.lo[0], ny = box.hi[1] - box.lo[1];
+  cover(box, [&](const IndexBox& b, std::uint8_t c) {
+    if (c == kSieveMaybe)
+      return; // out holds it already
+    for (int k = b.lo[2]; k < b.hi[2]; ++k)
+      for (int j = b.lo[1]; j < b.hi[1]; ++j) {
+        std::uint8_t* row =
+            out.data() + (std::size_t(k - box.lo[2]) * ny + (j - box.lo[1])) * nx - box.lo[0];
+        std::fill(row + b.lo[0], row + b.hi[0], c);
+      }
+  });
+}
+
+IndexBox LatticeSieve::within(const IndexBox& box, const double (&lo)[3], const double (&hi)[3],
+                              double margin) const {
+  IndexBox r = box;
+  for (int a = 0; a < 3; ++a) {
+    const auto& x = axes_[a];
+    const auto first = x.begin() + box.lo[a], last = x.begin() + box.hi[a];
+    r.lo[a] = static_cast<int>(std::lower_bound(first, last, lo[a] - margin) - x.begin());
+    r.hi[a] = static_cast<int>(std::upper_bound(first, last, hi[a] + margin) - x.begin());
+  }
+  return r;
+}
+
+void LatticeSieve::split(const IndexBox& b,
+                         const std::function<void(const IndexBox&, std::uint8_t)>& on_box) const {
+  // The box of the points' lattice positions; every point lies within the spread of it.
   double lo[3], hi[3];
   for (int a = 0; a < 3; ++a) {
     lo[a] = axes_[a][b.lo[a]];
     hi[a] = axes_[a][b.hi[a] - 1];
   }
-  const Vec3d centre{0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])};
-  const double radius = 0.5 * norm(Vec3d{hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]}) + spread_;
   ++calls_;
-  const std::uint8_t c = classify_(centre, radius);
+  const std::uint8_t c = classify_(Vec3d{lo[0], lo[1], lo[2]}, Vec3d{hi[0], hi[1], hi[2]}, spread_);
   const int n[3] = {b.hi[0] - b.lo[0], b.hi[1] - b.lo[1], b.hi[2] - b.lo[2]};
+  if (c == kSieveMaybe)
+    for (int a = 0; a < 3; ++a) // the lattice's seams first, the longest side's first
+      for (const int cut : cuts_[a])
+        if (cut > b.lo[a] && cut < b.hi[a]) {
+          IndexBox first = b, second = b;
+          first.hi[a] = cut;
+          second.lo[a] = cut;
+          split(first, on_box);
+          split(second, on_box);
+          return;
+        }
   if (c == kSieveMaybe && n[0] * n[1] * n[2] > kSmallest) {
     // Halve the longest side (in metres) of those holding more than one point.
     int axis = -1;
@@ -47,18 +87,11 @@ void LatticeSieve::split(const IndexBox& b, int k0, std::vector<std::uint8_t>& o
     const int mid = b.lo[axis] + n[axis] / 2;
     first.hi[axis] = mid;
     second.lo[axis] = mid;
-    split(first, k0, out);
-    split(second, k0, out);
+    split(first, on_box);
+    split(second, on_box);
     return;
   }
-  if (c == kSieveMaybe)
-    return; // out is kSieveMaybe already
-  const std::size_t nx = size(0), ny = size(1);
-  for (int k = b.lo[2]; k < b.hi[2]; ++k)
-    for (int j = b.lo[1]; j < b.hi[1]; ++j) {
-      std::uint8_t* row = out.data() + (std::size_t(k - k0) * ny + j) * nx;
-      std::fill(row + b.lo[0], row + b.hi[0], c);
-    }
+  on_box(b, c);
 }
 
 } // namespace kf

@@ -1,5 +1,7 @@
 #include "domain/RankLayout.hpp"
 
+#include "comm/MpiContext.hpp"
+
 #include "kernels/grid/NeighbourGrid.hpp"
 
 namespace kf {
@@ -27,6 +29,18 @@ HaloWidths halo_widths(const Scene& scene, const SplitInputs& in) {
   w.block = scene.parallel.block_cells * scale;
   w.halo_weight = scale;
   return w;
+}
+
+PointShares point_shares(const comm::MpiContext& mpi) {
+  PointShares over;
+  over.box = [&mpi](Vec3d& lo, Vec3d& hi) {
+    mpi.min_in_place({&lo.x, 3});
+    mpi.max_in_place({&hi.x, 3});
+  };
+  over.counts = [&mpi](std::vector<std::array<double, kPhases>>& c) {
+    mpi.sum_in_place({c.data()->data(), c.size() * kPhases});
+  };
+  return over;
 }
 
 PhaseCosts initial_costs(const Scene& scene) {

@@ -13,6 +13,10 @@
 #include <span>
 #include <vector>
 
+namespace kf::comm {
+class MpiContext;
+}
+
 namespace kf {
 
 /// What the set-up knows of the knit and the coupling when it splits the job (SimulationT).
@@ -64,6 +68,9 @@ struct PointShares {
   std::function<void(Vec3d& lo, Vec3d& hi)> box;
   std::function<void(std::vector<std::array<double, kPhases>>& counts)> counts;
 };
+
+/// Shares combined over the job's ranks: the box by min and max, the counts summed.
+PointShares point_shares(const comm::MpiContext& mpi);
 
 /// The first partition: blocks of `w.block` over the domain widened to every particle (walls'
 /// particles and knit may lie outside it), weighted by each phase's count and `costs`. Each

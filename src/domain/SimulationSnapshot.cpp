@@ -319,18 +319,7 @@ void SimulationT<T>::restore(const io::Frame& fr) {
             f(q);
       };
     };
-    PointShares over;
-    if (shares) {
-      const MPI_Comm comm = ranks_->mpi().comm();
-      over.box = [comm](Vec3d& lo, Vec3d& hi) {
-        MPI_Allreduce(MPI_IN_PLACE, &lo.x, 3, MPI_DOUBLE, MPI_MIN, comm);
-        MPI_Allreduce(MPI_IN_PLACE, &hi.x, 3, MPI_DOUBLE, MPI_MAX, comm);
-      };
-      over.counts = [comm](std::vector<std::array<double, kPhases>>& c) {
-        MPI_Allreduce(MPI_IN_PLACE, c.data(), static_cast<int>(c.size() * kPhases), MPI_DOUBLE,
-                      MPI_SUM, comm);
-      };
-    }
+    const PointShares over = shares ? point_shares(ranks_->mpi()) : PointShares{};
     split.emplace(first_partition<T>(
         scene_, ranks_->widths(), ranks_->phase_costs(), ranks_->ranks(),
         {source(fx, fluid_shared), source(bx, boundary_shared), source(kx, false)}, over));

@@ -3,6 +3,7 @@
 #include "domain/SimulationT.hpp"
 
 #include "domain/PoreNetwork.hpp"
+#include "domain/SceneSampler.hpp"
 #include "domain/SheetFaces.hpp"
 
 #include <numeric>
@@ -190,35 +191,68 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
   // The knit and the coupling first: the split's widths come from them.
   if (coupling_on_)
     init_coupling();
-  // No rank holds the whole scene, on its backend or its host: on N ranks the samplers run three
-  // times, for the box and the counts of the first partition (every rank computes the same), then
-  // for the samples this rank owns by it. The n-th sample's id is n, on any rank count.
+  // No rank holds the whole scene, on its backend or its host, nor reads it whole: on N ranks
+  // each samples a share of every lattice's layers for the first partition's box and counts
+  // (combined over the ranks: every rank computes the same partition) and the samples' count a
+  // layer, then the samples in its region, each with its id: the n-th sample's id is n on any
+  // rank count (domain/SceneSampler).
   const double dp = scene_.fluid.spacing;
+  std::optional<SceneSampler> fluid_samples, wall_samples;
+  std::vector<std::uint64_t> fluid_layers, wall_layers; // each layer's samples (N ranks)
+  if (fluid_on_)
+    fluid_samples.emplace(scene_, SceneSampler::Kind::Fluid, dp, 0.0);
+  if (boundary_on_)
+    wall_samples.emplace(scene_, SceneSampler::Kind::Boundary, dp, h_);
+  std::array<Vec3d, 2> region{};
   if (split_over) {
     split_ = split_inputs();
     const auto knit = all_knit_positions();
+    const int ranks = split_over->size(), rank = split_over->rank();
+    // This rank's layers of a sampler, handed to the partition as T (as the run keeps them);
+    // each layer's count noted (the same both times the partition calls it).
+    const auto share = [&](const SceneSampler& from,
+                           std::vector<std::uint64_t>& layers) -> PointSource<T> {
+      return [&from, &layers, ranks, rank](const std::function<void(const Vec3<T>&)>& f) {
+        const int all = from.layers();
+        const int first = int(std::int64_t(all) * rank / ranks),
+                  last = int(std::int64_t(all) * (rank + 1) / ranks);
+        const auto counts =
+            from.layer_samples(first, last, 0, [&](const Sample& q) { f(vec_cast<T>(q.x)); });
+        layers.assign(all, 0);
+        std::copy(counts.begin(), counts.end(), layers.begin() + first);
+      };
+    };
     std::array<PointSource<T>, kPhases> points;
     if (fluid_on_)
-      points[static_cast<int>(Phase::Fluid)] = [&](const std::function<void(const Vec3<T>&)>& f) {
-        for_each_fluid_sample(scene_, [&](const Vec3d& x, const Vec3d&) { f(vec_cast<T>(x)); });
-      };
+      points[static_cast<int>(Phase::Fluid)] = share(*fluid_samples, fluid_layers);
     if (boundary_on_)
-      points[static_cast<int>(Phase::Boundary)] =
-          [&](const std::function<void(const Vec3<T>&)>& f) {
-            for_each_boundary_sample(
-                scene_, dp, h_, [&](const Vec3d& x, std::uint32_t, double) { f(vec_cast<T>(x)); });
-          };
+      points[static_cast<int>(Phase::Boundary)] = share(*wall_samples, wall_layers);
+    // The knit is held whole by every rank: counted on rank 0 alone (the counts are summed).
     points[static_cast<int>(Phase::Knit)] = [&](const std::function<void(const Vec3<T>&)>& f) {
-      for (const auto& q : knit)
-        f(q);
+      if (rank == 0)
+        for (const auto& q : knit)
+          f(q);
     };
     first_split_.emplace(first_partition<T>(scene_, halo_widths(scene_, split_),
-                                            initial_costs(scene_), split_over->size(), points));
+                                            initial_costs(scene_), ranks, points,
+                                            point_shares(*split_over)));
+    split_over->sum_in_place(fluid_layers);
+    split_over->sum_in_place(wall_layers);
+    region = first_split_->region_box(rank);
   }
   // Whether this rank keeps a sample (as owned_rows chooses: its position in T; `owns` says why
   // it is out of line).
   const auto keeps = [&](const Vec3<T>& q) {
     return !first_split_ || owns(*first_split_, split_over->rank(), q);
+  };
+  // One rank reads every sample; N ranks the samples of their region, widened by a spacing (a
+  // sample's position in T is rounded off its double; the sampler adds the jitter's reach).
+  const auto samples_of = [&](const SceneSampler& from, const std::vector<std::uint64_t>& layers,
+                              const SampleSink& f) {
+    if (!first_split_)
+      from.layer_samples(0, from.layers(), 0, f);
+    else
+      from.samples_in(region[0], region[1], dp, layers, f);
   };
   if (fluid_on_) {
     const double m = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support, dp,
@@ -230,30 +264,48 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
     std::vector<std::uint64_t> ids;
     FluidSamples mine; // in double, for the hydrostatic start
     std::uint64_t count = 0;
-    for_each_fluid_sample(scene_, [&](const Vec3d& x, const Vec3d& v) {
-      const Vec3<T> q = vec_cast<T>(x);
+    samples_of(*fluid_samples, fluid_layers, [&](const Sample& s) {
+      const Vec3<T> q = vec_cast<T>(s.x);
       if (keeps(q)) {
         xs.push_back(q);
-        vs.push_back(vec_cast<T>(v));
-        ids.push_back(count);
+        vs.push_back(vec_cast<T>(s.v));
+        ids.push_back(s.id);
         if (hydrostatic) {
-          mine.x.push_back(x);
-          mine.v.push_back(v);
+          mine.x.push_back(s.x);
+          mine.v.push_back(s.v);
         }
       }
-      ++count;
+      if (!first_split_)
+        ++count;
     });
+    if (first_split_)
+      count = std::accumulate(fluid_layers.begin(), fluid_layers.end(), std::uint64_t(0));
     const std::size_t n = xs.size();
     std::vector<T> rho(n, static_cast<T>(scene_.fluid.rest_density));
     if (hydrostatic) {
       const auto eos = scene_eos<double>(scene_);
       // One rank holds every sample already; N ranks sample again for their columns.
+      // N ranks sample their samples' columns again: the region, widened by a column's width
+      // across gravity and open along it (the whole scene where gravity is off the axes).
+      const auto columns = [&](const FluidSampleSink& f) {
+        const SampleSink to = [&](const Sample& q) { f(q.x, q.v); };
+        const Vec3d& g = scene_.gravity;
+        const int along = (g.y == 0 && g.z == 0)   ? 0
+                          : (g.x == 0 && g.z == 0) ? 1
+                          : (g.x == 0 && g.y == 0) ? 2
+                                                   : -1;
+        if (along < 0) {
+          fluid_samples->layer_samples(0, fluid_samples->layers(), 0, to);
+          return;
+        }
+        Vec3d lo = region[0], hi = region[1];
+        (&lo.x)[along] = -std::numeric_limits<double>::infinity();
+        (&hi.x)[along] = std::numeric_limits<double>::infinity();
+        fluid_samples->samples_in(lo, hi, 2 * dp, fluid_layers, to);
+      };
       const std::vector<double> r =
-          first_split_
-              ? hydrostatic_density(
-                    mine, [&](const FluidSampleSink& f) { for_each_fluid_sample(scene_, f); },
-                    scene_.gravity, dp, eos)
-              : hydrostatic_density(mine, scene_.gravity, dp, eos);
+          first_split_ ? hydrostatic_density(mine, columns, scene_.gravity, dp, eos)
+                       : hydrostatic_density(mine, scene_.gravity, dp, eos);
       for (std::size_t k = 0; k < n; ++k)
         rho[k] = static_cast<T>(r[k]);
     }
@@ -285,16 +337,14 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
     std::vector<T> vol;
     std::vector<std::uint64_t> ids;
     std::vector<std::uint32_t> obstacle;
-    std::uint64_t count = 0;
-    for_each_boundary_sample(scene_, dp, h_, [&](const Vec3d& x, std::uint32_t o, double scale) {
-      const Vec3<T> q = vec_cast<T>(x);
+    samples_of(*wall_samples, wall_layers, [&](const Sample& s) {
+      const Vec3<T> q = vec_cast<T>(s.x);
       if (keeps(q)) {
         xs.push_back(q);
-        vol.push_back(static_cast<T>(volume * scale));
-        ids.push_back(count);
-        obstacle.push_back(o);
+        vol.push_back(static_cast<T>(volume * s.volume_scale));
+        ids.push_back(s.id);
+        obstacle.push_back(s.obstacle);
       }
-      ++count;
     });
     const std::size_t n = xs.size();
     boundary_.emplace(ex_.backend);
