@@ -13,6 +13,23 @@
 
 namespace kf {
 
+namespace {
+
+/// Every sample of the scene's `kind`, in order, and what it took into `work` (its by_points
+/// asked for the old rule).
+void whole_pass(const Scene& scene, SceneSampler::Kind kind, double dp, double depth,
+                const SampleSink& f, SamplerWork* work) {
+  const bool by_points = work && work->by_points;
+  const SceneSampler s(scene, kind, dp, depth, by_points);
+  s.layer_samples(0, s.layers(), 0, f);
+  if (work) {
+    *work = s.work();
+    work->by_points = by_points;
+  }
+}
+
+} // namespace
+
 std::vector<Vec3d> sample_fluid_block(const FluidBlock& block, double dp) {
   // The block alone, nothing to carve it.
   Scene scene;
@@ -20,19 +37,15 @@ std::vector<Vec3d> sample_fluid_block(const FluidBlock& block, double dp) {
   scene.fluid.spacing = dp;
   scene.fluid.blocks = {block};
   std::vector<Vec3d> x;
-  const SceneSampler s(scene, SceneSampler::Kind::Fluid, dp, 0);
-  s.layer_samples(0, s.layers(), 0, [&](const Sample& q) { x.push_back(q.x); });
+  whole_pass(
+      scene, SceneSampler::Kind::Fluid, dp, 0, [&](const Sample& q) { x.push_back(q.x); }, nullptr);
   return x;
 }
 
 void for_each_fluid_sample(const Scene& scene, const FluidSampleSink& f, SamplerWork* work) {
-  const bool by_points = work && work->by_points;
-  const SceneSampler s(scene, SceneSampler::Kind::Fluid, scene.fluid.spacing, 0, by_points);
-  s.layer_samples(0, s.layers(), 0, [&](const Sample& q) { f(q.x, q.v); });
-  if (work) {
-    *work = s.work();
-    work->by_points = by_points;
-  }
+  whole_pass(
+      scene, SceneSampler::Kind::Fluid, scene.fluid.spacing, 0,
+      [&](const Sample& q) { f(q.x, q.v); }, work);
 }
 
 FluidSamples sample_fluid(const Scene& scene) {
@@ -144,13 +157,9 @@ double lattice_particle_mass(KernelType kernel, double support, double dp, doubl
 
 void for_each_boundary_sample(const Scene& scene, double dp, double depth,
                               const BoundarySampleSink& f, SamplerWork* work) {
-  const bool by_points = work && work->by_points;
-  const SceneSampler s(scene, SceneSampler::Kind::Boundary, dp, depth, by_points);
-  s.layer_samples(0, s.layers(), 0, [&](const Sample& q) { f(q.x, q.obstacle, q.volume_scale); });
-  if (work) {
-    *work = s.work();
-    work->by_points = by_points;
-  }
+  whole_pass(
+      scene, SceneSampler::Kind::Boundary, dp, depth,
+      [&](const Sample& q) { f(q.x, q.obstacle, q.volume_scale); }, work);
 }
 
 BoundarySamples sample_boundaries(const Scene& scene, double dp, double depth) {

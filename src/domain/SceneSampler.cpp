@@ -69,10 +69,6 @@ double decided_by(double dp) {
 
 constexpr int kSlab = 16; // layers classified at once (memory: a byte a point of a slab)
 
-} // namespace
-
-namespace {
-
 /// A fluid block's lattice: points at cell centres, each moved by its own jitter, kept where
 /// every solid lies at least dp / 4 away (carve: the boundary is on).
 struct BlockLattice {

@@ -247,12 +247,14 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
   };
   // One rank reads every sample; N ranks the samples of their region, widened by a spacing (a
   // sample's position in T is rounded off its double; the sampler adds the jitter's reach).
-  const auto samples_of = [&](const SceneSampler& from, const std::vector<std::uint64_t>& layers,
+  // Returns the scene's sample count.
+  const auto samples_of = [&](const SceneSampler& from, std::vector<std::uint64_t>& layers,
                               const SampleSink& f) {
     if (!first_split_)
-      from.layer_samples(0, from.layers(), 0, f);
+      layers = from.layer_samples(0, from.layers(), 0, f);
     else
       from.samples_in(region[0], region[1], dp, layers, f);
+    return std::accumulate(layers.begin(), layers.end(), std::uint64_t(0));
   };
   if (fluid_on_) {
     const double m = lattice_particle_mass(scene_.solver.kernel, scene_.fluid.support, dp,
@@ -263,8 +265,7 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
     std::vector<Vec3<T>> xs, vs;
     std::vector<std::uint64_t> ids;
     FluidSamples mine; // in double, for the hydrostatic start
-    std::uint64_t count = 0;
-    samples_of(*fluid_samples, fluid_layers, [&](const Sample& s) {
+    const std::uint64_t count = samples_of(*fluid_samples, fluid_layers, [&](const Sample& s) {
       const Vec3<T> q = vec_cast<T>(s.x);
       if (keeps(q)) {
         xs.push_back(q);
@@ -275,18 +276,14 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
           mine.v.push_back(s.v);
         }
       }
-      if (!first_split_)
-        ++count;
     });
-    if (first_split_)
-      count = std::accumulate(fluid_layers.begin(), fluid_layers.end(), std::uint64_t(0));
     const std::size_t n = xs.size();
     std::vector<T> rho(n, static_cast<T>(scene_.fluid.rest_density));
     if (hydrostatic) {
       const auto eos = scene_eos<double>(scene_);
-      // One rank holds every sample already; N ranks sample again for their columns.
-      // N ranks sample their samples' columns again: the region, widened by a column's width
-      // across gravity and open along it (the whole scene where gravity is off the axes).
+      // One rank holds every sample already. N ranks sample their samples' columns again: the
+      // region, widened by a column's width across gravity and open along it (the whole scene where
+      // gravity is off the axes).
       const auto columns = [&](const FluidSampleSink& f) {
         const SampleSink to = [&](const Sample& q) { f(q.x, q.v); };
         const Vec3d& g = scene_.gravity;
