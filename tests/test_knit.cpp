@@ -197,8 +197,18 @@ TEST(KnitSprings, LocalizedRowsGiveTheOwnedPointsTheirWholeNetworkForce) {
   lof.assign(local_of_id);
   SpringTopology<double> springs{exec::Backend::Cpu};
   VolumeTopology<double> volumes{exec::Backend::Cpu};
-  springs.localize(net.ex, net.springs, local.id.data(), lof.data(), owned, m);
-  volumes.localize(net.ex, net.volumes, local.id.data(), lof.data(), owned, m);
+  // The mesh's rows as N ranks keep them: on the host, row-major.
+  const auto mesh_springs = SpringTopology<double>::mesh_rows(exec::Backend::Cpu, net.list, n);
+  const auto mesh_cells = VolumeTopology<double>::mesh_rows(exec::Backend::Cpu, net.cells, n);
+  springs.localize(net.ex, mesh_springs, local.id.data(), lof.data(), owned, m);
+  volumes.localize(net.ex, mesh_cells, local.id.data(), lof.data(), owned, m);
+  { // A shared knit's step limits come from those rows: the same sums, row by row, to the bit.
+    double ks = 0, cs = 0, kw = 0, cw = 0;
+    knit_spring_limits(net.ex, net.set.view(), mesh_springs.view(), mesh_cells.view(), ks, cs);
+    knit_spring_limits(net.ex, net.set.view(), net.springs.view(), net.volumes.view(), kw, cw);
+    EXPECT_TRUE(ks == kw && cs == cw) << ks << " / " << cs << " against " << kw << " / " << cw;
+    EXPECT_LT(kw, 1e29) << "no spring limited the step: a weak case";
+  }
   auto view = local.view();
   view.n = owned;
   knit_forces(net.ex, view, springs.view(), g, volumes.view());

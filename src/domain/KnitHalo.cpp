@@ -20,22 +20,42 @@ KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoup
   const exec::Backend b = knit.set().x.backend();
   self_ref_.x0 = exec::DeviceBuffer<Vec3<T>>(b, 0, "knit.halo.self_x0");
   coupling_ref_.x0 = exec::DeviceBuffer<Vec3<T>>(b, 0, "knit.halo.coupling_x0");
-  // Each point's partners: the other ends of its springs and the other points of its cells.
-  std::vector<std::vector<std::uint32_t>> rows(mesh_points_);
-  for (const Spring& sp : knit.mesh_springs()) {
-    rows[sp.i].push_back(sp.j);
-    rows[sp.j].push_back(sp.i);
+  // Each point's partners: the other ends of its springs and the other points of its cells, as
+  // compressed rows (counted, filled, then each row sorted and its repeats dropped in place: one
+  // vector a point cost a fifth of the set-up of a large knit on every rank).
+  const auto& springs = knit.mesh_springs();
+  const auto& cells = knit.mesh_cells();
+  std::vector<std::uint32_t> start(mesh_points_ + 1, 0);
+  for (const Spring& sp : springs) {
+    ++start[sp.i + 1];
+    ++start[sp.j + 1];
   }
-  for (const VolumeCell& c : knit.mesh_cells())
+  for (const VolumeCell& c : cells)
     for (std::uint32_t a : c.point)
       for (std::uint32_t b : c.point)
-        if (a != b)
-          rows[a].push_back(b);
+        start[a + 1] += a != b ? 1 : 0;
+  for (std::size_t i = 0; i < mesh_points_; ++i)
+    start[i + 1] += start[i];
+  std::vector<std::uint32_t> all(start[mesh_points_]);
+  {
+    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+    for (const Spring& sp : springs) {
+      all[fill[sp.i]++] = sp.j;
+      all[fill[sp.j]++] = sp.i;
+    }
+    for (const VolumeCell& c : cells)
+      for (std::uint32_t a : c.point)
+        for (std::uint32_t b : c.point)
+          if (a != b)
+            all[fill[a]++] = b;
+  }
   partner_start_.assign(1, 0);
-  for (auto& r : rows) {
-    std::sort(r.begin(), r.end());
-    r.erase(std::unique(r.begin(), r.end()), r.end());
-    partner_.insert(partner_.end(), r.begin(), r.end());
+  partner_.clear();
+  partner_.reserve(all.size());
+  for (std::size_t i = 0; i < mesh_points_; ++i) {
+    const auto first = all.begin() + start[i], last = all.begin() + start[i + 1];
+    std::sort(first, last);
+    partner_.insert(partner_.end(), first, std::unique(first, last));
     partner_start_.push_back(static_cast<std::uint32_t>(partner_.size()));
   }
   base_width_ = base_width(knit, coupling, min_width);
@@ -53,7 +73,7 @@ template <typename T>
 double KnitHalo<T>::base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* coupling,
                                double min_width) {
   double reach = 0;
-  const auto x = knit.set().x_rest.to_host();
+  const auto& x = knit.mesh_rest(); // the host's copy: no rank reads the whole set back
   for (const Spring& sp : knit.mesh_springs())
     reach = std::max(reach, sp.rest);
   for (const VolumeCell& c : knit.mesh_cells())

@@ -14,13 +14,13 @@
 namespace kf {
 
 template <typename T>
-KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex)
+KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex, bool shared)
     : scene_(scene), ex_(ex), set_(ex.backend), springs_(ex.backend), volumes_(ex.backend),
       handle_v_(ex.backend, 0, "knit.handle_velocity"), gravity_(vec_cast<T>(scene.gravity)),
       held_force_(ex.backend, 0, "knit.held_force"),
       collisions_(ex.backend, 0, "knit.contact_count") {
   collisions_.assign(std::vector<std::uint64_t>{0});
-  const KnitMesh mesh = build_knit(scene);
+  KnitMesh mesh = build_knit(scene);
   const std::size_t n = mesh.x.size();
   std::vector<Vec3<T>> x(n), v(n);
   std::vector<T> m(n);
@@ -41,34 +41,42 @@ KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex)
   set_.layer.assign(mesh.layer);
   set_.piece.assign(mesh.piece);
   set_.id.assign(id);
-  springs_.build(mesh.springs, n);
-  volumes_.build(mesh.volumes, n);
-  mesh_springs_ = mesh.springs;
+  // The lists moved, not copied: a large knit's springs are most of its host memory (40 bytes
+  // a spring, ~11 springs a point).
+  mesh_springs_ = std::move(mesh.springs);
+  mesh_cells_ = std::move(mesh.volumes);
   mesh_rest_ = x;
   mesh_handle_ = mesh.handle;
   mesh_layer_ = mesh.layer;
   mesh_piece_ = mesh.piece;
-  mesh_cells_ = mesh.volumes;
   pieces_ = mesh.pieces;
-  for (const Spring& sp : mesh.springs)
+  for (const Spring& sp : mesh_springs_)
     if (sp.kind == SpringKind::Stretch)
       longest_spacing_ = std::max(longest_spacing_, sp.rest);
   set_handle_velocities(0.0);
   T spring = 0, damping = 0;
-  knit_spring_limits(ex_, set_.view(), springs_.view(), volumes_.view(), spring, damping);
+  if (shared) { // the same rows in another layout: the same sums, in each row's order
+    keep_mesh_rows();
+    knit_spring_limits(ex_, set_.view(), mesh_spring_rows_->view(), mesh_volume_rows_->view(),
+                       spring, damping);
+  } else {
+    springs_.build(mesh_springs_, n);
+    volumes_.build(mesh_cells_, n);
+    knit_spring_limits(ex_, set_.view(), springs_.view(), volumes_.view(), spring, damping);
+  }
   spring_limit_ = std::min(double(spring) * scene.knit.spring_factor, double(damping));
   if (scene.knit.self_collision && n > 0)
-    setup_self_contact(mesh);
+    setup_self_contact(mesh, shared);
 }
 
 template <typename T>
-void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh) {
+void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh, bool shared) {
   const auto& mat = scene_.knit;
   // Defaults: R half the longest in-plane spacing, so a point cannot slip through the gap between
   // four points of another sheet (that needs 2R > spacing / sqrt 2); k the stiffest spring, so
   // contact resists like the fabric does and the step limit hardly moves.
   double longest = 0, stiffest = 0;
-  for (const Spring& sp : mesh.springs) {
+  for (const Spring& sp : mesh_springs_) {
     if (sp.kind == SpringKind::Stretch)
       longest = std::max(longest, sp.rest);
     stiffest = std::max(stiffest, sp.k);
@@ -93,7 +101,8 @@ void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh) {
   self_.emplace(ex_.backend, NeighbourGrid<T>::cover(lo, hi, cell), p);
   self_->set_masses_vary(scene_.has(Module::Capillary) &&
                          scene_.capillary.model == Scene::AbsorptionModel::Conserving);
-  self_->sync(ex_, set_); // allocates everything now, so plan's memory figure is the run's
+  if (!shared) // one rank: allocates everything now, so plan's memory figure is the run's
+    self_->sync(ex_, set_);
   double m_min = 1e300;
   for (std::size_t i = 0; i < mesh.m.size(); ++i)
     if (mesh.handle[i] == kFreePoint)
@@ -147,19 +156,24 @@ template <typename T>
 void KnitSystem<T>::localize(const exec::DeviceBuffer<std::uint32_t>& local_of_id,
                              std::size_t owned) {
   const std::size_t n = set_.size();
-  if (!mesh_spring_rows_) {
-    // The whole mesh's rows, which every choice gathers from: the rows built for the whole
-    // knit until now (the constructor's, or restore's), kept.
-    mesh_spring_rows_.emplace(std::move(springs_));
-    springs_ = SpringTopology<T>(ex_.backend);
-    mesh_volume_rows_.emplace(std::move(volumes_));
-    volumes_ = VolumeTopology<T>(ex_.backend);
-  }
+  if (!mesh_spring_rows_)
+    keep_mesh_rows();
   springs_.localize(ex_, *mesh_spring_rows_, set_.id.data(), local_of_id.data(), owned, n);
   volumes_.localize(ex_, *mesh_volume_rows_, set_.id.data(), local_of_id.data(), owned, n);
   owned_ = owned;
   if (self_)
     self_->set_active(owned);
+}
+
+template <typename T>
+void KnitSystem<T>::keep_mesh_rows() {
+  const std::size_t n = mesh_rest_.size();
+  mesh_spring_rows_.emplace(SpringTopology<T>::mesh_rows(ex_.backend, mesh_springs_, n));
+  mesh_volume_rows_.emplace(VolumeTopology<T>::mesh_rows(ex_.backend, mesh_cells_, n));
+  // The whole knit's rows on the backend (a knit built for one rank) go: localize fills these
+  // with a rank's.
+  springs_ = SpringTopology<T>(ex_.backend);
+  volumes_ = VolumeTopology<T>(ex_.backend);
 }
 
 template <typename T>
@@ -380,8 +394,10 @@ void KnitSystem<T>::restore(const io::Phase& p) {
     std::vector<std::uint64_t> id(n);
     std::iota(id.begin(), id.end(), std::uint64_t(0));
     set_.id.assign(id);
-    springs_.build(mesh_springs_, n);
-    volumes_.build(mesh_cells_, n);
+    if (!mesh_spring_rows_) { // else the next localize gathers a rank's rows from the host's
+      springs_.build(mesh_springs_, n);
+      volumes_.build(mesh_cells_, n);
+    }
     owned_ = std::size_t(-1);
   }
   set_.x.assign(x);
@@ -392,8 +408,8 @@ void KnitSystem<T>::restore(const io::Phase& p) {
 
 template <typename T>
 std::size_t KnitSystem<T>::bytes() const {
+  // (The mesh's rows on N ranks are the host's.)
   return set_.size() * KnitSet<T>::bytes_per_particle() + springs_.bytes() + volumes_.bytes() +
-         (mesh_spring_rows_ ? mesh_spring_rows_->bytes() + mesh_volume_rows_->bytes() : 0) +
          (self_ ? self_->bytes() : 0);
 }
 

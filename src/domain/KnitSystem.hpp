@@ -27,7 +27,12 @@ struct KnitEnergy {
 template <typename T>
 class KnitSystem {
 public:
-  KnitSystem(const Scene& scene, exec::Exec ex);
+  /// shared: the knit will be shared out over N ranks (KnitHalo::distribute keeps a rank's
+  /// points): the whole mesh's springs and cells are kept on the host (localize gathers a rank's
+  /// rows from them) and the whole knit's self-contact grid and lists are not built (the halo's
+  /// first choice of ghosts sorts the rank's points), so no rank's backend holds the whole
+  /// knit's topology.
+  KnitSystem(const Scene& scene, exec::Exec ex, bool shared = false);
 
   /// Advances the knit by dt from time t in scene.knit.substeps velocity Verlet substeps; keep
   /// is the velocity factor of one substep's half kick (global damping).
@@ -99,6 +104,8 @@ public:
   /// The mesh's springs and volume cells over mesh indices (= ids), host side.
   const std::vector<Spring>& mesh_springs() const { return mesh_springs_; }
   const std::vector<VolumeCell>& mesh_cells() const { return mesh_cells_; }
+  /// The mesh's rest positions in mesh order, host side.
+  const std::vector<Vec3<T>>& mesh_rest() const { return mesh_rest_; }
   KnitSelfContact<T>* self_contact() { return self_ ? &*self_ : nullptr; }
   std::size_t bytes() const;
   std::uint64_t collisions() const { return collisions_.to_host()[0]; }
@@ -127,9 +134,13 @@ private:
   KnitSet<T> set_;
   SpringTopology<T> springs_;
   VolumeTopology<T> volumes_;
-  // On N ranks, the whole mesh's rows that localize() gathers from (built at its first call).
-  std::optional<SpringTopology<T>> mesh_spring_rows_;
-  std::optional<VolumeTopology<T>> mesh_volume_rows_;
+  // On N ranks, the whole mesh's rows that localize() gathers from, on the host (built by a
+  // shared knit's constructor, else at localize's first call); springs_ and volumes_ then hold
+  // a rank's points' rows only.
+  std::optional<typename SpringTopology<T>::Mesh> mesh_spring_rows_;
+  std::optional<typename VolumeTopology<T>::Mesh> mesh_volume_rows_;
+  /// mesh_spring_rows_ and mesh_volume_rows_ from the mesh's lists.
+  void keep_mesh_rows();
   void set_handle_velocities(double t);
   exec::DeviceBuffer<Vec3<T>> handle_v_;
   std::vector<Vec3<T>> handle_v_host_;
@@ -140,7 +151,7 @@ private:
   KnitForceTerms<T> own_terms();
   /// a from the knit's own terms, or with couple's (weight: see advance).
   void internal_forces(const Couple& couple = {}, T weight = T(0));
-  void setup_self_contact(const KnitMesh& mesh);
+  void setup_self_contact(const KnitMesh& mesh, bool shared);
   double spring_limit_ = 0;     // min sqrt(m / sum k), m / sum c over free points (cached: fixed)
   double contact_limit_ = 1e30; // spring_factor sqrt(m_min / (kMaxContacts k_self))
   double extra_limit_ = 1e30;

@@ -187,7 +187,7 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
   if (fluid_on_ || boundary_on_)
     whole_grid_ = whole_grid<T>(scene_);
   if (knit_on_)
-    knit_.emplace(scene_, ex_);
+    knit_.emplace(scene_, ex_, split_over != nullptr);
   // The knit and the coupling first: the split's widths come from them.
   if (coupling_on_)
     init_coupling();

@@ -31,6 +31,7 @@
 #include "support/PlanSplit.hpp"
 #include "support/RestartCases.hpp"
 #include "support/SceneFactory.hpp"
+#include "support/StartPeaks.hpp"
 #include "support/TestPaths.hpp"
 
 #include <gtest/gtest.h>
@@ -443,25 +444,8 @@ TEST(Distributed, NoRankHoldsTheWholeSceneAtTheStart) {
   // the fluid's set and the grids are what a rank holds. 16,000 particles.
   Scene s = test::tank_scene({0.4, 0.2, 0.2}, {0.4, 0.2, 0.2}, 0.01);
   s.modules = {Module::Fluid};
-  const auto cpu = exec::Backend::Cpu;
-  const auto peak_of = [&](const comm::MpiContext* over) {
-    const std::size_t before = exec::held_bytes(cpu).now;
-    exec::reset_peak_bytes(cpu);
-    auto sim = Simulation::create(s, cpu, over);
-    return double(exec::held_bytes(cpu).peak - before);
-  };
-  const double one = peak_of(nullptr);
-  const double mine = peak_of(&mpi);
-  std::vector<double> all(mpi.size());
-  MPI_Allgather(&mine, 1, MPI_DOUBLE, all.data(), 1, MPI_DOUBLE, mpi.comm());
-  const double most = *std::max_element(all.begin(), all.end());
-  if (mpi.rank() == 0) {
-    std::printf("the backend's peak at the start: one rank %.0f kB; on %d ranks", one / 1e3,
-                mpi.size());
-    for (double b : all)
-      std::printf(" %.0f", b / 1e3);
-    std::printf(" kB (the largest %.2f of one rank's)\n", most / one);
-  }
+  const test::StartPeaks p = test::start_peaks(s, mpi);
+  const double most = p.largest(), one = p.one;
   // Measured (the partition and the allocations are deterministic): the largest rank 0.91 of
   // one rank's peak on 2 ranks, 0.74 on 3; with the whole scene uploaded first (the old start),
   // 1.07 and 0.93. A rank holds more than its share: its ghosts and the split's own rows

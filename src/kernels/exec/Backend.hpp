@@ -47,6 +47,12 @@ void synchronize(Backend b);
 /// bandwidth), plain on the CPU.
 void* alloc_host_staging(Backend b, std::size_t bytes, const char* what);
 void free_host_staging(Backend b, void* p) noexcept;
+/// Host memory a kernel of the backend reads in place: page-locked for a device (unified
+/// addressing makes its host pointer the device's; each read crosses the bus), plain on the CPU.
+/// Outside the backend's ledger (held_bytes): for tables kept whole on the host of which each
+/// kernel reads a few rows (HostReadable.hpp).
+void* alloc_host_readable(Backend b, std::size_t bytes, const char* what);
+void free_host_readable(Backend b, void* p) noexcept;
 
 /// A small device-to-host read that the host collects later (PendingRead.hpp wraps it): page-
 /// locked staging memory the copy lands in and an event marking its arrival. On the CPU the copy

@@ -137,6 +137,15 @@ struct Ledger {
   }
 };
 
+/// Host memory at a 64-byte alignment (one cache line, and what SIMD loads like).
+void* aligned_host(std::size_t bytes, const char* what) {
+  void* p = std::aligned_alloc(64, (bytes + 63) / 64 * 64);
+  if (!p)
+    throw Error(std::string("out of host memory allocating ") + std::to_string(bytes) +
+                " bytes for " + what);
+  return p;
+}
+
 } // namespace
 
 HeldBytes held_bytes(Backend b) {
@@ -163,11 +172,7 @@ void* alloc_bytes(Backend b, std::size_t bytes, const char* what) {
     no_cuda(what);
 #endif
   } else {
-    // 64-byte alignment: one cache line, and what SIMD loads like.
-    p = std::aligned_alloc(64, (bytes + 63) / 64 * 64);
-    if (!p)
-      throw Error(std::string("out of host memory allocating ") + std::to_string(bytes) +
-                  " bytes for " + what);
+    p = aligned_host(bytes, what);
   }
   Ledger::get().add(b, p, bytes);
   return p;
@@ -219,6 +224,31 @@ void free_host_staging(Backend b, void* p) noexcept {
     return;
   }
   free_bytes(Backend::Cpu, p);
+}
+
+void* alloc_host_readable(Backend b, std::size_t bytes, const char* what) {
+  if (bytes == 0)
+    return nullptr;
+  if (b == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    return cuda_alloc_pinned(bytes, what);
+#else
+    no_cuda(what);
+#endif
+  }
+  return aligned_host(bytes, what);
+}
+
+void free_host_readable(Backend b, void* p) noexcept {
+  if (!p)
+    return;
+  if (b == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    cuda_free_pinned(p);
+#endif
+    return;
+  }
+  std::free(p);
 }
 
 void synchronize(Backend b) {

@@ -13,23 +13,31 @@ SpringTopology<T>::SpringTopology(exec::Backend b)
     : count_(b, 0, "knit.springs.count"), entry_(b, 0, "knit.springs.entry"),
       by_kind_(kSpringKinds, 0) {}
 
-template <typename T>
-void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_points) {
-  std::vector<std::uint32_t> count(n_points, 0);
-  by_kind_.assign(kSpringKinds, 0);
+namespace {
+
+// The rows of a spring list: each point's count, and its entries where `layout(n, width)` puts
+// them (each row in the list's order). Rejects i == j and indices >= n.
+// `table(size)` gives the entries' storage (zeroed), written in place: a large knit's table is
+// its largest (16 bytes an entry, ~22 a point), and a copy of it would double the host's peak.
+template <typename T, typename Layout, typename Table>
+void spring_rows(const std::vector<Spring>& springs, std::size_t n_points, Layout layout,
+                 Table table, std::vector<std::uint32_t>& count, std::vector<std::size_t>& by_kind,
+                 std::uint32_t& width) {
+  count.assign(n_points, 0);
+  by_kind.assign(kSpringKinds, 0);
   for (const Spring& s : springs) {
     if (s.i == s.j || s.i >= n_points || s.j >= n_points)
       throw Error("spring " + std::to_string(s.i) + "-" + std::to_string(s.j) +
                   " is not between two distinct points of " + std::to_string(n_points));
     ++count[s.i];
     ++count[s.j];
-    ++by_kind_[static_cast<std::size_t>(s.kind)];
+    ++by_kind[static_cast<std::size_t>(s.kind)];
   }
-  std::uint32_t width = 0;
+  width = 0;
   for (std::uint32_t c : count)
     width = std::max(width, c);
-  const RowLayout rows = RowLayout::for_backend(count_.backend(), n_points, width);
-  std::vector<SpringEntry<T>> entry(std::size_t(width) * n_points);
+  const RowLayout rows = layout(n_points, width);
+  SpringEntry<T>* entry = table(std::size_t(width) * n_points);
   std::vector<std::uint32_t> fill(n_points, 0);
   auto put = [&](std::uint32_t a, std::uint32_t b, const Spring& s) {
     entry[rows.at(fill[a]++, a)] = {b, static_cast<T>(s.rest), static_cast<T>(s.k),
@@ -39,13 +47,7 @@ void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_
     put(s.i, s.j, s);
     put(s.j, s.i, s);
   }
-  count_.assign(count);
-  entry_.assign(entry);
-  springs_ = springs.size();
-  width_ = width;
 }
-
-namespace {
 
 // A spring entry with its other end made local.
 template <typename T>
@@ -60,15 +62,54 @@ struct OtherEndLocal {
 } // namespace
 
 template <typename T>
-void SpringTopology<T>::localize(const exec::Exec& ex, const SpringTopology& mesh,
-                                 const std::uint64_t* id, const std::uint32_t* local_of_id,
-                                 std::size_t owned, std::size_t n) {
-  width_ = mesh.width_; // before rows(): the CPU's rows are width_ apart
+void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_points) {
+  std::vector<std::uint32_t> count;
+  std::vector<SpringEntry<T>> entry;
+  const exec::Backend b = count_.backend();
+  spring_rows<T>(
+      springs, n_points,
+      [b](std::size_t n, std::uint32_t w) { return RowLayout::for_backend(b, n, w); },
+      [&entry](std::size_t k) {
+        entry.assign(k, SpringEntry<T>{});
+        return entry.data();
+      },
+      count, by_kind_, width_);
+  count_.assign(count);
+  entry_.assign(entry);
+  springs_ = springs.size();
+}
+
+template <typename T>
+typename SpringTopology<T>::Mesh SpringTopology<T>::mesh_rows(exec::Backend b,
+                                                              const std::vector<Spring>& springs,
+                                                              std::size_t n_points) {
+  std::vector<std::uint32_t> count;
+  Mesh m;
+  spring_rows<T>(
+      springs, n_points,
+      [](std::size_t, std::uint32_t w) {
+        return RowLayout{1, w};
+      },
+      [&m, b](std::size_t k) {
+        m.entry = exec::HostReadable<SpringEntry<T>>(b, k, "knit.mesh.springs.entry");
+        return m.entry.data();
+      },
+      count, m.by_kind, m.width);
+  m.count = exec::HostReadable<std::uint32_t>(b, count, "knit.mesh.springs.count");
+  m.springs = springs.size();
+  return m;
+}
+
+template <typename T>
+void SpringTopology<T>::localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
+                                 const std::uint32_t* local_of_id, std::size_t owned,
+                                 std::size_t n) {
+  width_ = mesh.width; // before rows(): the CPU's rows are width_ apart
   count_.resize(n);
   entry_.resize(std::size_t(width_) * n);
   exec::for_each(ex, n,
-                 LocalRowGather<SpringEntry<T>, OtherEndLocal<T>>{mesh.count_.data(),
-                                                                  mesh.entry_.data(),
+                 LocalRowGather<SpringEntry<T>, OtherEndLocal<T>>{mesh.count.data(),
+                                                                  mesh.entry.data(),
                                                                   mesh.rows(),
                                                                   id,
                                                                   owned,
@@ -77,8 +118,8 @@ void SpringTopology<T>::localize(const exec::Exec& ex, const SpringTopology& mes
                                                                   entry_.data(),
                                                                   {{local_of_id}}},
                  "knit.springs.localize");
-  springs_ = mesh.springs_;
-  by_kind_ = mesh.by_kind_;
+  springs_ = mesh.springs;
+  by_kind_ = mesh.by_kind;
 }
 
 template <typename T>

@@ -4,6 +4,7 @@
 // backends).
 #include "core/Vec3.hpp"
 #include "kernels/exec/Algorithms.hpp"
+#include "kernels/exec/HostReadable.hpp"
 #include "kernels/knit/RowLayout.hpp"
 
 #include <cstdint>
@@ -60,16 +61,31 @@ struct SpringView {
 template <typename T>
 class SpringTopology {
 public:
+  /// The whole mesh's rows on N ranks, which each choice of ghosts gathers a rank's from: kept
+  /// on the host (HostReadable), a point's row in one piece (row-major, read once across the
+  /// bus), so that no GPU holds the whole knit's springs.
+  struct Mesh {
+    exec::HostReadable<std::uint32_t> count;
+    exec::HostReadable<SpringEntry<T>> entry;
+    std::uint32_t width = 0;
+    std::size_t springs = 0;
+    std::vector<std::size_t> by_kind;
+    RowLayout rows() const { return {1, width}; }
+    SpringView<T> view() const { return {count.data(), entry.data(), rows()}; }
+  };
+  /// The rows of a spring list over n_points points for kernels of backend b (as build()).
+  static Mesh mesh_rows(exec::Backend b, const std::vector<Spring>& springs, std::size_t n_points);
+
   explicit SpringTopology(exec::Backend b);
   /// Builds the rows from a spring list over n_points points (each row in the list's order);
   /// rejects i == j and indices >= n.
   void build(const std::vector<Spring>& springs, std::size_t n_points);
-  /// On N ranks, from the whole mesh's rows (`mesh`, built over mesh indices = ids): rows for n
-  /// local points, the first `owned` of which take their mesh point's row (id[k]) whole, in its
-  /// order, the other ends mapped to local indices (local_of_id, by id; every partner of an owned
-  /// point present); the ghosts' rows are empty (no pass reads them). On the backend: a gather,
-  /// where filtering the mesh's spring list on the host cost 20-25 ms a choice of ghosts.
-  void localize(const exec::Exec& ex, const SpringTopology& mesh, const std::uint64_t* id,
+  /// On N ranks, from the whole mesh's rows (built over mesh indices = ids): rows for n local
+  /// points, the first `owned` of which take their mesh point's row (id[k]) whole, in its order,
+  /// the other ends mapped to local indices (local_of_id, by id; every partner of an owned point
+  /// present); the ghosts' rows are empty (no pass reads them). On the backend: a gather, where
+  /// filtering the mesh's spring list on the host cost 20-25 ms a choice of ghosts.
+  void localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
                 const std::uint32_t* local_of_id, std::size_t owned, std::size_t n);
   SpringView<T> view() const;
   /// The springs built from (localized: the mesh's).

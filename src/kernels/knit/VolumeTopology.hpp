@@ -7,6 +7,7 @@
 // layers keep their order. Stored per point like the springs (gather, no atomics).
 #include "core/Vec3.hpp"
 #include "kernels/exec/Algorithms.hpp"
+#include "kernels/exec/HostReadable.hpp"
 #include "kernels/knit/RowLayout.hpp"
 
 #include <array>
@@ -64,12 +65,30 @@ struct VolumeView {
 template <typename T>
 class VolumeTopology {
 public:
+  /// The whole mesh's cells on N ranks, on the host (as SpringTopology::Mesh): each point's
+  /// cells (row-major), each cell's corners and constants.
+  struct Mesh {
+    exec::HostReadable<std::uint32_t> count, cell, point;
+    exec::HostReadable<T> rest, k;
+    std::uint32_t width = 0;
+    std::size_t cells = 0;
+    RowLayout rows() const { return {1, width}; }
+    VolumeView<T> view() const {
+      if (cells == 0)
+        return {};
+      return {count.data(), cell.data(), point.data(), rest.data(), k.data(), rows()};
+    }
+  };
+  /// The cells over n_points points for kernels of backend b (as build()).
+  static Mesh mesh_rows(exec::Backend b, const std::vector<VolumeCell>& cells,
+                        std::size_t n_points);
+
   explicit VolumeTopology(exec::Backend b);
   void build(const std::vector<VolumeCell>& cells, std::size_t n_points);
   /// On N ranks, as SpringTopology::localize: the first `owned` of n local points take their
   /// mesh point's cells (mesh cell indices, in the mesh's order), the ghosts none; every mesh
   /// cell's points are mapped to local indices (absent ones are in no owned point's cell).
-  void localize(const exec::Exec& ex, const VolumeTopology& mesh, const std::uint64_t* id,
+  void localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
                 const std::uint32_t* local_of_id, std::size_t owned, std::size_t n);
   VolumeView<T> view() const;
   std::size_t cells() const { return cells_; }
