@@ -200,8 +200,8 @@ TEST(KnitSprings, LocalizedRowsGiveTheOwnedPointsTheirWholeNetworkForce) {
   // The mesh's rows as N ranks keep them: on the host, row-major.
   const auto mesh_springs = SpringTopology<double>::mesh_rows(exec::Backend::Cpu, net.list, n);
   const auto mesh_cells = VolumeTopology<double>::mesh_rows(exec::Backend::Cpu, net.cells, n);
-  springs.localize(net.ex, mesh_springs, local.id.data(), lof.data(), owned, m);
-  volumes.localize(net.ex, mesh_cells, local.id.data(), lof.data(), owned, m);
+  springs.localize(net.ex, mesh_springs, local.id.data(), lof.data(), owned);
+  volumes.localize(net.ex, mesh_cells, local.id.data(), lof.data(), owned);
   { // A shared knit's step limits come from those rows: the same sums, row by row, to the bit.
     double ks = 0, cs = 0, kw = 0, cw = 0;
     knit_spring_limits(net.ex, net.set.view(), mesh_springs.view(), mesh_cells.view(), ks, cs);
@@ -220,10 +220,45 @@ TEST(KnitSprings, LocalizedRowsGiveTheOwnedPointsTheirWholeNetworkForce) {
   }
   for (std::size_t k = owned; k < m; ++k)
     ASSERT_TRUE(std::isnan(a[k].x)) << "a ghost's force was written";
-  // The ghosts' rows are empty; each owned row is its mesh point's.
+  // Rows for the owned points only (the ghosts' are their owners'); each its mesh point's.
+  EXPECT_EQ(springs.points(), owned);
+  EXPECT_EQ(volumes.points(), owned);
   const auto count = springs.view(), mesh_count = net.springs.view();
-  for (std::size_t k = 0; k < m; ++k)
-    EXPECT_EQ(count.count[k], k < owned ? mesh_count.count[local_ids[k]] : 0u);
+  for (std::size_t k = 0; k < owned; ++k)
+    EXPECT_EQ(count.count[k], mesh_count.count[local_ids[k]]);
+  // The halo's check from those rows (knit_partner_reach) against a walk of the lists: the
+  // farthest partner of an owned point, to the bit (the same squared sums), none absent.
+  double want = 0;
+  const auto meet = [&](std::uint32_t a, std::uint32_t b) {
+    if (local_of_id[a] < owned)
+      want = std::max(want, norm2(x[b] - x[a]));
+  };
+  for (const Spring& sp : net.list)
+    meet(sp.i, sp.j), meet(sp.j, sp.i);
+  for (const VolumeCell& c : net.cells)
+    for (auto a : c.point)
+      for (auto b : c.point)
+        if (a != b)
+          meet(a, b);
+  const auto reach =
+      knit_partner_reach(net.ex, owned, local.x.data(), springs.view(), volumes.view());
+  EXPECT_EQ(reach.missing, 0u);
+  EXPECT_EQ(reach.d2, want);
+  EXPECT_GT(want, 0.0) << "no partner met: a weak case";
+  // A ghost at a spring's end from an owned point left out: the check finds it absent.
+  std::uint32_t gone = kAbsentPoint;
+  for (const Spring& sp : net.list)
+    for (auto [a, b] : {std::pair{sp.i, sp.j}, std::pair{sp.j, sp.i}})
+      if (local_of_id[a] < owned && local_of_id[b] >= owned && local_of_id[b] != kAbsentPoint)
+        gone = b;
+  ASSERT_NE(gone, kAbsentPoint) << "no spring crosses to a ghost: a weak case";
+  local_of_id[gone] = kAbsentPoint;
+  lof.assign(local_of_id);
+  springs.localize(net.ex, mesh_springs, local.id.data(), lof.data(), owned);
+  volumes.localize(net.ex, mesh_cells, local.id.data(), lof.data(), owned);
+  EXPECT_EQ(
+      knit_partner_reach(net.ex, owned, local.x.data(), springs.view(), volumes.view()).missing,
+      1u);
 }
 
 TEST(KnitSprings, PairForcesCancelAndAFreeSystemKeepsItsMomentum) {

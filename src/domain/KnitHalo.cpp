@@ -20,44 +20,8 @@ KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoup
   const exec::Backend b = knit.set().x.backend();
   self_ref_.x0 = exec::DeviceBuffer<Vec3<T>>(b, 0, "knit.halo.self_x0");
   coupling_ref_.x0 = exec::DeviceBuffer<Vec3<T>>(b, 0, "knit.halo.coupling_x0");
-  // Each point's partners: the other ends of its springs and the other points of its cells, as
-  // compressed rows (counted, filled, then each row sorted and its repeats dropped in place: one
-  // vector a point cost a fifth of the set-up of a large knit on every rank).
-  const auto& springs = knit.mesh_springs();
-  const auto& cells = knit.mesh_cells();
-  std::vector<std::uint32_t> start(mesh_points_ + 1, 0);
-  for (const Spring& sp : springs) {
-    ++start[sp.i + 1];
-    ++start[sp.j + 1];
-  }
-  for (const VolumeCell& c : cells)
-    for (std::uint32_t a : c.point)
-      for (std::uint32_t b : c.point)
-        start[a + 1] += a != b ? 1 : 0;
-  for (std::size_t i = 0; i < mesh_points_; ++i)
-    start[i + 1] += start[i];
-  std::vector<std::uint32_t> all(start[mesh_points_]);
-  {
-    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-    for (const Spring& sp : springs) {
-      all[fill[sp.i]++] = sp.j;
-      all[fill[sp.j]++] = sp.i;
-    }
-    for (const VolumeCell& c : cells)
-      for (std::uint32_t a : c.point)
-        for (std::uint32_t b : c.point)
-          if (a != b)
-            all[fill[a]++] = b;
-  }
-  partner_start_.assign(1, 0);
-  partner_.clear();
-  partner_.reserve(all.size());
-  for (std::size_t i = 0; i < mesh_points_; ++i) {
-    const auto first = all.begin() + start[i], last = all.begin() + start[i + 1];
-    std::sort(first, last);
-    partner_.insert(partner_.end(), first, std::unique(first, last));
-    partner_start_.push_back(static_cast<std::uint32_t>(partner_.size()));
-  }
+  if (!knit.shared())
+    throw Error("KnitHalo: the knit was not built to be shared over ranks (KnitSystem's shared)");
   base_width_ = base_width(knit, coupling, min_width);
   skin_ = skin > 0 ? skin : 0.5 * base_width_;
   const comm::MpiContext& mpi = ranks_.mpi();
@@ -72,14 +36,7 @@ KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoup
 template <typename T>
 double KnitHalo<T>::base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* coupling,
                                double min_width) {
-  double reach = 0;
-  const auto& x = knit.mesh_rest(); // the host's copy: no rank reads the whole set back
-  for (const Spring& sp : knit.mesh_springs())
-    reach = std::max(reach, sp.rest);
-  for (const VolumeCell& c : knit.mesh_cells())
-    for (std::uint32_t a : c.point)
-      for (std::uint32_t b : c.point)
-        reach = std::max(reach, double(norm(x[a] - x[b])));
+  const double reach = knit.rest_reach();
   double w = 1.5 * reach;
   if (auto* self = knit.self_contact()) // a row's list reaches a cell; a cell walk 2 cells a side
     w = std::max(w, 3.5 * double(self->cell()) + 2 * double(self->skin()));
@@ -118,25 +75,22 @@ void KnitHalo<T>::distribute(const typename SkinWatch<T>::State& self_state,
 }
 
 template <typename T>
-bool KnitHalo<T>::partners_present() {
-  const auto& set = knit_.set();
-  const HostValues<std::uint64_t> id(set.id);
-  const HostValues<Vec3<T>> x(set.x);
-  local_.assign(mesh_points_, -1);
-  for (std::size_t k = 0; k < set.size(); ++k)
-    local_[id[k]] = static_cast<std::int64_t>(k);
-  double reach = 0, missing = 0;
-  for (std::size_t i = 0; i < owned_; ++i)
-    for (std::uint32_t e = partner_start_[id[i]]; e < partner_start_[id[i] + 1]; ++e) {
-      const std::int64_t l = local_[partner_[e]];
-      if (l < 0)
-        missing = 1;
-      else
-        reach = std::max(reach, double(norm(x[l] - x[i])));
-    }
-  double both[2] = {reach, missing};
+bool KnitHalo<T>::localize_and_check() {
+  const std::vector<std::uint64_t> ids = knit_.set().id.to_host();
+  std::vector<std::uint32_t> local(mesh_points_, kAbsent);
+  for (std::size_t k = 0; k < ids.size(); ++k)
+    local[ids[k]] = static_cast<std::uint32_t>(k);
+  local_of_id_.assign(local);
+  knit_.localize(local_of_id_, owned_);
+  // On the backend, from the rows the force pass reads (a host walk of the mesh's rows cost ~4
+  // ms a choice on the 2-core VM for the pour's 25k points a rank: 1.2M partners met, 0.45M
+  // distinct). The farthest by its squared distance: one root a choice.
+  const PartnerReach<T> r = knit_.partner_reach();
+  double both[2] = {double(std::sqrt(r.d2)), double(r.missing)};
   MPI_Allreduce(MPI_IN_PLACE, both, 2, MPI_DOUBLE, MPI_MAX, ranks_.mpi().comm());
   reach_ = both[0];
+  if (both[1] == 0 && localized_)
+    localized_(ids, owned_);
   return both[1] == 0;
 }
 
@@ -216,7 +170,7 @@ void KnitHalo<T>::rebuild() {
     resize(owned_ + halo_->received());
     const auto received = state();
     halo_->exchange(received.halo, owned_);
-    if (partners_present())
+    if (localize_and_check())
       break;
     if (width > most)
       throw Error("knit on N ranks: a spring or volume cell spans more than the domain; the "
@@ -226,14 +180,6 @@ void KnitHalo<T>::rebuild() {
   }
   width_ = width;
   built_ = true;
-  const std::vector<std::uint64_t> ids = set.id.to_host();
-  std::vector<std::uint32_t> local(mesh_points_, kAbsent);
-  for (std::size_t k = 0; k < ids.size(); ++k)
-    local[ids[k]] = static_cast<std::uint32_t>(k);
-  local_of_id_.assign(local);
-  knit_.localize(local_of_id_, owned_);
-  if (localized_)
-    localized_(ids, owned_);
   if (knit_.self_collision())
     knit_.restore_self_contact(self_ref_.state(set.size()));
   if (coupling_) {

@@ -93,7 +93,7 @@ public:
   }
   /// Each knit id's local index (kAbsent where the point is neither owned nor a ghost here),
   /// valid from one choice of ghosts to the next.
-  static constexpr std::uint32_t kAbsent = 0xFFFFFFFFu;
+  static constexpr std::uint32_t kAbsent = kAbsentPoint;
   const exec::DeviceBuffer<std::uint32_t>& local_of_id() const { return local_of_id_; }
 
   /// The self-contact's state over the owned points (snapshots; collective): reference
@@ -137,8 +137,10 @@ private:
   void exchange_motion();
   /// Every column a point carries (the set's and the grids' reference positions).
   ExchangeColumns state();
-  /// Whether every partner of an owned point is here; reach_ becomes the farthest partner.
-  bool partners_present();
+  /// The owned points' rows localized for the points here, and whether every partner of an
+  /// owned point is among them (collective); reach_ becomes the farthest partner. When all are,
+  /// the localized callback has run.
+  bool localize_and_check();
   /// Migration to the blocks' owners, the ghosts chosen and received (every partner present),
   /// the springs localized, the self-contact grid sorted for its reference positions.
   void rebuild();
@@ -155,12 +157,9 @@ private:
   std::size_t owned_ = 0, mesh_points_ = 0;
   std::uint64_t repartitions_seen_ = 0;
   std::optional<comm::HaloExchange> halo_;
-  std::vector<std::int64_t> local_; // mesh index -> local index (-1: not here)
   exec::DeviceBuffer<std::uint32_t> local_of_id_;
   std::vector<exec::DeviceBuffer<T>*> carried_;
   Localized localized_;
-  // Per mesh point, its partners (springs and volume cells), compressed rows.
-  std::vector<std::uint32_t> partner_start_, partner_;
 };
 
 } // namespace kf

@@ -41,48 +41,53 @@ KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex, bool shared)
   set_.layer.assign(mesh.layer);
   set_.piece.assign(mesh.piece);
   set_.id.assign(id);
-  // The lists moved, not copied: a large knit's springs are most of its host memory (40 bytes
-  // a spring, ~11 springs a point).
-  mesh_springs_ = std::move(mesh.springs);
-  mesh_cells_ = std::move(mesh.volumes);
   mesh_rest_ = x;
   mesh_handle_ = mesh.handle;
   mesh_layer_ = mesh.layer;
   mesh_piece_ = mesh.piece;
   pieces_ = mesh.pieces;
-  for (const Spring& sp : mesh_springs_)
+  // What the lists tell beyond their rows: the widest gap between points of a sheet, the
+  // stiffest spring (the self-contact's default), the farthest a spring or volume cell reaches at
+  // rest (the split's ghost width).
+  double stiffest = 0;
+  for (const Spring& sp : mesh.springs) {
     if (sp.kind == SpringKind::Stretch)
       longest_spacing_ = std::max(longest_spacing_, sp.rest);
+    stiffest = std::max(stiffest, sp.k);
+    rest_reach_ = std::max(rest_reach_, sp.rest);
+  }
+  for (const VolumeCell& c : mesh.volumes)
+    for (std::uint32_t a : c.point)
+      for (std::uint32_t b : c.point)
+        rest_reach_ = std::max(rest_reach_, double(norm(x[a] - x[b])));
   set_handle_velocities(0.0);
   T spring = 0, damping = 0;
   if (shared) { // the same rows in another layout: the same sums, in each row's order
-    keep_mesh_rows();
+    keep_mesh_rows(mesh.springs, mesh.volumes, n);
     knit_spring_limits(ex_, set_.view(), mesh_spring_rows_->view(), mesh_volume_rows_->view(),
                        spring, damping);
   } else {
-    springs_.build(mesh_springs_, n);
-    volumes_.build(mesh_cells_, n);
+    springs_.build(mesh.springs, n);
+    volumes_.build(mesh.volumes, n);
     knit_spring_limits(ex_, set_.view(), springs_.view(), volumes_.view(), spring, damping);
   }
+  // The lists go once their rows exist (nothing reads them after: a restore on N ranks
+  // localizes from the rows): 40 bytes a spring, ~11 springs a point, a large knit's most.
+  std::vector<Spring>().swap(mesh.springs);
+  std::vector<VolumeCell>().swap(mesh.volumes);
   spring_limit_ = std::min(double(spring) * scene.knit.spring_factor, double(damping));
   if (scene.knit.self_collision && n > 0)
-    setup_self_contact(mesh, shared);
+    setup_self_contact(mesh, stiffest, shared);
 }
 
 template <typename T>
-void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh, bool shared) {
+void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh, double stiffest, bool shared) {
   const auto& mat = scene_.knit;
   // Defaults: R half the longest in-plane spacing, so a point cannot slip through the gap between
   // four points of another sheet (that needs 2R > spacing / sqrt 2); k the stiffest spring, so
   // contact resists like the fabric does and the step limit hardly moves.
-  double longest = 0, stiffest = 0;
-  for (const Spring& sp : mesh_springs_) {
-    if (sp.kind == SpringKind::Stretch)
-      longest = std::max(longest, sp.rest);
-    stiffest = std::max(stiffest, sp.k);
-  }
   SelfContactParams<T> p;
-  const double radius = mat.self_radius > 0 ? mat.self_radius : 0.5 * longest;
+  const double radius = mat.self_radius > 0 ? mat.self_radius : 0.5 * longest_spacing_;
   const double k = mat.self_stiffness > 0 ? mat.self_stiffness : stiffest;
   if (!(radius > 0) || !(k > 0))
     return; // a single point: nothing to collide
@@ -155,25 +160,25 @@ void KnitSystem<T>::internal_forces(const Couple& couple, T weight) {
 template <typename T>
 void KnitSystem<T>::localize(const exec::DeviceBuffer<std::uint32_t>& local_of_id,
                              std::size_t owned) {
-  const std::size_t n = set_.size();
   if (!mesh_spring_rows_)
-    keep_mesh_rows();
-  springs_.localize(ex_, *mesh_spring_rows_, set_.id.data(), local_of_id.data(), owned, n);
-  volumes_.localize(ex_, *mesh_volume_rows_, set_.id.data(), local_of_id.data(), owned, n);
+    throw Error("KnitSystem::localize: the knit was not built to be shared over ranks");
+  springs_.localize(ex_, *mesh_spring_rows_, set_.id.data(), local_of_id.data(), owned);
+  volumes_.localize(ex_, *mesh_volume_rows_, set_.id.data(), local_of_id.data(), owned);
   owned_ = owned;
   if (self_)
     self_->set_active(owned);
 }
 
 template <typename T>
-void KnitSystem<T>::keep_mesh_rows() {
-  const std::size_t n = mesh_rest_.size();
-  mesh_spring_rows_.emplace(SpringTopology<T>::mesh_rows(ex_.backend, mesh_springs_, n));
-  mesh_volume_rows_.emplace(VolumeTopology<T>::mesh_rows(ex_.backend, mesh_cells_, n));
-  // The whole knit's rows on the backend (a knit built for one rank) go: localize fills these
-  // with a rank's.
-  springs_ = SpringTopology<T>(ex_.backend);
-  volumes_ = VolumeTopology<T>(ex_.backend);
+PartnerReach<T> KnitSystem<T>::partner_reach() const {
+  return knit_partner_reach(ex_, owned(), set_.x.data(), springs_.view(), volumes_.view());
+}
+
+template <typename T>
+void KnitSystem<T>::keep_mesh_rows(const std::vector<Spring>& springs,
+                                   const std::vector<VolumeCell>& cells, std::size_t n) {
+  mesh_spring_rows_.emplace(SpringTopology<T>::mesh_rows(ex_.backend, springs, n));
+  mesh_volume_rows_.emplace(VolumeTopology<T>::mesh_rows(ex_.backend, cells, n));
 }
 
 template <typename T>
@@ -394,10 +399,6 @@ void KnitSystem<T>::restore(const io::Phase& p) {
     std::vector<std::uint64_t> id(n);
     std::iota(id.begin(), id.end(), std::uint64_t(0));
     set_.id.assign(id);
-    if (!mesh_spring_rows_) { // else the next localize gathers a rank's rows from the host's
-      springs_.build(mesh_springs_, n);
-      volumes_.build(mesh_cells_, n);
-    }
     owned_ = std::size_t(-1);
   }
   set_.x.assign(x);

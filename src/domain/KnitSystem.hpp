@@ -98,12 +98,19 @@ public:
   /// index's local index); each point's row keeps the mesh's order, so its forces sum as on one
   /// rank. Every partner must be present (KnitHalo checks).
   void localize(const exec::DeviceBuffer<std::uint32_t>& local_of_id, std::size_t owned);
+  /// After localize: the owned points' farthest partner (squared) and whether one is absent.
+  PartnerReach<T> partner_reach() const;
   /// Points this rank integrates (all on one rank).
   std::size_t owned() const { return std::min(owned_, set_.size()); }
   void set_ghost_refresh(std::function<void()> refresh) { refresh_ghosts_ = std::move(refresh); }
-  /// The mesh's springs and volume cells over mesh indices (= ids), host side.
-  const std::vector<Spring>& mesh_springs() const { return mesh_springs_; }
-  const std::vector<VolumeCell>& mesh_cells() const { return mesh_cells_; }
+  /// Built to be shared: the whole mesh's rows kept on the host (localize gathers from them).
+  bool shared() const { return mesh_spring_rows_.has_value(); }
+  /// A shared knit's whole mesh's springs and volume cells, each point's row over mesh indices
+  /// (= ids), read in place on the host.
+  const typename SpringTopology<T>::Mesh& mesh_spring_rows() const { return *mesh_spring_rows_; }
+  const typename VolumeTopology<T>::Mesh& mesh_volume_rows() const { return *mesh_volume_rows_; }
+  /// The farthest two points of a spring or a volume cell lie apart at rest.
+  double rest_reach() const { return rest_reach_; }
   /// The mesh's rest positions in mesh order, host side.
   const std::vector<Vec3<T>>& mesh_rest() const { return mesh_rest_; }
   KnitSelfContact<T>* self_contact() { return self_ ? &*self_ : nullptr; }
@@ -135,12 +142,13 @@ private:
   SpringTopology<T> springs_;
   VolumeTopology<T> volumes_;
   // On N ranks, the whole mesh's rows that localize() gathers from, on the host (built by a
-  // shared knit's constructor, else at localize's first call); springs_ and volumes_ then hold
-  // a rank's points' rows only.
+  // shared knit's constructor); springs_ and volumes_ then hold a rank's points' rows only.
+  // Neither backend nor host keeps the mesh's lists past the constructor.
   std::optional<typename SpringTopology<T>::Mesh> mesh_spring_rows_;
   std::optional<typename VolumeTopology<T>::Mesh> mesh_volume_rows_;
-  /// mesh_spring_rows_ and mesh_volume_rows_ from the mesh's lists.
-  void keep_mesh_rows();
+  /// mesh_spring_rows_ and mesh_volume_rows_ from the mesh's lists over n points.
+  void keep_mesh_rows(const std::vector<Spring>& springs, const std::vector<VolumeCell>& cells,
+                      std::size_t n);
   void set_handle_velocities(double t);
   exec::DeviceBuffer<Vec3<T>> handle_v_;
   std::vector<Vec3<T>> handle_v_host_;
@@ -151,22 +159,20 @@ private:
   KnitForceTerms<T> own_terms();
   /// a from the knit's own terms, or with couple's (weight: see advance).
   void internal_forces(const Couple& couple = {}, T weight = T(0));
-  void setup_self_contact(const KnitMesh& mesh, bool shared);
+  void setup_self_contact(const KnitMesh& mesh, double stiffest, bool shared);
   double spring_limit_ = 0;     // min sqrt(m / sum k), m / sum c over free points (cached: fixed)
   double contact_limit_ = 1e30; // spring_factor sqrt(m_min / (kMaxContacts k_self))
   double extra_limit_ = 1e30;
   // Largest speed and acceleration at the last stable_dt(): the self-contact grid's motion bound
   // for the coming step (infinite before the first: every substep then checks on the host).
   double vmax_ = 1e30, amax_ = 1e30;
-  double longest_spacing_ = 0;
+  double longest_spacing_ = 0, rest_reach_ = 0;
   std::optional<KnitSelfContact<T>> self_;
-  std::vector<Spring> mesh_springs_;
   // The mesh's fixed columns, for a restore on N ranks (the set then holds a rank's share).
   std::vector<Vec3<T>> mesh_rest_;
   std::vector<std::uint32_t> mesh_handle_;
   std::vector<std::uint8_t> mesh_layer_;
   std::vector<std::uint16_t> mesh_piece_;
-  std::vector<VolumeCell> mesh_cells_;
   std::size_t owned_ = std::size_t(-1);
   std::function<void()> refresh_ghosts_;
   /// The set's view over the points this rank integrates.

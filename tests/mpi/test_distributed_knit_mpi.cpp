@@ -212,12 +212,15 @@ TEST(DistributedKnit, GhostsAreThePointsWithinTheWidthAndEveryPartner) {
   comm::MpiContext mpi;
   const Scene s = fold("double");
   const exec::Exec ex{exec::Backend::Cpu};
-  KnitSystem<double> whole(s, ex), knit(s, ex); // whole: the reference, never split
+  KnitSystem<double> whole(s, ex), knit(s, ex, true); // whole: the reference, never split
+  const KnitMesh mesh = build_knit(s);                // the partners, from the builder's lists
   const auto all_x = whole.set().x.to_host();
   const auto all_m = whole.set().m.to_host();
   RankExchange<double> ranks(mpi, s, exec::Backend::Cpu,
                              SplitInputs{KnitHalo<double>::base_width(knit)});
   ranks.distribute(nullptr, nullptr, all_x);
+  // A knit built for one rank holds its rows on the backend only: sharing it is refused.
+  EXPECT_THROW(KnitHalo<double>(ranks, whole), Error);
   KnitHalo<double> halo(ranks, knit);
   halo.distribute();
   halo.begin(0.0);
@@ -252,14 +255,14 @@ TEST(DistributedKnit, GhostsAreThePointsWithinTheWidthAndEveryPartner) {
   }
   std::set<std::uint64_t> here(id.begin(), id.end()), owned_ids(id.begin(), id.begin() + owned);
   std::size_t partners = 0, remote = 0;
-  for (const Spring& sp : whole.mesh_springs())
+  for (const Spring& sp : mesh.springs)
     for (auto [a, b] : {std::pair{sp.i, sp.j}, std::pair{sp.j, sp.i}})
       if (owned_ids.count(a)) {
         ++partners;
         remote += !owned_ids.count(b);
         EXPECT_TRUE(here.count(b)) << "spring partner " << b << " of owned point " << a;
       }
-  for (const VolumeCell& c : whole.mesh_cells())
+  for (const VolumeCell& c : mesh.volumes)
     for (auto a : c.point)
       if (owned_ids.count(a)) {
         for (auto b : c.point)

@@ -79,6 +79,13 @@ void knit_spring_limits(const exec::Exec& ex, KnitView<T> p, const SpringView<T>
   damping = l.damping;
 }
 
+template <typename T>
+PartnerReach<T> knit_partner_reach(const exec::Exec& ex, std::size_t owned, const Vec3<T>* x,
+                                   const SpringView<T>& s, const VolumeView<T>& vol) {
+  return exec::transform_reduce(ex, owned, PartnerReach<T>{}, PartnerReachMaxOp{},
+                                PartnerReachEvaluator<T>{x, s, vol}, "knit.partner_reach");
+}
+
 #define KF_INSTANTIATE(T)                                                                          \
   template void knit_forces<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&, Vec3<T>,      \
                                const VolumeView<T>&);                                              \
@@ -91,7 +98,9 @@ void knit_spring_limits(const exec::Exec& ex, KnitView<T> p, const SpringView<T>
   template double knit_kinetic_energy<T>(const exec::Exec&, KnitView<T>);                          \
   template double knit_potential_energy<T>(const exec::Exec&, KnitView<T>, Vec3<T>);               \
   template void knit_spring_limits<T>(const exec::Exec&, KnitView<T>, const SpringView<T>&,        \
-                                      const VolumeView<T>&, T&, T&);
+                                      const VolumeView<T>&, T&, T&);                               \
+  template PartnerReach<T> knit_partner_reach<T>(const exec::Exec&, std::size_t, const Vec3<T>*,   \
+                                                 const SpringView<T>&, const VolumeView<T>&);
 KF_INSTANTIATE(float)
 KF_INSTANTIATE(double)
 #undef KF_INSTANTIATE

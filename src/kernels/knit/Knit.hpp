@@ -44,6 +44,12 @@ double knit_kinetic_energy(const exec::Exec& ex, KnitView<T> p);
 template <typename T>
 double knit_potential_energy(const exec::Exec& ex, KnitView<T> p, Vec3<T> gravity);
 
+/// The farthest partner of the first `owned` points (squared) and whether one is absent, from
+/// their localized rows (KnitHalo's check on N ranks).
+template <typename T>
+PartnerReach<T> knit_partner_reach(const exec::Exec& ex, std::size_t owned, const Vec3<T>* x,
+                                   const SpringView<T>& s, const VolumeView<T>& vol);
+
 /// Smallest sqrt(m / sum k) and m / sum c over the free points (the explicit step limits).
 template <typename T>
 void knit_spring_limits(const exec::Exec& ex, KnitView<T> p, const SpringView<T>& s,

@@ -1,6 +1,7 @@
 #pragma once
 // Knit evaluators as host-device functors: each point gathers the forces of its own springs.
 #include "core/Math.hpp"
+#include "kernels/knit/LocalRows_K.hpp"
 #include "kernels/knit/SpringTopology.hpp"
 #include "kernels/knit/VolumeTopology.hpp"
 #include "kernels/particles/KnitSet.hpp"
@@ -132,6 +133,52 @@ struct SpringEnergyEvaluator {
 template <typename T>
 struct SpringLimits {
   T spring = T(1e30), damping = T(1e30);
+};
+
+/// How far an owned point's partners lie (the other ends of its springs, the other corners of
+/// its volume cells; squared) and whether one of them is absent (kAbsentPoint in the localized
+/// rows): a rank's check that its ghosts hold every partner (KnitHalo).
+template <typename T>
+struct PartnerReach {
+  T d2 = T(0);
+  std::uint32_t missing = 0;
+};
+
+struct PartnerReachMaxOp {
+  template <typename T>
+  KF_HD KF_INLINE PartnerReach<T> operator()(const PartnerReach<T>& a,
+                                             const PartnerReach<T>& b) const {
+    return {a.d2 < b.d2 ? b.d2 : a.d2, a.missing > b.missing ? a.missing : b.missing};
+  }
+};
+
+template <typename T>
+struct PartnerReachEvaluator {
+  const Vec3<T>* x;
+  SpringView<T> s;
+  VolumeView<T> vol;
+
+  KF_HD PartnerReach<T> operator()(std::size_t i) const {
+    PartnerReach<T> r;
+    const auto meet = [&](std::uint32_t q) {
+      if (q == kAbsentPoint) {
+        r.missing = 1;
+        return;
+      }
+      const T d2 = norm2(x[q] - x[i]);
+      r.d2 = d2 > r.d2 ? d2 : r.d2; // (a NaN is left out, as the host's max did)
+    };
+    s.for_each_spring(i, [&](const SpringEntry<T>& e) { meet(e.other); });
+    if (vol.empty())
+      return r;
+    for (std::uint32_t e = 0; e < vol.count[i]; ++e) {
+      const std::uint32_t c = vol.cell[vol.rows.at(e, i)];
+      for (int k = 0; k < 4; ++k)
+        if (vol.point[4 * std::size_t(c) + k] != i)
+          meet(vol.point[4 * std::size_t(c) + k]);
+    }
+    return r;
+  }
 };
 
 template <typename T>

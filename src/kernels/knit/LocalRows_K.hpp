@@ -7,26 +7,25 @@
 
 namespace kf {
 
-/// Gathers a per-point table's rows for a rank's points from the mesh's: local point k (owned,
-/// k < owned) takes mesh point id[k]'s row, each entry through `local` (mesh indices inside it
-/// made local); ghosts get none (their rows are their owners'). Springs and volume cells share
-/// it: entry e of point p sits at rows.at(e, p) in both (RowLayout).
+/// A mesh index with no local point here (neither owned nor a ghost), in local_of_id and so in
+/// the localized rows.
+inline constexpr std::uint32_t kAbsentPoint = 0xFFFFFFFFu;
+
+/// Gathers a per-point table's rows for a rank's owned points from the mesh's: local point k
+/// takes mesh point id[k]'s row, each entry through `local` (mesh indices inside it made local);
+/// ghosts have no rows (theirs are their owners'). Springs and volume cells share it: entry e of
+/// point p sits at rows.at(e, p) in both (RowLayout).
 template <typename Entry, typename Local>
 struct LocalRowGather {
   const std::uint32_t* mesh_count;
   const Entry* mesh_entry;
   RowLayout mesh_rows;
   const std::uint64_t* id;
-  std::size_t owned;
   RowLayout rows;
   std::uint32_t* count;
   Entry* entry;
   Local local;
   KF_HD KF_INLINE void operator()(std::size_t k) const {
-    if (k >= owned) {
-      count[k] = 0;
-      return;
-    }
     const std::size_t p = static_cast<std::size_t>(id[k]);
     const std::uint32_t c = mesh_count[p];
     count[k] = c;

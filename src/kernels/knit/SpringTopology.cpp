@@ -102,17 +102,15 @@ typename SpringTopology<T>::Mesh SpringTopology<T>::mesh_rows(exec::Backend b,
 
 template <typename T>
 void SpringTopology<T>::localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
-                                 const std::uint32_t* local_of_id, std::size_t owned,
-                                 std::size_t n) {
+                                 const std::uint32_t* local_of_id, std::size_t owned) {
   width_ = mesh.width; // before rows(): the CPU's rows are width_ apart
-  count_.resize(n);
-  entry_.resize(std::size_t(width_) * n);
-  exec::for_each(ex, n,
+  count_.resize(owned);
+  entry_.resize(std::size_t(width_) * owned);
+  exec::for_each(ex, owned,
                  LocalRowGather<SpringEntry<T>, OtherEndLocal<T>>{mesh.count.data(),
                                                                   mesh.entry.data(),
                                                                   mesh.rows(),
                                                                   id,
-                                                                  owned,
                                                                   rows(),
                                                                   count_.data(),
                                                                   entry_.data(),

@@ -80,13 +80,16 @@ public:
   /// Builds the rows from a spring list over n_points points (each row in the list's order);
   /// rejects i == j and indices >= n.
   void build(const std::vector<Spring>& springs, std::size_t n_points);
-  /// On N ranks, from the whole mesh's rows (built over mesh indices = ids): rows for n local
-  /// points, the first `owned` of which take their mesh point's row (id[k]) whole, in its order,
-  /// the other ends mapped to local indices (local_of_id, by id; every partner of an owned point
-  /// present); the ghosts' rows are empty (no pass reads them). On the backend: a gather, where
-  /// filtering the mesh's spring list on the host cost 20-25 ms a choice of ghosts.
+  /// On N ranks, from the whole mesh's rows (built over mesh indices = ids): rows for the first
+  /// `owned` local points, each its mesh point's row (id[k]) whole, in its order, the other ends
+  /// mapped to local indices (local_of_id, by id; every partner of an owned point present). The
+  /// ghosts after them have no rows (no pass reads them: the table is the owned points' only). On
+  /// the backend: a gather, where filtering the mesh's spring list on the host cost 20-25 ms a
+  /// choice of ghosts.
   void localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
-                const std::uint32_t* local_of_id, std::size_t owned, std::size_t n);
+                const std::uint32_t* local_of_id, std::size_t owned);
+  /// The points with rows (all of them; on N ranks the owned ones).
+  std::size_t points() const { return count_.size(); }
   SpringView<T> view() const;
   /// The springs built from (localized: the mesh's).
   std::size_t springs() const { return springs_; }

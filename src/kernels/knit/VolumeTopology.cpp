@@ -115,23 +115,21 @@ typename VolumeTopology<T>::Mesh VolumeTopology<T>::mesh_rows(exec::Backend b,
 
 template <typename T>
 void VolumeTopology<T>::localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
-                                 const std::uint32_t* local_of_id, std::size_t owned,
-                                 std::size_t n) {
+                                 const std::uint32_t* local_of_id, std::size_t owned) {
   cells_ = mesh.cells;
   width_ = mesh.width;
   if (rest_.size() != mesh.rest.size()) { // the mesh's constants, by mesh cell index
     rest_.assign(mesh.rest.data(), mesh.rest.size());
     k_.assign(mesh.k.data(), mesh.k.size());
   }
-  count_.resize(n);
-  cell_.resize(std::size_t(width_) * n);
+  count_.resize(owned);
+  cell_.resize(std::size_t(width_) * owned);
   point_.resize(mesh.point.size());
-  exec::for_each(ex, n,
+  exec::for_each(ex, owned,
                  LocalRowGather<std::uint32_t, SameEntry>{mesh.count.data(),
                                                           mesh.cell.data(),
                                                           mesh.rows(),
                                                           id,
-                                                          owned,
                                                           rows(),
                                                           count_.data(),
                                                           cell_.data(),

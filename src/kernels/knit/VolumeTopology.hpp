@@ -85,11 +85,13 @@ public:
 
   explicit VolumeTopology(exec::Backend b);
   void build(const std::vector<VolumeCell>& cells, std::size_t n_points);
-  /// On N ranks, as SpringTopology::localize: the first `owned` of n local points take their
-  /// mesh point's cells (mesh cell indices, in the mesh's order), the ghosts none; every mesh
+  /// On N ranks, as SpringTopology::localize: the first `owned` local points take their mesh
+  /// point's cells (mesh cell indices, in the mesh's order), the ghosts have no rows; every mesh
   /// cell's points are mapped to local indices (absent ones are in no owned point's cell).
   void localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
-                const std::uint32_t* local_of_id, std::size_t owned, std::size_t n);
+                const std::uint32_t* local_of_id, std::size_t owned);
+  /// The points with rows (all of them; on N ranks the owned ones).
+  std::size_t points() const { return count_.size(); }
   VolumeView<T> view() const;
   std::size_t cells() const { return cells_; }
   std::size_t bytes() const;
