@@ -180,8 +180,15 @@ void KnitHalo<T>::rebuild() {
   }
   width_ = width;
   built_ = true;
-  if (knit_.self_collision())
+  if (auto* self = knit_.self_contact()) {
+    // Its grid over this rank's region and the ghosts' reach, not the room (a point that
+    // strays past it until the next choice clamps to an edge cell: still exact).
+    const GridGeometry<T>& w = self->whole_grid();
+    const auto [lo, hi] = d.window(ranks_.rank(), vec_cast<double>(w.origin), double(w.cell),
+                                   {w.nx, w.ny, w.nz}, width + skin_);
+    self->fit_window(lo, hi);
     knit_.restore_self_contact(self_ref_.state(set.size()));
+  }
   if (coupling_) {
     coupling_->restore(knit_.exec(), set, coupling_ref_.state(set.size()));
     coupling_->set_active(owned_);

@@ -32,6 +32,7 @@
 #include <mpi.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <map>
 #include <numeric>
@@ -269,6 +270,20 @@ TEST(DistributedKnit, GhostsAreThePointsWithinTheWidthAndEveryPartner) {
           EXPECT_TRUE(here.count(b)) << "cell partner " << b << " of owned point " << a;
       }
   EXPECT_GT(remote, 0u) << "no spring crosses ranks: the check saw nothing";
+  // The self-contact's grid covers this rank's region and its ghosts, not the room: fewer
+  // cells, every point here inside it (none clamped to an edge cell: the lists stay the
+  // one-rank run's).
+  const auto* self = knit.self_contact();
+  ASSERT_NE(self, nullptr) << "the folding strip collides with itself";
+  const auto& g = self->grid();
+  EXPECT_LT(g.cells(), self->whole_grid().cells());
+  for (std::size_t k = 0; k < n; ++k) {
+    const int c[3] = {int(std::floor((x[k].x - g.origin.x) * g.inv_cell)) - g.ox,
+                      int(std::floor((x[k].y - g.origin.y) * g.inv_cell)) - g.oy,
+                      int(std::floor((x[k].z - g.origin.z) * g.inv_cell)) - g.oz};
+    EXPECT_TRUE(c[0] >= 0 && c[0] < g.nx && c[1] >= 0 && c[1] < g.ny && c[2] >= 0 && c[2] < g.nz)
+        << "point " << id[k] << " outside the grid's window";
+  }
   if (mpi.root())
     std::printf("rank 0: %zu owned knit points, %zu ghosts within %.4f m; %zu spring ends, %zu "
                 "of them on another rank\n",

@@ -6,9 +6,9 @@ namespace kf {
 template <typename T>
 KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
                                     const SelfContactParams<T>& params, std::uint32_t list_capacity)
-    : params_(params), grid_(b, geo), x_(b, 0, "knit.self.x"), v_(b, 0, "knit.self.v"),
-      rest_(b, 0, "knit.self.rest"), m_(b, 0, "knit.self.m"), piece_(b, 0, "knit.self.piece"),
-      id_(b, 0, "knit.self.id"),
+    : params_(params), whole_(geo), grid_(std::in_place, b, geo), x_(b, 0, "knit.self.x"),
+      v_(b, 0, "knit.self.v"), rest_(b, 0, "knit.self.rest"), m_(b, 0, "knit.self.m"),
+      piece_(b, 0, "knit.self.piece"), id_(b, 0, "knit.self.id"),
       watch_(b, (geo.cell - T(2) * params.radius) / T(2), "knit.self.moved"), list_(b),
       cell_(geo.cell), list_capacity_(list_capacity) {
   if (!(geo.cell > T(2) * params.radius))
@@ -18,10 +18,17 @@ KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
 }
 
 template <typename T>
+void KnitSelfContact<T>::fit_window(std::array<int, 3> lo, std::array<int, 3> hi) {
+  const GridGeometry<T> geo = NeighbourGrid<T>::within(whole_, lo, hi);
+  if (!geo.same_cells(grid_->geometry()))
+    grid_.emplace(x_.backend(), geo);
+}
+
+template <typename T>
 void KnitSelfContact<T>::sort(const exec::Exec& ex, KnitSet<T>& set,
                               const exec::DeviceBuffer<Vec3<T>>& at) {
   const std::size_t n = set.size();
-  grid_.build(ex, at.data(), n, ties_by_id_ ? set.id.data() : nullptr);
+  grid_->build(ex, at.data(), n, ties_by_id_ ? set.id.data() : nullptr);
   const auto& perm = this->perm();
   ++sorts_;
   x_.resize(n);
@@ -38,7 +45,7 @@ void KnitSelfContact<T>::sort(const exec::Exec& ex, KnitSet<T>& set,
   exec::gather(ex, perm, at, x_, "knit.self.gather");
   exec::gather(ex, perm, set.v, v_, "knit.self.gather");
   list_.build_for(
-      ex, at.data(), nullptr, n, x_.data(), grid_.view(), cell_ * cell_, list_capacity_,
+      ex, at.data(), nullptr, n, x_.data(), grid_->view(), cell_ * cell_, list_capacity_,
       SelfPairAllowed<T>{set.piece.data(), set.x_rest.data(), sorted(), params_.exclusion2});
 }
 
@@ -122,7 +129,7 @@ SelfContactEvaluator<T> KnitSelfContact<T>::evaluator(KnitSet<T>& set) const {
           set.x_rest.data(),
           set.piece.data(),
           sorted(),
-          grid_.view(),
+          grid_->view(),
           params_,
           list_.view(),
           watch_.moved2(),
@@ -141,13 +148,13 @@ SelfContactStats KnitSelfContact<T>::stats(const exec::Exec& ex, KnitSet<T>& set
   return exec::transform_reduce(
       ex, active(set), SelfContactStats{}, SelfContactStatsOp{},
       SelfContactStatsEvaluator<T>{set.x.data(), set.x_rest.data(), set.piece.data(), set.id.data(),
-                                   sorted(), id_.data(), grid_.view(), params_},
+                                   sorted(), id_.data(), grid_->view(), params_},
       "knit.self_contact_stats");
 }
 
 template <typename T>
 std::size_t KnitSelfContact<T>::bytes() const {
-  return grid_.bytes() + list_.bytes() + x_.capacity_bytes() + v_.capacity_bytes() +
+  return grid_->bytes() + list_.bytes() + x_.capacity_bytes() + v_.capacity_bytes() +
          rest_.capacity_bytes() + m_.capacity_bytes() + piece_.capacity_bytes() +
          id_.capacity_bytes() + watch_.bytes();
 }

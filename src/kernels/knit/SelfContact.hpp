@@ -6,6 +6,9 @@
 #include "kernels/knit/SelfContact_K.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
+#include <array>
+#include <optional>
+
 namespace kf {
 
 template <typename T>
@@ -48,6 +51,14 @@ public:
     watch_.set_job_max(std::move(job_max));
   }
   void set_active(std::size_t active) { active_ = active; }
+  /// On N ranks: the grid over the cells lo .. hi of the whole grid (NeighbourGrid::within), a
+  /// rank's region and its ghosts' reach, where the whole room's cells cost every rank its
+  /// tables; the next sort (restore) sorts into it. A point inside keeps the cell it has on the
+  /// whole grid, so the lists are the one-rank run's; one outside clamps to an edge cell.
+  void fit_window(std::array<int, 3> lo, std::array<int, 3> hi);
+  /// The grid over the whole room this one was made with (its cells are the window's).
+  const GridGeometry<T>& whole_grid() const { return whole_; }
+  const GridGeometry<T>& grid() const { return grid_->geometry(); }
   /// Grid sorts so far (for the benchmark and the tests).
   std::uint64_t sorts() const { return sorts_; }
   /// Readings that found device-watched substeps past the skin (they summed over all pairs).
@@ -77,10 +88,11 @@ public:
 private:
   SortedKnitView<T> sorted() const;
   /// Sorted slot -> set index.
-  const exec::DeviceBuffer<std::uint32_t>& perm() const { return grid_.permutation(); }
+  const exec::DeviceBuffer<std::uint32_t>& perm() const { return grid_->permutation(); }
   std::size_t active(const KnitSet<T>& set) const { return std::min(active_, set.size()); }
   SelfContactParams<T> params_;
-  NeighbourGrid<T> grid_;
+  GridGeometry<T> whole_;
+  std::optional<NeighbourGrid<T>> grid_;
   exec::DeviceBuffer<Vec3<T>> x_, v_, rest_;
   exec::DeviceBuffer<T> m_;
   exec::DeviceBuffer<std::uint16_t> piece_;
