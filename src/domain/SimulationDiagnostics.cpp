@@ -1,4 +1,5 @@
 // SimulationT<T>'s diagnostics (reduced over ranks once per output) and memory use.
+#include "comm/JobFigures.hpp"
 #include "domain/SimulationT.hpp"
 
 namespace kf {
@@ -17,6 +18,9 @@ Diagnostics SimulationT<T>::diagnostics() const {
   }
   if (boundary_on_)
     d.boundary = boundary_->size();
+  // Each rank's figures over its own particles and points (on N ranks the ghosts are their
+  // owners'), the job's made from them at the end.
+  double density_error_sum = 0, saturation_sum = 0;
   if (knit_on_) {
     auto& k = const_cast<KnitSystem<T>&>(*knit_);
     KnitEnergy e;
@@ -39,107 +43,99 @@ Diagnostics SimulationT<T>::diagnostics() const {
       d.absorbed_mass = cs.absorbed_mass;
       d.max_saturation = cs.max_saturation;
       d.mean_saturation = cs.mean_saturation;
+      saturation_sum = cs.mean_saturation * double(k.owned());
       d.wet_points = cs.wet_points;
-      if (ranks_) { // the job's (each rank's over its own knit points)
-        const comm::MpiContext& mpi = ranks_->mpi();
-        const double n = double(k.owned()), all = double(mpi.sum(std::uint64_t(k.owned())));
-        d.coupling_contacts = mpi.sum(std::uint64_t(d.coupling_contacts));
-        d.coupling_energy = mpi.sum(d.coupling_energy);
-        d.absorbed_mass = mpi.sum(d.absorbed_mass);
-        d.max_saturation = mpi.max(d.max_saturation);
-        d.mean_saturation = all > 0 ? mpi.sum(d.mean_saturation * n) / all : 0.0;
-        d.wet_points = mpi.sum(std::uint64_t(d.wet_points));
-      }
       if (absorption_) {
         const AbsorptionStats& st = absorption_->stats();
         const auto a = absorption_->absorbed().to_host();
         d.absorbed_mass = 0;
-        for (std::size_t i = 0; i < k.owned(); ++i) // on N ranks the ghosts are their owners'
+        for (std::size_t i = 0; i < k.owned(); ++i)
           d.absorbed_mass += double(a[i]);
         d.absorbed_particles = st.absorbed_particles;
         d.emitted_particles = st.emitted_particles;
         d.diffused_mass = st.diffused_mass;
-        if (ranks_) { // the job's (each rank's over its own points and particles)
-          const comm::MpiContext& mpi = ranks_->mpi();
-          d.absorbed_mass = mpi.sum(d.absorbed_mass);
-          d.absorbed_particles = mpi.sum(std::uint64_t(d.absorbed_particles));
-          d.emitted_particles = mpi.sum(std::uint64_t(d.emitted_particles));
-          d.diffused_mass = mpi.sum(d.diffused_mass);
-        }
       }
     }
     d.knit_min_rigid_distance = solids_.empty()
                                     ? std::numeric_limits<double>::infinity()
                                     : k.min_rigid_distance(shapes_.data(), shapes_.size());
-    if (ranks_) { // the job's: each rank holds its own points between steps
-      const comm::MpiContext& mpi = ranks_->mpi();
-      d.knit = mpi.sum(std::uint64_t(d.knit));
-      d.knit_kinetic_energy = mpi.sum(d.knit_kinetic_energy);
-      d.knit_elastic_energy = mpi.sum(d.knit_elastic_energy);
-      d.knit_potential_energy = mpi.sum(d.knit_potential_energy);
-      d.knit_contacts = mpi.sum(std::uint64_t(d.knit_contacts));
-      d.knit_self_contacts = mpi.sum(std::uint64_t(d.knit_self_contacts));
-      d.knit_self_energy = mpi.sum(d.knit_self_energy);
-      d.knit_self_min_gap = mpi.min(d.knit_self_min_gap);
-      d.knit_min_rigid_distance = mpi.min(d.knit_min_rigid_distance);
-      if (!fluid_on_) {
-        d.imbalance = ranks_->last_imbalance();
-        d.repartitions = ranks_->repartitions();
-        d.declined_repartitions = ranks_->declined_repartitions();
-        d.balanced_declines = ranks_->balanced_declines();
-        d.counted_imbalance = ranks_->last_counted_imbalance();
-        d.declined_counted = ranks_->declined_counted_imbalance();
-        d.repartition_seconds = ranks_->last_repartition_seconds();
-        d.partition_seconds = ranks_->last_partition_seconds();
+  }
+  if (fluid_on_) {
+    if (boundary_on_ && ranks_) {
+      const auto& own = ranks_->boundary_owned();
+      d.boundary = std::count(own.begin(), own.end(), 1);
+    }
+    d.outflow_particles = outflow_particles_;
+    d.outflow_mass = outflow_mass();
+    const auto v = fluid_->v.to_host();
+    const auto m = fluid_->m.to_host();
+    const auto rho = fluid_->rho.to_host();
+    const auto own = fluid_owned_rows(); // on N ranks with the knit coupled, ghosts follow
+    d.fluid = std::count(own.begin(), own.end(), 1);
+    const double rho0 = scene_.fluid.rest_density;
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      if (!own[i])
+        continue;
+      const double v2 = norm2(vec_cast<double>(v[i]));
+      d.kinetic_energy += 0.5 * m[i] * v2;
+      d.fluid_mass += m[i];
+      d.max_speed = std::max(d.max_speed, std::sqrt(v2));
+      const double e = (rho[i] - rho0) / rho0;
+      d.max_density_error = std::max(d.max_density_error, e);
+      density_error_sum += e;
+    }
+    if (ranks_ && d.fluid == 0) // a rank without fluid has no say in the most
+      d.max_density_error = -1e300;
+    d.min_rigid_distance =
+        solids_.empty()
+            ? std::numeric_limits<double>::infinity()
+            : static_cast<double>(min_rigid_distance(ex_, fluid_->x.data(), fluid_->size(),
+                                                     shapes_.data(), shapes_.size()));
+  }
+  if (ranks_) {
+    // The job's: one collective an operation (comm::JobFigures), every rank naming the same.
+    comm::JobFigures job;
+    std::uint64_t knit_points = d.knit;
+    if (knit_on_) {
+      job.sum(knit_points);
+      for (double* f : {&d.knit_kinetic_energy, &d.knit_elastic_energy, &d.knit_potential_energy,
+                        &d.knit_self_energy})
+        job.sum(*f);
+      job.sum(d.knit_contacts);
+      job.sum(d.knit_self_contacts);
+      job.min(d.knit_self_min_gap);
+      job.min(d.knit_min_rigid_distance);
+      if (coupling_) {
+        job.sum(d.coupling_contacts);
+        job.sum(d.coupling_energy);
+        job.sum(d.absorbed_mass);
+        job.max(d.max_saturation);
+        job.sum(saturation_sum);
+        job.sum(d.wet_points);
+        if (absorption_) {
+          job.sum(d.absorbed_particles);
+          job.sum(d.emitted_particles);
+          job.sum(d.diffused_mass);
+        }
       }
     }
-  }
-  if (!fluid_on_)
-    return d;
-  d.outflow_particles = outflow_particles_;
-  d.outflow_mass = outflow_mass();
-  const auto v = fluid_->v.to_host();
-  const auto m = fluid_->m.to_host();
-  const auto rho = fluid_->rho.to_host();
-  const auto own = fluid_owned_rows(); // on N ranks with the knit coupled, ghosts follow
-  d.fluid = std::count(own.begin(), own.end(), 1);
-  const double rho0 = scene_.fluid.rest_density;
-  double sum_err = 0;
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    if (!own[i])
-      continue;
-    const double v2 = norm2(vec_cast<double>(v[i]));
-    d.kinetic_energy += 0.5 * m[i] * v2;
-    d.fluid_mass += m[i];
-    d.max_speed = std::max(d.max_speed, std::sqrt(v2));
-    const double e = (rho[i] - rho0) / rho0;
-    d.max_density_error = std::max(d.max_density_error, e);
-    sum_err += e;
-  }
-  if (d.fluid)
-    d.mean_density_error = sum_err / d.fluid;
-  d.min_rigid_distance =
-      solids_.empty() ? std::numeric_limits<double>::infinity()
-                      : static_cast<double>(min_rigid_distance(
-                            ex_, fluid_->x.data(), fluid_->size(), shapes_.data(), shapes_.size()));
-  if (ranks_) { // the job's figures: each rank holds its owned fluid between steps
-    const comm::MpiContext& mpi = ranks_->mpi();
-    if (boundary_on_) {
-      const auto& own = ranks_->boundary_owned();
-      d.boundary = mpi.sum(std::uint64_t(std::count(own.begin(), own.end(), 1)));
+    if (fluid_on_) {
+      std::uint64_t* counts[] = {&d.fluid, &d.boundary};
+      for (std::uint64_t* c : counts)
+        job.sum(*c);
+      for (double* f : {&d.kinetic_energy, &d.fluid_mass, &density_error_sum, &d.outflow_mass})
+        job.sum(*f);
+      job.max(d.max_speed);
+      job.max(d.max_density_error);
+      job.min(d.min_rigid_distance);
+      job.sum(d.guard_corrections);
+      job.sum(d.sheet_corrections);
+      job.sum(d.outflow_particles);
     }
-    const std::uint64_t local = d.fluid;
-    d.fluid = mpi.sum(local);
-    d.kinetic_energy = mpi.sum(d.kinetic_energy);
-    d.fluid_mass = mpi.sum(d.fluid_mass);
-    d.max_speed = mpi.max(d.max_speed);
-    d.max_density_error = mpi.max(local == 0 ? -1e300 : d.max_density_error);
-    d.mean_density_error = d.fluid ? mpi.sum(sum_err) / double(d.fluid) : 0.0;
-    d.min_rigid_distance = mpi.min(d.min_rigid_distance);
-    d.guard_corrections = mpi.sum(d.guard_corrections);
-    d.sheet_corrections = mpi.sum(d.sheet_corrections);
-    d.outflow_particles = mpi.sum(d.outflow_particles);
-    d.outflow_mass = mpi.sum(d.outflow_mass);
+    job.reduce(ranks_->mpi());
+    d.knit = knit_points;
+    if (coupling_)
+      d.mean_saturation = knit_points > 0 ? saturation_sum / double(knit_points) : 0.0;
     d.imbalance = ranks_->last_imbalance();
     d.repartitions = ranks_->repartitions();
     d.declined_repartitions = ranks_->declined_repartitions();
@@ -149,6 +145,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.repartition_seconds = ranks_->last_repartition_seconds();
     d.partition_seconds = ranks_->last_partition_seconds();
   }
+  if (fluid_on_ && d.fluid)
+    d.mean_density_error = density_error_sum / double(d.fluid);
   return d;
 }
 

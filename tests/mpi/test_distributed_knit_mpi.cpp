@@ -25,6 +25,7 @@
 #include "support/MpiGather.hpp"
 #include "support/PlanSplit.hpp"
 #include "support/RestartCases.hpp"
+#include "support/RowsById.hpp"
 #include "support/StartPeaks.hpp"
 #include "support/TestPaths.hpp"
 
@@ -43,43 +44,10 @@ using namespace kf;
 namespace {
 
 /// The knit's owned points of a frame, gathered from every rank when split, in id order.
-struct KnitRows {
-  std::vector<std::uint64_t> id;
-  std::map<std::string, std::vector<unsigned char>> bytes;
-  std::set<std::uint32_t> ranks; // ranks holding points
-};
-
+using KnitRows = test::RowsById;
 KnitRows knit_rows(const io::Frame& fr, bool gather, const char* phase = "knit") {
-  const io::Phase& f = *fr.find(phase);
-  const bool fluid = std::string(phase) == "fluid";
-  auto bytes_of = [&](const std::string& name) {
-    const auto& b = f.find(name)->bytes;
-    return gather ? test::allgather(b) : b;
-  };
-  const auto idb = bytes_of("id");
-  std::vector<std::uint64_t> id(idb.size() / 8);
-  std::memcpy(id.data(), idb.data(), idb.size());
-  std::vector<std::size_t> order(id.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](auto a, auto b) { return id[a] < id[b]; });
-  KnitRows r;
-  for (std::size_t k : order)
-    r.id.push_back(id[k]);
-  for (const char* name : {"position", "velocity", "mass", "density", "saturation"}) {
-    if (!f.find(name))
-      continue;
-    const auto b = bytes_of(name);
-    const std::size_t row = id.empty() ? 0 : b.size() / id.size();
-    auto& out = r.bytes[name];
-    out.resize(b.size());
-    for (std::size_t k = 0; k < order.size(); ++k)
-      std::memcpy(out.data() + k * row, b.data() + order[k] * row, row);
-  }
-  if (f.find("rank"))
-    for (std::uint32_t q : test::allgather(f.find("rank")->as<std::uint32_t>()))
-      r.ranks.insert(q);
-  (void)fluid;
-  return r;
+  return test::rows_by_id(fr, phase, gather,
+                          {"position", "velocity", "mass", "density", "saturation"});
 }
 
 void expect_same_rows(const KnitRows& a, const KnitRows& b, const std::string& what) {
