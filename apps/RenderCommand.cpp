@@ -345,10 +345,24 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
   // On a GPU the EGL device of this rank's CUDA device (as `run` chooses it); else llvmpipe.
   const int cuda_device = exec::cuda_available() ? exec::cuda_select_device(mpi.local_rank()) : -1;
   render::SnapshotRenderer renderer(style, cuda_device);
-  // The scene's camera, or one framing the first chosen frame; turned by `orbit` degrees a
-  // simulated second about the target's vertical.
-  render::Camera base =
-      named(path_of(chosen.front()), [&] { return renderer.frame_camera(first); });
+  // The scene's camera, or one framing the first and the last chosen frame (what spreads or
+  // falls stays in the picture); turned by `orbit` degrees a simulated second about the
+  // target's vertical.
+  std::optional<io::Frame> last;
+  if (chosen.size() > 1)
+    last = named(path_of(chosen.back()),
+                 [&] { return io::read_snapshot(MPI_COMM_SELF, path_of(chosen.back()).string()); });
+  std::optional<std::pair<glm::dvec3, glm::dvec3>> tank;
+  if (scene && scene->has(Module::Fluid)) {
+    const auto& w = scene->domain.walls; // x-, x+, y-, y+: walled in on every side
+    if (w[0] && w[1] && w[2] && w[3])
+      tank.emplace(glm::dvec3(scene->domain.min.x, scene->domain.min.y, scene->domain.min.z),
+                   glm::dvec3(scene->domain.max.x, scene->domain.max.y, scene->domain.max.z));
+  }
+  render::Camera base = named(path_of(chosen.front()), [&] {
+    return renderer.film_camera(first, last ? *last : first, tank);
+  });
+  last.reset();
   if (look.camera) {
     // Near and far bracket the framed box's sphere (centre: the framing's target, radius: half
     // its far - distance) as seen from the scene's eye: a near plane too close spends the depth

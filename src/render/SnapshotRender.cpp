@@ -278,6 +278,19 @@ Camera SnapshotRenderer::frame_camera(const io::Frame& frame) const {
   return Camera::framing(lo, hi, double(style_.width) / style_.height);
 }
 
+Camera SnapshotRenderer::film_camera(const io::Frame& first, const io::Frame& last,
+                                     const std::optional<std::pair<glm::dvec3, glm::dvec3>>& tank) {
+  stage_ = frame_box(first);
+  if (tank)
+    stage_.emplace(glm::min(stage_->first, tank->first), glm::max(stage_->second, tank->second));
+  try { // a last frame with nothing left to draw (the fluid gone through an open side) adds nothing
+    const auto [lo, hi] = frame_box(last);
+    stage_.emplace(glm::min(stage_->first, lo), glm::max(stage_->second, hi));
+  } catch (const Error&) {
+  }
+  return Camera::framing(stage_->first, stage_->second, double(style_.width) / style_.height);
+}
+
 namespace {
 
 /// A square at height z under the box, three times its largest extent a side, facing up.
@@ -669,8 +682,9 @@ void SnapshotRenderer::render(const io::Frame& frame, const Camera& camera, cons
   auto [lo, hi] = box_of(frame, at);
   SurfaceMesh floor;
   if (style_.floor) {
-    const double z = std::isnan(style_.floor_z) ? lo.z : style_.floor_z;
-    floor = floor_square(lo, hi, z);
+    const auto& [flo, fhi] = stage_ ? *stage_ : std::pair<glm::dvec3, glm::dvec3>{lo, hi};
+    const double z = std::isnan(style_.floor_z) ? flo.z : style_.floor_z;
+    floor = floor_square(flo, fhi, z);
     const glm::dvec3 l = glm::normalize(glm::dvec3(style_.lighting.toward_light));
     if (l.z > 1e-3) // the box's shadow on the floor is in the maps' box too
       for (int k = 0; k < 8; ++k) {

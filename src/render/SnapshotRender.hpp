@@ -120,6 +120,13 @@ public:
   std::pair<glm::dvec3, glm::dvec3> frame_box(const io::Frame& frame) const;
   /// The camera framing it.
   Camera frame_camera(const io::Frame& frame) const;
+  /// One camera for a film: framing the first and the last frame's boxes together (a dam
+  /// break's column and the tank it spreads over, a knit above a ball and draped on it), and
+  /// the floor laid under both from then on, where it followed each frame's box (and jumped).
+  /// `tank`, where given, too: the box a fluid is walled in on every side (it may run up a wall
+  /// and splash to the lid between the two frames).
+  Camera film_camera(const io::Frame& first, const io::Frame& last,
+                     const std::optional<std::pair<glm::dvec3, glm::dvec3>>& tank = {});
   /// In a sort-last frame each rank draws only its part's casters into the shadow maps; this
   /// makes them every rank's nearest (an allreduce of the minimum over the ranks drawing the
   /// frame) before they are looked up. Unset, a part's shadows come from its own casters only.
@@ -275,6 +282,7 @@ private:
   std::function<void(std::vector<float>&)> combine_shadows_;
   std::optional<double> fluid_r_, knit_r_, boundary_r_, yarn_r_;
   std::optional<WholeFluid> whole_fluid_;
+  std::optional<std::pair<glm::dvec3, glm::dvec3>> stage_; // the film's box, the floor's
   SurfaceOptions surface_options() const;
   std::size_t last_spheres_ = 0, last_triangles_ = 0;
   double last_surface_seconds_ = 0, last_yarn_seconds_ = 0;
