@@ -5,6 +5,7 @@
 #include "comm/MpiContext.hpp"
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace kf::comm {
