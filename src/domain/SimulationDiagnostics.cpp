@@ -95,9 +95,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
   if (ranks_) {
     // The job's: one collective an operation (comm::JobFigures), every rank naming the same.
     comm::JobFigures job;
-    std::uint64_t knit_points = d.knit;
     if (knit_on_) {
-      job.sum(knit_points);
+      job.sum(d.knit);
       for (double* f : {&d.knit_kinetic_energy, &d.knit_elastic_energy, &d.knit_potential_energy,
                         &d.knit_self_energy})
         job.sum(*f);
@@ -133,9 +132,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
       job.sum(d.outflow_particles);
     }
     job.reduce(ranks_->mpi());
-    d.knit = knit_points;
     if (coupling_)
-      d.mean_saturation = knit_points > 0 ? saturation_sum / double(knit_points) : 0.0;
+      d.mean_saturation = d.knit > 0 ? saturation_sum / double(d.knit) : 0.0;
     d.imbalance = ranks_->last_imbalance();
     d.repartitions = ranks_->repartitions();
     d.declined_repartitions = ranks_->declined_repartitions();

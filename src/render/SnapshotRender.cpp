@@ -247,6 +247,14 @@ std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::frame_box(const io::Frame& f
 
 std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::box_of(const io::Frame& frame,
                                                            const Placed& at) const {
+  const auto box = content_box(frame, at);
+  if (!box)
+    throw Error("render: the snapshot holds nothing to draw (no fluid, knit or obstacle)");
+  return *box;
+}
+
+std::optional<std::pair<glm::dvec3, glm::dvec3>>
+SnapshotRenderer::content_box(const io::Frame& frame, const Placed& at) const {
   glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-lo);
   auto grow = [&](const glm::dvec3& p) {
     lo = glm::min(lo, p);
@@ -269,8 +277,8 @@ std::pair<glm::dvec3, glm::dvec3> SnapshotRenderer::box_of(const io::Frame& fram
   for (const glm::vec3& v : at.solids.position) // (planes reach past the frame: not framed)
     grow(glm::dvec3(v));
   if (!(lo.x <= hi.x))
-    throw Error("render: the snapshot holds nothing to draw (no fluid, knit or obstacle)");
-  return {lo, hi};
+    return std::nullopt;
+  return std::pair{lo, hi};
 }
 
 Camera SnapshotRenderer::frame_camera(const io::Frame& frame) const {
@@ -283,11 +291,9 @@ Camera SnapshotRenderer::film_camera(const io::Frame& first, const io::Frame& la
   stage_ = frame_box(first);
   if (tank)
     stage_.emplace(glm::min(stage_->first, tank->first), glm::max(stage_->second, tank->second));
-  try { // a last frame with nothing left to draw (the fluid gone through an open side) adds nothing
-    const auto [lo, hi] = frame_box(last);
-    stage_.emplace(glm::min(stage_->first, lo), glm::max(stage_->second, hi));
-  } catch (const Error&) {
-  }
+  // A last frame with nothing left to draw (the fluid gone through an open side) adds nothing.
+  if (const auto box = content_box(last, placed(last.time)))
+    stage_.emplace(glm::min(stage_->first, box->first), glm::max(stage_->second, box->second));
   return Camera::framing(stage_->first, stage_->second, double(style_.width) / style_.height);
 }
 

@@ -227,6 +227,9 @@ private:
                    const Region* only) const;
   /// frame_box with the obstacles placed already.
   std::pair<glm::dvec3, glm::dvec3> box_of(const io::Frame& frame, const Placed& at) const;
+  /// The same, empty where the frame holds nothing to draw (box_of's error).
+  std::optional<std::pair<glm::dvec3, glm::dvec3>> content_box(const io::Frame& frame,
+                                                               const Placed& at) const;
   /// Everything uploaded, through `view`: the picture's pass (the floor, the water's reflection,
   /// planes one-sided) or a shadow map's (the casters).
   void draw_scene(const ViewMatrices& view, const Lighting& light, bool picture);
