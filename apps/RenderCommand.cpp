@@ -150,6 +150,17 @@ void obstacle_meshes(const std::optional<Scene>& scene, render::SurfaceMesh& sol
     }
 }
 
+/// The tank: the domain's walls that hold the fluid, but the floor's (drawn as the floor) and
+/// a lid's (from above it would turn its back to the camera anyway).
+render::SurfaceMesh tank_walls(const std::optional<Scene>& scene) {
+  if (!scene || !scene->render.tank || !scene->has(Module::Fluid))
+    return {};
+  std::array<bool, 6> sides = scene->domain.walls;
+  sides[4] = sides[4] && !scene->render.floor;
+  sides[5] = false;
+  return render::box_inside(dvec(scene->domain.min), dvec(scene->domain.max), sides);
+}
+
 glm::vec3 vec(const Vec3d& v) {
   return {float(v.x), float(v.y), float(v.z)};
 }
@@ -341,6 +352,7 @@ int render_run(const RenderArgs& a, const comm::MpiContext& mpi, std::ostream& l
   if (scene)
     style.floor_z = scene->domain.min.z;
   obstacle_meshes(scene, style.solids, style.planes, style.solid_velocity, style.plane_velocity);
+  style.tank = tank_walls(scene);
   fs::create_directories(out); // after every check of the input: a refused call writes nothing
   // On a GPU the EGL device of this rank's CUDA device (as `run` chooses it); else llvmpipe.
   const int cuda_device = exec::cuda_available() ? exec::cuda_select_device(mpi.local_rank()) : -1;

@@ -52,6 +52,29 @@ TEST(SolidMeshes, APlaneFacesItsFluidAndTrianglesKeepTheirWinding) {
   EXPECT_THROW(render::triangle_mesh(v, {{0, 1, 4}}), Error);
 }
 
+TEST(SolidMeshes, ATanksWallsAreTheBoxsFacesAskedForWoundInward) {
+  // x-, y+ and z- of the box [0, 2] x [0, 1] x [0, 3]: areas 1 x 3, 2 x 3 and 2 x 1, each
+  // wound counter-clockwise seen from inside (its normal toward the box's centre).
+  const glm::dvec3 lo(0, 0, 0), hi(2, 1, 3), centre = 0.5 * (lo + hi);
+  const auto m = render::box_inside(lo, hi, {true, false, false, true, true, false});
+  EXPECT_EQ(m.triangles(), 6u);
+  EXPECT_NEAR(m.area(), 3.0 + 6.0 + 2.0, 1e-6);
+  for (std::size_t t = 0; t < m.index.size(); t += 3) {
+    const glm::dvec3 a(m.position[m.index[t]]), b(m.position[m.index[t + 1]]),
+        c(m.position[m.index[t + 2]]);
+    const glm::dvec3 w = glm::cross(b - a, c - a);
+    EXPECT_GT(glm::dot(w, centre - (a + b + c) / 3.0), 0) << "triangle " << t / 3;
+    EXPECT_GT(glm::dot(w, glm::dvec3(m.normal[m.index[t]])), 0) << "triangle " << t / 3;
+    // On the face it belongs to: x = 0, y = 1 or z = 0 throughout.
+    const bool on_x = a.x == 0 && b.x == 0 && c.x == 0, on_y = a.y == 1 && b.y == 1 && c.y == 1,
+               on_z = a.z == 0 && b.z == 0 && c.z == 0;
+    EXPECT_TRUE(on_x || on_y || on_z) << "triangle " << t / 3;
+  }
+  // All six inside are the box's own faces turned round: the same area.
+  EXPECT_NEAR(render::box_inside(lo, hi, {true, true, true, true, true, true}).area(),
+              render::box_mesh(lo, hi).area(), 1e-6);
+}
+
 TEST(RenderSolids, ABoxsTopTakesTheLightAndAPlaneShowsOnlyItsFront) {
   render::SnapshotStyle s;
   s.width = 200;
@@ -86,6 +109,59 @@ TEST(RenderSolids, ABoxsTopTakesTheLightAndAPlaneShowsOnlyItsFront) {
       EXPECT_EQ(img.pixels[centre], 255) << "the plane's back is drawn";
     }
   }
+}
+
+TEST(RenderSolids, ATanksNearWallsHideNothingAndItsWallsCastNoShadow) {
+  // A tank [-0.5, 0.5]^2 x [0, 1] on the floor, its four sides drawn from inside, a ball in it.
+  render::SnapshotStyle s;
+  s.width = 160;
+  s.height = 160;
+  s.shadows = true;
+  s.floor = true;
+  s.floor_z = 0;
+  s.lighting.specular = 0;
+  s.obstacles = {{glm::vec4(0.0f, 0.0f, 0.3f, 0.1f), glm::vec4(0.9f, 0.1f, 0.1f, 1.0f)}};
+  const auto walls = render::box_inside({-0.5, -0.5, 0}, {0.5, 0.5, 1}, {1, 1, 1, 1, 0, 0});
+  auto picture = [&s](const render::SurfaceMesh& tank, const render::SurfaceMesh& planes,
+                      const render::Camera& cam) {
+    s.tank = tank;
+    s.planes = planes;
+    render::SnapshotRenderer r(s);
+    return r.draw(io::Frame{}, cam).pixels;
+  };
+  auto at = [&s](int x, int y) { return std::size_t(4) * (std::size_t(y) * s.width + x); };
+  // From the front: the near wall (y-) turns its back and is not drawn, so the ball shows as it
+  // does without the tank; above it the far wall (y+) stands where the sky was.
+  render::Camera front;
+  front.eye = {0, -3, 0.3};
+  front.target = {0, 0, 0.3};
+  front.up = {0, 0, 1};
+  front.near = 0.1;
+  front.far = 10;
+  const auto open = picture({}, {}, front), tank = picture(walls, {}, front);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_EQ(tank[at(80, 80) + c], open[at(80, 80) + c]) << "the ball, channel " << c;
+  EXPECT_GT(open[at(80, 80)], 2 * open[at(80, 80) + 1]) << "the ball is red";
+  EXPECT_EQ(open[at(80, 30)], 255) << "the sky above the ball";
+  EXPECT_LT(tank[at(80, 30)], 240) << "the far wall above the ball";
+  // From above, the light low over the near wall (y-): the walls cast no shadow, so the floor
+  // inside is lit as without them; the same walls as planes (casters) would shade it.
+  s.lighting.toward_light = {0.0f, -1.0f, 1.2f};
+  // (Pebbles in opposite corners, one up at the walls' top: the floor and the shadow maps
+  // cover the frame's box.)
+  s.obstacles = {{glm::vec4(0.45f, 0.45f, 0.98f, 0.02f), glm::vec4(1.0f)},
+                 {glm::vec4(-0.45f, -0.45f, 0.02f, 0.02f), glm::vec4(1.0f)}};
+  render::Camera top;
+  top.eye = {0, 0, 3};
+  top.target = {0, 0, 0};
+  top.up = {0, 1, 0};
+  top.near = 0.1;
+  top.far = 10;
+  const auto open_top = picture({}, {}, top), tank_top = picture(walls, {}, top),
+             cast_top = picture({}, walls, top);
+  for (int c = 0; c < 3; ++c)
+    EXPECT_EQ(tank_top[at(80, 80) + c], open_top[at(80, 80) + c]) << "the floor, channel " << c;
+  EXPECT_LT(cast_top[at(80, 80)] + 20, open_top[at(80, 80)]) << "a caster's shadow (control)";
 }
 
 TEST(RenderSolids, AMovingObstacleStandsWhereItsVelocityTookItAtTheFramesTime) {

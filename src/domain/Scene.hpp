@@ -10,7 +10,9 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace kf {
@@ -305,8 +307,11 @@ struct Scene {
     // A piece of yarn under yarn_detail_pixels on screen: one quad, the lumislice seen whole,
     // short straight runs of segments merged; 0: every segment its yarn_slices.
     double yarn_detail_pixels = 12;
-    bool shadows = true;     // cascaded shadow maps of the light
-    bool floor = true;       // a floor at the domain's bottom, receiving the shadows
+    bool shadows = true; // cascaded shadow maps of the light
+    bool floor = true;   // a floor at the domain's bottom, receiving the shadows
+    // The domain's walls that hold the fluid (a tank's sides) drawn from inside: those between
+    // the camera and the fluid turn their backs to it and are not drawn.
+    bool tank = true;
     bool reflections = true; // the fluid's surface mirrors a sky (Fresnel)
     // ... and the scene around it: a cube map of that many texels a side (0: the sky alone)
     int environment_map = 256;
@@ -337,6 +342,9 @@ Scene load_scene(const std::string& path, const std::vector<std::string>& overri
 /// Same, from text; source_name stands in for the file name in messages.
 Scene parse_scene(const std::string& text, const std::string& source_name,
                   const std::vector<std::string>& overrides = {});
+
+/// Every key a [render] table may hold (scenes/pour.toml shows each).
+std::span<const std::string_view> render_table_keys();
 
 /// What a [solver] quality preset sets: the fluid's spacing scaled, and the settings it names
 /// (unset: the scene's). Chosen from P7's Pareto fronts (docs/VALIDATION.md, where each

@@ -685,39 +685,42 @@ void read_colour(const TableReader& t, std::string_view key, Vec3d& c) {
                  repr(*t.node(key)));
 }
 
+constexpr std::array<std::string_view, 33> kRenderKeys{"width",
+                                                       "height",
+                                                       "eye",
+                                                       "target",
+                                                       "fov",
+                                                       "orbit",
+                                                       "light",
+                                                       "ambient",
+                                                       "highlights",
+                                                       "background",
+                                                       "fluid_colour",
+                                                       "knit_colour",
+                                                       "wet_darkening",
+                                                       "fluid",
+                                                       "surface",
+                                                       "surface_cell",
+                                                       "boundary",
+                                                       "knit",
+                                                       "yarn_radius",
+                                                       "yarn_volume",
+                                                       "yarn_plies",
+                                                       "yarn_fuzz",
+                                                       "yarn_slices",
+                                                       "yarn_detail_pixels",
+                                                       "shadows",
+                                                       "floor",
+                                                       "tank",
+                                                       "reflections",
+                                                       "gpu_geometry",
+                                                       "refraction",
+                                                       "refractive_index",
+                                                       "absorption_depth",
+                                                       "environment_map"};
+
 void read_render(const TableReader& t, Scene::Render& r) {
-  t.allow_only({"width",
-                "height",
-                "eye",
-                "target",
-                "fov",
-                "orbit",
-                "light",
-                "ambient",
-                "highlights",
-                "background",
-                "fluid_colour",
-                "knit_colour",
-                "wet_darkening",
-                "fluid",
-                "surface",
-                "surface_cell",
-                "boundary",
-                "knit",
-                "yarn_radius",
-                "yarn_volume",
-                "yarn_plies",
-                "yarn_fuzz",
-                "yarn_slices",
-                "yarn_detail_pixels",
-                "shadows",
-                "floor",
-                "reflections",
-                "gpu_geometry",
-                "refraction",
-                "refractive_index",
-                "absorption_depth",
-                "environment_map"});
+  t.allow_only(kRenderKeys);
   r.width = read_count(t, "width", r.width, 16, 16384);
   r.height = read_count(t, "height", r.height, 16, 16384);
   const bool eye = t.read("eye", r.eye), target = t.read("target", r.target);
@@ -750,6 +753,7 @@ void read_render(const TableReader& t, Scene::Render& r) {
   t.read("yarn_detail_pixels", r.yarn_detail_pixels, Range::at_least(0));
   t.read("shadows", r.shadows);
   t.read("floor", r.floor);
+  t.read("tank", r.tank);
   t.read("reflections", r.reflections);
   t.read("gpu_geometry", r.gpu_geometry);
   t.read("refraction", r.refraction);
@@ -827,6 +831,10 @@ std::string text_with_overrides(std::string text, const std::vector<std::string>
 }
 
 } // namespace
+
+std::span<const std::string_view> render_table_keys() {
+  return kRenderKeys;
+}
 
 Scene parse_scene(const std::string& text, const std::string& source_name,
                   const std::vector<std::string>& overrides) {

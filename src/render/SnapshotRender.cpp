@@ -469,8 +469,10 @@ void SnapshotRenderer::draw_scene(const ViewMatrices& view, const Lighting& ligh
   solid_mesh_.draw(style_.obstacle_colour, view, light);
   // The floor receives shadows but casts none; a plane is seen from its front only (a shadow
   // caster from either side).
-  if (picture)
+  if (picture) {
     floor_mesh_.draw(style_.floor_colour, view, light);
+    tank_mesh_.draw(style_.floor_colour, view, light, {.one_sided = true});
+  }
   plane_mesh_.draw(style_.obstacle_colour, view, light, {.one_sided = picture});
 }
 
@@ -534,6 +536,7 @@ unsigned SnapshotRenderer::draw_environment(const io::Frame& frame, const Placed
     solid_mesh_.draw(style_.obstacle_colour, v, lighting);
     floor_mesh_.draw(style_.floor_colour, v, lighting);
     plane_mesh_.draw(style_.obstacle_colour, v, lighting, {.one_sided = true});
+    tank_mesh_.draw(style_.floor_colour, v, lighting, {.one_sided = true});
   });
   timer_.mark("environment");
   return environment_->texture();
@@ -707,6 +710,7 @@ void SnapshotRenderer::render(const io::Frame& frame, const Camera& camera, cons
   // whole by each rank (like the floor) so the composite keeps them.
   solid_mesh_.upload(at.solids);
   plane_mesh_.upload(at.planes);
+  tank_mesh_.upload(style_.tank);
   timer_.mark("uploads");
   Lighting lighting = style_.lighting;
   if (style_.shadows) {

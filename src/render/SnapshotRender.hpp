@@ -45,6 +45,10 @@ struct SnapshotStyle {
   // `obstacles` and a vertex of `solids` and of `planes` (empty: all still); a frame at time t
   // draws them moved by velocity t, as the run moved them.
   std::vector<glm::vec3> obstacle_velocity, solid_velocity, plane_velocity;
+  // The walls that hold the fluid, wound to face in (box_inside): seen from inside only, so
+  // those between the camera and the fluid are not drawn; in floor_colour, receiving shadows
+  // but casting none (the light's side of a tank would darken everything in it).
+  SurfaceMesh tank;
   glm::vec4 obstacle_colour{0.55f, 0.57f, 0.60f, 1.0f};
   Lighting lighting;
   // The fluid as its surface (marching cubes over the weighted field, FluidSurface) or, off, as
@@ -263,7 +267,7 @@ private:
   EglContext context_;
   OffscreenTarget target_;
   SphereRenderer spheres_;
-  MeshRenderer meshes_, yarn_meshes_, floor_mesh_, solid_mesh_, plane_mesh_;
+  MeshRenderer meshes_, yarn_meshes_, floor_mesh_, solid_mesh_, plane_mesh_, tank_mesh_;
   TubeRenderer tubes_;
   std::unique_ptr<VolumeYarns> volume_;
   bool sort_on_cuda_ = false;

@@ -23,19 +23,35 @@ void add_triangle(SurfaceMesh& m, const glm::dvec3& a, const glm::dvec3& b, cons
   m.index.insert(m.index.end(), {first, first + 1, first + 2});
 }
 
+/// The box's corner k: bit 0 x, bit 1 y, bit 2 z (hi where set).
+glm::dvec3 box_corner(const glm::dvec3& lo, const glm::dvec3& hi, int k) {
+  return {k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z};
+}
+
+// Each face's corners counter-clockwise seen from outside, in the order x-, x+, y-, y+, z-, z+.
+constexpr int kBoxFaces[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                                 {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+
 } // namespace
 
 SurfaceMesh box_mesh(const glm::dvec3& lo, const glm::dvec3& hi) {
   SurfaceMesh m;
-  auto corner = [&](int k) {
-    return glm::dvec3(k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z);
-  };
-  // Each face's corners counter-clockwise seen from outside.
-  const int faces[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4},
-                           {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
-  for (const auto& f : faces) {
-    add_triangle(m, corner(f[0]), corner(f[1]), corner(f[2]));
-    add_triangle(m, corner(f[0]), corner(f[2]), corner(f[3]));
+  for (const auto& f : kBoxFaces) {
+    add_triangle(m, box_corner(lo, hi, f[0]), box_corner(lo, hi, f[1]), box_corner(lo, hi, f[2]));
+    add_triangle(m, box_corner(lo, hi, f[0]), box_corner(lo, hi, f[2]), box_corner(lo, hi, f[3]));
+  }
+  return m;
+}
+
+SurfaceMesh box_inside(const glm::dvec3& lo, const glm::dvec3& hi,
+                       const std::array<bool, 6>& faces) {
+  SurfaceMesh m;
+  for (int f = 0; f < 6; ++f) {
+    if (!faces[f])
+      continue;
+    const auto& q = kBoxFaces[f]; // reversed: counter-clockwise from inside
+    add_triangle(m, box_corner(lo, hi, q[0]), box_corner(lo, hi, q[2]), box_corner(lo, hi, q[1]));
+    add_triangle(m, box_corner(lo, hi, q[0]), box_corner(lo, hi, q[3]), box_corner(lo, hi, q[2]));
   }
   return m;
 }

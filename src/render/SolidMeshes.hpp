@@ -14,6 +14,11 @@ namespace kf::render {
 
 /// The box [lo, hi]: 6 faces of 2 triangles, normals out.
 SurfaceMesh box_mesh(const glm::dvec3& lo, const glm::dvec3& hi);
+/// The faces of the box [lo, hi] marked in `faces` (x-, x+, y-, y+, z-, z+), seen from inside:
+/// normals in, counter-clockwise from inside. A tank's walls: drawn one-sided, those between
+/// the camera and the tank turn their backs to it and are not drawn, so the camera sees in.
+SurfaceMesh box_inside(const glm::dvec3& lo, const glm::dvec3& hi,
+                       const std::array<bool, 6>& faces);
 /// A square of half-side `half` in the plane through `point` with unit `normal` (its front),
 /// centred at the point of the plane nearest `centre`.
 SurfaceMesh plane_mesh(const glm::dvec3& point, const glm::dvec3& normal, const glm::dvec3& centre,
