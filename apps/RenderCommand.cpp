@@ -67,13 +67,16 @@ std::optional<Scene> run_scene(const io::Frame& f, const std::string& snapshot,
                        "--scene)");
     return std::nullopt;
   }
+  // Its files (OBJ meshes) where the run found them; an older snapshot's: beside it.
+  const std::string dir =
+      f.scene_dir.empty() ? fs::path(snapshot).parent_path().string() : f.scene_dir;
   try {
-    return parse_scene(f.scene_text, snapshot + " (its scene)", overrides);
+    return parse_scene(f.scene_text, snapshot + " (its scene)", overrides, dir);
   } catch (const SceneError& e) {
     if (!overrides.empty()) { // the scene reads without them: a --set is at fault, not the scene
       bool plain = true;
       try {
-        (void)parse_scene(f.scene_text, snapshot + " (its scene)");
+        (void)parse_scene(f.scene_text, snapshot + " (its scene)", {}, dir);
       } catch (const SceneError&) {
         plain = false;
       }
@@ -143,7 +146,7 @@ void obstacle_meshes(const std::optional<Scene>& scene, render::SurfaceMesh& sol
           std::abs(o.point.z - scene->domain.min.z) <= 1e-9 * (1 + reach))
         break;
       moving(planes, plane_velocity, o,
-             render::plane_mesh(dvec(o.point), dvec(o.normal), 0.5 * (lo + hi), reach));
+             render::plane_in_box(dvec(o.point), dvec(o.normal), lo, hi));
       break;
     case ObstacleShape::Sphere:
       break; // obstacle_spheres

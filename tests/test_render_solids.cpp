@@ -75,6 +75,31 @@ TEST(SolidMeshes, ATanksWallsAreTheBoxsFacesAskedForWoundInward) {
               render::box_mesh(lo, hi).area(), 1e-6);
 }
 
+TEST(SolidMeshes, APlaneIsDrawnWhereItCutsTheDomain) {
+  // Level with the box's faces: the face's area; through a cube's centre across its diagonal:
+  // the regular hexagon of side a / sqrt 2, area 3 sqrt(3) / 4 a^2; past the box: nothing.
+  const glm::dvec3 lo(0, 0, 0), hi(2, 1, 3);
+  const auto level = render::plane_in_box({5, 5, 0.3}, {0, 0, 1}, lo, hi);
+  EXPECT_NEAR(level.area(), 2.0, 1e-6);
+  expect_outward(level, {1, 0.5, 0});
+  const glm::dvec3 n = glm::normalize(glm::dvec3(1, 1, 1));
+  const auto hexagon = render::plane_in_box({0.5, 0.5, 0.5}, n, {0, 0, 0}, {1, 1, 1});
+  EXPECT_EQ(hexagon.triangles(), 4u);
+  EXPECT_NEAR(hexagon.area(), 3 * std::sqrt(3.0) / 4, 1e-6);
+  expect_outward(hexagon, glm::dvec3(0.5) - n);
+  EXPECT_EQ(render::plane_in_box({0, 0, 5}, {0, 0, 1}, lo, hi).triangles(), 0u);
+  // obstacles.toml's sloping floor: every corner on the plane and in the box.
+  const glm::dvec3 p(0, 0, 0.05), slope = glm::normalize(glm::dvec3(0.1, 0, 1));
+  const auto floor = render::plane_in_box(p, slope, {0, 0, 0}, {0.6, 0.4, 0.6});
+  EXPECT_EQ(floor.triangles(), 2u);
+  for (const glm::vec3& q : floor.position) {
+    EXPECT_NEAR(glm::dot(glm::dvec3(q) - p, slope), 0, 1e-6);
+    EXPECT_TRUE(q.x >= -1e-6f && q.x <= 0.6f + 1e-6f && q.y >= -1e-6f && q.y <= 0.4f + 1e-6f &&
+                q.z >= -1e-6f && q.z <= 0.6f + 1e-6f);
+  }
+  expect_outward(floor, p - slope);
+}
+
 TEST(RenderSolids, ABoxsTopTakesTheLightAndAPlaneShowsOnlyItsFront) {
   render::SnapshotStyle s;
   s.width = 200;

@@ -666,6 +666,27 @@ TEST(Scene, PourTomlShowsEveryRenderKeyAtItsDefault) {
   EXPECT_NE(parse_scene(wrong, path.string()).render.yarn_fuzz, a.yarn_fuzz);
 }
 
+TEST(Scene, ASnapshotsCopyFindsItsFilesWhereTheRunFoundThem) {
+  // A snapshot holds its run's scene text; rendered from the output folder, the OBJ it names
+  // (relative to the scene file) is found through the folder the run recorded, not beside the
+  // snapshot.
+  const std::filesystem::path dir = test::source_dir() / "scenes";
+  const Scene run = load_scene((dir / "mesh_obstacle.toml").string());
+  EXPECT_EQ(run.files_dir, std::filesystem::absolute(dir).lexically_normal().string());
+  const std::string as_copy = "/tmp/out/frame_000000.h5 (its scene)";
+  try {
+    (void)parse_scene(run.text, as_copy);
+    ADD_FAILURE() << "the OBJ was found beside the snapshot";
+  } catch (const SceneError& e) {
+    EXPECT_NE(std::string(e.what()).find("obstacle[0].file"), std::string::npos) << e.what();
+  }
+  const Scene copy = parse_scene(run.text, as_copy, {}, run.files_dir);
+  ASSERT_EQ(copy.obstacles.size(), run.obstacles.size());
+  EXPECT_EQ(std::filesystem::path(copy.obstacles[0].file),
+            std::filesystem::absolute(dir / "meshes" / "blob.obj").lexically_normal());
+  EXPECT_EQ(copy.files_dir, run.files_dir);
+}
+
 TEST(Scene, AColourChartNamesItsLettersColours) {
   const std::string head = "[simulation]\nend_time = 1\nmodules = [\"knit\"]\n"
                            "[domain]\nmin = [-1, -1, -1]\nmax = [1, 1, 1]\n"

@@ -27,6 +27,7 @@ Frame sample_frame(std::uint64_t index, double time) {
   f.step = 1000 * index + 7;
   f.precision = "float";
   f.scene_text = "[scene]\nname = \"pour & soak\" # <quoted>\n";
+  f.scene_dir = index % 2 ? "/runs/sc\u00e8nes/pour & soak" : ""; // (empty: an older snapshot's)
   f.scalars = {{"dt", 1.25e-4}, {"energy", -3.5}, {"nan_scalar", D::quiet_NaN()}};
   const std::vector<float> pos = {0.f,
                                   -0.f,
@@ -67,6 +68,7 @@ void expect_same(const Frame& a, const Frame& b) {
   EXPECT_EQ(a.index, b.index);
   EXPECT_EQ(a.precision, b.precision);
   EXPECT_EQ(a.scene_text, b.scene_text);
+  EXPECT_EQ(a.scene_dir, b.scene_dir);
   ASSERT_EQ(a.scalars.size(), b.scalars.size());
   for (std::size_t i = 0; i < a.scalars.size(); ++i) {
     EXPECT_EQ(a.scalars[i].first, b.scalars[i].first);

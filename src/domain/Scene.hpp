@@ -99,6 +99,8 @@ struct KnitPin {
 struct Scene {
   std::string path; // file it was read from ("<string>" for text)
   std::string text; // the scene text as read, followed by the --set overrides as comments
+  // The folder the files it names are relative to (its file's), absolute.
+  std::string files_dir;
 
   // [simulation]
   std::string name = "scene";
@@ -342,6 +344,10 @@ Scene load_scene(const std::string& path, const std::vector<std::string>& overri
 /// Same, from text; source_name stands in for the file name in messages.
 Scene parse_scene(const std::string& text, const std::string& source_name,
                   const std::vector<std::string>& overrides = {});
+/// Same, the files it names relative to files_dir (a snapshot's copy of a run's scene: the
+/// folder of the file the run read).
+Scene parse_scene(const std::string& text, const std::string& source_name,
+                  const std::vector<std::string>& overrides, const std::string& files_dir);
 
 /// Every key a [render] table may hold (scenes/pour.toml shows each).
 std::span<const std::string_view> render_table_keys();

@@ -838,13 +838,21 @@ std::span<const std::string_view> render_table_keys() {
 
 Scene parse_scene(const std::string& text, const std::string& source_name,
                   const std::vector<std::string>& overrides) {
+  // Files a scene names are relative to its directory; "<string>" has none: the working one.
+  return parse_scene(text, source_name, overrides,
+                     std::filesystem::path(source_name).parent_path().string());
+}
+
+Scene parse_scene(const std::string& text, const std::string& source_name,
+                  const std::vector<std::string>& overrides, const std::string& files_dir) {
   toml::table root = parse_toml(text, source_name);
   scene::apply_overrides(root, overrides);
-  // Files a scene names are relative to its directory; "<string>" has none: the working one.
-  Scene s = build_scene(TableReader(source_name, &root, ""),
-                        std::filesystem::path(source_name).parent_path());
+  Scene s = build_scene(TableReader(source_name, &root, ""), files_dir);
   s.path = source_name;
   s.text = text_with_overrides(text, overrides);
+  std::error_code ec;
+  const std::filesystem::path dir = std::filesystem::absolute(files_dir, ec);
+  s.files_dir = ec ? files_dir : dir.lexically_normal().string();
   return s;
 }
 

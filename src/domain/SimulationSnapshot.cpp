@@ -142,6 +142,7 @@ io::Frame SimulationT<T>::frame() const {
   fr.time = time_;
   fr.step = steps_;
   fr.scene_text = scene_.text;
+  fr.scene_dir = scene_.files_dir;
   fr.precision = std::string(to_string(scene_.precision));
   // On N ranks the counters are the job's (each rank counts its own particles).
   const auto job = [this](double v) { return ranks_ ? ranks_->mpi().sum(v) : v; };

@@ -37,8 +37,11 @@ struct Phase {
 struct Frame {
   double time = 0;
   std::uint64_t step = 0;
-  std::uint64_t index = 0;                             // frame number (file frame_%06d.h5)
-  std::string scene_text;                              // the scene the run used
+  std::uint64_t index = 0; // frame number (file frame_%06d.h5)
+  std::string scene_text;  // the scene the run used
+  // The folder its files (OBJ meshes) are named relative to: the scene file's, absolute; empty
+  // in snapshots written before it was recorded.
+  std::string scene_dir;
   std::string precision;                               // "float" | "double"
   std::vector<std::pair<std::string, double>> scalars; // extra attributes (dt, energy, ...)
   std::vector<Phase> phases;

@@ -110,8 +110,8 @@ void check_format_version(hid_t file, const std::string& path) {
 }
 
 const std::vector<std::string>& reserved_attributes() {
-  static const std::vector<std::string> names{"time",  "step",  "frame",           "precision",
-                                              "scene", "units", "knitflow_version"};
+  static const std::vector<std::string> names{
+      "time", "step", "frame", "precision", "scene", "units", "knitflow_version", "scene_dir"};
   return names;
 }
 

@@ -117,6 +117,8 @@ void read_header(hid_t file, const std::string& path, Frame& f) {
   f.index = h5::read_uint64(file, "frame", path);
   f.precision = h5::read_string(file, "precision", path);
   f.scene_text = h5::read_string(file, "scene", path);
+  if (H5Aexists(file, "scene_dir") > 0)
+    f.scene_dir = h5::read_string(file, "scene_dir", path);
   const auto& reserved = h5::reserved_attributes();
   for (const auto& name : attribute_names(file, path))
     if (std::find(reserved.begin(), reserved.end(), name) == reserved.end() &&

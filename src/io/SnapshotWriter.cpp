@@ -107,7 +107,7 @@ std::string bits_of(const T& v) {
 /// and the phase/field layout.
 std::uint64_t header_digest(const Frame& f) {
   std::string s = bits_of(f.time) + bits_of(f.step) + bits_of(f.index) + f.precision + '\0' +
-                  f.scene_text + '\0' + describe_layout(f);
+                  f.scene_text + '\0' + f.scene_dir + '\0' + describe_layout(f);
   for (const auto& [name, value] : f.scalars)
     s += name + '\0' + bits_of(value);
   std::uint64_t h = 14695981039346656037ull;
@@ -181,6 +181,8 @@ void write_header(hid_t file, const Frame& f, const std::string& path) {
   h5::write_attribute(file, "frame", f.index, path);
   h5::write_attribute(file, "precision", f.precision, path);
   h5::write_attribute(file, "scene", f.scene_text, path);
+  if (!f.scene_dir.empty())
+    h5::write_attribute(file, "scene_dir", f.scene_dir, path);
   h5::write_attribute(file, "units", std::string("SI"), path);
   h5::write_attribute(file, "knitflow_version", std::string(h5::kFormatVersion), path);
   for (const auto& [name, value] : f.scalars)

@@ -2,8 +2,10 @@
 
 #include "core/Error.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 namespace kf::render {
 
@@ -68,6 +70,43 @@ SurfaceMesh plane_mesh(const glm::dvec3& point, const glm::dvec3& normal, const 
                    d = c + half * u + half * v, e = c - half * u + half * v;
   add_triangle(m, a, b, d);
   add_triangle(m, a, d, e);
+  return m;
+}
+
+SurfaceMesh plane_in_box(const glm::dvec3& point, const glm::dvec3& normal, const glm::dvec3& lo,
+                         const glm::dvec3& hi) {
+  const glm::dvec3 n = glm::normalize(normal);
+  // Where the plane crosses each of the box's 12 edges (corners k and k | bit, bit not in k).
+  std::vector<glm::dvec3> cut;
+  for (int k = 0; k < 8; ++k)
+    for (int bit : {1, 2, 4}) {
+      if (k & bit)
+        continue;
+      const glm::dvec3 a = box_corner(lo, hi, k), b = box_corner(lo, hi, k | bit);
+      const double da = glm::dot(a - point, n), db = glm::dot(b - point, n);
+      if ((da < 0) == (db < 0) && da != 0 && db != 0)
+        continue;
+      if (da == db)
+        continue; // the edge lies in the plane: its ends are met by the other edges
+      cut.push_back(a + (b - a) * (da / (da - db)));
+    }
+  SurfaceMesh m;
+  if (cut.size() < 3)
+    return m;
+  glm::dvec3 c(0);
+  for (const glm::dvec3& p : cut)
+    c += p;
+  c /= double(cut.size());
+  const glm::dvec3 u = glm::normalize(
+      glm::cross(n, std::abs(n.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0)));
+  const glm::dvec3 v = glm::cross(n, u); // u then v counter-clockwise seen from the front
+  auto angle = [&](const glm::dvec3& p) {
+    return std::atan2(glm::dot(p - c, v), glm::dot(p - c, u));
+  };
+  std::sort(cut.begin(), cut.end(),
+            [&](const glm::dvec3& a, const glm::dvec3& b) { return angle(a) < angle(b); });
+  for (std::size_t k = 1; k + 1 < cut.size(); ++k) // a fan (a corner met twice adds nothing)
+    add_triangle(m, cut[0], cut[k], cut[k + 1]);
   return m;
 }
 

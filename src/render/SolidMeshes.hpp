@@ -23,6 +23,11 @@ SurfaceMesh box_inside(const glm::dvec3& lo, const glm::dvec3& hi,
 /// centred at the point of the plane nearest `centre`.
 SurfaceMesh plane_mesh(const glm::dvec3& point, const glm::dvec3& normal, const glm::dvec3& centre,
                        double half);
+/// The plane through `point` with unit `normal` (its front) where it cuts the box [lo, hi]: a
+/// convex polygon of 3 to 6 corners, wound counter-clockwise seen from its front; empty where
+/// the plane misses the box. A plane obstacle drawn within the domain (nothing lies outside it).
+SurfaceMesh plane_in_box(const glm::dvec3& point, const glm::dvec3& normal, const glm::dvec3& lo,
+                         const glm::dvec3& hi);
 /// A closed triangle mesh, a face normal a triangle (its vertices repeated per triangle).
 SurfaceMesh triangle_mesh(const std::vector<glm::dvec3>& vertices,
                           const std::vector<std::array<std::uint32_t, 3>>& triangles);
