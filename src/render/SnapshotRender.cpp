@@ -537,7 +537,7 @@ unsigned SnapshotRenderer::draw_environment(const io::Frame& frame, const Placed
     floor_mesh_.draw(style_.floor_colour, v, lighting);
     plane_mesh_.draw(style_.obstacle_colour, v, lighting, {.one_sided = true});
     // The tank unshadowed here: its walls reach past the shadow maps' box (the frame's
-    // content), where a part's maps and the whole frame's read differently.
+    // content), and shadowed they came out unlike the whole frame's in a sort-last part.
     Lighting unshadowed = lighting;
     unshadowed.shadows = nullptr;
     tank_mesh_.draw(style_.floor_colour, v, unshadowed, {.one_sided = true});
