@@ -536,11 +536,7 @@ unsigned SnapshotRenderer::draw_environment(const io::Frame& frame, const Placed
     solid_mesh_.draw(style_.obstacle_colour, v, lighting);
     floor_mesh_.draw(style_.floor_colour, v, lighting);
     plane_mesh_.draw(style_.obstacle_colour, v, lighting, {.one_sided = true});
-    // The tank unshadowed here: its walls reach past the shadow maps' box (the frame's
-    // content), and shadowed they came out unlike the whole frame's in a sort-last part.
-    Lighting unshadowed = lighting;
-    unshadowed.shadows = nullptr;
-    tank_mesh_.draw(style_.floor_colour, v, unshadowed, {.one_sided = true});
+    tank_mesh_.draw(style_.floor_colour, v, lighting, {.one_sided = true});
   });
   timer_.mark("environment");
   return environment_->texture();

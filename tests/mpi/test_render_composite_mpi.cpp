@@ -399,10 +399,7 @@ TEST(SortLast, TheCompositedLayersOfTranslucentWaterResolveToTheFrameDrawnWhole)
   // The water's front faces (their light, normals, depth) and back faces composited with the
   // opaque scene, layer by layer; the root's resolve refracts through the composite.
   expect_composite_is_whole(true, true, true, true);
-  // In a tank, which every rank draws whole and the water mirrors. (The dam break's pictures
-  // at t = 0.5 s on 2 ranks differed from one rank's in 47k of 922k pixels while the tank's
-  // walls were shadowed in the environment map; this frame did not show it: PERFORMANCE, "P6:
-  // the tank".)
+  // In a tank, which every rank draws whole and the water mirrors.
   SCOPED_TRACE("in a tank");
   expect_composite_is_whole(true, true, true, true, true);
 }
