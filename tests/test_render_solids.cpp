@@ -26,6 +26,17 @@ void expect_outward(const render::SurfaceMesh& m, const glm::dvec3& inside) {
   }
 }
 
+/// A camera at eye looking at target, depth from 0.1 to 10.
+render::Camera camera_at(const glm::dvec3& eye, const glm::dvec3& target, const glm::dvec3& up) {
+  render::Camera c;
+  c.eye = eye;
+  c.target = target;
+  c.up = up;
+  c.near = 0.1;
+  c.far = 10;
+  return c;
+}
+
 } // namespace
 
 TEST(SolidMeshes, ABoxIsItsSixFacesWoundOutward) {
@@ -157,12 +168,7 @@ TEST(RenderSolids, ATanksNearWallsHideNothingAndItsWallsCastNoShadow) {
   auto at = [&s](int x, int y) { return std::size_t(4) * (std::size_t(y) * s.width + x); };
   // From the front: the near wall (y-) turns its back and is not drawn, so the ball shows as it
   // does without the tank; above it the far wall (y+) stands where the sky was.
-  render::Camera front;
-  front.eye = {0, -3, 0.3};
-  front.target = {0, 0, 0.3};
-  front.up = {0, 0, 1};
-  front.near = 0.1;
-  front.far = 10;
+  const render::Camera front = camera_at({0, -3, 0.3}, {0, 0, 0.3}, {0, 0, 1});
   const auto open = picture({}, {}, front), tank = picture(walls, {}, front);
   for (int c = 0; c < 3; ++c)
     EXPECT_EQ(tank[at(80, 80) + c], open[at(80, 80) + c]) << "the ball, channel " << c;
@@ -176,12 +182,7 @@ TEST(RenderSolids, ATanksNearWallsHideNothingAndItsWallsCastNoShadow) {
   // cover the frame's box.)
   s.obstacles = {{glm::vec4(0.45f, 0.45f, 0.98f, 0.02f), glm::vec4(1.0f)},
                  {glm::vec4(-0.45f, -0.45f, 0.02f, 0.02f), glm::vec4(1.0f)}};
-  render::Camera top;
-  top.eye = {0, 0, 3};
-  top.target = {0, 0, 0};
-  top.up = {0, 1, 0};
-  top.near = 0.1;
-  top.far = 10;
+  const render::Camera top = camera_at({0, 0, 3}, {0, 0, 0}, {0, 1, 0});
   const auto open_top = picture({}, {}, top), tank_top = picture(walls, {}, top),
              cast_top = picture({}, walls, top);
   for (int c = 0; c < 3; ++c)

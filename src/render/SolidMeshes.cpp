@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace kf::render {
@@ -23,6 +24,13 @@ void add_triangle(SurfaceMesh& m, const glm::dvec3& a, const glm::dvec3& b, cons
     m.normal.emplace_back(n / len);
   }
   m.index.insert(m.index.end(), {first, first + 1, first + 2});
+}
+
+/// Unit u, v in the plane of unit normal n, u then v counter-clockwise seen from its front.
+std::pair<glm::dvec3, glm::dvec3> plane_basis(const glm::dvec3& n) {
+  const glm::dvec3 u = glm::normalize(
+      glm::cross(n, std::abs(n.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0)));
+  return {u, glm::cross(n, u)};
 }
 
 /// The box's corner k: bit 0 x, bit 1 y, bit 2 z (hi where set).
@@ -62,9 +70,7 @@ SurfaceMesh plane_mesh(const glm::dvec3& point, const glm::dvec3& normal, const 
                        double half) {
   const glm::dvec3 n = glm::normalize(normal);
   const glm::dvec3 c = centre - glm::dot(centre - point, n) * n;
-  const glm::dvec3 u = glm::normalize(
-      glm::cross(n, std::abs(n.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0)));
-  const glm::dvec3 v = glm::cross(n, u); // u, v, n right-handed: u then v is counter-clockwise
+  const auto [u, v] = plane_basis(n);
   SurfaceMesh m;
   const glm::dvec3 a = c - half * u - half * v, b = c + half * u - half * v,
                    d = c + half * u + half * v, e = c - half * u + half * v;
@@ -97,9 +103,7 @@ SurfaceMesh plane_in_box(const glm::dvec3& point, const glm::dvec3& normal, cons
   for (const glm::dvec3& p : cut)
     c += p;
   c /= double(cut.size());
-  const glm::dvec3 u = glm::normalize(
-      glm::cross(n, std::abs(n.z) < 0.9 ? glm::dvec3(0, 0, 1) : glm::dvec3(1, 0, 0)));
-  const glm::dvec3 v = glm::cross(n, u); // u then v counter-clockwise seen from the front
+  const auto [u, v] = plane_basis(n);
   auto angle = [&](const glm::dvec3& p) {
     return std::atan2(glm::dot(p - c, v), glm::dot(p - c, u));
   };
