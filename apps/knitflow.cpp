@@ -210,6 +210,10 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
                 scene.solver.neighbour_list == kf::Scene::Solver::NeighbourLists::Verlet ? "verlet"
                 : scene.solver.neighbour_list == kf::Scene::Solver::NeighbourLists::On   ? "on"
                                                                                          : "off");
+    if (q.contact_at_scene_spacing && scene.has(kf::Module::Contact) &&
+        !(scene.coupling.stiffness > 0))
+      std::printf("quality    the knit-fluid contact as stiff as at the scene's spacing (%g m)\n",
+                  scene.coupling.stiffness_spacing);
   }
   std::printf("particles  fluid %zu, boundary %zu, knit %zu (%zu springs, %zu volume cells)\n",
               r.fluid, r.boundary, r.knit, r.springs, r.volume_cells);

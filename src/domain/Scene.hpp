@@ -235,6 +235,11 @@ struct Scene {
     double fluid_radius = 0; // R_fluid [m]; 0: half the fluid spacing
     double knit_radius = 0;  // R_knit [m]; 0: the knit's contact radius
     double stiffness = 0;    // k [N/m]; 0: stops a fluid particle at c/10 within half the reach
+    // The fluid spacing whose particle the default stiffness stops (0: the fluid's own). The
+    // preview preset sets the scene's as written: its particles, 8 times heavier, would take a
+    // contact ~3.6 times stiffer and halve the knit's substep (the pour's preview planned 1.9
+    // times production's steps); they go deeper into the reach instead.
+    double stiffness_spacing = 0;
     double damping_ratio = 0.5;
     double friction = 0.3;
     // The tunnelling guard (P8): fluid whose step crosses a face of the knit's sheet goes back
@@ -362,6 +367,9 @@ struct QualityPreset {
   std::optional<DensityModel> density;
   std::optional<Scene::Solver::NeighbourLists> neighbour_list;
   std::optional<Precision> precision;
+  // The knit-fluid contact's default stiffness kept at the scene's own spacing (see
+  // Scene::Coupling::stiffness_spacing).
+  bool contact_at_scene_spacing = false;
 };
 QualityPreset quality_preset(Scene::Solver::Quality q);
 std::string to_string(Scene::Solver::Quality q);

@@ -766,6 +766,8 @@ void read_render(const TableReader& t, Scene::Render& r) {
 /// gives none of its own (a key the scene or --set writes wins).
 void apply_quality(const TableReader& sim, const TableReader& solver, Scene& s) {
   const QualityPreset q = quality_preset(s.solver.quality);
+  if (q.contact_at_scene_spacing)
+    s.coupling.stiffness_spacing = s.fluid.spacing;
   s.fluid.spacing *= q.spacing_scale;
   s.fluid.speed_of_sound *= q.sound_speed_scale;
   if (q.cfl && !solver.node("cfl"))

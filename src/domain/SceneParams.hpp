@@ -25,15 +25,26 @@ CouplingParams<T> coupling_params(const Scene& s, double knit_spacing) {
   p.contact = s.has(Module::Contact);
   p.capillary = s.has(Module::Capillary);
   p.capillary_force = s.capillary.model == Scene::AbsorptionModel::Paper;
-  const double rf = s.coupling.fluid_radius > 0 ? s.coupling.fluid_radius : 0.5 * s.fluid.spacing;
-  const double rk = s.coupling.knit_radius > 0 ? s.coupling.knit_radius
-                                               : std::max(s.knit.radius(), 0.8 * knit_spacing - rf);
-  const double reach = rf + rk;
-  const double mf = lattice_particle_mass(s.solver.kernel, s.fluid.support, s.fluid.spacing,
-                                          s.fluid.rest_density);
+  // The reach at a fluid spacing dp: R_f + R_k.
+  auto reach_at = [&](double dp) {
+    const double rf = s.coupling.fluid_radius > 0 ? s.coupling.fluid_radius : 0.5 * dp;
+    const double rk = s.coupling.knit_radius > 0
+                          ? s.coupling.knit_radius
+                          : std::max(s.knit.radius(), 0.8 * knit_spacing - rf);
+    return rf + rk;
+  };
+  const double reach = reach_at(s.fluid.spacing);
+  // The stiffness that stops the particle of the spacing it is set for (the preview's: the
+  // scene's own, whose reach it takes too) at c/10 within half that reach.
+  const double dk =
+      s.coupling.stiffness_spacing > 0 ? s.coupling.stiffness_spacing : s.fluid.spacing;
+  const double reach_k = reach_at(dk);
+  const double mf =
+      lattice_particle_mass(s.solver.kernel, s.fluid.support, dk, s.fluid.rest_density);
   const double c = s.fluid.speed_of_sound;
-  const double k = s.coupling.stiffness > 0 ? s.coupling.stiffness
-                                            : mf * (0.1 * c) * (0.1 * c) / (0.25 * reach * reach);
+  const double k = s.coupling.stiffness > 0
+                       ? s.coupling.stiffness
+                       : mf * (0.1 * c) * (0.1 * c) / (0.25 * reach_k * reach_k);
   p.reach = static_cast<T>(reach);
   p.dem = {static_cast<T>(k), static_cast<T>(s.coupling.damping_ratio),
            static_cast<T>(s.coupling.friction)};
