@@ -221,6 +221,21 @@ TEST(Scene, ExampleScenesLoad) {
     EXPECT_NO_THROW(load_scene((test::source_dir() / "scenes" / name).string())) << name;
 }
 
+TEST(Scene, APreviewOfAKnitWithFluidIsCautionedThatItCoarsensTheFluidOnly) {
+  const std::string pour = (test::source_dir() / "scenes" / "pour.toml").string();
+  EXPECT_TRUE(scene_cautions(load_scene(pour)).empty());
+  const auto c = scene_cautions(load_scene(pour, {"solver.quality=\"preview\""}));
+  ASSERT_EQ(c.size(), 1u);
+  for (const char* says : {"pour.toml", "\"preview\"", "the fluid only", "GPU"})
+    EXPECT_NE(c[0].find(says), std::string::npos) << says << " in: " << c[0];
+  // A fluid alone, or a knit alone, gets all a preview gives (the drape: nothing to coarsen).
+  for (const char* name : {"dambreak.toml", "drape.toml"})
+    EXPECT_TRUE(scene_cautions(load_scene((test::source_dir() / "scenes" / name).string(),
+                                          {"solver.quality=\"preview\""}))
+                    .empty())
+        << name;
+}
+
 TEST(Scene, CubicSplinePastTwoSpacingsIsCautioned) {
   // The cubic spline pairs past a support of 2 spacings (kCubicPairingSupport's measurements);
   // the other kernels do not, and no shipped scene asks for it but the DualSPHysics column

@@ -1,6 +1,7 @@
 #pragma once
-// Settings a scene may ask for that are known to spoil its results: `plan` prints them and `run`
-// prints them before it starts. Never an error: a study may want such a setting on purpose.
+// Settings a scene may ask for that are known to spoil its results, or not to buy what they are
+// for: `plan` prints them and `run` prints them before it starts. Never an error: a study may
+// want such a setting on purpose.
 #include "domain/Scene.hpp"
 
 #include <string>
