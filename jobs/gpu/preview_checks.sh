@@ -8,6 +8,10 @@
 #   0.2 and 0.4 s copied to OUTDIR (the splash's height and the energy, read on the CPU machine).
 #
 #   jobs/gpu/preview_checks.sh KNITFLOW OUTDIR
+#
+# 591.7 and 250.007 N/m are the rule's stiffnesses at the preview's spacing, as `knitflow plan
+# SCENE --set 'solver.quality="preview"'` printed them before aeba307 (or `plan` now with
+# --set fluid.spacing=2dp): re-read them if the scenes' fluid or knit change.
 set -uo pipefail
 exe=$1 out=$2
 mkdir -p "$out"
