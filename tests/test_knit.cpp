@@ -197,12 +197,21 @@ TEST(KnitSprings, LocalizedRowsGiveTheOwnedPointsTheirWholeNetworkForce) {
   lof.assign(local_of_id);
   SpringTopology<double> springs{exec::Backend::Cpu};
   VolumeTopology<double> volumes{exec::Backend::Cpu};
-  // The mesh's rows as N ranks keep them: on the host, row-major.
-  const auto mesh_springs = SpringTopology<double>::mesh_rows(exec::Backend::Cpu, net.list, n);
+  // The rows as N ranks keep them: on the host, row-major, the springs' for the rank's points in
+  // its order (a list holding more springs than theirs: the others are passed over), the
+  // cells' for the whole mesh.
+  const std::vector<std::uint64_t> mine(local_ids.begin(), local_ids.begin() + owned);
+  const auto rank_springs =
+      SpringTopology<double>::host_rows(exec::Backend::Cpu, net.list, n, mine);
   const auto mesh_cells = VolumeTopology<double>::mesh_rows(exec::Backend::Cpu, net.cells, n);
-  springs.localize(net.ex, mesh_springs, local.id.data(), lof.data(), owned);
+  springs.localize(net.ex, rank_springs, lof.data(), owned);
   volumes.localize(net.ex, mesh_cells, local.id.data(), lof.data(), owned);
-  { // A shared knit's step limits come from those rows: the same sums, row by row, to the bit.
+  { // Rows of every point in mesh order give the step limits: the same sums, row by row, to the
+    // bit.
+    std::vector<std::uint64_t> all(n);
+    std::iota(all.begin(), all.end(), std::uint64_t(0));
+    const auto mesh_springs =
+        SpringTopology<double>::host_rows(exec::Backend::Cpu, net.list, n, all);
     double ks = 0, cs = 0, kw = 0, cw = 0;
     knit_spring_limits(net.ex, net.set.view(), mesh_springs.view(), mesh_cells.view(), ks, cs);
     knit_spring_limits(net.ex, net.set.view(), net.springs.view(), net.volumes.view(), kw, cw);
@@ -254,7 +263,7 @@ TEST(KnitSprings, LocalizedRowsGiveTheOwnedPointsTheirWholeNetworkForce) {
   ASSERT_NE(gone, kAbsentPoint) << "no spring crosses to a ghost: a weak case";
   local_of_id[gone] = kAbsentPoint;
   lof.assign(local_of_id);
-  springs.localize(net.ex, mesh_springs, local.id.data(), lof.data(), owned);
+  springs.localize(net.ex, rank_springs, lof.data(), owned);
   volumes.localize(net.ex, mesh_cells, local.id.data(), lof.data(), owned);
   EXPECT_EQ(
       knit_partner_reach(net.ex, owned, local.x.data(), springs.view(), volumes.view()).missing,

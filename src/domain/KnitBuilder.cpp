@@ -3,6 +3,7 @@
 #include "domain/KnitMeshPiece.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -55,10 +56,21 @@ void add_spring(KnitMesh& mesh, std::uint32_t i, std::uint32_t j, double k, Spri
   s.k = k;
   s.c = damping_ratio * 2.0 * std::sqrt(k * mi * mj / (mi + mj));
   s.kind = kind;
-  mesh.springs.push_back(s);
+  KnitSpringStats& st = mesh.spring_stats;
+  if (kind == SpringKind::Stretch)
+    st.longest_stretch = std::max(st.longest_stretch, s.rest);
+  st.stiffest = std::max(st.stiffest, s.k);
+  st.longest = std::max(st.longest, s.rest);
+  ++st.springs;
+  ++st.by_kind[static_cast<std::size_t>(kind)];
+  const std::vector<std::uint8_t>* keep = mesh.springs_of;
+  if (!keep || (!keep->empty() && ((*keep)[i] || (*keep)[j])))
+    mesh.springs.push_back(s);
 }
 
 void add_volume_cell(KnitMesh& mesh, const std::array<std::uint32_t, 4>& point, double kh) {
+  if (!mesh.cells)
+    return;
   VolumeCell c;
   c.point = point;
   const Vec3d &xp = mesh.x[point[0]], &xo = mesh.x[point[1]], &xa = mesh.x[point[2]],
@@ -70,10 +82,12 @@ void add_volume_cell(KnitMesh& mesh, const std::array<std::uint32_t, 4>& point, 
 
 } // namespace knit_build
 
-KnitMesh build_knit(const Scene& scene) {
+KnitMesh build_knit(const Scene& scene, const std::vector<std::uint8_t>* springs_of, bool cells) {
   const auto& mat = scene.knit;
   const double t = mat.thickness, half_t = 0.5 * t;
   KnitMesh mesh;
+  mesh.springs_of = springs_of;
+  mesh.cells = cells;
   for (std::size_t pi = 0; pi < scene.knit.pieces.size(); ++pi) {
     const KnitPiece& p = scene.knit.pieces[pi];
     if (p.shape == KnitShape::Mesh) {
@@ -192,6 +206,7 @@ KnitMesh build_knit(const Scene& scene) {
         mesh.handle[i] = static_cast<std::uint32_t>(p);
     }
   }
+  mesh.springs_of = nullptr; // (the caller's flags: not kept past the build)
   return mesh;
 }
 

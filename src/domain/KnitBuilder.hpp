@@ -28,6 +28,15 @@ struct KnitPieceLayout {
   }
 };
 
+/// What the mesh's springs tell beyond their rows, over every spring built (kept or not).
+struct KnitSpringStats {
+  double longest_stretch = 0; // the longest rest length of a stretch spring
+  double stiffest = 0;        // the largest k
+  double longest = 0;         // the longest rest length of any spring
+  std::size_t springs = 0;
+  std::vector<std::size_t> by_kind = std::vector<std::size_t>(kSpringKinds, 0);
+};
+
 struct KnitMesh {
   std::vector<Vec3d> x, v;           // rest position, initial velocity
   std::vector<double> m;             // dry mass [kg]
@@ -37,9 +46,18 @@ struct KnitMesh {
   std::vector<Spring> springs;
   std::vector<VolumeCell> volumes;
   std::vector<KnitPieceLayout> pieces;
+  KnitSpringStats spring_stats;
+  // What the build keeps (build_knit's arguments): springs with an end flagged (null: all;
+  // empty: none), volume cells or none.
+  const std::vector<std::uint8_t>* springs_of = nullptr;
+  bool cells = true;
 };
 
-KnitMesh build_knit(const Scene& scene);
+/// The scene's knit. springs_of (a flag a point): keep only the springs with a flagged end (a
+/// rank's rows on N ranks; empty: none; the stats still cover every spring); cells false: no
+/// volume cells.
+KnitMesh build_knit(const Scene& scene, const std::vector<std::uint8_t>* springs_of = nullptr,
+                    bool cells = true);
 
 /// Pieces shared by the grid builder and the mesh-piece builder (domain/KnitMeshPiece).
 namespace knit_build {

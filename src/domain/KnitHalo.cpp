@@ -16,7 +16,7 @@ template <typename T>
 KnitHalo<T>::KnitHalo(RankExchange<T>& ranks, KnitSystem<T>& knit, KnitFluidCoupling<T>* coupling,
                       double skin, double min_width)
     : ranks_(ranks), knit_(knit), coupling_(coupling), mesh_points_(knit.size()),
-      local_of_id_(knit.set().x.backend(), 0, "knit.halo.local") {
+      local_of_id_(knit.set().x.backend(), 0, "knit.halo.local"), host_transport_(ranks.mpi()) {
   const exec::Backend b = knit.set().x.backend();
   self_ref_.x0 = exec::DeviceBuffer<Vec3<T>>(b, 0, "knit.halo.self_x0");
   coupling_ref_.x0 = exec::DeviceBuffer<Vec3<T>>(b, 0, "knit.halo.coupling_x0");
@@ -69,6 +69,9 @@ void KnitHalo<T>::distribute(const typename SkinWatch<T>::State& self_state,
       comm::migrate(ranks_.transport(), {}, ranks_.owners(HostValues<Vec3<T>>(set.x).span(), true),
                     columns.migration, ranks_.rows());
   set.resize(owned_);
+  // The springs' rows of the points kept (the set's order), built here: no rank's host builds
+  // the whole knit's; from now on they travel with their points (rebuild).
+  knit_.take_rows(set.id.to_host());
   repartitions_seen_ = ranks_.repartitions();
   halo_.reset();
   built_ = false;
@@ -89,9 +92,16 @@ bool KnitHalo<T>::localize_and_check() {
   double both[2] = {double(std::sqrt(r.d2)), double(r.missing)};
   MPI_Allreduce(MPI_IN_PLACE, both, 2, MPI_DOUBLE, MPI_MAX, ranks_.mpi().comm());
   reach_ = both[0];
-  if (both[1] == 0 && localized_)
+  if (both[1] != 0)
+    return false;
+  if (!knit_.spring_limits_known()) { // the job's minimum: one rank's over every point
+    auto l = knit_.owned_spring_limits();
+    MPI_Allreduce(MPI_IN_PLACE, l.data(), 2, MPI_DOUBLE, MPI_MIN, ranks_.mpi().comm());
+    knit_.set_spring_limits(l[0], l[1]);
+  }
+  if (localized_)
     localized_(ids, owned_);
-  return both[1] == 0;
+  return true;
 }
 
 template <typename T>
@@ -148,10 +158,20 @@ void KnitHalo<T>::rebuild() {
     repartitions_seen_ = ranks_.repartitions();
   }
   auto columns = state();
-  owned_ = comm::migrate(ranks_.transport(), peers,
-                         ranks_.owners(HostValues<Vec3<T>>(set.x, owned_).span()),
-                         columns.migration, ranks_.rows());
+  const std::vector<int> destination = ranks_.owners(HostValues<Vec3<T>>(set.x, owned_).span());
+  owned_ = comm::migrate(ranks_.transport(), peers, destination, columns.migration, ranks_.rows());
   set.resize(owned_);
+  { // The springs' rows go with their points, on the host (the same destinations, so the same
+    // order: the stayers closed up in order, the arrivals by sending rank in its order).
+    auto rows = knit_.row_columns();
+    const std::size_t n = comm::migrate(host_transport_, peers, destination, rows);
+    const HostValues<std::uint64_t> id(set.id, owned_);
+    const auto& row_ids = knit_.row_ids();
+    if (n != owned_ || row_ids.size() != owned_ ||
+        !std::equal(id.span().begin(), id.span().end(), row_ids.begin()))
+      throw Error("knit on N ranks: the springs' rows parted from their points in a migration (" +
+                  std::to_string(row_ids.size()) + " rows, " + std::to_string(owned_) + " points)");
+  }
   // The ghosts: the width covers the partners as stretched at the last choice (the check below
   // widens it where a spring stretched further) plus the skin the points may move until the
   // next choice.

@@ -15,6 +15,7 @@
 // the host and happen only when the ghosts are chosen anew; the refreshes between substeps move
 // device rows (RankExchange's copier and transport).
 #include "comm/HaloExchange.hpp"
+#include "comm/MpiTransport.hpp"
 #include "domain/ExchangeColumns.hpp"
 #include "domain/KnitSystem.hpp"
 #include "domain/RankExchange.hpp"
@@ -47,9 +48,10 @@ public:
   static double base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* coupling = nullptr,
                            double min_width = 0);
 
-  /// At the start (every rank built the whole knit, the decomposition is made): keeps this
-  /// rank's points. The states: the self-contact's and the coupling's reference positions per
-  /// point in mesh order and their records (a restart's); empty x0: the positions now.
+  /// At the start (every rank built the whole knit's points, the decomposition is made): keeps
+  /// this rank's points and builds their springs' rows (KnitSystem::take_rows), which from then
+  /// on migrate with them. The states: the self-contact's and the coupling's reference positions
+  /// per point in mesh order and their records (a restart's); empty x0: the positions now.
   void distribute(const typename SkinWatch<T>::State& self_state = {{}, T(0), T(0)},
                   const typename SkinWatch<T>::State& coupling_state = {{}, T(0), T(0)});
   /// Before the knit's step (or a pass that reads partners; collective): the ghosts' positions
@@ -141,8 +143,9 @@ private:
   /// owned point is among them (collective); reach_ becomes the farthest partner. When all are,
   /// the localized callback has run.
   bool localize_and_check();
-  /// Migration to the blocks' owners, the ghosts chosen and received (every partner present),
-  /// the springs localized, the self-contact grid sorted for its reference positions.
+  /// Migration to the blocks' owners (the springs' rows with their points), the ghosts chosen and
+  /// received (every partner present), the springs localized, the self-contact grid sorted for
+  /// its reference positions.
   void rebuild();
 
   RankExchange<T>& ranks_;
@@ -158,6 +161,7 @@ private:
   std::uint64_t repartitions_seen_ = 0;
   std::optional<comm::HaloExchange> halo_;
   exec::DeviceBuffer<std::uint32_t> local_of_id_;
+  comm::MpiTransport host_transport_; // the springs' rows' migration (host memory)
   std::vector<exec::DeviceBuffer<T>*> carried_;
   Localized localized_;
 };

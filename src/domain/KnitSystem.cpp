@@ -20,7 +20,10 @@ KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex, bool shared)
       held_force_(ex.backend, 0, "knit.held_force"),
       collisions_(ex.backend, 0, "knit.contact_count") {
   collisions_.assign(std::vector<std::uint64_t>{0});
-  KnitMesh mesh = build_knit(scene);
+  // Shared: no spring is kept here (take_rows builds a rank's once its points are known).
+  const std::vector<std::uint8_t> none;
+  KnitMesh mesh = build_knit(scene, shared ? &none : nullptr);
+  shared_ = shared;
   const std::size_t n = mesh.x.size();
   std::vector<Vec3<T>> x(n), v(n);
   std::vector<T> m(n);
@@ -46,38 +49,88 @@ KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex, bool shared)
   mesh_layer_ = mesh.layer;
   mesh_piece_ = mesh.piece;
   pieces_ = mesh.pieces;
-  // What the lists tell beyond their rows: the widest gap between points of a sheet, the
-  // stiffest spring (the self-contact's default), the farthest a spring or volume cell reaches at
-  // rest (the split's ghost width).
-  double stiffest = 0;
-  for (const Spring& sp : mesh.springs) {
-    if (sp.kind == SpringKind::Stretch)
-      longest_spacing_ = std::max(longest_spacing_, sp.rest);
-    stiffest = std::max(stiffest, sp.k);
-    rest_reach_ = std::max(rest_reach_, sp.rest);
-  }
+  // What the springs tell beyond their rows (every spring built, kept or not): the widest gap
+  // between points of a sheet, the stiffest spring (the self-contact's default), the farthest a
+  // spring or volume cell reaches at rest (the split's ghost width).
+  const KnitSpringStats& st = mesh.spring_stats;
+  longest_spacing_ = st.longest_stretch;
+  const double stiffest = st.stiffest;
+  rest_reach_ = st.longest;
+  spring_stats_ = st;
   for (const VolumeCell& c : mesh.volumes)
     for (std::uint32_t a : c.point)
       for (std::uint32_t b : c.point)
         rest_reach_ = std::max(rest_reach_, double(norm(x[a] - x[b])));
   set_handle_velocities(0.0);
-  T spring = 0, damping = 0;
-  if (shared) { // the same rows in another layout: the same sums, in each row's order
-    keep_mesh_rows(mesh.springs, mesh.volumes, n);
-    knit_spring_limits(ex_, set_.view(), mesh_spring_rows_->view(), mesh_volume_rows_->view(),
-                       spring, damping);
+  if (shared) {
+    // The cells' rows whole on the host; the step limit once a rank's rows are localized
+    // (set_spring_limits: a minimum over the points, the same on any rank count).
+    mesh_volume_rows_.emplace(VolumeTopology<T>::mesh_rows(ex_.backend, mesh.volumes, n));
   } else {
+    T spring = 0, damping = 0;
     springs_.build(mesh.springs, n);
     volumes_.build(mesh.volumes, n);
     knit_spring_limits(ex_, set_.view(), springs_.view(), volumes_.view(), spring, damping);
+    set_spring_limits(double(spring), double(damping));
   }
   // The lists go once their rows exist (nothing reads them after: a restore on N ranks
-  // localizes from the rows): 40 bytes a spring, ~11 springs a point, a large knit's most.
+  // builds a rank's rows again): 40 bytes a spring, ~11 springs a point, a large knit's most.
   std::vector<Spring>().swap(mesh.springs);
   std::vector<VolumeCell>().swap(mesh.volumes);
-  spring_limit_ = std::min(double(spring) * scene.knit.spring_factor, double(damping));
   if (scene.knit.self_collision && n > 0)
     setup_self_contact(mesh, stiffest, shared);
+}
+
+template <typename T>
+void KnitSystem<T>::set_spring_limits(double spring, double damping) {
+  spring_limit_ = std::min(spring * scene_.knit.spring_factor, damping);
+}
+
+template <typename T>
+std::array<double, 2> KnitSystem<T>::owned_spring_limits() const {
+  // At the rest positions, as one rank's constructor takes them (x_rest travels with the
+  // points; the cells' corners among the owned points and ghosts after a choice).
+  KnitView<T> p = const_cast<KnitSet<T>&>(set_).view();
+  p.x = const_cast<Vec3<T>*>(set_.x_rest.data());
+  p.n = owned();
+  T spring = 0, damping = 0;
+  knit_spring_limits(ex_, p, springs_.view(), volumes_.view(), spring, damping);
+  return {double(spring), double(damping)};
+}
+
+template <typename T>
+void KnitSystem<T>::take_rows(const std::vector<std::uint64_t>& ids) {
+  const std::size_t n = mesh_rest_.size();
+  std::vector<std::uint8_t> mine(n, 0);
+  for (const std::uint64_t i : ids)
+    mine.at(i) = 1;
+  // The build again, keeping this rank's points' springs only (its stats are every spring's).
+  const KnitMesh mesh = build_knit(scene_, &mine, false);
+  rows_.emplace(SpringTopology<T>::host_rows(ex_.backend, mesh.springs, n, ids));
+  rows_->springs = spring_stats_.springs;
+  rows_->by_kind = spring_stats_.by_kind;
+  row_ids_ = ids;
+}
+
+template <typename T>
+std::vector<comm::MigrationColumn> KnitSystem<T>::row_columns() {
+  if (!rows_)
+    throw Error("KnitSystem: no rows to migrate before take_rows");
+  auto& r = *rows_;
+  return {{sizeof(std::uint32_t),
+           [&r](std::size_t k) {
+             r.count.resize(k);
+             return reinterpret_cast<unsigned char*>(r.count.data());
+           }},
+          {std::size_t(r.width) * sizeof(SpringEntry<T>),
+           [&r](std::size_t k) {
+             r.entry.resize(k * r.width);
+             return reinterpret_cast<unsigned char*>(r.entry.data());
+           }},
+          {sizeof(std::uint64_t), [this](std::size_t k) {
+             row_ids_.resize(k);
+             return reinterpret_cast<unsigned char*>(row_ids_.data());
+           }}};
 }
 
 template <typename T>
@@ -160,9 +213,10 @@ void KnitSystem<T>::internal_forces(const Couple& couple, T weight) {
 template <typename T>
 void KnitSystem<T>::localize(const exec::DeviceBuffer<std::uint32_t>& local_of_id,
                              std::size_t owned) {
-  if (!mesh_spring_rows_)
-    throw Error("KnitSystem::localize: the knit was not built to be shared over ranks");
-  springs_.localize(ex_, *mesh_spring_rows_, set_.id.data(), local_of_id.data(), owned);
+  if (!rows_)
+    throw Error("KnitSystem::localize: the knit was not built to be shared over ranks, or has "
+                "not taken its rows");
+  springs_.localize(ex_, *rows_, local_of_id.data(), owned);
   volumes_.localize(ex_, *mesh_volume_rows_, set_.id.data(), local_of_id.data(), owned);
   owned_ = owned;
   if (self_)
@@ -172,13 +226,6 @@ void KnitSystem<T>::localize(const exec::DeviceBuffer<std::uint32_t>& local_of_i
 template <typename T>
 PartnerReach<T> KnitSystem<T>::partner_reach() const {
   return knit_partner_reach(ex_, owned(), set_.x.data(), springs_.view(), volumes_.view());
-}
-
-template <typename T>
-void KnitSystem<T>::keep_mesh_rows(const std::vector<Spring>& springs,
-                                   const std::vector<VolumeCell>& cells, std::size_t n) {
-  mesh_spring_rows_.emplace(SpringTopology<T>::mesh_rows(ex_.backend, springs, n));
-  mesh_volume_rows_.emplace(VolumeTopology<T>::mesh_rows(ex_.backend, cells, n));
 }
 
 template <typename T>
@@ -282,6 +329,8 @@ double KnitSystem<T>::stable_dt(const MotionBounds<T>& mb) {
     throw InstabilityError("a knit velocity or acceleration is not finite");
   vmax_ = vmax;
   amax_ = std::sqrt(double(mb.a2));
+  if (!spring_limits_known())
+    throw Error("knit on N ranks: the step limit is read before the first choice of ghosts");
   double sub = std::min({spring_limit_, contact_limit_, extra_limit_});
   // A substep moves no point more than half its contact radius, so collisions are not skipped.
   if (vmax > 0)
@@ -400,6 +449,8 @@ void KnitSystem<T>::restore(const io::Phase& p) {
     std::iota(id.begin(), id.end(), std::uint64_t(0));
     set_.id.assign(id);
     owned_ = std::size_t(-1);
+    rows_.reset(); // the rank's rows: distribute takes them again for its points
+    row_ids_.clear();
   }
   set_.x.assign(x);
   set_.v.assign(unflatten(require(p, "velocity").as<T>()));

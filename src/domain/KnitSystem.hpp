@@ -2,6 +2,7 @@
 // The knit phase of a simulation: its points and springs, the substeps it runs inside one
 // simulation step, its step limit, and its snapshot phase. Owned by SimulationT when the scene
 // has the knit module; nothing of it exists otherwise.
+#include "comm/HaloExchange.hpp"
 #include "domain/KnitBuilder.hpp"
 #include "domain/Scene.hpp"
 #include "io/Frame.hpp"
@@ -13,7 +14,9 @@
 #include "kernels/knit/SpringTopology.hpp"
 #include "kernels/particles/KnitSet.hpp"
 
+#include <array>
 #include <functional>
+#include <limits>
 #include <optional>
 
 namespace kf {
@@ -28,10 +31,12 @@ template <typename T>
 class KnitSystem {
 public:
   /// shared: the knit will be shared out over N ranks (KnitHalo::distribute keeps a rank's
-  /// points): the whole mesh's springs and cells are kept on the host (localize gathers a rank's
-  /// rows from them) and the whole knit's self-contact grid and lists are not built (the halo's
-  /// first choice of ghosts sorts the rank's points), so no rank's backend holds the whole
-  /// knit's topology.
+  /// points): no spring is kept (take_rows builds the rank's points' rows once they are known,
+  /// and they migrate with the points), the whole mesh's volume cells are kept on the host
+  /// (localize gathers a rank's rows from them), the step limit waits for the first choice of
+  /// ghosts (set_spring_limits), and the whole knit's self-contact grid and lists are not built
+  /// (the halo's first choice sorts the rank's points), so no rank's backend holds the whole
+  /// knit's topology, nor its host the whole knit's springs.
   KnitSystem(const Scene& scene, exec::Exec ex, bool shared = false);
 
   /// Advances the knit by dt from time t in scene.knit.substeps velocity Verlet substeps; keep
@@ -92,23 +97,41 @@ public:
   std::size_t size() const { return set_.size(); }
 
   /// On N ranks (KnitHalo): the set holds `owned` points, which this rank integrates, then
-  /// ghosts (their copies, refreshed by refresh_ghosts after every drift). The springs and
-  /// volume cells of the owned points are gathered on the backend from the whole mesh's rows
-  /// (by the set's ids, which are mesh indices), their other ends by local_of_id (each mesh
-  /// index's local index); each point's row keeps the mesh's order, so its forces sum as on one
-  /// rank. Every partner must be present (KnitHalo checks).
+  /// ghosts (their copies, refreshed by refresh_ghosts after every drift). The springs of the
+  /// owned points are gathered on the backend from the rank's rows (take_rows, migrated with the
+  /// points: row k the k-th point's), their volume cells from the whole mesh's (by the set's
+  /// ids, which are mesh indices), their other ends by local_of_id (each mesh index's local
+  /// index); each point's row keeps the mesh's order, so its forces sum as on one rank. Every
+  /// partner must be present (KnitHalo checks).
   void localize(const exec::DeviceBuffer<std::uint32_t>& local_of_id, std::size_t owned);
   /// After localize: the owned points' farthest partner (squared) and whether one is absent.
   PartnerReach<T> partner_reach() const;
   /// Points this rank integrates (all on one rank).
   std::size_t owned() const { return std::min(owned_, set_.size()); }
   void set_ghost_refresh(std::function<void()> refresh) { refresh_ghosts_ = std::move(refresh); }
-  /// Built to be shared: the whole mesh's rows kept on the host (localize gathers from them).
-  bool shared() const { return mesh_spring_rows_.has_value(); }
-  /// A shared knit's whole mesh's springs and volume cells, each point's row over mesh indices
-  /// (= ids), read in place on the host.
-  const typename SpringTopology<T>::Mesh& mesh_spring_rows() const { return *mesh_spring_rows_; }
+  /// Built to be shared over N ranks.
+  bool shared() const { return shared_; }
+  /// A shared knit: the springs' rows of the points ids (mesh indices, the set's owned points in
+  /// its order), built from the scene (the mesh built again, only their springs kept).
+  void take_rows(const std::vector<std::uint64_t>& ids);
+  /// The rank's rows as migration columns (counts, rows, their points' ids), for KnitHalo to
+  /// move with the points.
+  std::vector<comm::MigrationColumn> row_columns();
+  /// The points the rank's rows are for, in order (the set's owned points after a migration).
+  const std::vector<std::uint64_t>& row_ids() const { return row_ids_; }
+  /// The rank's spring rows on the host (shared), for `held` figures and tests.
+  const typename SpringTopology<T>::HostRows* host_rows() const {
+    return rows_ ? &*rows_ : nullptr;
+  }
+  /// The whole mesh's volume cells, each point's row over mesh indices (= ids), read in place on
+  /// the host (shared).
   const typename VolumeTopology<T>::Mesh& mesh_volume_rows() const { return *mesh_volume_rows_; }
+  /// The step limits of the owned points' springs and cells at their rest positions (after a
+  /// localize that found every partner): the shortest sqrt(m / sum k), m / sum c. On N ranks
+  /// the job's minimum is what one rank computes (set_spring_limits).
+  std::array<double, 2> owned_spring_limits() const;
+  void set_spring_limits(double spring, double damping);
+  bool spring_limits_known() const { return spring_limit_ == spring_limit_; }
   /// The farthest two points of a spring or a volume cell lie apart at rest.
   double rest_reach() const { return rest_reach_; }
   /// The mesh's rest positions in mesh order, host side.
@@ -141,14 +164,15 @@ private:
   KnitSet<T> set_;
   SpringTopology<T> springs_;
   VolumeTopology<T> volumes_;
-  // On N ranks, the whole mesh's rows that localize() gathers from, on the host (built by a
-  // shared knit's constructor); springs_ and volumes_ then hold a rank's points' rows only.
-  // Neither backend nor host keeps the mesh's lists past the constructor.
-  std::optional<typename SpringTopology<T>::Mesh> mesh_spring_rows_;
+  // On N ranks, the rank's points' spring rows (take_rows; migrated with them) and the whole
+  // mesh's cells' rows that localize() gathers from, on the host; springs_ and volumes_ then
+  // hold a rank's points' rows only. Neither backend nor host keeps the mesh's lists past a
+  // build.
+  bool shared_ = false;
+  std::optional<typename SpringTopology<T>::HostRows> rows_;
+  std::vector<std::uint64_t> row_ids_;
   std::optional<typename VolumeTopology<T>::Mesh> mesh_volume_rows_;
-  /// mesh_spring_rows_ and mesh_volume_rows_ from the mesh's lists over n points.
-  void keep_mesh_rows(const std::vector<Spring>& springs, const std::vector<VolumeCell>& cells,
-                      std::size_t n);
+  KnitSpringStats spring_stats_;
   void set_handle_velocities(double t);
   exec::DeviceBuffer<Vec3<T>> handle_v_;
   std::vector<Vec3<T>> handle_v_host_;
@@ -160,7 +184,9 @@ private:
   /// a from the knit's own terms, or with couple's (weight: see advance).
   void internal_forces(const Couple& couple = {}, T weight = T(0));
   void setup_self_contact(const KnitMesh& mesh, double stiffest, bool shared);
-  double spring_limit_ = 0;     // min sqrt(m / sum k), m / sum c over free points (cached: fixed)
+  // min sqrt(m / sum k), m / sum c over free points (cached: fixed); NaN on N ranks until the
+  // first choice of ghosts sets it.
+  double spring_limit_ = std::numeric_limits<double>::quiet_NaN();
   double contact_limit_ = 1e30; // spring_factor sqrt(m_min / (kMaxContacts k_self))
   double extra_limit_ = 1e30;
   // Largest speed and acceleration at the last stable_dt(): the self-contact grid's motion bound

@@ -258,6 +258,74 @@ TEST(DistributedKnit, GhostsAreThePointsWithinTheWidthAndEveryPartner) {
                 owned, n - owned, halo.width(), partners, remote);
 }
 
+// The springs' rows travel with their points: no rank's host builds or keeps the whole knit's.
+// The strip mirrored through the room's centre (most points change rank), then the ghosts chosen
+// anew: each
+// rank's rows are exactly its owned points', in the set's order, each row the one a build of the
+// whole mesh gives that point, to the bit.
+TEST(DistributedKnit, TheSpringsRowsTravelWithTheirPoints) {
+  comm::MpiContext mpi;
+  const Scene s = fold("double");
+  const exec::Exec ex{exec::Backend::Cpu};
+  KnitSystem<double> knit(s, ex, true);
+  const KnitMesh mesh = build_knit(s);
+  const std::size_t n = mesh.x.size();
+  std::vector<std::uint64_t> every(n);
+  std::iota(every.begin(), every.end(), std::uint64_t(0));
+  const auto whole = SpringTopology<double>::host_rows(ex.backend, mesh.springs, n, every);
+  RankExchange<double> ranks(mpi, s, exec::Backend::Cpu,
+                             SplitInputs{KnitHalo<double>::base_width(knit)});
+  ranks.distribute(nullptr, nullptr, knit.set().x.to_host());
+  KnitHalo<double> halo(ranks, knit);
+  halo.distribute();
+  ASSERT_NE(knit.host_rows(), nullptr);
+  EXPECT_LT(knit.host_rows()->points(), n) << "a rank's host took the whole knit's rows";
+  halo.begin(0.0);
+  const auto check = [&](const char* when) {
+    const auto id = knit.set().id.to_host();
+    const std::size_t owned = halo.owned();
+    const auto* rows = knit.host_rows();
+    ASSERT_EQ(rows->points(), owned) << when;
+    EXPECT_TRUE(std::equal(id.begin(), id.begin() + owned, knit.row_ids().begin())) << when;
+    EXPECT_EQ(rows->springs, whole.springs) << when;
+    const SpringView<double> mine = rows->view(), all = whole.view();
+    std::size_t entries = 0;
+    for (std::size_t k = 0; k < owned; ++k) {
+      ASSERT_EQ(mine.count[k], all.count[id[k]]) << when << ": point " << id[k];
+      for (std::uint32_t e = 0; e < mine.count[k]; ++e, ++entries) {
+        const auto &a = mine.entry[mine.rows.at(e, k)], &b = all.entry[all.rows.at(e, id[k])];
+        ASSERT_TRUE(a.other == b.other && a.rest == b.rest && a.k == b.k && a.c == b.c)
+            << when << ": point " << id[k] << "'s spring " << e;
+      }
+    }
+    // Every point's row on exactly one rank.
+    std::uint64_t counts[2] = {owned, entries};
+    MPI_Allreduce(MPI_IN_PLACE, counts, 2, MPI_UINT64_T, MPI_SUM, mpi.comm());
+    EXPECT_EQ(counts[0], n) << when;
+    EXPECT_EQ(counts[1], 2 * whole.springs) << when;
+  };
+  check("after the first choice");
+  // Every point mirrored through the room's centre: the points go to the ranks across.
+  auto x = knit.set().x.to_host();
+  const std::size_t owned_before = halo.owned();
+  std::size_t moved = 0;
+  const Decomposition& d = ranks.decomposition();
+  for (std::size_t k = 0; k < owned_before; ++k) {
+    x[k] = Vec3d{s.domain.min.x + s.domain.max.x - x[k].x, s.domain.min.y + s.domain.max.y - x[k].y,
+                 s.domain.min.z + s.domain.max.z - x[k].z};
+    moved += d.owner(x[k]) != mpi.rank();
+  }
+  knit.set().x.assign(x);
+  halo.begin(1e9); // far past the skin: migration and a new choice
+  check("after a migration");
+  std::uint64_t changed = moved;
+  MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_UINT64_T, MPI_SUM, mpi.comm());
+  EXPECT_GT(changed, n / 4) << "too few points changed rank: the migration went untested";
+  if (mpi.root())
+    std::printf("the springs' rows: %llu of %zu points changed rank, each rank's rows its own\n",
+                static_cast<unsigned long long>(changed), n);
+}
+
 // Restart across rank counts with the knit: a snapshot written by N ranks (self-contacts
 // present) continues on N ranks and on one, one written by one rank on N; each continuation
 // ends where the uninterrupted one-rank run ends, bit for bit.

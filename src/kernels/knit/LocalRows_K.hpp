@@ -12,7 +12,8 @@ namespace kf {
 inline constexpr std::uint32_t kAbsentPoint = 0xFFFFFFFFu;
 
 /// Gathers a per-point table's rows for a rank's owned points from the mesh's: local point k
-/// takes mesh point id[k]'s row, each entry through `local` (mesh indices inside it made local);
+/// takes mesh point id[k]'s row (row k where id is null: rows in the local points' order), each
+/// entry through `local` (mesh indices inside it made local);
 /// ghosts have no rows (theirs are their owners'). Springs and volume cells share it: entry e of
 /// point p sits at rows.at(e, p) in both (RowLayout).
 template <typename Entry, typename Local>
@@ -26,7 +27,7 @@ struct LocalRowGather {
   Entry* entry;
   Local local;
   KF_HD KF_INLINE void operator()(std::size_t k) const {
-    const std::size_t p = static_cast<std::size_t>(id[k]);
+    const std::size_t p = id ? static_cast<std::size_t>(id[k]) : k;
     const std::uint32_t c = mesh_count[p];
     count[k] = c;
     for (std::uint32_t e = 0; e < c; ++e)

@@ -4,6 +4,7 @@
 #include "kernels/knit/LocalRows_K.hpp"
 
 #include <algorithm>
+#include <numeric>
 #include <string>
 
 namespace kf {
@@ -15,33 +16,37 @@ SpringTopology<T>::SpringTopology(exec::Backend b)
 
 namespace {
 
-// The rows of a spring list: each point's count, and its entries where `layout(n, width)` puts
-// them (each row in the list's order). Rejects i == j and indices >= n.
+// The rows of a spring list: each row's count, and its entries where `layout(rows, width)` puts
+// them (each row in the list's order); row_of[p] is point p's row, or kAbsentPoint for a point
+// without one (its springs are passed over). Rejects i == j and indices >= n.
 // `table(size)` gives the entries' storage (zeroed), written in place: a large knit's table is
 // its largest (16 bytes an entry, ~22 a point), and a copy of it would double the host's peak.
 template <typename T, typename Layout, typename Table>
-void spring_rows(const std::vector<Spring>& springs, std::size_t n_points, Layout layout,
-                 Table table, std::vector<std::uint32_t>& count, std::vector<std::size_t>& by_kind,
-                 std::uint32_t& width) {
-  count.assign(n_points, 0);
+void spring_rows(const std::vector<Spring>& springs, const std::vector<std::uint32_t>& row_of,
+                 std::size_t n_rows, Layout layout, Table table, std::vector<std::uint32_t>& count,
+                 std::vector<std::size_t>& by_kind, std::uint32_t& width) {
+  const std::size_t n_points = row_of.size();
+  count.assign(n_rows, 0);
   by_kind.assign(kSpringKinds, 0);
   for (const Spring& s : springs) {
     if (s.i == s.j || s.i >= n_points || s.j >= n_points)
       throw Error("spring " + std::to_string(s.i) + "-" + std::to_string(s.j) +
                   " is not between two distinct points of " + std::to_string(n_points));
-    ++count[s.i];
-    ++count[s.j];
+    for (const std::uint32_t p : {s.i, s.j})
+      if (row_of[p] != kAbsentPoint)
+        ++count[row_of[p]];
     ++by_kind[static_cast<std::size_t>(s.kind)];
   }
-  width = 0;
   for (std::uint32_t c : count)
     width = std::max(width, c);
-  const RowLayout rows = layout(n_points, width);
-  SpringEntry<T>* entry = table(std::size_t(width) * n_points);
-  std::vector<std::uint32_t> fill(n_points, 0);
+  const RowLayout rows = layout(n_rows, width);
+  SpringEntry<T>* entry = table(std::size_t(width) * n_rows);
+  std::vector<std::uint32_t> fill(n_rows, 0);
   auto put = [&](std::uint32_t a, std::uint32_t b, const Spring& s) {
-    entry[rows.at(fill[a]++, a)] = {b, static_cast<T>(s.rest), static_cast<T>(s.k),
-                                    static_cast<T>(s.c)};
+    const std::uint32_t r = row_of[a];
+    if (r != kAbsentPoint)
+      entry[rows.at(fill[r]++, r)] = {b, static_cast<T>(s.rest), static_cast<T>(s.k),
+                                      static_cast<T>(s.c)};
   };
   for (const Spring& s : springs) {
     put(s.i, s.j, s);
@@ -63,11 +68,13 @@ struct OtherEndLocal {
 
 template <typename T>
 void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_points) {
-  std::vector<std::uint32_t> count;
+  std::vector<std::uint32_t> count, row_of(n_points);
+  std::iota(row_of.begin(), row_of.end(), 0u);
   std::vector<SpringEntry<T>> entry;
   const exec::Backend b = count_.backend();
+  width_ = 0;
   spring_rows<T>(
-      springs, n_points,
+      springs, row_of, n_points,
       [b](std::size_t n, std::uint32_t w) { return RowLayout::for_backend(b, n, w); },
       [&entry](std::size_t k) {
         entry.assign(k, SpringEntry<T>{});
@@ -80,44 +87,55 @@ void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_
 }
 
 template <typename T>
-typename SpringTopology<T>::Mesh SpringTopology<T>::mesh_rows(exec::Backend b,
-                                                              const std::vector<Spring>& springs,
-                                                              std::size_t n_points) {
-  std::vector<std::uint32_t> count;
-  Mesh m;
+typename SpringTopology<T>::HostRows
+SpringTopology<T>::host_rows(exec::Backend b, const std::vector<Spring>& springs,
+                             std::size_t n_points, const std::vector<std::uint64_t>& ids,
+                             std::uint32_t width) {
+  std::vector<std::uint32_t> count, row_of(n_points, kAbsentPoint);
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    if (ids[k] >= n_points || row_of[ids[k]] != kAbsentPoint)
+      throw Error("spring rows: point " + std::to_string(ids[k]) + " is not one of " +
+                  std::to_string(n_points) + " or is listed twice");
+    row_of[ids[k]] = static_cast<std::uint32_t>(k);
+  }
+  HostRows m;
+  m.width = width;
   spring_rows<T>(
-      springs, n_points,
+      springs, row_of, ids.size(),
       [](std::size_t, std::uint32_t w) {
         return RowLayout{1, w};
       },
       [&m, b](std::size_t k) {
-        m.entry = exec::HostReadable<SpringEntry<T>>(b, k, "knit.mesh.springs.entry");
+        m.entry = exec::HostReadable<SpringEntry<T>>(b, k, "knit.rank.springs.entry");
         return m.entry.data();
       },
       count, m.by_kind, m.width);
-  m.count = exec::HostReadable<std::uint32_t>(b, count, "knit.mesh.springs.count");
+  m.count = exec::HostReadable<std::uint32_t>(b, count, "knit.rank.springs.count");
   m.springs = springs.size();
   return m;
 }
 
 template <typename T>
-void SpringTopology<T>::localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
+void SpringTopology<T>::localize(const exec::Exec& ex, const HostRows& from,
                                  const std::uint32_t* local_of_id, std::size_t owned) {
-  width_ = mesh.width; // before rows(): the CPU's rows are width_ apart
+  if (from.points() < owned)
+    throw Error("knit springs: rows for " + std::to_string(from.points()) + " points, " +
+                std::to_string(owned) + " owned");
+  width_ = from.width; // before rows(): the CPU's rows are width_ apart
   count_.resize(owned);
   entry_.resize(std::size_t(width_) * owned);
   exec::for_each(ex, owned,
-                 LocalRowGather<SpringEntry<T>, OtherEndLocal<T>>{mesh.count.data(),
-                                                                  mesh.entry.data(),
-                                                                  mesh.rows(),
-                                                                  id,
+                 LocalRowGather<SpringEntry<T>, OtherEndLocal<T>>{from.count.data(),
+                                                                  from.entry.data(),
+                                                                  from.rows(),
+                                                                  nullptr,
                                                                   rows(),
                                                                   count_.data(),
                                                                   entry_.data(),
                                                                   {{local_of_id}}},
                  "knit.springs.localize");
-  springs_ = mesh.springs;
-  by_kind_ = mesh.by_kind;
+  springs_ = from.springs;
+  by_kind_ = from.by_kind;
 }
 
 template <typename T>

@@ -61,33 +61,44 @@ struct SpringView {
 template <typename T>
 class SpringTopology {
 public:
-  /// The whole mesh's rows on N ranks, which each choice of ghosts gathers a rank's from: kept
-  /// on the host (HostReadable), a point's row in one piece (row-major, read once across the
-  /// bus), so that no GPU holds the whole knit's springs.
-  struct Mesh {
+  /// A rank's points' rows on N ranks, in its points' order, their other ends mesh indices
+  /// (= ids): kept on the host (HostReadable), a point's row in one piece (row-major, read once
+  /// across the bus), so that no GPU holds the knit's springs twice; they migrate with their
+  /// points (KnitHalo), and each choice of ghosts localizes them (localize).
+  struct HostRows {
     exec::HostReadable<std::uint32_t> count;
     exec::HostReadable<SpringEntry<T>> entry;
     std::uint32_t width = 0;
-    std::size_t springs = 0;
+    std::size_t springs = 0; // in the whole mesh
     std::vector<std::size_t> by_kind;
+    std::size_t points() const { return count.size(); }
     RowLayout rows() const { return {1, width}; }
     SpringView<T> view() const { return {count.data(), entry.data(), rows()}; }
+    /// n rows, the first kept (a migration's).
+    void resize(std::size_t n) {
+      count.resize(n);
+      entry.resize(n * width);
+    }
   };
-  /// The rows of a spring list over n_points points for kernels of backend b (as build()).
-  static Mesh mesh_rows(exec::Backend b, const std::vector<Spring>& springs, std::size_t n_points);
+  /// The rows of points ids[0..] (row k: point ids[k]'s springs in the list's order) from a list
+  /// over n_points points that holds every spring of those points (others are passed over); the
+  /// row width is the widest of these rows, at least `width`. For kernels of backend b.
+  static HostRows host_rows(exec::Backend b, const std::vector<Spring>& springs,
+                            std::size_t n_points, const std::vector<std::uint64_t>& ids,
+                            std::uint32_t width = 0);
 
   explicit SpringTopology(exec::Backend b);
   /// Builds the rows from a spring list over n_points points (each row in the list's order);
   /// rejects i == j and indices >= n.
   void build(const std::vector<Spring>& springs, std::size_t n_points);
-  /// On N ranks, from the whole mesh's rows (built over mesh indices = ids): rows for the first
-  /// `owned` local points, each its mesh point's row (id[k]) whole, in its order, the other ends
-  /// mapped to local indices (local_of_id, by id; every partner of an owned point present). The
-  /// ghosts after them have no rows (no pass reads them: the table is the owned points' only). On
-  /// the backend: a gather, where filtering the mesh's spring list on the host cost 20-25 ms a
-  /// choice of ghosts.
-  void localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
-                const std::uint32_t* local_of_id, std::size_t owned);
+  /// On N ranks, from the rank's rows (HostRows, row k the k-th local point's, over mesh
+  /// indices = ids): rows for the first `owned` local points, each whole, in its order, the
+  /// other ends mapped to local indices (local_of_id, by id; every partner of an owned point
+  /// present). The ghosts after them have no rows (no pass reads them: the table is the owned
+  /// points' only). On the backend: a gather, where filtering the mesh's spring list on the host
+  /// cost 20-25 ms a choice of ghosts.
+  void localize(const exec::Exec& ex, const HostRows& rows, const std::uint32_t* local_of_id,
+                std::size_t owned);
   /// The points with rows (all of them; on N ranks the owned ones).
   std::size_t points() const { return count_.size(); }
   SpringView<T> view() const;
