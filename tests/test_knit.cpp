@@ -5,6 +5,7 @@
 #include "domain/Simulation.hpp"
 #include "kernels/integrate/Verlet.hpp"
 #include "kernels/knit/Knit.hpp"
+#include "kernels/knit/KnitEvaluators_K.hpp"
 
 #include "support/KnitChecks.hpp"
 
@@ -197,26 +198,31 @@ TEST(KnitSprings, LocalizedRowsGiveTheOwnedPointsTheirWholeNetworkForce) {
   lof.assign(local_of_id);
   SpringTopology<double> springs{exec::Backend::Cpu};
   VolumeTopology<double> volumes{exec::Backend::Cpu};
-  // The rows as N ranks keep them: on the host, row-major, the springs' for the rank's points in
-  // its order (a list holding more springs than theirs: the others are passed over), the
-  // cells' for the whole mesh.
+  // The rows as N ranks keep them: on the host, row-major, the springs' and the cells' for the
+  // rank's points in its order (lists holding more than theirs: the others are passed over), the
+  // cells' corners and constants for the whole mesh.
   const std::vector<std::uint64_t> mine(local_ids.begin(), local_ids.begin() + owned);
+  std::vector<std::uint32_t> cell_index(net.cells.size());
+  std::iota(cell_index.begin(), cell_index.end(), 0u);
   const auto rank_springs =
       SpringTopology<double>::host_rows(exec::Backend::Cpu, net.list, n, mine);
-  const auto mesh_cells = VolumeTopology<double>::mesh_rows(exec::Backend::Cpu, net.cells, n);
+  const auto rank_cells =
+      VolumeTopology<double>::host_rows(exec::Backend::Cpu, net.cells, cell_index, n, mine);
+  const auto mesh_cells = VolumeTopology<double>::mesh_cells(exec::Backend::Cpu, net.cells, n);
   springs.localize(net.ex, rank_springs, lof.data(), owned);
-  volumes.localize(net.ex, mesh_cells, local.id.data(), lof.data(), owned);
-  { // Rows of every point in mesh order give the step limits: the same sums, row by row, to the
-    // bit.
-    std::vector<std::uint64_t> all(n);
-    std::iota(all.begin(), all.end(), std::uint64_t(0));
-    const auto mesh_springs =
-        SpringTopology<double>::host_rows(exec::Backend::Cpu, net.list, n, all);
-    double ks = 0, cs = 0, kw = 0, cw = 0;
-    knit_spring_limits(net.ex, net.set.view(), mesh_springs.view(), mesh_cells.view(), ks, cs);
-    knit_spring_limits(net.ex, net.set.view(), net.springs.view(), net.volumes.view(), kw, cw);
-    EXPECT_TRUE(ks == kw && cs == cw) << ks << " / " << cs << " against " << kw << " / " << cw;
-    EXPECT_LT(kw, 1e29) << "no spring limited the step: a weak case";
+  volumes.localize(net.ex, mesh_cells, rank_cells, lof.data(), owned);
+  { // The step limits N ranks take (the minimum over the ranks of their owned points'): each
+    // owned point's from the localized rows is its value on one rank, to the bit.
+    auto lv = local.view();
+    const SpringLimitEvaluator<double> here{lv, springs.view(), volumes.view()},
+        whole_net{net.set.view(), net.springs.view(), net.volumes.view()};
+    std::size_t limited = 0;
+    for (std::size_t k = 0; k < owned; ++k) {
+      const auto a = here(k), b = whole_net(local_ids[k]);
+      ASSERT_TRUE(a.spring == b.spring && a.damping == b.damping) << "point " << local_ids[k];
+      limited += b.spring < 1e29;
+    }
+    EXPECT_GT(limited, 0u) << "no spring limited the step: a weak case";
   }
   auto view = local.view();
   view.n = owned;
@@ -264,7 +270,7 @@ TEST(KnitSprings, LocalizedRowsGiveTheOwnedPointsTheirWholeNetworkForce) {
   local_of_id[gone] = kAbsentPoint;
   lof.assign(local_of_id);
   springs.localize(net.ex, rank_springs, lof.data(), owned);
-  volumes.localize(net.ex, mesh_cells, local.id.data(), lof.data(), owned);
+  volumes.localize(net.ex, mesh_cells, rank_cells, lof.data(), owned);
   EXPECT_EQ(
       knit_partner_reach(net.ex, owned, local.x.data(), springs.view(), volumes.view()).missing,
       1u);

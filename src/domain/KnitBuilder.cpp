@@ -63,13 +63,25 @@ void add_spring(KnitMesh& mesh, std::uint32_t i, std::uint32_t j, double k, Spri
   st.longest = std::max(st.longest, s.rest);
   ++st.springs;
   ++st.by_kind[static_cast<std::size_t>(kind)];
+  if (mesh.spring_ends.size() < mesh.x.size())
+    mesh.spring_ends.resize(mesh.x.size(), 0);
+  st.widest = std::max({st.widest, ++mesh.spring_ends[i], ++mesh.spring_ends[j]});
   const std::vector<std::uint8_t>* keep = mesh.springs_of;
   if (!keep || (!keep->empty() && ((*keep)[i] || (*keep)[j])))
     mesh.springs.push_back(s);
 }
 
 void add_volume_cell(KnitMesh& mesh, const std::array<std::uint32_t, 4>& point, double kh) {
-  if (!mesh.cells)
+  KnitSpringStats& st = mesh.spring_stats;
+  if (mesh.cell_ends.size() < mesh.x.size())
+    mesh.cell_ends.resize(mesh.x.size(), 0);
+  bool kept = !mesh.cells_of;
+  for (const std::uint32_t p : point) {
+    st.widest_cells = std::max(st.widest_cells, ++mesh.cell_ends[p]);
+    kept = kept || (!mesh.cells_of->empty() && (*mesh.cells_of)[p]);
+  }
+  const auto index = static_cast<std::uint32_t>(st.cells++);
+  if (!kept)
     return;
   VolumeCell c;
   c.point = point;
@@ -78,16 +90,18 @@ void add_volume_cell(KnitMesh& mesh, const std::array<std::uint32_t, 4>& point, 
   c.rest_volume = tet_volume(xp, xo, xa, xb);
   c.k = kh / norm2(tet_volume_gradient(xp, xo, xa, xb, 0));
   mesh.volumes.push_back(c);
+  mesh.volume_index.push_back(index);
 }
 
 } // namespace knit_build
 
-KnitMesh build_knit(const Scene& scene, const std::vector<std::uint8_t>* springs_of, bool cells) {
+KnitMesh build_knit(const Scene& scene, const std::vector<std::uint8_t>* springs_of,
+                    const std::vector<std::uint8_t>* cells_of) {
   const auto& mat = scene.knit;
   const double t = mat.thickness, half_t = 0.5 * t;
   KnitMesh mesh;
   mesh.springs_of = springs_of;
-  mesh.cells = cells;
+  mesh.cells_of = cells_of;
   for (std::size_t pi = 0; pi < scene.knit.pieces.size(); ++pi) {
     const KnitPiece& p = scene.knit.pieces[pi];
     if (p.shape == KnitShape::Mesh) {
@@ -206,7 +220,9 @@ KnitMesh build_knit(const Scene& scene, const std::vector<std::uint8_t>* springs
         mesh.handle[i] = static_cast<std::uint32_t>(p);
     }
   }
-  mesh.springs_of = nullptr; // (the caller's flags: not kept past the build)
+  mesh.springs_of = mesh.cells_of = nullptr; // (the caller's flags: not kept past the build)
+  std::vector<std::uint32_t>().swap(mesh.spring_ends);
+  std::vector<std::uint32_t>().swap(mesh.cell_ends);
   return mesh;
 }
 

@@ -35,6 +35,9 @@ struct KnitSpringStats {
   double longest = 0;         // the longest rest length of any spring
   std::size_t springs = 0;
   std::vector<std::size_t> by_kind = std::vector<std::size_t>(kSpringKinds, 0);
+  std::uint32_t widest = 0;       // the most springs of one point: the rows' width on every rank
+  std::size_t cells = 0;          // volume cells
+  std::uint32_t widest_cells = 0; // the most cells of one point (a corner of each)
 };
 
 struct KnitMesh {
@@ -45,19 +48,22 @@ struct KnitMesh {
   std::vector<std::uint32_t> handle; // kFreePoint or the index of the pin holding the point
   std::vector<Spring> springs;
   std::vector<VolumeCell> volumes;
+  std::vector<std::uint32_t> volume_index; // each kept cell's index among all the mesh's cells
   std::vector<KnitPieceLayout> pieces;
   KnitSpringStats spring_stats;
-  // What the build keeps (build_knit's arguments): springs with an end flagged (null: all;
-  // empty: none), volume cells or none.
+  std::vector<std::uint32_t> spring_ends; // springs a point, during the build (then widest)
+  // What the build keeps (build_knit's arguments): springs with an end flagged, cells with a
+  // corner flagged (null: all; empty: none).
   const std::vector<std::uint8_t>* springs_of = nullptr;
-  bool cells = true;
+  const std::vector<std::uint8_t>* cells_of = nullptr;
+  std::vector<std::uint32_t> cell_ends; // cells a point, during the build
 };
 
-/// The scene's knit. springs_of (a flag a point): keep only the springs with a flagged end (a
-/// rank's rows on N ranks; empty: none; the stats still cover every spring); cells false: no
-/// volume cells.
+/// The scene's knit. springs_of, cells_of (a flag a point): keep only the springs with a flagged
+/// end, the volume cells with a flagged corner (a rank's rows on N ranks; empty: none; the stats
+/// and volume_index still count every one).
 KnitMesh build_knit(const Scene& scene, const std::vector<std::uint8_t>* springs_of = nullptr,
-                    bool cells = true);
+                    const std::vector<std::uint8_t>* cells_of = nullptr);
 
 /// Pieces shared by the grid builder and the mesh-piece builder (domain/KnitMeshPiece).
 namespace knit_build {

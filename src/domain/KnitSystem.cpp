@@ -63,9 +63,9 @@ KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex, bool shared)
         rest_reach_ = std::max(rest_reach_, double(norm(x[a] - x[b])));
   set_handle_velocities(0.0);
   if (shared) {
-    // The cells' rows whole on the host; the step limit once a rank's rows are localized
-    // (set_spring_limits: a minimum over the points, the same on any rank count).
-    mesh_volume_rows_.emplace(VolumeTopology<T>::mesh_rows(ex_.backend, mesh.volumes, n));
+    // The cells' corners and constants whole on the host; the step limit once a rank's rows are
+    // localized (set_spring_limits: a minimum over the points, the same on any rank count).
+    mesh_cells_.emplace(VolumeTopology<T>::mesh_cells(ex_.backend, mesh.volumes, n));
   } else {
     T spring = 0, damping = 0;
     springs_.build(mesh.springs, n);
@@ -104,11 +104,22 @@ void KnitSystem<T>::take_rows(const std::vector<std::uint64_t>& ids) {
   std::vector<std::uint8_t> mine(n, 0);
   for (const std::uint64_t i : ids)
     mine.at(i) = 1;
-  // The build again, keeping this rank's points' springs only (its stats are every spring's).
-  const KnitMesh mesh = build_knit(scene_, &mine, false);
-  rows_.emplace(SpringTopology<T>::host_rows(ex_.backend, mesh.springs, n, ids));
+  // The build again, keeping this rank's points' springs and cells only (its stats are every
+  // spring's and cell's).
+  const KnitMesh mesh = build_knit(scene_, &mine, &mine);
+  // Every rank's rows as wide as the widest point's: a migration moves rows of one size.
+  rows_.emplace(
+      SpringTopology<T>::host_rows(ex_.backend, mesh.springs, n, ids, spring_stats_.widest));
+  if (rows_->width != spring_stats_.widest)
+    throw Error("knit springs: a rank's rows are " + std::to_string(rows_->width) +
+                " wide, the mesh's widest point has " + std::to_string(spring_stats_.widest));
   rows_->springs = spring_stats_.springs;
   rows_->by_kind = spring_stats_.by_kind;
+  cell_rows_.emplace(VolumeTopology<T>::host_rows(ex_.backend, mesh.volumes, mesh.volume_index, n,
+                                                  ids, spring_stats_.widest_cells));
+  if (cell_rows_->width != spring_stats_.widest_cells)
+    throw Error("knit volume cells: a rank's rows are " + std::to_string(cell_rows_->width) +
+                " wide, the mesh's widest point has " + std::to_string(spring_stats_.widest_cells));
   row_ids_ = ids;
 }
 
@@ -117,7 +128,18 @@ std::vector<comm::MigrationColumn> KnitSystem<T>::row_columns() {
   if (!rows_)
     throw Error("KnitSystem: no rows to migrate before take_rows");
   auto& r = *rows_;
+  auto& c = *cell_rows_;
   return {{sizeof(std::uint32_t),
+           [&c](std::size_t k) {
+             c.count.resize(k);
+             return reinterpret_cast<unsigned char*>(c.count.data());
+           }},
+          {std::size_t(c.width) * sizeof(std::uint32_t),
+           [&c](std::size_t k) {
+             c.cell.resize(k * c.width);
+             return reinterpret_cast<unsigned char*>(c.cell.data());
+           }},
+          {sizeof(std::uint32_t),
            [&r](std::size_t k) {
              r.count.resize(k);
              return reinterpret_cast<unsigned char*>(r.count.data());
@@ -217,7 +239,7 @@ void KnitSystem<T>::localize(const exec::DeviceBuffer<std::uint32_t>& local_of_i
     throw Error("KnitSystem::localize: the knit was not built to be shared over ranks, or has "
                 "not taken its rows");
   springs_.localize(ex_, *rows_, local_of_id.data(), owned);
-  volumes_.localize(ex_, *mesh_volume_rows_, set_.id.data(), local_of_id.data(), owned);
+  volumes_.localize(ex_, *mesh_cells_, *cell_rows_, local_of_id.data(), owned);
   owned_ = owned;
   if (self_)
     self_->set_active(owned);
@@ -450,6 +472,7 @@ void KnitSystem<T>::restore(const io::Phase& p) {
     set_.id.assign(id);
     owned_ = std::size_t(-1);
     rows_.reset(); // the rank's rows: distribute takes them again for its points
+    cell_rows_.reset();
     row_ids_.clear();
   }
   set_.x.assign(x);

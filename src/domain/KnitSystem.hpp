@@ -98,11 +98,11 @@ public:
 
   /// On N ranks (KnitHalo): the set holds `owned` points, which this rank integrates, then
   /// ghosts (their copies, refreshed by refresh_ghosts after every drift). The springs of the
-  /// owned points are gathered on the backend from the rank's rows (take_rows, migrated with the
-  /// points: row k the k-th point's), their volume cells from the whole mesh's (by the set's
-  /// ids, which are mesh indices), their other ends by local_of_id (each mesh index's local
-  /// index); each point's row keeps the mesh's order, so its forces sum as on one rank. Every
-  /// partner must be present (KnitHalo checks).
+  /// owned points and their volume cells are gathered on the backend from the rank's rows
+  /// (take_rows, migrated with the points: row k the k-th point's), the cells' corners from the
+  /// whole mesh's table, the other ends by local_of_id (each mesh index's local index); each
+  /// point's row keeps the mesh's order, so its forces sum as on one rank. Every partner must be
+  /// present (KnitHalo checks).
   void localize(const exec::DeviceBuffer<std::uint32_t>& local_of_id, std::size_t owned);
   /// After localize: the owned points' farthest partner (squared) and whether one is absent.
   PartnerReach<T> partner_reach() const;
@@ -111,11 +111,12 @@ public:
   void set_ghost_refresh(std::function<void()> refresh) { refresh_ghosts_ = std::move(refresh); }
   /// Built to be shared over N ranks.
   bool shared() const { return shared_; }
-  /// A shared knit: the springs' rows of the points ids (mesh indices, the set's owned points in
-  /// its order), built from the scene (the mesh built again, only their springs kept).
+  /// A shared knit: the springs' and cells' rows of the points ids (mesh indices, the set's
+  /// owned points in its order), built from the scene (the mesh built again, only their springs
+  /// and cells kept).
   void take_rows(const std::vector<std::uint64_t>& ids);
-  /// The rank's rows as migration columns (counts, rows, their points' ids), for KnitHalo to
-  /// move with the points.
+  /// The rank's rows as migration columns (the springs' and the cells' counts and rows, their
+  /// points' ids), for KnitHalo to move with the points.
   std::vector<comm::MigrationColumn> row_columns();
   /// The points the rank's rows are for, in order (the set's owned points after a migration).
   const std::vector<std::uint64_t>& row_ids() const { return row_ids_; }
@@ -123,9 +124,10 @@ public:
   const typename SpringTopology<T>::HostRows* host_rows() const {
     return rows_ ? &*rows_ : nullptr;
   }
-  /// The whole mesh's volume cells, each point's row over mesh indices (= ids), read in place on
-  /// the host (shared).
-  const typename VolumeTopology<T>::Mesh& mesh_volume_rows() const { return *mesh_volume_rows_; }
+  /// The rank's volume cells' rows on the host (shared), as host_rows.
+  const typename VolumeTopology<T>::HostRows* host_cell_rows() const {
+    return cell_rows_ ? &*cell_rows_ : nullptr;
+  }
   /// The step limits of the owned points' springs and cells at their rest positions (after a
   /// localize that found every partner): the shortest sqrt(m / sum k), m / sum c. On N ranks
   /// the job's minimum is what one rank computes (set_spring_limits).
@@ -171,7 +173,8 @@ private:
   bool shared_ = false;
   std::optional<typename SpringTopology<T>::HostRows> rows_;
   std::vector<std::uint64_t> row_ids_;
-  std::optional<typename VolumeTopology<T>::Mesh> mesh_volume_rows_;
+  std::optional<typename VolumeTopology<T>::HostRows> cell_rows_;
+  std::optional<typename VolumeTopology<T>::Cells> mesh_cells_;
   KnitSpringStats spring_stats_;
   void set_handle_velocities(double t);
   exec::DeviceBuffer<Vec3<T>> handle_v_;

@@ -258,12 +258,12 @@ TEST(DistributedKnit, GhostsAreThePointsWithinTheWidthAndEveryPartner) {
                 owned, n - owned, halo.width(), partners, remote);
 }
 
-// The springs' rows travel with their points: no rank's host builds or keeps the whole knit's.
+// The springs' and the cells' rows travel with their points: no rank's host builds or keeps the
+// whole knit's.
 // The strip mirrored through the room's centre (most points change rank), then the ghosts chosen
-// anew: each
-// rank's rows are exactly its owned points', in the set's order, each row the one a build of the
-// whole mesh gives that point, to the bit.
-TEST(DistributedKnit, TheSpringsRowsTravelWithTheirPoints) {
+// anew: each rank's rows are exactly its owned points', in the set's order, each row the one a
+// build of the whole mesh gives that point, to the bit.
+TEST(DistributedKnit, TheRowsTravelWithTheirPoints) {
   comm::MpiContext mpi;
   const Scene s = fold("double");
   const exec::Exec ex{exec::Backend::Cpu};
@@ -273,6 +273,10 @@ TEST(DistributedKnit, TheSpringsRowsTravelWithTheirPoints) {
   std::vector<std::uint64_t> every(n);
   std::iota(every.begin(), every.end(), std::uint64_t(0));
   const auto whole = SpringTopology<double>::host_rows(ex.backend, mesh.springs, n, every);
+  std::vector<std::uint32_t> cell_index(mesh.volumes.size());
+  std::iota(cell_index.begin(), cell_index.end(), 0u);
+  const auto whole_cells =
+      VolumeTopology<double>::host_rows(ex.backend, mesh.volumes, cell_index, n, every);
   RankExchange<double> ranks(mpi, s, exec::Backend::Cpu,
                              SplitInputs{KnitHalo<double>::base_width(knit)});
   ranks.distribute(nullptr, nullptr, knit.set().x.to_host());
@@ -286,6 +290,7 @@ TEST(DistributedKnit, TheSpringsRowsTravelWithTheirPoints) {
     const std::size_t owned = halo.owned();
     const auto* rows = knit.host_rows();
     ASSERT_EQ(rows->points(), owned) << when;
+    EXPECT_EQ(rows->width, whole.width) << when << ": a migration moves rows of one width";
     EXPECT_TRUE(std::equal(id.begin(), id.begin() + owned, knit.row_ids().begin())) << when;
     EXPECT_EQ(rows->springs, whole.springs) << when;
     const SpringView<double> mine = rows->view(), all = whole.view();
@@ -298,11 +303,24 @@ TEST(DistributedKnit, TheSpringsRowsTravelWithTheirPoints) {
             << when << ": point " << id[k] << "'s spring " << e;
       }
     }
-    // Every point's row on exactly one rank.
-    std::uint64_t counts[2] = {owned, entries};
-    MPI_Allreduce(MPI_IN_PLACE, counts, 2, MPI_UINT64_T, MPI_SUM, mpi.comm());
+    const auto* cells = knit.host_cell_rows();
+    ASSERT_EQ(cells->points(), owned) << when;
+    EXPECT_EQ(cells->width, whole_cells.width) << when;
+    std::size_t corners = 0;
+    for (std::size_t k = 0; k < owned; ++k) {
+      ASSERT_EQ(cells->count[k], whole_cells.count[id[k]]) << when << ": point " << id[k];
+      for (std::uint32_t e = 0; e < cells->count[k]; ++e, ++corners)
+        ASSERT_EQ(cells->cell[cells->rows().at(e, k)],
+                  whole_cells.cell[whole_cells.rows().at(e, id[k])])
+            << when << ": point " << id[k] << "'s cell " << e;
+    }
+    // Every point's rows on exactly one rank.
+    std::uint64_t counts[3] = {owned, entries, corners};
+    MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPI_UINT64_T, MPI_SUM, mpi.comm());
     EXPECT_EQ(counts[0], n) << when;
     EXPECT_EQ(counts[1], 2 * whole.springs) << when;
+    EXPECT_EQ(counts[2], 4 * mesh.volumes.size()) << when;
+    EXPECT_GT(counts[2], 0u) << "the strip has no volume cells: a weak case";
   };
   check("after the first choice");
   // Every point mirrored through the room's centre: the points go to the ranks across.
@@ -322,7 +340,8 @@ TEST(DistributedKnit, TheSpringsRowsTravelWithTheirPoints) {
   MPI_Allreduce(MPI_IN_PLACE, &changed, 1, MPI_UINT64_T, MPI_SUM, mpi.comm());
   EXPECT_GT(changed, n / 4) << "too few points changed rank: the migration went untested";
   if (mpi.root())
-    std::printf("the springs' rows: %llu of %zu points changed rank, each rank's rows its own\n",
+    std::printf("the springs' and cells' rows: %llu of %zu points changed rank, each rank's rows "
+                "its own\n",
                 static_cast<unsigned long long>(changed), n);
 }
 

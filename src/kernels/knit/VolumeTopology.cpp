@@ -4,6 +4,7 @@
 #include "kernels/knit/LocalRows_K.hpp"
 
 #include <algorithm>
+#include <numeric>
 #include <string>
 
 namespace kf {
@@ -16,16 +17,10 @@ VolumeTopology<T>::VolumeTopology(exec::Backend b)
 
 namespace {
 
-// The cells' tables: each point's count and its cells where `layout(n, width)` puts them (in the
-// list's order), each cell's corners and constants. Rejects a corner >= n and repeated corners.
-// `table(size)` gives the point -> cells table's storage (zeroed), written in place (as
-// SpringTopology's rows).
-template <typename T, typename Layout, typename Table>
-std::uint32_t cell_rows(const std::vector<VolumeCell>& cells, std::size_t n_points, Layout layout,
-                        Table table, std::vector<std::uint32_t>& count,
-                        std::vector<std::uint32_t>& point, std::vector<T>& rest,
-                        std::vector<T>& k) {
-  count.assign(n_points, 0);
+// The cells' corners and constants. Rejects a corner >= n and repeated corners.
+template <typename T>
+void cell_table(const std::vector<VolumeCell>& cells, std::size_t n_points,
+                std::vector<std::uint32_t>& point, std::vector<T>& rest, std::vector<T>& k) {
   point.clear();
   rest.clear();
   k.clear();
@@ -37,23 +32,38 @@ std::uint32_t cell_rows(const std::vector<VolumeCell>& cells, std::size_t n_poin
       for (int q = 0; q < r; ++q)
         if (c.point[q] == c.point[r])
           throw Error("volume cell with a repeated point " + std::to_string(c.point[r]));
-      ++count[c.point[r]];
       point.push_back(c.point[r]);
     }
     rest.push_back(static_cast<T>(c.rest_volume));
     k.push_back(static_cast<T>(c.k));
   }
-  std::uint32_t width = 0;
+}
+
+// Each row's cells where `layout(rows, width)` puts them (in the list's order): row_of[p] is
+// point p's row or kAbsentPoint, index[c] the number cell c goes by. Returns the width (at least
+// `width`). `table(size)` gives the storage (zeroed), written in place (as SpringTopology's).
+template <typename Layout, typename Table>
+std::uint32_t
+cell_rows(const std::vector<VolumeCell>& cells, const std::vector<std::uint32_t>& index,
+          const std::vector<std::uint32_t>& row_of, std::size_t n_rows, std::uint32_t width,
+          Layout layout, Table table, std::vector<std::uint32_t>& count) {
+  count.assign(n_rows, 0);
+  for (const VolumeCell& c : cells)
+    for (const std::uint32_t p : c.point)
+      if (p >= row_of.size())
+        throw Error("volume cell point " + std::to_string(p) + " is not one of " +
+                    std::to_string(row_of.size()));
+      else if (row_of[p] != kAbsentPoint)
+        ++count[row_of[p]];
   for (std::uint32_t c : count)
     width = std::max(width, c);
-  const RowLayout rows = layout(n_points, width);
-  std::uint32_t* cell = table(std::size_t(width) * n_points);
-  std::vector<std::uint32_t> fill(n_points, 0);
+  const RowLayout rows = layout(n_rows, width);
+  std::uint32_t* cell = table(std::size_t(width) * n_rows);
+  std::vector<std::uint32_t> fill(n_rows, 0);
   for (std::size_t c = 0; c < cells.size(); ++c)
-    for (int r = 0; r < 4; ++r) {
-      const std::uint32_t i = cells[c].point[r];
-      cell[rows.at(fill[i]++, i)] = static_cast<std::uint32_t>(c);
-    }
+    for (const std::uint32_t p : cells[c].point)
+      if (const std::uint32_t r = row_of[p]; r != kAbsentPoint)
+        cell[rows.at(fill[r]++, r)] = index[c];
   return width;
 }
 
@@ -69,17 +79,20 @@ struct LocalCorner {
 
 template <typename T>
 void VolumeTopology<T>::build(const std::vector<VolumeCell>& cells, std::size_t n_points) {
-  std::vector<std::uint32_t> count, cell, point;
+  std::vector<std::uint32_t> count, cell, point, index(cells.size()), row_of(n_points);
   std::vector<T> rest, k;
+  std::iota(index.begin(), index.end(), 0u);
+  std::iota(row_of.begin(), row_of.end(), 0u);
   const exec::Backend b = count_.backend();
-  width_ = cell_rows<T>(
-      cells, n_points,
+  cell_table(cells, n_points, point, rest, k);
+  width_ = cell_rows(
+      cells, index, row_of, n_points, 0,
       [b](std::size_t n, std::uint32_t w) { return RowLayout::for_backend(b, n, w); },
       [&cell](std::size_t size) {
         cell.assign(size, 0);
         return cell.data();
       },
-      count, point, rest, k);
+      count);
   count_.assign(count);
   cell_.assign(cell);
   point_.assign(point);
@@ -89,23 +102,13 @@ void VolumeTopology<T>::build(const std::vector<VolumeCell>& cells, std::size_t 
 }
 
 template <typename T>
-typename VolumeTopology<T>::Mesh VolumeTopology<T>::mesh_rows(exec::Backend b,
-                                                              const std::vector<VolumeCell>& cells,
-                                                              std::size_t n_points) {
-  std::vector<std::uint32_t> count, point;
+typename VolumeTopology<T>::Cells
+VolumeTopology<T>::mesh_cells(exec::Backend b, const std::vector<VolumeCell>& cells,
+                              std::size_t n_points) {
+  std::vector<std::uint32_t> point;
   std::vector<T> rest, k;
-  Mesh m;
-  m.width = cell_rows<T>(
-      cells, n_points,
-      [](std::size_t, std::uint32_t w) {
-        return RowLayout{1, w};
-      },
-      [&m, b](std::size_t size) {
-        m.cell = exec::HostReadable<std::uint32_t>(b, size, "knit.mesh.volume.cell");
-        return m.cell.data();
-      },
-      count, point, rest, k);
-  m.count = exec::HostReadable<std::uint32_t>(b, count, "knit.mesh.volume.count");
+  cell_table(cells, n_points, point, rest, k);
+  Cells m;
   m.point = exec::HostReadable<std::uint32_t>(b, point, "knit.mesh.volume.point");
   m.rest = exec::HostReadable<T>(b, rest, "knit.mesh.volume.rest");
   m.k = exec::HostReadable<T>(b, k, "knit.mesh.volume.k");
@@ -114,28 +117,61 @@ typename VolumeTopology<T>::Mesh VolumeTopology<T>::mesh_rows(exec::Backend b,
 }
 
 template <typename T>
-void VolumeTopology<T>::localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
+typename VolumeTopology<T>::HostRows
+VolumeTopology<T>::host_rows(exec::Backend b, const std::vector<VolumeCell>& cells,
+                             const std::vector<std::uint32_t>& index, std::size_t n_points,
+                             const std::vector<std::uint64_t>& ids, std::uint32_t width) {
+  if (index.size() != cells.size())
+    throw Error("volume cell rows: " + std::to_string(index.size()) + " indices for " +
+                std::to_string(cells.size()) + " cells");
+  std::vector<std::uint32_t> count, row_of(n_points, kAbsentPoint);
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    if (ids[k] >= n_points || row_of[ids[k]] != kAbsentPoint)
+      throw Error("volume cell rows: point " + std::to_string(ids[k]) + " is not one of " +
+                  std::to_string(n_points) + " or is listed twice");
+    row_of[ids[k]] = static_cast<std::uint32_t>(k);
+  }
+  HostRows m;
+  m.width = cell_rows(
+      cells, index, row_of, ids.size(), width,
+      [](std::size_t, std::uint32_t w) {
+        return RowLayout{1, w};
+      },
+      [&m, b](std::size_t size) {
+        m.cell = exec::HostReadable<std::uint32_t>(b, size, "knit.rank.volume.cell");
+        return m.cell.data();
+      },
+      count);
+  m.count = exec::HostReadable<std::uint32_t>(b, count, "knit.rank.volume.count");
+  return m;
+}
+
+template <typename T>
+void VolumeTopology<T>::localize(const exec::Exec& ex, const Cells& cells, const HostRows& from,
                                  const std::uint32_t* local_of_id, std::size_t owned) {
-  cells_ = mesh.cells;
-  width_ = mesh.width;
-  if (rest_.size() != mesh.rest.size()) { // the mesh's constants, by mesh cell index
-    rest_.assign(mesh.rest.data(), mesh.rest.size());
-    k_.assign(mesh.k.data(), mesh.k.size());
+  if (from.points() < owned)
+    throw Error("knit volume cells: rows for " + std::to_string(from.points()) + " points, " +
+                std::to_string(owned) + " owned");
+  cells_ = cells.cells;
+  width_ = from.width;
+  if (rest_.size() != cells.rest.size()) { // the mesh's constants, by mesh cell index
+    rest_.assign(cells.rest.data(), cells.rest.size());
+    k_.assign(cells.k.data(), cells.k.size());
   }
   count_.resize(owned);
   cell_.resize(std::size_t(width_) * owned);
-  point_.resize(mesh.point.size());
+  point_.resize(cells.point.size());
   exec::for_each(ex, owned,
-                 LocalRowGather<std::uint32_t, SameEntry>{mesh.count.data(),
-                                                          mesh.cell.data(),
-                                                          mesh.rows(),
-                                                          id,
+                 LocalRowGather<std::uint32_t, SameEntry>{from.count.data(),
+                                                          from.cell.data(),
+                                                          from.rows(),
+                                                          nullptr,
                                                           rows(),
                                                           count_.data(),
                                                           cell_.data(),
                                                           {}},
                  "knit.volumes.localize");
-  exec::for_each(ex, point_.size(), LocalCorner{mesh.point.data(), {local_of_id}, point_.data()},
+  exec::for_each(ex, point_.size(), LocalCorner{cells.point.data(), {local_of_id}, point_.data()},
                  "knit.volumes.localize");
 }
 

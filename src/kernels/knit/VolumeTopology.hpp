@@ -65,30 +65,42 @@ struct VolumeView {
 template <typename T>
 class VolumeTopology {
 public:
-  /// The whole mesh's cells on N ranks, on the host (as SpringTopology::Mesh): each point's
-  /// cells (row-major), each cell's corners and constants.
-  struct Mesh {
-    exec::HostReadable<std::uint32_t> count, cell, point;
+  /// The whole mesh's cells on N ranks, on the host: each cell's corners (mesh indices) and
+  /// constants, by mesh cell index.
+  struct Cells {
+    exec::HostReadable<std::uint32_t> point;
     exec::HostReadable<T> rest, k;
-    std::uint32_t width = 0;
     std::size_t cells = 0;
+  };
+  /// A rank's points' rows on N ranks (as SpringTopology::HostRows): each point's cells, mesh cell
+  /// indices in the mesh's order, row k the k-th local point's, row-major; they migrate with
+  /// their points.
+  struct HostRows {
+    exec::HostReadable<std::uint32_t> count, cell;
+    std::uint32_t width = 0;
+    std::size_t points() const { return count.size(); }
     RowLayout rows() const { return {1, width}; }
-    VolumeView<T> view() const {
-      if (cells == 0)
-        return {};
-      return {count.data(), cell.data(), point.data(), rest.data(), k.data(), rows()};
+    void resize(std::size_t n) {
+      count.resize(n);
+      cell.resize(n * width);
     }
   };
-  /// The cells over n_points points for kernels of backend b (as build()).
-  static Mesh mesh_rows(exec::Backend b, const std::vector<VolumeCell>& cells,
-                        std::size_t n_points);
+  /// The cells' corners and constants for kernels of backend b.
+  static Cells mesh_cells(exec::Backend b, const std::vector<VolumeCell>& cells,
+                          std::size_t n_points);
+  /// The rows of points ids[0..] (row k: point ids[k]'s cells in the list's order) from a list
+  /// over n_points points holding every cell of those points, index[c] cell c's mesh index
+  /// (others are passed over); at least `width` wide.
+  static HostRows host_rows(exec::Backend b, const std::vector<VolumeCell>& cells,
+                            const std::vector<std::uint32_t>& index, std::size_t n_points,
+                            const std::vector<std::uint64_t>& ids, std::uint32_t width = 0);
 
   explicit VolumeTopology(exec::Backend b);
   void build(const std::vector<VolumeCell>& cells, std::size_t n_points);
-  /// On N ranks, as SpringTopology::localize: the first `owned` local points take their mesh
-  /// point's cells (mesh cell indices, in the mesh's order), the ghosts have no rows; every mesh
-  /// cell's points are mapped to local indices (absent ones are in no owned point's cell).
-  void localize(const exec::Exec& ex, const Mesh& mesh, const std::uint64_t* id,
+  /// On N ranks, as SpringTopology::localize: the first `owned` local points take their rows
+  /// (mesh cell indices, in the mesh's order), the ghosts have no rows; every mesh cell's points
+  /// are mapped to local indices (absent ones are in no owned point's cell).
+  void localize(const exec::Exec& ex, const Cells& cells, const HostRows& rows,
                 const std::uint32_t* local_of_id, std::size_t owned);
   /// The points with rows (all of them; on N ranks the owned ones).
   std::size_t points() const { return count_.size(); }
