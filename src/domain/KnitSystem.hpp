@@ -99,10 +99,10 @@ public:
   /// On N ranks (KnitHalo): the set holds `owned` points, which this rank integrates, then
   /// ghosts (their copies, refreshed by refresh_ghosts after every drift). The springs of the
   /// owned points and their volume cells are gathered on the backend from the rank's rows
-  /// (take_rows, migrated with the points: row k the k-th point's), the cells' corners from the
-  /// whole mesh's table, the other ends by local_of_id (each mesh index's local index); each
-  /// point's row keeps the mesh's order, so its forces sum as on one rank. Every partner must be
-  /// present (KnitHalo checks).
+  /// (take_rows, migrated with the points: row k the k-th point's), the cells they name from the
+  /// whole mesh's table on the host (compacted on the backend), the other ends by local_of_id
+  /// (each mesh index's local index); each point's row keeps the mesh's order, so its forces sum
+  /// as on one rank. Every partner must be present (KnitHalo checks).
   void localize(const exec::DeviceBuffer<std::uint32_t>& local_of_id, std::size_t owned);
   /// After localize: the owned points' farthest partner (squared) and whether one is absent.
   PartnerReach<T> partner_reach() const;

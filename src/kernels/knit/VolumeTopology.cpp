@@ -12,8 +12,8 @@ namespace kf {
 template <typename T>
 VolumeTopology<T>::VolumeTopology(exec::Backend b)
     : count_(b, 0, "knit.volume.count"), cell_(b, 0, "knit.volume.cell"),
-      point_(b, 0, "knit.volume.point"), rest_(b, 0, "knit.volume.rest"),
-      k_(b, 0, "knit.volume.k") {}
+      point_(b, 0, "knit.volume.point"), rest_(b, 0, "knit.volume.rest"), k_(b, 0, "knit.volume.k"),
+      slot_(b, 0, "knit.volume.slot") {}
 
 namespace {
 
@@ -67,12 +67,56 @@ cell_rows(const std::vector<VolumeCell>& cells, const std::vector<std::uint32_t>
   return width;
 }
 
-// A mesh cell's corner by local index.
-struct LocalCorner {
+// Marks the cells the owned points' rows name (each mesh cell's slot set to 1). Several points
+// may mark one cell at once: the same word written with the same value.
+struct MarkUsedCells {
+  const std::uint32_t* count;
+  const std::uint32_t* cell;
+  RowLayout rows;
+  std::uint32_t* used;
+  KF_HD KF_INLINE void operator()(std::size_t k) const {
+    for (std::uint32_t e = 0; e < count[k]; ++e)
+      used[cell[rows.at(e, k)]] = 1;
+  }
+};
+
+// A used mesh cell (after the exclusive scan of the marks: slot[c + 1] > slot[c], `used` past
+// the last) copied to its compact slot, its corners by local index.
+template <typename T>
+struct CompactCell {
   const std::uint32_t* mesh_point;
+  const T* mesh_rest;
+  const T* mesh_k;
+  const std::uint32_t* slot;
+  std::size_t n;
+  std::uint32_t used;
   LocalOfId local;
   std::uint32_t* point;
-  KF_HD KF_INLINE void operator()(std::size_t q) const { point[q] = local(mesh_point[q]); }
+  T* rest;
+  T* k;
+  KF_HD KF_INLINE void operator()(std::size_t c) const {
+    const std::uint32_t s = slot[c], next = c + 1 < n ? slot[c + 1] : used;
+    if (next == s)
+      return;
+    for (int r = 0; r < 4; ++r)
+      point[4 * std::size_t(s) + r] = local(mesh_point[4 * c + r]);
+    rest[s] = mesh_rest[c];
+    k[s] = mesh_k[c];
+  }
+};
+
+// The owned points' rows from mesh cell indices to compact slots.
+struct CellToSlot {
+  const std::uint32_t* count;
+  std::uint32_t* cell;
+  RowLayout rows;
+  const std::uint32_t* slot;
+  KF_HD KF_INLINE void operator()(std::size_t k) const {
+    for (std::uint32_t e = 0; e < count[k]; ++e) {
+      std::uint32_t& c = cell[rows.at(e, k)];
+      c = slot[c];
+    }
+  }
 };
 
 } // namespace
@@ -154,13 +198,8 @@ void VolumeTopology<T>::localize(const exec::Exec& ex, const Cells& cells, const
                 std::to_string(owned) + " owned");
   cells_ = cells.cells;
   width_ = from.width;
-  if (rest_.size() != cells.rest.size()) { // the mesh's constants, by mesh cell index
-    rest_.assign(cells.rest.data(), cells.rest.size());
-    k_.assign(cells.k.data(), cells.k.size());
-  }
   count_.resize(owned);
   cell_.resize(std::size_t(width_) * owned);
-  point_.resize(cells.point.size());
   exec::for_each(ex, owned,
                  LocalRowGather<std::uint32_t, SameEntry>{from.count.data(),
                                                           from.cell.data(),
@@ -171,7 +210,31 @@ void VolumeTopology<T>::localize(const exec::Exec& ex, const Cells& cells, const
                                                           cell_.data(),
                                                           {}},
                  "knit.volumes.localize");
-  exec::for_each(ex, point_.size(), LocalCorner{cells.point.data(), {local_of_id}, point_.data()},
+  // Only the cells the owned points' rows name, compacted (a mark a mesh cell, scanned into
+  // slots): a rank's backend holds its share of the cells' corners and constants, not the
+  // whole mesh's; each row keeps its order, so the forces sum as before.
+  slot_.resize(cells.cells);
+  exec::fill(ex, slot_, std::uint32_t(0), "knit.volumes.localize");
+  exec::for_each(ex, owned, MarkUsedCells{count_.data(), cell_.data(), rows(), slot_.data()},
+                 "knit.volumes.localize");
+  const auto used = static_cast<std::uint32_t>(
+      cells.cells ? exec::exclusive_scan(ex, slot_, slot_, "knit.volumes.localize") : 0);
+  point_.resize(4 * std::size_t(used));
+  rest_.resize(used);
+  k_.resize(used);
+  exec::for_each(ex, cells.cells,
+                 CompactCell<T>{cells.point.data(),
+                                cells.rest.data(),
+                                cells.k.data(),
+                                slot_.data(),
+                                cells.cells,
+                                used,
+                                {local_of_id},
+                                point_.data(),
+                                rest_.data(),
+                                k_.data()},
+                 "knit.volumes.localize");
+  exec::for_each(ex, owned, CellToSlot{count_.data(), cell_.data(), rows(), slot_.data()},
                  "knit.volumes.localize");
 }
 
@@ -185,7 +248,7 @@ VolumeView<T> VolumeTopology<T>::view() const {
 template <typename T>
 std::size_t VolumeTopology<T>::bytes() const {
   return count_.capacity_bytes() + cell_.capacity_bytes() + point_.capacity_bytes() +
-         rest_.capacity_bytes() + k_.capacity_bytes();
+         rest_.capacity_bytes() + k_.capacity_bytes() + slot_.capacity_bytes();
 }
 
 template class VolumeTopology<float>;

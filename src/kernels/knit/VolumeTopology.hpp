@@ -98,8 +98,9 @@ public:
   explicit VolumeTopology(exec::Backend b);
   void build(const std::vector<VolumeCell>& cells, std::size_t n_points);
   /// On N ranks, as SpringTopology::localize: the first `owned` local points take their rows
-  /// (mesh cell indices, in the mesh's order), the ghosts have no rows; every mesh cell's points
-  /// are mapped to local indices (absent ones are in no owned point's cell).
+  /// (in the mesh's order), the ghosts have no rows; the cells those rows name are gathered
+  /// from the mesh's table into a compact one (the rows then index it), their corners mapped
+  /// to local indices.
   void localize(const exec::Exec& ex, const Cells& cells, const HostRows& rows,
                 const std::uint32_t* local_of_id, std::size_t owned);
   /// The points with rows (all of them; on N ranks the owned ones).
@@ -111,6 +112,9 @@ public:
 private:
   exec::DeviceBuffer<std::uint32_t> count_, cell_, point_;
   exec::DeviceBuffer<T> rest_, k_;
+  // On N ranks, each mesh cell's compact slot (the used cells' corners and constants are the
+  // rank's only); empty on one rank.
+  exec::DeviceBuffer<std::uint32_t> slot_;
   std::size_t cells_ = 0;
   std::uint32_t width_ = 0; // the most cells of one point
   /// Where the rows sit: the backend's layout for these points and width.
