@@ -56,7 +56,7 @@ void add_spring(KnitMesh& mesh, std::uint32_t i, std::uint32_t j, double k, Spri
   s.k = k;
   s.c = damping_ratio * 2.0 * std::sqrt(k * mi * mj / (mi + mj));
   s.kind = kind;
-  KnitSpringStats& st = mesh.spring_stats;
+  KnitMeshStats& st = mesh.stats;
   if (kind == SpringKind::Stretch)
     st.longest_stretch = std::max(st.longest_stretch, s.rest);
   st.stiffest = std::max(st.stiffest, s.k);
@@ -72,7 +72,7 @@ void add_spring(KnitMesh& mesh, std::uint32_t i, std::uint32_t j, double k, Spri
 }
 
 void add_volume_cell(KnitMesh& mesh, const std::array<std::uint32_t, 4>& point, double kh) {
-  KnitSpringStats& st = mesh.spring_stats;
+  KnitMeshStats& st = mesh.stats;
   if (mesh.cell_ends.size() < mesh.x.size())
     mesh.cell_ends.resize(mesh.x.size(), 0);
   bool kept = !mesh.cells_of;

@@ -28,8 +28,8 @@ struct KnitPieceLayout {
   }
 };
 
-/// What the mesh's springs tell beyond their rows, over every spring built (kept or not).
-struct KnitSpringStats {
+/// What the mesh's springs and cells tell beyond their rows, over every one built (kept or not).
+struct KnitMeshStats {
   double longest_stretch = 0; // the longest rest length of a stretch spring
   double stiffest = 0;        // the largest k
   double longest = 0;         // the longest rest length of any spring
@@ -50,7 +50,7 @@ struct KnitMesh {
   std::vector<VolumeCell> volumes;
   std::vector<std::uint32_t> volume_index; // each kept cell's index among all the mesh's cells
   std::vector<KnitPieceLayout> pieces;
-  KnitSpringStats spring_stats;
+  KnitMeshStats stats;
   std::vector<std::uint32_t> spring_ends; // springs a point, during the build (then widest)
   // What the build keeps (build_knit's arguments): springs with an end flagged, cells with a
   // corner flagged (null: all; empty: none).

@@ -52,11 +52,11 @@ KnitSystem<T>::KnitSystem(const Scene& scene, exec::Exec ex, bool shared)
   // What the springs tell beyond their rows (every spring built, kept or not): the widest gap
   // between points of a sheet, the stiffest spring (the self-contact's default), the farthest a
   // spring or volume cell reaches at rest (the split's ghost width).
-  const KnitSpringStats& st = mesh.spring_stats;
+  const KnitMeshStats& st = mesh.stats;
   longest_spacing_ = st.longest_stretch;
   const double stiffest = st.stiffest;
   rest_reach_ = st.longest;
-  spring_stats_ = st;
+  mesh_stats_ = st;
   for (const VolumeCell& c : mesh.volumes)
     for (std::uint32_t a : c.point)
       for (std::uint32_t b : c.point)
@@ -87,12 +87,11 @@ void KnitSystem<T>::set_spring_limits(double spring, double damping) {
 }
 
 template <typename T>
-std::array<double, 2> KnitSystem<T>::owned_spring_limits() const {
+std::array<double, 2> KnitSystem<T>::owned_spring_limits() {
   // At the rest positions, as one rank's constructor takes them (x_rest travels with the
   // points; the cells' corners among the owned points and ghosts after a choice).
-  KnitView<T> p = const_cast<KnitSet<T>&>(set_).view();
-  p.x = const_cast<Vec3<T>*>(set_.x_rest.data());
-  p.n = owned();
+  KnitView<T> p = owned_view();
+  p.x = set_.x_rest.data();
   T spring = 0, damping = 0;
   knit_spring_limits(ex_, p, springs_.view(), volumes_.view(), spring, damping);
   return {double(spring), double(damping)};
@@ -109,17 +108,17 @@ void KnitSystem<T>::take_rows(const std::vector<std::uint64_t>& ids) {
   const KnitMesh mesh = build_knit(scene_, &mine, &mine);
   // Every rank's rows as wide as the widest point's: a migration moves rows of one size.
   rows_.emplace(
-      SpringTopology<T>::host_rows(ex_.backend, mesh.springs, n, ids, spring_stats_.widest));
-  if (rows_->width != spring_stats_.widest)
+      SpringTopology<T>::host_rows(ex_.backend, mesh.springs, n, ids, mesh_stats_.widest));
+  if (rows_->width != mesh_stats_.widest)
     throw Error("knit springs: a rank's rows are " + std::to_string(rows_->width) +
-                " wide, the mesh's widest point has " + std::to_string(spring_stats_.widest));
-  rows_->springs = spring_stats_.springs;
-  rows_->by_kind = spring_stats_.by_kind;
+                " wide, the mesh's widest point has " + std::to_string(mesh_stats_.widest));
+  rows_->springs = mesh_stats_.springs;
+  rows_->by_kind = mesh_stats_.by_kind;
   cell_rows_.emplace(VolumeTopology<T>::host_rows(ex_.backend, mesh.volumes, mesh.volume_index, n,
-                                                  ids, spring_stats_.widest_cells));
-  if (cell_rows_->width != spring_stats_.widest_cells)
+                                                  ids, mesh_stats_.widest_cells));
+  if (cell_rows_->width != mesh_stats_.widest_cells)
     throw Error("knit volume cells: a rank's rows are " + std::to_string(cell_rows_->width) +
-                " wide, the mesh's widest point has " + std::to_string(spring_stats_.widest_cells));
+                " wide, the mesh's widest point has " + std::to_string(mesh_stats_.widest_cells));
   row_ids_ = ids;
 }
 

@@ -131,7 +131,7 @@ public:
   /// The step limits of the owned points' springs and cells at their rest positions (after a
   /// localize that found every partner): the shortest sqrt(m / sum k), m / sum c. On N ranks
   /// the job's minimum is what one rank computes (set_spring_limits).
-  std::array<double, 2> owned_spring_limits() const;
+  std::array<double, 2> owned_spring_limits();
   void set_spring_limits(double spring, double damping);
   bool spring_limits_known() const { return spring_limit_ == spring_limit_; }
   /// The farthest two points of a spring or a volume cell lie apart at rest.
@@ -175,7 +175,7 @@ private:
   std::vector<std::uint64_t> row_ids_;
   std::optional<typename VolumeTopology<T>::HostRows> cell_rows_;
   std::optional<typename VolumeTopology<T>::Cells> mesh_cells_;
-  KnitSpringStats spring_stats_;
+  KnitMeshStats mesh_stats_;
   void set_handle_velocities(double t);
   exec::DeviceBuffer<Vec3<T>> handle_v_;
   std::vector<Vec3<T>> handle_v_host_;
