@@ -69,8 +69,8 @@ void KnitHalo<T>::distribute(const typename SkinWatch<T>::State& self_state,
       comm::migrate(ranks_.transport(), {}, ranks_.owners(HostValues<Vec3<T>>(set.x).span(), true),
                     columns.migration, ranks_.rows());
   set.resize(owned_);
-  // The springs' rows of the points kept (the set's order), built here: no rank's host builds
-  // the whole knit's; from now on they travel with their points (rebuild).
+  // The springs' and cells' rows of the points kept (the set's order), built here: no rank's
+  // host builds the whole knit's; from now on they travel with their points (rebuild).
   knit_.take_rows(set.id.to_host());
   repartitions_seen_ = ranks_.repartitions();
   halo_.reset();
@@ -161,15 +161,16 @@ void KnitHalo<T>::rebuild() {
   const std::vector<int> destination = ranks_.owners(HostValues<Vec3<T>>(set.x, owned_).span());
   owned_ = comm::migrate(ranks_.transport(), peers, destination, columns.migration, ranks_.rows());
   set.resize(owned_);
-  { // The springs' rows go with their points, on the host (the same destinations, so the same
-    // order: the stayers closed up in order, the arrivals by sending rank in its order).
+  { // The springs' and cells' rows go with their points, on the host (the same destinations, so
+    // the same order: the stayers closed up in order, the arrivals by sending rank in its order).
     auto rows = knit_.row_columns();
     const std::size_t n = comm::migrate(host_transport_, peers, destination, rows);
     const HostValues<std::uint64_t> id(set.id, owned_);
     const auto& row_ids = knit_.row_ids();
     if (n != owned_ || row_ids.size() != owned_ ||
         !std::equal(id.span().begin(), id.span().end(), row_ids.begin()))
-      throw Error("knit on N ranks: the springs' rows parted from their points in a migration (" +
+      throw Error("knit on N ranks: the springs' and cells' rows parted from their points in a "
+                  "migration (" +
                   std::to_string(row_ids.size()) + " rows, " + std::to_string(owned_) + " points)");
   }
   // The ghosts: the width covers the partners as stretched at the last choice (the check below

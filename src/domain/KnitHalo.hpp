@@ -143,9 +143,9 @@ private:
   /// owned point is among them (collective); reach_ becomes the farthest partner. When all are,
   /// the localized callback has run.
   bool localize_and_check();
-  /// Migration to the blocks' owners (the springs' rows with their points), the ghosts chosen and
-  /// received (every partner present), the springs localized, the self-contact grid sorted for
-  /// its reference positions.
+  /// Migration to the blocks' owners (the springs' and cells' rows with their points), the ghosts
+  /// chosen and received (every partner present), the springs localized, the self-contact grid
+  /// sorted for its reference positions.
   void rebuild();
 
   RankExchange<T>& ranks_;
@@ -161,7 +161,7 @@ private:
   std::uint64_t repartitions_seen_ = 0;
   std::optional<comm::HaloExchange> halo_;
   exec::DeviceBuffer<std::uint32_t> local_of_id_;
-  comm::MpiTransport host_transport_; // the springs' rows' migration (host memory)
+  comm::MpiTransport host_transport_; // the rows' migration (host memory)
   std::vector<exec::DeviceBuffer<T>*> carried_;
   Localized localized_;
 };

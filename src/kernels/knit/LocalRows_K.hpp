@@ -11,27 +11,24 @@ namespace kf {
 /// the localized rows.
 inline constexpr std::uint32_t kAbsentPoint = 0xFFFFFFFFu;
 
-/// Gathers a per-point table's rows for a rank's owned points from the mesh's: local point k
-/// takes mesh point id[k]'s row (row k where id is null: rows in the local points' order), each
-/// entry through `local` (mesh indices inside it made local);
-/// ghosts have no rows (theirs are their owners'). Springs and volume cells share it: entry e of
-/// point p sits at rows.at(e, p) in both (RowLayout).
+/// Gathers a per-point table's rows for a rank's owned points from the rank's rows on the host
+/// (row k the k-th local point's, HostRows), each entry through `local` (mesh indices inside it
+/// made local); ghosts have no rows (theirs are their owners'). Springs and volume cells share
+/// it: entry e of point p sits at rows.at(e, p) in both (RowLayout).
 template <typename Entry, typename Local>
 struct LocalRowGather {
-  const std::uint32_t* mesh_count;
-  const Entry* mesh_entry;
-  RowLayout mesh_rows;
-  const std::uint64_t* id;
+  const std::uint32_t* from_count;
+  const Entry* from_entry;
+  RowLayout from_rows;
   RowLayout rows;
   std::uint32_t* count;
   Entry* entry;
   Local local;
   KF_HD KF_INLINE void operator()(std::size_t k) const {
-    const std::size_t p = id ? static_cast<std::size_t>(id[k]) : k;
-    const std::uint32_t c = mesh_count[p];
+    const std::uint32_t c = from_count[k];
     count[k] = c;
     for (std::uint32_t e = 0; e < c; ++e)
-      entry[rows.at(e, k)] = local(mesh_entry[mesh_rows.at(e, p)]);
+      entry[rows.at(e, k)] = local(from_entry[from_rows.at(e, k)]);
   }
 };
 

@@ -2,6 +2,7 @@
 
 #include "core/Error.hpp"
 #include "kernels/knit/LocalRows_K.hpp"
+#include "kernels/knit/PointRows.hpp"
 
 #include <algorithm>
 #include <numeric>
@@ -91,13 +92,8 @@ typename SpringTopology<T>::HostRows
 SpringTopology<T>::host_rows(exec::Backend b, const std::vector<Spring>& springs,
                              std::size_t n_points, const std::vector<std::uint64_t>& ids,
                              std::uint32_t width) {
-  std::vector<std::uint32_t> count, row_of(n_points, kAbsentPoint);
-  for (std::size_t k = 0; k < ids.size(); ++k) {
-    if (ids[k] >= n_points || row_of[ids[k]] != kAbsentPoint)
-      throw Error("spring rows: point " + std::to_string(ids[k]) + " is not one of " +
-                  std::to_string(n_points) + " or is listed twice");
-    row_of[ids[k]] = static_cast<std::uint32_t>(k);
-  }
+  std::vector<std::uint32_t> count;
+  const std::vector<std::uint32_t> row_of = rows_of_points(ids, n_points, "spring rows");
   HostRows m;
   m.width = width;
   spring_rows<T>(
@@ -128,7 +124,6 @@ void SpringTopology<T>::localize(const exec::Exec& ex, const HostRows& from,
                  LocalRowGather<SpringEntry<T>, OtherEndLocal<T>>{from.count.data(),
                                                                   from.entry.data(),
                                                                   from.rows(),
-                                                                  nullptr,
                                                                   rows(),
                                                                   count_.data(),
                                                                   entry_.data(),

@@ -2,6 +2,7 @@
 
 #include "core/Error.hpp"
 #include "kernels/knit/LocalRows_K.hpp"
+#include "kernels/knit/PointRows.hpp"
 
 #include <algorithm>
 #include <numeric>
@@ -168,13 +169,8 @@ VolumeTopology<T>::host_rows(exec::Backend b, const std::vector<VolumeCell>& cel
   if (index.size() != cells.size())
     throw Error("volume cell rows: " + std::to_string(index.size()) + " indices for " +
                 std::to_string(cells.size()) + " cells");
-  std::vector<std::uint32_t> count, row_of(n_points, kAbsentPoint);
-  for (std::size_t k = 0; k < ids.size(); ++k) {
-    if (ids[k] >= n_points || row_of[ids[k]] != kAbsentPoint)
-      throw Error("volume cell rows: point " + std::to_string(ids[k]) + " is not one of " +
-                  std::to_string(n_points) + " or is listed twice");
-    row_of[ids[k]] = static_cast<std::uint32_t>(k);
-  }
+  std::vector<std::uint32_t> count;
+  const std::vector<std::uint32_t> row_of = rows_of_points(ids, n_points, "volume cell rows");
   HostRows m;
   m.width = cell_rows(
       cells, index, row_of, ids.size(), width,
@@ -204,7 +200,6 @@ void VolumeTopology<T>::localize(const exec::Exec& ex, const Cells& cells, const
                  LocalRowGather<std::uint32_t, SameEntry>{from.count.data(),
                                                           from.cell.data(),
                                                           from.rows(),
-                                                          nullptr,
                                                           rows(),
                                                           count_.data(),
                                                           cell_.data(),
