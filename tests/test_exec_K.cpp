@@ -809,6 +809,25 @@ TEST_P(ExecTest, DeviceBufferResizeKeepsLeadingContents) {
   EXPECT_GE(buf.capacity_bytes(), 5000 * sizeof(std::uint32_t));
 }
 
+TEST_P(ExecTest, DeviceBufferShrinkToFitKeepsContentsAndFreesTheRest) {
+  const auto h = random_u32(4000, 0xFFFFFFFFu, 501);
+  DeviceBuffer<std::uint32_t> buf(b(), 0, "buf");
+  buf.assign(h);
+  buf.resize(300); // a rank's share of a whole set: the room stays held
+  const std::size_t held = kf::exec::held_bytes(b()).now;
+  buf.shrink_to_fit();
+  EXPECT_EQ(buf.capacity(), 300u);
+  // The ledger (the backend's, every buffer of the process) lost exactly the spare room.
+  EXPECT_EQ(held - kf::exec::held_bytes(b()).now, 3700 * sizeof(std::uint32_t));
+  EXPECT_EQ(buf.to_host(), std::vector<std::uint32_t>(h.begin(), h.begin() + 300));
+  buf.resize(0);
+  buf.shrink_to_fit(); // nothing left: nothing held
+  EXPECT_EQ(buf.capacity(), 0u);
+  EXPECT_EQ(buf.data(), nullptr);
+  buf.assign(h); // and usable again
+  EXPECT_EQ(buf.to_host(), h);
+}
+
 TEST_P(ExecTest, DeviceBufferCopiesAndMoves) {
   const auto h = random_f64(777, 600);
   DeviceBuffer<double> a(b(), 0, "a");

@@ -17,10 +17,15 @@ comm::Column column(exec::DeviceBuffer<U>& b) {
   return {b.data(), sizeof(U)};
 }
 
+/// snug: grows by a sixteenth where it grows (DeviceBuffer::resize_snug), for columns whose owner
+/// keeps them fitted to its points (the knit's); else geometrically.
 template <typename U>
-comm::MigrationColumn resizable(exec::DeviceBuffer<U>& b) {
-  return {sizeof(U), [&b](std::size_t k) {
-            b.resize(k);
+comm::MigrationColumn resizable(exec::DeviceBuffer<U>& b, bool snug = false) {
+  return {sizeof(U), [&b, snug](std::size_t k) {
+            if (snug)
+              b.resize_snug(k);
+            else
+              b.resize(k);
             return reinterpret_cast<unsigned char*>(b.data());
           }};
 }
@@ -52,13 +57,18 @@ private:
   std::vector<U> copy_;
 };
 
-/// Both views of the same buffers, listed once.
+/// Both views of the same buffers, listed once (their migrations grow them snugly).
 struct ExchangeColumns {
   std::vector<comm::Column> halo;
   std::vector<comm::MigrationColumn> migration;
   template <typename... U>
   static ExchangeColumns of(exec::DeviceBuffer<U>&... b) {
-    return {{column(b)...}, {resizable(b)...}};
+    return {{column(b)...}, {resizable(b, true)...}};
+  }
+  template <typename U>
+  void add(exec::DeviceBuffer<U>& b) {
+    halo.push_back(column(b));
+    migration.push_back(resizable(b, true));
   }
 };
 

@@ -48,12 +48,11 @@ double KnitHalo<T>::base_width(KnitSystem<T>& knit, const KnitFluidCoupling<T>* 
 template <typename T>
 ExchangeColumns KnitHalo<T>::state() {
   auto& s = knit_.set();
-  auto c = ExchangeColumns::of(s.x, s.v, s.a, s.x_rest, s.m, s.handle, s.layer, s.piece, s.id,
-                               self_ref_.x0, coupling_ref_.x0);
-  for (auto* b : carried_) {
-    c.halo.push_back(column(*b));
-    c.migration.push_back(resizable(*b));
-  }
+  auto c = ExchangeColumns::of(s.x, s.v, s.a, s.x_rest, s.m, s.handle, s.layer, s.piece, s.id);
+  for (Reference* r : references())
+    c.add(r->x0);
+  for (auto* b : carried_)
+    c.add(*b);
   return c;
 }
 
@@ -62,13 +61,23 @@ void KnitHalo<T>::distribute(const typename SkinWatch<T>::State& self_state,
                              const typename SkinWatch<T>::State& coupling_state) {
   const auto timed = ranks_.time_exchange();
   auto& set = knit_.set();
-  self_ref_.start(set.x, self_state, "self-contact");
-  coupling_ref_.start(set.x, coupling_state, "coupling");
+  if (knit_.self_contact())
+    self_ref_.start(set.x, self_state, "self-contact");
+  if (coupling_)
+    coupling_ref_.start(set.x, coupling_state, "coupling");
   auto columns = state();
   owned_ =
       comm::migrate(ranks_.transport(), {}, ranks_.owners(HostValues<Vec3<T>>(set.x).span(), true),
                     columns.migration, ranks_.rows());
+  // The whole knit's room freed: the rank keeps its share (its ghosts grow it snugly).
   set.resize(owned_);
+  set.shrink_to_fit();
+  for (Reference* r : references())
+    r->x0.shrink_to_fit();
+  for (auto* b : carried_) {
+    b->resize(owned_);
+    b->shrink_to_fit();
+  }
   // The springs' and cells' rows of the points kept (the set's order), built here: no rank's
   // host builds the whole knit's; from now on they travel with their points (rebuild).
   knit_.take_rows(set.id.to_host());
@@ -219,10 +228,10 @@ void KnitHalo<T>::rebuild() {
 template <typename T>
 void KnitHalo<T>::resize(std::size_t n) {
   knit_.set().resize(n);
-  self_ref_.x0.resize(n);
-  coupling_ref_.x0.resize(n);
+  for (Reference* r : references())
+    r->x0.resize_snug(n);
   for (auto* b : carried_)
-    b->resize(n);
+    b->resize_snug(n);
 }
 
 template <typename T>

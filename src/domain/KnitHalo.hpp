@@ -135,6 +135,16 @@ private:
                                      const std::function<void(std::size_t, double*)>& row) const;
   /// The set and the carried references to n points.
   void resize(std::size_t n);
+  /// The grids' references the points carry: the self-contact's and the coupling's where the
+  /// knit has them (an absent one holds nothing).
+  std::vector<Reference*> references() {
+    std::vector<Reference*> r;
+    if (knit_.self_contact())
+      r.push_back(&self_ref_);
+    if (coupling_)
+      r.push_back(&coupling_ref_);
+    return r;
+  }
   /// The ghosts' positions and velocities from their owners (untimed).
   void exchange_motion();
   /// Every column a point carries (the set's and the grids' reference positions).

@@ -152,13 +152,14 @@ TEST(DistributedKnit, NoRankHoldsTheWholeKnit) {
                               "knit.piece.0.courses=96", "knit.self_collision=false"});
   const test::StartPeaks p = test::start_peaks(s, mpi);
   const double most = p.largest(), one = p.one;
-  // Measured (the partition and the allocations are deterministic): the largest rank 0.65 of one
-  // rank's peak on 2 ranks, 0.49 on 3; with the whole mesh's cells' corners and constants on
-  // every backend (until 2026-12-04, sixth) 0.73 and 0.59; with the whole mesh's rows on every
-  // backend (the rows of the whole knit built, then its share gathered from them), 1.61 and 1.47.
-  // A rank holds more than its share: the whole set until distribute keeps its points, a slot a
-  // mesh cell (the cells its rows name compacted), its ghosts.
-  EXPECT_LT(most, (mpi.size() == 2 ? 0.7 : 0.55) * one);
+  // Measured (the partition and the allocations are deterministic): the largest rank 0.57 of one
+  // rank's peak on 2 ranks, 0.38 on 3; with the whole knit's room kept in the set's columns after
+  // distribute (until 2026-12-05) 0.65 and 0.49; with the whole mesh's cells' corners and
+  // constants on every backend (until 2026-12-04, sixth) 0.73 and 0.59; with the whole mesh's
+  // rows on every backend (the rows of the whole knit built, then its share gathered from
+  // them), 1.61 and 1.47. A rank holds more than its share: the whole set until distribute
+  // keeps its points, a slot a mesh cell (the cells its rows name compacted), its ghosts.
+  EXPECT_LT(most, (mpi.size() == 2 ? 0.6 : 0.42) * one);
 }
 
 namespace {

@@ -59,6 +59,19 @@ public:
     capacity_ = n;
   }
 
+  /// Room for size() elements exactly, where there is more: for a column cut to a share of what
+  /// it held (a rank keeping its points of a whole set), whose spare room would stay held.
+  void shrink_to_fit() {
+    if (capacity_ == size_)
+      return;
+    T* p = size_ ? static_cast<T*>(alloc_bytes(backend_, size_ * sizeof(T), what_)) : nullptr;
+    if (size_ > 0)
+      copy_bytes(p, backend_, ptr_, backend_, size_ * sizeof(T));
+    free_bytes(backend_, ptr_);
+    ptr_ = p;
+    capacity_ = size_;
+  }
+
   /// resize(), growing to n and a sixteenth more where it grows: for a column of particles, whose
   /// count moves a little between sorts (migration, ghosts, drops), and which is most of what a
   /// rank holds: geometric growth would leave up to a third of it unused.

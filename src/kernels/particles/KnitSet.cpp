@@ -2,6 +2,21 @@
 
 namespace kf {
 
+namespace {
+template <typename T, typename F>
+void each_column(KnitSet<T>& s, F&& f) {
+  f(s.x);
+  f(s.v);
+  f(s.a);
+  f(s.x_rest);
+  f(s.m);
+  f(s.handle);
+  f(s.layer);
+  f(s.piece);
+  f(s.id);
+}
+} // namespace
+
 template <typename T>
 KnitSet<T>::KnitSet(exec::Backend b)
     : x(b, 0, "knit.x"), v(b, 0, "knit.v"), a(b, 0, "knit.a"), x_rest(b, 0, "knit.x_rest"),
@@ -10,15 +25,12 @@ KnitSet<T>::KnitSet(exec::Backend b)
 
 template <typename T>
 void KnitSet<T>::resize(std::size_t n) {
-  x.resize(n);
-  v.resize(n);
-  a.resize(n);
-  x_rest.resize(n);
-  m.resize(n);
-  handle.resize(n);
-  layer.resize(n);
-  piece.resize(n);
-  id.resize(n);
+  each_column(*this, [n](auto& c) { c.resize_snug(n); });
+}
+
+template <typename T>
+void KnitSet<T>::shrink_to_fit() {
+  each_column(*this, [](auto& c) { c.shrink_to_fit(); });
 }
 
 template <typename T>

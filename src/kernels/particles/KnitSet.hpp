@@ -31,7 +31,11 @@ class KnitSet {
 public:
   explicit KnitSet(exec::Backend b);
   std::size_t size() const { return x.size(); }
+  /// Grows snugly (DeviceBuffer::resize_snug): a rank's owned points and ghosts move a little
+  /// between choices.
   void resize(std::size_t n);
+  /// Frees the room past size() (a rank keeping its share of the whole knit).
+  void shrink_to_fit();
   KnitView<T> view();
   /// Bytes each point costs (state, springs excluded: SpringTopology reports its own).
   static std::size_t bytes_per_particle();
