@@ -177,7 +177,10 @@ void KnitSystem<T>::setup_self_contact(const KnitMesh& mesh, double stiffest, bo
   const Vec3d lo = scene_.domain.min, hi = scene_.domain.max, ext = hi - lo;
   constexpr double kMaxCells = 4e6;
   const double cell = std::max(2.4 * radius, std::cbrt(ext.x * ext.y * ext.z / kMaxCells));
-  self_.emplace(ex_.backend, NeighbourGrid<T>::cover(lo, hi, cell), p);
+  // Shared: each rank's grid covers its window (KnitHalo fits it before the first sort), never
+  // the room (up to kMaxCells: 48 MB of tables a rank).
+  self_.emplace(ex_.backend, NeighbourGrid<T>::cover(lo, hi, cell), p,
+                KnitSelfContact<T>::kListCapacity, shared);
   self_->set_masses_vary(scene_.has(Module::Capillary) &&
                          scene_.capillary.model == Scene::AbsorptionModel::Conserving);
   if (!shared) // one rank: allocates everything now, so plan's memory figure is the run's

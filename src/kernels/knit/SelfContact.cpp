@@ -5,10 +5,12 @@ namespace kf {
 
 template <typename T>
 KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
-                                    const SelfContactParams<T>& params, std::uint32_t list_capacity)
-    : params_(params), whole_(geo), grid_(std::in_place, b, geo), x_(b, 0, "knit.self.x"),
-      v_(b, 0, "knit.self.v"), rest_(b, 0, "knit.self.rest"), m_(b, 0, "knit.self.m"),
-      piece_(b, 0, "knit.self.piece"), id_(b, 0, "knit.self.id"),
+                                    const SelfContactParams<T>& params, std::uint32_t list_capacity,
+                                    bool windowed)
+    : params_(params), whole_(geo),
+      grid_(std::in_place, b, windowed ? NeighbourGrid<T>::within(geo, {0, 0, 0}, {0, 0, 0}) : geo),
+      x_(b, 0, "knit.self.x"), v_(b, 0, "knit.self.v"), rest_(b, 0, "knit.self.rest"),
+      m_(b, 0, "knit.self.m"), piece_(b, 0, "knit.self.piece"), id_(b, 0, "knit.self.id"),
       watch_(b, (geo.cell - T(2) * params.radius) / T(2), "knit.self.moved"), list_(b),
       cell_(geo.cell), list_capacity_(list_capacity) {
   if (!(geo.cell > T(2) * params.radius))

@@ -17,8 +17,11 @@ public:
   /// geo: a grid with cells no smaller than 2 * params.radius.
   /// list_capacity: allowed partners listed per point; a fuller row (a deep fold) walks its
   /// cells instead (exact, slower).
+  /// windowed: for N ranks, where each sorts into a window of geo (fit_window, before any sort):
+  /// the grid holds one cell until then, not the whole room's tables.
+  static constexpr std::uint32_t kListCapacity = 32;
   KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo, const SelfContactParams<T>& params,
-                  std::uint32_t list_capacity = 32);
+                  std::uint32_t list_capacity = kListCapacity, bool windowed = false);
 
   /// Brings the cell-ordered copies up to date, exactly: the grid is sorted again when a point
   /// moved farther than the skin (cell - 2R) since the last sort (until then every pair within 2R
