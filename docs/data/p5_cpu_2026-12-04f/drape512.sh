@@ -1,8 +1,8 @@
 #!/bin/bash
-# usage: drape512.sh EXE... ; runs each at 1, 2, 4 ranks, alternated
+# usage: [RANKS="1 2 4 8"] drape512.sh EXE... ; runs each at 1, 2, 4 ranks (or RANKS), alternated
 export OMP_NUM_THREADS=1 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 cd /work/main
-for n in 1 2 4; do
+for n in ${RANKS:-1 2 4}; do
   for exe in "$@"; do
     echo "== $n $exe"
     s=$(date +%s.%N)
