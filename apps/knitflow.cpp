@@ -88,7 +88,7 @@ void check_scene_size(const kf::Scene& scene, kf::exec::Backend b, const kf::com
 
 /// The split over `ranks`: blocks, ghost widths, and per rank what it owns, what it receives and
 /// the bytes a step exchanges (domain/PartitionPlan).
-void print_partition(const kf::Scene& scene, int ranks) {
+void print_partition(const kf::Scene& scene, int ranks, const kf::PlanReport& r) {
   const kf::PartitionReport p = kf::Simulation::plan_split(scene, ranks);
   std::printf("ranks      %d: %d x %d x %d blocks of %.4g m (%d ghost widths), imbalance %.3f "
               "(slowest rank's cost over the mean)\n",
@@ -100,20 +100,34 @@ void print_partition(const kf::Scene& scene, int ranks) {
               p.widths.knit);
   if (ranks == 1)
     return;
-  std::printf("  rank %10s %10s %10s | %9s %9s %9s | %5s %10s %8s | %s\n", "fluid", "boundary",
-              "knit", "ghosts:fl", "bnd", "knit", "peers", "recv/step", "cost", "grid cells");
+  std::printf("  rank %10s %10s %10s | %9s %9s %9s | %5s %10s %8s | %10s | %s\n", "fluid",
+              "boundary", "knit", "ghosts:fl", "bnd", "knit", "peers", "recv/step", "cost",
+              "memory", "grid cells");
   std::size_t total = 0;
+  double most = 0, sum = 0;
+  int largest = 0;
   for (int k = 0; k < ranks; ++k) {
     const kf::RankShare& s = p.rank[k];
     char grid[48] = "-";
     if (p.domain_cells > 0)
       std::snprintf(grid, sizeof grid, "%zu (%.0f%%)", s.grid_cells,
                     100.0 * double(s.grid_cells) / double(p.domain_cells));
-    std::printf("  %4d %10zu %10zu %10zu | %9zu %9zu %9zu | %5d %10s %8.4g | %s\n", k, s.owned[0],
-                s.owned[1], s.owned[2], s.ghosts[0], s.ghosts[1], s.ghosts[2], s.neighbours,
-                kf::format_bytes(double(s.bytes_per_step)).c_str(), s.cost, grid);
+    const double held = kf::rank_bytes(r, s, ranks);
+    std::printf("  %4d %10zu %10zu %10zu | %9zu %9zu %9zu | %5d %10s %8.4g | %10s | %s\n", k,
+                s.owned[0], s.owned[1], s.owned[2], s.ghosts[0], s.ghosts[1], s.ghosts[2],
+                s.neighbours, kf::format_bytes(double(s.bytes_per_step)).c_str(), s.cost,
+                kf::format_bytes(held).c_str(), grid);
     total += s.bytes_per_step;
+    sum += held;
+    if (held > most) {
+      most = held;
+      largest = k;
+    }
   }
+  std::printf("memory     per rank on %d ranks: the most %s (rank %d), the mean %s (as the memory "
+              "line's measure: the particles' and the knit's columns, the grids, the solids)\n",
+              ranks, kf::format_bytes(most).c_str(), largest,
+              kf::format_bytes(sum / ranks).c_str());
   if (p.domain_cells > 0)
     std::printf("grids      each rank's a window of the domain's %zu cells (its blocks and the "
                 "ghosts' reach)\n",
@@ -243,7 +257,7 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
               kf::format_bytes(r.bytes_fluid).c_str(), kf::format_bytes(r.bytes_boundary).c_str(),
               kf::format_bytes(r.bytes_knit).c_str(), kf::format_bytes(r.bytes_grid).c_str(),
               kf::format_bytes(r.bytes_solids).c_str());
-  print_partition(scene, a.ranks > 0 ? a.ranks : mpi.size());
+  print_partition(scene, a.ranks > 0 ? a.ranks : mpi.size(), r);
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
   print_cost(a, scene, r);
   std::printf("output     %s every %.4g s to t = %.4g s\n",

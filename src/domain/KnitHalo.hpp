@@ -110,6 +110,8 @@ public:
   /// A value per owned point (the set's order), of every rank, in mesh order on rank 0.
   std::vector<double> values_on_root(const std::vector<double>& owned_values) const;
   double width() const { return width_; }
+  /// What the halo holds on the backend beside the set: the id -> local index table.
+  std::size_t bytes() const { return local_of_id_.capacity_bytes(); }
 
 private:
   /// A sorted grid's reference positions (parallel to the set) and the job's record of it.

@@ -75,8 +75,12 @@ struct PlanReport {
   double support_radius = 0;
   int grid[3] = {0, 0, 0};
   std::size_t bytes_fluid = 0, bytes_boundary = 0, bytes_grid = 0, bytes_knit = 0;
-  std::size_t bytes_solids = 0;       // sampled signed distances of mesh obstacles
-  std::vector<std::string> obstacles; // one line per obstacle: name, shape, mesh details
+  std::size_t bytes_solids = 0; // sampled signed distances of mesh obstacles
+  // Of bytes_knit: the springs' and cells' rows (a rank of N holds them for its owned points);
+  // the rest is a point's, owned or ghost (its state, the self-contact's copies and grid).
+  std::size_t bytes_knit_rows = 0;
+  std::size_t grid_bytes_per_cell = 0; // the fluid's and the boundary's grids together
+  std::vector<std::string> obstacles;  // one line per obstacle: name, shape, mesh details
   double initial_dt = 0;
   std::string dt_limit; // which condition sets the initial dt
   // The run's typical dt (the CFL condition at the fluid's fall speed from its top, zero for a
@@ -86,6 +90,13 @@ struct PlanReport {
   // snapshots the run writes (0 with output off): the cost model's.
   double darcy_substeps = 0, output_frames = 0;
 };
+
+/// What a rank of plan_split's holds of plan's memory (`knitflow plan --ranks N`, the same
+/// measure as PlanReport's bytes on one rank, Simulation::memory_bytes on a run's rank): each
+/// phase's bytes a particle times the rank's owned and ghost particles (the knit's rows for its
+/// owned points only), its grids' window, and what every rank of N holds whole (the solids'
+/// table; for the knit an id -> local index a point and a slot a volume cell).
+double rank_bytes(const PlanReport& r, const RankShare& s, int ranks);
 
 /// What the watchdog reads every few dozen steps (domain/Watchdog), the job's: one pass over
 /// each set on the device and one small read (and on N ranks one reduction).

@@ -158,6 +158,8 @@ std::size_t SimulationT<T>::memory_bytes() const {
          fluid_near_.capacity_bytes();
   if (knit_)
     b += knit_->bytes();
+  if (knit_halo_)
+    b += knit_halo_->bytes();
   return b;
 }
 

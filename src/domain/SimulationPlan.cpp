@@ -47,13 +47,15 @@ PlanReport Simulation::plan(const Scene& scene) {
   r.grid[0] = geo.nx;
   r.grid[1] = geo.ny;
   r.grid[2] = geo.nz;
-  const std::size_t grid_bytes = std::size_t(geo.cells()) * 3 * sizeof(std::uint32_t);
+  constexpr std::size_t kGridCellBytes = 3 * sizeof(std::uint32_t); // start, end, rank
+  const std::size_t grid_bytes = std::size_t(geo.cells()) * kGridCellBytes;
   if (scene.has(Module::Fluid)) {
     r.fluid = 0; // counted, not kept: a plan of a scene too large for one host still runs
     for_each_fluid_sample(scene, [&](const Vec3d&, const Vec3d&) { ++r.fluid; });
     r.bytes_fluid = r.fluid * (dbl ? FluidSet<double>::bytes_per_particle()
                                    : FluidSet<float>::bytes_per_particle());
     r.bytes_grid += grid_bytes;
+    r.grid_bytes_per_cell += kGridCellBytes;
   }
   if (scene.has(Module::Boundary)) {
     r.boundary = 0;
@@ -62,6 +64,7 @@ PlanReport Simulation::plan(const Scene& scene) {
     r.bytes_boundary = r.boundary * (dbl ? BoundarySet<double>::bytes_per_particle()
                                          : BoundarySet<float>::bytes_per_particle());
     r.bytes_grid += grid_bytes;
+    r.grid_bytes_per_cell += kGridCellBytes;
   }
   // Initial dt from the initial velocities and gravity (the first forces are not evaluated).
   const auto& s = scene.solver;
@@ -95,6 +98,7 @@ PlanReport Simulation::plan(const Scene& scene) {
       if (const auto* sc = knit.self_contact_params())
         r.knit_self_radius = double(sc->radius);
       r.bytes_knit = knit.bytes();
+      r.bytes_knit_rows = knit.row_bytes();
       if (scene.has(Module::Contact) || scene.has(Module::Capillary)) {
         const auto p = coupling_params<double>(scene, knit.longest_spacing());
         r.coupling_reach = p.reach;
@@ -139,6 +143,22 @@ PlanReport Simulation::plan(const Scene& scene) {
   if (scene.output.enabled && scene.output.interval > 0)
     r.output_frames = std::floor(scene.end_time / scene.output.interval + 1e-9) + 1;
   return r;
+}
+
+double rank_bytes(const PlanReport& r, const RankShare& s, int ranks) {
+  const auto share = [&](std::size_t bytes, std::size_t all, std::size_t points) {
+    return all > 0 ? double(bytes) / double(all) * double(points) : 0.0;
+  };
+  constexpr int F = static_cast<int>(Phase::Fluid), B = static_cast<int>(Phase::Boundary),
+                K = static_cast<int>(Phase::Knit);
+  double b = double(r.bytes_solids) + double(s.grid_cells) * double(r.grid_bytes_per_cell);
+  b += share(r.bytes_fluid, r.fluid, s.owned[F] + s.ghosts[F]);
+  b += share(r.bytes_boundary, r.boundary, s.owned[B] + s.ghosts[B]);
+  b += share(r.bytes_knit - r.bytes_knit_rows, r.knit, s.owned[K] + s.ghosts[K]);
+  b += share(r.bytes_knit_rows, r.knit, s.owned[K]);
+  if (ranks > 1 && r.knit > 0) // KnitHalo's id -> local table, the cells' slots (4 bytes each)
+    b += 4.0 * double(r.knit + r.volume_cells);
+  return b;
 }
 
 PartitionReport Simulation::plan_split(const Scene& scene, int ranks) {

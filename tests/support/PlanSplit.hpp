@@ -5,6 +5,10 @@
 #include "domain/Simulation.hpp"
 
 #include <gtest/gtest.h>
+#include <mpi.h>
+
+#include <cstdio>
+#include <vector>
 
 namespace kf::test {
 
@@ -27,6 +31,32 @@ inline void expect_plan_is_the_runs_split(const Scene& s, const char* what) {
   EXPECT_GT(mine.owned[static_cast<int>(Phase::Fluid)] + mine.owned[static_cast<int>(Phase::Knit)],
             0u)
       << what << " on rank " << mpi.rank();
+}
+
+/// `knitflow plan --ranks N`'s memory a rank (rank_bytes) against what the run's rank holds by
+/// the same measure (Simulation::memory_bytes), as close as plan's one-rank figure is to the
+/// one-rank run's: the ratio estimate / held on each rank within `spread` of one rank's (a
+/// split estimate no worse than the whole's). Prints the ratios on rank 0.
+inline void expect_plan_memory_is_the_runs(const Scene& s, const char* what, double spread) {
+  comm::MpiContext mpi;
+  const PlanReport plan = Simulation::plan(s);
+  const double one = double(plan.bytes_fluid + plan.bytes_boundary + plan.bytes_grid +
+                            plan.bytes_knit + plan.bytes_solids) /
+                     double(Simulation::create(s, exec::Backend::Cpu)->memory_bytes());
+  const PartitionReport split = Simulation::plan_split(s, mpi.size());
+  auto run = Simulation::create(s, exec::Backend::Cpu, &mpi);
+  const double mine =
+      rank_bytes(plan, split.rank[mpi.rank()], mpi.size()) / double(run->memory_bytes());
+  std::vector<double> all(mpi.size());
+  MPI_Allgather(&mine, 1, MPI_DOUBLE, all.data(), 1, MPI_DOUBLE, mpi.comm());
+  if (mpi.root()) {
+    std::printf("%s: plan's memory over the run's, one rank %.3f; on %d ranks", what, one,
+                mpi.size());
+    for (double a : all)
+      std::printf(" %.3f", a);
+    std::printf("\n");
+  }
+  EXPECT_NEAR(mine / one, 1.0, spread) << what << " on rank " << mpi.rank();
 }
 
 } // namespace kf::test
