@@ -251,12 +251,17 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
     std::printf("obstacle   %s\n", o.c_str());
   // The solids' sampled distances are held whole by every rank.
   const double total = double(r.bytes_fluid + r.bytes_boundary + r.bytes_grid + r.bytes_knit);
+  // The fluid's neighbour lists (their rows' width is the run's widest row) are not counted:
+  // with them a run holds ~2x this (the dam break, "verlet": docs/ARCHITECTURE.md).
+  const bool lists = scene.has(kf::Module::Fluid) &&
+                     scene.solver.neighbour_list != kf::Scene::Solver::NeighbourLists::Off;
   std::printf("memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s, "
-              "solids %s)\n",
+              "solids %s%s)\n",
               kf::format_bytes(total / mpi.size() + double(r.bytes_solids)).c_str(), mpi.size(),
               kf::format_bytes(r.bytes_fluid).c_str(), kf::format_bytes(r.bytes_boundary).c_str(),
               kf::format_bytes(r.bytes_knit).c_str(), kf::format_bytes(r.bytes_grid).c_str(),
-              kf::format_bytes(r.bytes_solids).c_str());
+              kf::format_bytes(r.bytes_solids).c_str(),
+              lists ? "; the fluid's neighbour lists not counted" : "");
   print_partition(scene, a.ranks > 0 ? a.ranks : mpi.size(), r);
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
   print_cost(a, scene, r);
