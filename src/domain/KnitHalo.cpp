@@ -74,10 +74,8 @@ void KnitHalo<T>::distribute(const typename SkinWatch<T>::State& self_state,
   set.shrink_to_fit();
   for (Reference* r : references())
     r->x0.shrink_to_fit();
-  for (auto* b : carried_) {
-    b->resize(owned_);
+  for (auto* b : carried_) // (the migration left them owned_ long)
     b->shrink_to_fit();
-  }
   // The springs' and cells' rows of the points kept (the set's order), built here: no rank's
   // host builds the whole knit's; from now on they travel with their points (rebuild).
   knit_.take_rows(set.id.to_host());

@@ -49,27 +49,15 @@ public:
   /// whose length its owner knows ahead, where resize()'s geometric growth would leave half of
   /// it unused.
   void reserve(std::size_t n) {
-    if (n <= capacity_)
-      return;
-    T* p = static_cast<T*>(alloc_bytes(backend_, n * sizeof(T), what_));
-    if (size_ > 0)
-      copy_bytes(p, backend_, ptr_, backend_, size_ * sizeof(T));
-    free_bytes(backend_, ptr_);
-    ptr_ = p;
-    capacity_ = n;
+    if (n > capacity_)
+      reallocate(n);
   }
 
   /// Room for size() elements exactly, where there is more: for a column cut to a share of what
   /// it held (a rank keeping its points of a whole set), whose spare room would stay held.
   void shrink_to_fit() {
-    if (capacity_ == size_)
-      return;
-    T* p = size_ ? static_cast<T*>(alloc_bytes(backend_, size_ * sizeof(T), what_)) : nullptr;
-    if (size_ > 0)
-      copy_bytes(p, backend_, ptr_, backend_, size_ * sizeof(T));
-    free_bytes(backend_, ptr_);
-    ptr_ = p;
-    capacity_ = size_;
+    if (capacity_ > size_)
+      reallocate(size_);
   }
 
   /// resize(), growing to n and a sixteenth more where it grows: for a column of particles, whose
@@ -120,6 +108,16 @@ public:
   }
 
 private:
+  /// Room for n >= size() elements, the first size() kept (alloc_bytes holds nothing for 0).
+  void reallocate(std::size_t n) {
+    T* p = static_cast<T*>(alloc_bytes(backend_, n * sizeof(T), what_));
+    if (size_ > 0)
+      copy_bytes(p, backend_, ptr_, backend_, size_ * sizeof(T));
+    free_bytes(backend_, ptr_);
+    ptr_ = p;
+    capacity_ = n;
+  }
+
   Backend backend_ = Backend::Cpu;
   T* ptr_ = nullptr;
   std::size_t size_ = 0;
