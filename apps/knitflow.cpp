@@ -125,7 +125,8 @@ void print_partition(const kf::Scene& scene, int ranks, const kf::PlanReport& r)
     }
   }
   std::printf("memory     per rank on %d ranks: the most %s (rank %d), the mean %s (as the memory "
-              "line's measure: the particles' and the knit's columns, the grids, the solids)\n",
+              "line's measure: the particles' and the knit's columns, the fluid's lists, the grids, the "
+              "solids)\n",
               ranks, kf::format_bytes(most).c_str(), largest,
               kf::format_bytes(sum / ranks).c_str());
   if (p.domain_cells > 0)
@@ -250,18 +251,18 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   for (const std::string& o : r.obstacles)
     std::printf("obstacle   %s\n", o.c_str());
   // The solids' sampled distances are held whole by every rank.
-  const double total = double(r.bytes_fluid + r.bytes_boundary + r.bytes_grid + r.bytes_knit);
-  // The fluid's neighbour lists (their rows' width is the run's widest row) are not counted:
-  // with them a run holds ~2x this (the dam break, "verlet": docs/ARCHITECTURE.md).
-  const bool lists = scene.has(kf::Module::Fluid) &&
-                     scene.solver.neighbour_list != kf::Scene::Solver::NeighbourLists::Off;
+  const double total =
+      double(r.bytes_fluid + r.bytes_boundary + r.bytes_grid + r.bytes_knit + r.bytes_lists);
+  std::string lists;
+  if (r.bytes_lists > 0) // their width grows with the density over a run: the start's
+    lists = ", the fluid's lists " + kf::format_bytes(r.bytes_lists) + " (the start's: " +
+            std::to_string(r.list_most) + " neighbours at most)";
   std::printf("memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s, "
               "solids %s%s)\n",
               kf::format_bytes(total / mpi.size() + double(r.bytes_solids)).c_str(), mpi.size(),
               kf::format_bytes(r.bytes_fluid).c_str(), kf::format_bytes(r.bytes_boundary).c_str(),
               kf::format_bytes(r.bytes_knit).c_str(), kf::format_bytes(r.bytes_grid).c_str(),
-              kf::format_bytes(r.bytes_solids).c_str(),
-              lists ? "; the fluid's neighbour lists not counted" : "");
+              kf::format_bytes(r.bytes_solids).c_str(), lists.c_str());
   print_partition(scene, a.ranks > 0 ? a.ranks : mpi.size(), r);
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
   print_cost(a, scene, r);

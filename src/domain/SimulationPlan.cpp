@@ -24,6 +24,18 @@ std::string describe_obstacle(const Obstacle& o) {
   return line + buf;
 }
 
+/// Points of the cubic lattice of unit spacing closer than q to one of them (itself included):
+/// a row of the fluid's lists at the start, where fluid and walls fill one lattice.
+std::uint32_t lattice_points_within(double q) {
+  const int n = static_cast<int>(std::floor(q));
+  std::uint32_t c = 0;
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j)
+      for (int k = -n; k <= n; ++k)
+        c += double(i * i + j * j + k * k) < q * q;
+  return c;
+}
+
 } // namespace
 
 PlanReport Simulation::plan(const Scene& scene) {
@@ -65,6 +77,21 @@ PlanReport Simulation::plan(const Scene& scene) {
                                          : BoundarySet<float>::bytes_per_particle());
     r.bytes_grid += grid_bytes;
     r.grid_bytes_per_cell += kGridCellBytes;
+  }
+  if (scene.has(Module::Fluid) &&
+      scene.solver.neighbour_list != Scene::Solver::NeighbourLists::Off) {
+    const bool verlet = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet;
+    const double reach = h * (1 + (verlet ? scene.solver.neighbour_skin : 0));
+    r.list_most = lattice_points_within(reach / scene.fluid.spacing);
+    const bool walls = r.boundary > 0;
+    const auto fp = dbl ? SphLists<double>::footprint(r.list_most, verlet, walls)
+                        : SphLists<float>::footprint(r.list_most, verlet, walls);
+    r.list_bytes_fluid = fp.per_fluid;
+    r.list_bytes_boundary = fp.per_boundary;
+    r.list_bytes_cell = fp.per_cell;
+    r.bytes_lists = static_cast<std::size_t>(double(r.fluid) * fp.per_fluid +
+                                             double(r.boundary) * fp.per_boundary +
+                                             double(geo.cells()) * fp.per_cell);
   }
   // Initial dt from the initial velocities and gravity (the first forces are not evaluated).
   const auto& s = scene.solver;
@@ -154,6 +181,9 @@ double rank_bytes(const PlanReport& r, const RankShare& s, int ranks) {
   double b = double(r.bytes_solids) + double(s.grid_cells) * double(r.grid_bytes_per_cell);
   b += share(r.bytes_fluid, r.fluid, s.owned[F] + s.ghosts[F]);
   b += share(r.bytes_boundary, r.boundary, s.owned[B] + s.ghosts[B]);
+  b += r.list_bytes_fluid * double(s.owned[F] + s.ghosts[F]) +
+       r.list_bytes_boundary * double(s.owned[B] + s.ghosts[B]) +
+       r.list_bytes_cell * double(s.grid_cells);
   b += share(r.bytes_knit - r.bytes_knit_rows, r.knit, s.owned[K] + s.ghosts[K]);
   b += share(r.bytes_knit_rows, r.knit, s.owned[K]);
   if (ranks > 1 && r.knit > 0) // KnitHalo's id -> local table, the cells' slots (4 bytes each)

@@ -41,7 +41,7 @@ inline void expect_plan_memory_is_the_runs(const Scene& s, const char* what, dou
   comm::MpiContext mpi;
   const PlanReport plan = Simulation::plan(s);
   const double one = double(plan.bytes_fluid + plan.bytes_boundary + plan.bytes_grid +
-                            plan.bytes_knit + plan.bytes_solids) /
+                            plan.bytes_knit + plan.bytes_lists + plan.bytes_solids) /
                      double(Simulation::create(s, exec::Backend::Cpu)->memory_bytes());
   const PartitionReport split = Simulation::plan_split(s, mpi.size());
   auto run = Simulation::create(s, exec::Backend::Cpu, &mpi);

@@ -48,8 +48,7 @@ bool NeighbourList<T>::finish_fit() {
   most_ = most_read_.wait()[0];
   if (most_ <= capacity_)
     return true;
-  // Room for the density to rise before the next growth; whole groups.
-  capacity_ = (most_ + most_ / 4 + kListGroup + kListGroup - 1) / kListGroup * kListGroup;
+  capacity_ = capacity_for(most_);
   return false;
 }
 

@@ -330,8 +330,7 @@ public:
                  Pred keep = {}, const std::uint8_t* occupied = nullptr,
                  const char* label = "neighbours.build_for") {
     capacity_ = (capacity + kListGroup - 1) / kListGroup * kListGroup;
-    count_.resize(n);
-    list_.resize(std::size_t(capacity_) * n);
+    size_rows(n);
     const list_detail::ListBuilder<T, P, Pred> b{q,     x,       active,  occupied,
                                                  cells, radius2, sink(n), keep};
     if constexpr (G > 1)
@@ -344,17 +343,36 @@ public:
   /// build_with).
   std::uint32_t capacity() const { return capacity_; }
   std::uint32_t most() const { return most_; }
+  /// The first build's capacity, kept while every row fits it.
+  static constexpr std::uint32_t kFirstCapacity = 32;
+  /// The capacity a build grows to when its densest row holds `most` (more than it had): room
+  /// for the density to rise before the next growth, in whole groups.
+  static constexpr std::uint32_t capacity_for(std::uint32_t most) {
+    return (most + most / 4 + kListGroup + kListGroup - 1) / kListGroup * kListGroup;
+  }
+  /// What the builds settle on from the first for rows of `most` at most (`knitflow plan`).
+  static constexpr std::uint32_t settled_capacity(std::uint32_t most) {
+    return most <= kFirstCapacity ? kFirstCapacity : capacity_for(most);
+  }
   std::size_t bytes() const { return count_.capacity_bytes() + list_.capacity_bytes(); }
 
 private:
   ListSink sink(std::size_t n) { return {count_.data(), list_.data(), capacity_, n}; }
+  /// n rows at the present capacity. The rows' room grows snugly (the rows of a rank's owned
+  /// and ghost particles, whose count moves a little from one build to the next) and the
+  /// lists' room is the rows' at that width: grown geometrically, the largest buffer a fluid
+  /// rank holds stood up to half empty.
+  void size_rows(std::size_t n) {
+    count_.resize_snug(n);
+    list_.reserve(std::size_t(capacity_) * count_.capacity());
+    list_.resize(std::size_t(capacity_) * n);
+  }
   /// launch(sink) fills every row, at the present capacity (32 at first).
   template <typename Launch>
   void launch_rows(std::size_t n, Launch&& launch) {
-    count_.resize(n);
     if (capacity_ == 0)
-      capacity_ = 32;
-    list_.resize(std::size_t(capacity_) * n);
+      capacity_ = kFirstCapacity;
+    size_rows(n);
     launch(sink(n));
   }
   /// launch_rows, repeated with a larger capacity until every row fits.

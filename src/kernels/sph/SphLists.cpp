@@ -186,7 +186,9 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
   // appends, 6.6 with this builder and 4-slot groups, 4.2 with 8-slot groups.
   const FluidView<T> fv = f.view(); // xm: FluidSet::reorder wrote it
   built_ = {fv, cells, b, r2};
-  build_rows<T>(ex, lists_, built_, false);
+  // The first build waits for its rows to fit: the walls' rows below take the fluid rows' width
+  // (32 before anything was listed: most overflowed and were walked until the next build).
+  build_rows<T>(ex, lists_, built_, lists_.capacity() == 0);
   if (skin_ > T(0)) {
     x0_.resize(n);
     x0_.copy_from(f.x, n);

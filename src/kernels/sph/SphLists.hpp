@@ -34,6 +34,11 @@
 
 namespace kf {
 
+/// SphLists<T>::footprint's: bytes a fluid particle, a boundary particle and a grid cell.
+struct SphListsFootprint {
+  double per_fluid = 0, per_boundary = 0, per_cell = 0;
+};
+
 template <typename T>
 class SphLists {
 public:
@@ -123,6 +128,20 @@ public:
   std::size_t bytes() const {
     return lists_.bytes() + walls_.bytes() + x0_.capacity_bytes() + moved_.capacity_bytes() +
            box_.capacity_bytes() + spread_.capacity_bytes();
+  }
+  /// What such lists hold once built for rows of `most` particles at most (the bytes() of a
+  /// run, estimated ahead: `knitflow plan`): bytes a fluid particle (its row and count, with a
+  /// skin the position listed), a boundary particle (with a skin, its wall row: `walls`) and a
+  /// cell of the fluid's grid (with a skin, the two boxes of displacements).
+  static SphListsFootprint footprint(std::uint32_t most, bool skin, bool walls) {
+    const std::uint32_t width = NeighbourList<T>::settled_capacity(most);
+    SphListsFootprint f;
+    f.per_fluid = sizeof(std::uint32_t) * (width + 1.0) + (skin ? sizeof(Vec3<T>) : 0);
+    if (skin && walls)
+      f.per_boundary = sizeof(std::uint32_t) * (width + 1.0);
+    if (skin)
+      f.per_cell = 2.0 * sizeof(Box);
+    return f;
   }
   /// The last device reading: max |d| and the bound on |d_i - d_j| it gave (the smallest of
   /// the three), and the local bound alone (for tests; infinity when the global bounds decided
