@@ -124,11 +124,11 @@ void print_partition(const kf::Scene& scene, int ranks, const kf::PlanReport& r)
       largest = k;
     }
   }
-  std::printf("memory     per rank on %d ranks: the most %s (rank %d), the mean %s (as the memory "
-              "line's measure: the particles' and the knit's columns, the fluid's lists, the grids, the "
-              "solids)\n",
-              ranks, kf::format_bytes(most).c_str(), largest,
-              kf::format_bytes(sum / ranks).c_str());
+  std::printf(
+      "memory     per rank on %d ranks: the most %s (rank %d), the mean %s (as the memory "
+      "line's measure: the particles' and the knit's columns, the fluid's lists, the grids, the "
+      "solids)\n",
+      ranks, kf::format_bytes(most).c_str(), largest, kf::format_bytes(sum / ranks).c_str());
   if (p.domain_cells > 0)
     std::printf("grids      each rank's a window of the domain's %zu cells (its blocks and the "
                 "ghosts' reach)\n",
@@ -255,8 +255,8 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
       double(r.bytes_fluid + r.bytes_boundary + r.bytes_grid + r.bytes_knit + r.bytes_lists);
   std::string lists;
   if (r.bytes_lists > 0) // their width grows with the density over a run: the start's
-    lists = ", the fluid's lists " + kf::format_bytes(r.bytes_lists) + " (the start's: " +
-            std::to_string(r.list_most) + " neighbours at most)";
+    lists = ", the fluid's lists " + kf::format_bytes(r.bytes_lists) +
+            " (the start's: " + std::to_string(r.list_most) + " neighbours at most)";
   std::printf("memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s, "
               "solids %s%s)\n",
               kf::format_bytes(total / mpi.size() + double(r.bytes_solids)).c_str(), mpi.size(),

@@ -86,7 +86,7 @@ struct PlanReport {
   std::size_t bytes_lists = 0;
   std::uint32_t list_most = 0;
   double list_bytes_fluid = 0, list_bytes_boundary = 0, list_bytes_cell = 0;
-  std::vector<std::string> obstacles;  // one line per obstacle: name, shape, mesh details
+  std::vector<std::string> obstacles; // one line per obstacle: name, shape, mesh details
   double initial_dt = 0;
   std::string dt_limit; // which condition sets the initial dt
   // The run's typical dt (the CFL condition at the fluid's fall speed from its top, zero for a
