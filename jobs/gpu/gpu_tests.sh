@@ -42,6 +42,13 @@ esac
 out=${OUT:-out/gpu_tests}
 mkdir -p "$out" && out="$(cd "$out" && pwd)" || exit 1
 export PATH="$PATH:$root/build/cuda/tests"
+# The programs that run knitflow (test_watchdog, test_bad_input) take the packed one where the
+# build tree's is absent (tests/support/TestPaths).
+if [ -z "${KF_KNITFLOW:-}" ] && [ ! -x "$root/build/cuda/apps/knitflow" ] &&
+  command -v knitflow > /dev/null; then
+  KF_KNITFLOW="$(command -v knitflow)"
+  export KF_KNITFLOW
+fi
 cd "$root" || exit 1 # where p4_check.sh and the packed binaries run from
 nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader > "$out/gpu.txt" 2>&1 ||
   echo "no nvidia-smi answer" >> "$out/gpu.txt"

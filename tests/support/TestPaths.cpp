@@ -2,6 +2,8 @@
 
 #include <mpi.h>
 
+#include <cstdlib>
+
 namespace kf::test {
 
 std::filesystem::path source_dir() {
@@ -11,6 +13,9 @@ std::filesystem::path data_dir() {
   return KF_TEST_DATA_DIR;
 }
 std::filesystem::path knitflow_exe() {
+  // KF_KNITFLOW: a packed binary on a machine without the build tree (jobs/gpu/gpu_tests.sh).
+  if (const char* e = std::getenv("KF_KNITFLOW"); e && *e)
+    return e;
   return KF_KNITFLOW_EXE;
 }
 
