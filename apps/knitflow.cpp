@@ -250,19 +250,18 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   }
   for (const std::string& o : r.obstacles)
     std::printf("obstacle   %s\n", o.c_str());
-  // The solids' sampled distances are held whole by every rank.
-  const double total =
-      double(r.bytes_fluid + r.bytes_boundary + r.bytes_grid + r.bytes_knit + r.bytes_lists);
   std::string lists;
   if (r.bytes_lists > 0) // their width grows with the density over a run: the start's
     lists = ", the fluid's lists " + kf::format_bytes(r.bytes_lists) +
             " (the start's: " + std::to_string(r.list_most) + " neighbours at most)";
-  std::printf("memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s, "
-              "solids %s%s)\n",
-              kf::format_bytes(total / mpi.size() + double(r.bytes_solids)).c_str(), mpi.size(),
-              kf::format_bytes(r.bytes_fluid).c_str(), kf::format_bytes(r.bytes_boundary).c_str(),
-              kf::format_bytes(r.bytes_knit).c_str(), kf::format_bytes(r.bytes_grid).c_str(),
-              kf::format_bytes(r.bytes_solids).c_str(), lists.c_str());
+  std::printf(
+      "memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s, "
+      "solids %s%s)\n",
+      kf::format_bytes(double(r.bytes_shared()) / mpi.size() + double(r.bytes_solids)).c_str(),
+      mpi.size(), kf::format_bytes(r.bytes_fluid).c_str(),
+      kf::format_bytes(r.bytes_boundary).c_str(), kf::format_bytes(r.bytes_knit).c_str(),
+      kf::format_bytes(r.bytes_grid).c_str(), kf::format_bytes(r.bytes_solids).c_str(),
+      lists.c_str());
   print_partition(scene, a.ranks > 0 ? a.ranks : mpi.size(), r);
   std::printf("dt         %.4g s initially (limited by %s)\n", r.initial_dt, r.dt_limit.c_str());
   print_cost(a, scene, r);

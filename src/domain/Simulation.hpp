@@ -95,6 +95,13 @@ struct PlanReport {
   // The conserving absorption's Darcy substeps in a step of run_dt (0 without it), and the
   // snapshots the run writes (0 with output off): the cost model's.
   double darcy_substeps = 0, output_frames = 0;
+
+  /// What the ranks share between them (the solids' sampled distances are held whole by each).
+  std::size_t bytes_shared() const {
+    return bytes_fluid + bytes_boundary + bytes_grid + bytes_knit + bytes_lists;
+  }
+  /// The one-rank total, solids included.
+  std::size_t bytes() const { return bytes_shared() + bytes_solids; }
 };
 
 /// What a rank of plan_split's holds of plan's memory (`knitflow plan --ranks N`, the same
