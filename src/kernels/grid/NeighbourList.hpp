@@ -329,7 +329,7 @@ public:
                  const P* x, const CellView<T>& cells, T radius2, std::uint32_t capacity,
                  Pred keep = {}, const std::uint8_t* occupied = nullptr,
                  const char* label = "neighbours.build_for") {
-    capacity_ = (capacity + kListGroup - 1) / kListGroup * kListGroup;
+    capacity_ = whole_groups(capacity);
     size_rows(n);
     const list_detail::ListBuilder<T, P, Pred> b{q,     x,       active,  occupied,
                                                  cells, radius2, sink(n), keep};
@@ -348,7 +348,11 @@ public:
   /// The capacity a build grows to when its densest row holds `most` (more than it had): room
   /// for the density to rise before the next growth, in whole groups.
   static constexpr std::uint32_t capacity_for(std::uint32_t most) {
-    return (most + most / 4 + kListGroup + kListGroup - 1) / kListGroup * kListGroup;
+    return whole_groups(most + most / 4 + kListGroup);
+  }
+  /// k slots rounded up to whole groups.
+  static constexpr std::uint32_t whole_groups(std::uint32_t k) {
+    return (k + kListGroup - 1) / kListGroup * kListGroup;
   }
   /// What the builds settle on from the first for rows of `most` at most (`knitflow plan`).
   static constexpr std::uint32_t settled_capacity(std::uint32_t most) {
