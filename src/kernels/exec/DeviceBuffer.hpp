@@ -60,6 +60,14 @@ public:
       reallocate(size_);
   }
 
+  /// Frees the storage, contents and all: for a buffer about to grow whose contents will all
+  /// be written again, so that old and new are never held at once (reserve copies).
+  void release() {
+    free_bytes(backend_, ptr_);
+    ptr_ = nullptr;
+    size_ = capacity_ = 0;
+  }
+
   /// resize(), growing to n and a sixteenth more where it grows: for a column of particles, whose
   /// count moves a little between sorts (migration, ghosts, drops), and which is most of what a
   /// rank holds: geometric growth would leave up to a third of it unused.
