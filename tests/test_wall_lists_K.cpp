@@ -13,6 +13,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 namespace kf {
@@ -103,7 +104,7 @@ void check(exec::Backend backend) {
                                  grid.view(), nb};
   SphLists<T> lists(backend, T(s));
   lists.build(ex, f, grid.view(), bn, T(h), near.data());
-  lists.settle(ex); // the fluid rows' capacity grows here; the walls' rows take it next build
+  lists.settle(ex); // the fluid rows' capacity grows here
   lists.build(ex, f, grid.view(), bn, T(h), near.data());
   lists.settle(ex);
   ASSERT_NE(lists.walls().count, nullptr);
@@ -122,6 +123,12 @@ void check(exec::Backend backend) {
   }
   EXPECT_GT(wet, nb / 4);
   EXPECT_GT(dry, nb / 4);
+  // The walls' rows are as wide as their densest needs (the fluid did not move between the
+  // builds: the width the first build read), narrower than the fluid's rows: a wall particle's
+  // fluid lies on one side of it.
+  const std::uint32_t densest = *std::max_element(count.begin(), count.end());
+  EXPECT_EQ(lists.walls().capacity, NeighbourList<T>::settled_capacity(densest));
+  EXPECT_LT(lists.walls().capacity, lists.view().capacity);
   // The fluid moves by up to 0.9 s (xm, as the predictor writes it each step); grid and lists
   // stay those of the build.
   auto x = f.x.to_host();

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace kf {
 
@@ -24,14 +25,15 @@ std::string describe_obstacle(const Obstacle& o) {
   return line + buf;
 }
 
-/// Points of the cubic lattice of unit spacing closer than q to one of them (itself included):
-/// a row of the fluid's lists at the start, where fluid and walls fill one lattice.
-std::uint32_t lattice_points_within(double q) {
+/// Points (i, j, k) of the cubic lattice of unit spacing closer than q to the origin, k >= k0:
+/// a row of the fluid's lists at the start, where fluid and walls fill one lattice (all k); a
+/// wall's row, the fluid above a flat wall (k >= 1: its first layer a spacing above the wall's).
+std::uint32_t lattice_points_within(double q, int k0) {
   const int n = static_cast<int>(std::floor(q));
   std::uint32_t c = 0;
   for (int i = -n; i <= n; ++i)
     for (int j = -n; j <= n; ++j)
-      for (int k = -n; k <= n; ++k)
+      for (int k = std::max(-n, k0); k <= n; ++k)
         c += double(i * i + j * j + k * k) < q * q;
   return c;
 }
@@ -82,10 +84,12 @@ PlanReport Simulation::plan(const Scene& scene) {
       scene.solver.neighbour_list != Scene::Solver::NeighbourLists::Off) {
     const bool verlet = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet;
     const double reach = h * (1 + (verlet ? scene.solver.neighbour_skin : 0));
-    r.list_most = lattice_points_within(reach / scene.fluid.spacing);
+    const double q = reach / scene.fluid.spacing;
+    r.list_most = lattice_points_within(q, std::numeric_limits<int>::min());
+    r.wall_list_most = lattice_points_within(q, 1);
     const bool walls = r.boundary > 0;
-    const auto fp = dbl ? SphLists<double>::footprint(r.list_most, verlet, walls)
-                        : SphLists<float>::footprint(r.list_most, verlet, walls);
+    const auto fp = dbl ? SphLists<double>::footprint(r.list_most, r.wall_list_most, verlet, walls)
+                        : SphLists<float>::footprint(r.list_most, r.wall_list_most, verlet, walls);
     r.list_bytes_fluid = fp.per_fluid;
     r.list_bytes_boundary = fp.per_boundary;
     r.list_bytes_cell = fp.per_cell;

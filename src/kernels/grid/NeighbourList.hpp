@@ -338,6 +338,14 @@ public:
     else
       exec::for_each(ex, n, b, label);
   }
+  /// For build_for's lists, whose capacity the caller chooses: the largest count of the last
+  /// build (rows past the capacity counted whole), read back behind it. start_most() queues
+  /// the read; read_most() waits for it (the last reading where none is queued).
+  void start_most(const exec::Exec& ex) { start_fit(ex, count_.size()); }
+  std::uint32_t read_most() {
+    finish_fit();
+    return most_;
+  }
   ListView<T> view() const { return {count_.data(), list_.data(), capacity_, count_.size()}; }
   /// Slots per particle now; most neighbours of one particle at the last build (build,
   /// build_with).
@@ -370,7 +378,9 @@ private:
   void size_rows(std::size_t n) {
     count_.resize_snug(n);
     const std::size_t room = std::size_t(capacity_) * count_.capacity();
-    if (room > list_.capacity())
+    // A room that must grow, or narrowed rows (build_for) leaving much of it unused: the old
+    // room is freed first.
+    if (room > list_.capacity() || list_.capacity() > room + room / 8)
       list_.release();
     list_.reserve(room);
     list_.resize(std::size_t(capacity_) * n);

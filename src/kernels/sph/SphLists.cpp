@@ -197,16 +197,40 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
     cells_ = cells;
     box_.resize(cells.geo.cells());
     spread_.resize(cells.geo.cells());
-    // The walls' rows at the fluid rows' capacity (a fluid particle's row holds a whole sphere
-    // of h + s; a wall particle's fluid, at most about as many). No read back: a row that
-    // overflows is walked instead.
     walls_listed_ = b.n > 0;
-    // Rows in the walk's order, which the walls' pass walked: its sums stay those of the walk.
     if (walls_listed_)
-      walls_.build_for(ex, b.x, nullptr, b.n, fv.xm, cells, r2,
-                       std::max<std::uint32_t>(lists_.capacity(), 32), AnyPair{}, fluid_near,
-                       "neighbours.walls");
+      build_walls(ex, b, cells, r2, fluid_near);
   }
+}
+
+template <typename T>
+void SphLists<T>::build_walls(const exec::Exec& ex, const BoundaryNeighbours<T>& b,
+                              const CellView<T>& cells, T r2, const std::uint8_t* fluid_near) {
+  // Rows in the walk's order, which the walls' pass walked: its sums stay those of the walk.
+  const auto list = [&](std::uint32_t width) {
+    walls_.build_for(ex, b.x, nullptr, b.n, built_.f.xm, cells, r2, width, AnyPair{}, fluid_near,
+                     "neighbours.walls");
+  };
+  // The walls' rows as wide as their densest: a wall particle's fluid lies on one side, about
+  // half a fluid row (the column's walls held ~1 GB at the fluid rows' width). The first build
+  // lists them narrow, as the fluid's first build does, reads how wide they need to be and
+  // lists them again at that width (the narrow lists freed first: the peak is the wide ones);
+  // later builds grow them from the reading queued behind the build before. A row that
+  // overflows meanwhile is walked instead (ListView::complete).
+  if (walls_width_ == 0) {
+    constexpr std::uint32_t first = NeighbourList<T>::kFirstCapacity;
+    list(first);
+    walls_.start_most(ex);
+    walls_width_ = NeighbourList<T>::settled_capacity(walls_.read_most());
+    if (walls_width_ != first)
+      list(walls_width_);
+  } else {
+    const std::uint32_t most = walls_.read_most();
+    if (most > walls_width_)
+      walls_width_ = NeighbourList<T>::capacity_for(most);
+    list(walls_width_);
+  }
+  walls_.start_most(ex);
 }
 
 template <typename T>

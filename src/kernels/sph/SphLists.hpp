@@ -129,16 +129,19 @@ public:
     return lists_.bytes() + walls_.bytes() + x0_.capacity_bytes() + moved_.capacity_bytes() +
            box_.capacity_bytes() + spread_.capacity_bytes();
   }
-  /// What such lists hold once built for rows of `most` particles at most (the bytes() of a
-  /// run, estimated ahead: `knitflow plan`): bytes a fluid particle (its row and count, with a
-  /// skin the position listed), a boundary particle (with a skin, its wall row: `walls`) and a
-  /// cell of the fluid's grid (with a skin, the two boxes of displacements).
-  static SphListsFootprint footprint(std::uint32_t most, bool skin, bool walls) {
+  /// What such lists hold once built for fluid rows of `most` particles at most and wall rows
+  /// of `walls_most` (the bytes() of a run, estimated ahead: `knitflow plan`): bytes a fluid
+  /// particle (its row and count, with a skin the position listed), a boundary particle (with a
+  /// skin, its wall row: `walls`) and a cell of the fluid's grid (with a skin, the two boxes of
+  /// displacements).
+  static SphListsFootprint footprint(std::uint32_t most, std::uint32_t walls_most, bool skin,
+                                     bool walls) {
     const std::uint32_t width = NeighbourList<T>::settled_capacity(most);
     SphListsFootprint f;
     f.per_fluid = sizeof(std::uint32_t) * (width + 1.0) + (skin ? sizeof(Vec3<T>) : 0);
     if (skin && walls)
-      f.per_boundary = sizeof(std::uint32_t) * (width + 1.0);
+      f.per_boundary =
+          sizeof(std::uint32_t) * (NeighbourList<T>::settled_capacity(walls_most) + 1.0);
     if (skin)
       f.per_cell = 2.0 * sizeof(Box);
     return f;
@@ -168,10 +171,14 @@ public:
   };
 
 private:
+  void build_walls(const exec::Exec& ex, const BoundaryNeighbours<T>& b, const CellView<T>& cells,
+                   T r2, const std::uint8_t* fluid_near);
+
   T skin_;
   NeighbourList<T> lists_;
   NeighbourList<T> walls_;
   bool walls_listed_ = false;
+  std::uint32_t walls_width_ = 0; // the walls' rows' (0 before the first build)
   exec::DeviceBuffer<Vec3<T>> x0_;
   // Since the build: [0] max |d|^2, [1-6] max(d_c, 0) and max(-d_c, 0) for c = x, y, z; [7-12]
   // the box of the cells the build filled, max c_a and max (n_a - 1 - c_a) for a = x, y, z (the
