@@ -219,9 +219,10 @@ void check_lists(exec::Backend backend) {
   // The build grew its lists from 32 slots a row: the first lists are freed before the wider
   // ones are taken (every row is written again), so the build's peak is the lists it keeps. The
   // CUDA backend's reductions take their scratch at first use, within this build.
-  if (backend == exec::Backend::Cpu)
+  if (backend == exec::Backend::Cpu) {
     EXPECT_EQ(exec::held_bytes(backend).peak - before, lists.bytes())
         << "the build held the narrow and the wide lists at once";
+  }
   // The lists, copied to the host.
   const ListView<T> v = lists.view();
   std::vector<std::uint32_t> c(n), l(std::size_t(lists.capacity()) * n);
