@@ -498,8 +498,30 @@ void check_local_rule(exec::Backend backend) {
 
   // 1. d_x from +0.95 s to -0.95 s along the 2 m: globally 1.9 s apart, locally ~0.35 s (the
   // 3 cells of 0.12 m around a midpoint cell; 0.57 s over the 5 cells of the rule before).
+  // The local pass's boxes of displacements: none before it first runs, then one pair a cell
+  // of the box of cells the build filled, widened by the reach (the span) and clipped to the
+  // grid, which the test's grid exceeds (its margin): not a box for every cell of the grid.
+  const std::size_t before_local = lists.bytes();
+  std::size_t region_cells = 1;
+  {
+    int lo[3] = {geo.nx, geo.ny, geo.nz}, hi[3] = {-1, -1, -1};
+    const int dims[3] = {geo.nx, geo.ny, geo.nz}, reach = grid.view().span;
+    for (const auto& p : x0) {
+      int c[3];
+      geo.coords(p, c[0], c[1], c[2]);
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], c[a]);
+        hi[a] = std::max(hi[a], c[a]);
+      }
+    }
+    for (int a = 0; a < 3; ++a)
+      region_cells *=
+          std::size_t(std::min(hi[a] + reach, dims[a] - 1) - std::max(lo[a] - reach, 0) + 1);
+  }
+  ASSERT_LT(region_cells, std::size_t(geo.cells()));
   auto x = move([&](const Vec3d& p) { return Vec3d{s * (0.95 - 0.95 * p.x), 0, 0}; });
   EXPECT_FALSE(lists.stale_after(ex, f, inf, false)) << "the smooth field must keep the lists";
+  EXPECT_EQ(lists.bytes() - before_local, 2 * sizeof(typename SphLists<T>::Box) * region_cells);
   const double local = local_reference(x);
   EXPECT_NEAR(lists.last_local(), local, tol);
   EXPECT_LT(local, 0.45 * s);

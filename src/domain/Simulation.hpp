@@ -83,10 +83,10 @@ struct PlanReport {
   // The fluid's neighbour lists (solver.neighbour_list on), at the start: their rows as wide as
   // the build makes them for the densest row of the lattice (`list_most` particles within the
   // support and the skin; a wall's, `wall_list_most`, the fluid over a flat wall); bytes a fluid
-  // particle, a boundary particle and a fluid grid cell.
+  // particle and a boundary particle.
   std::size_t bytes_lists = 0;
   std::uint32_t list_most = 0, wall_list_most = 0;
-  double list_bytes_fluid = 0, list_bytes_boundary = 0, list_bytes_cell = 0;
+  double list_bytes_fluid = 0, list_bytes_boundary = 0;
   std::vector<std::string> obstacles; // one line per obstacle: name, shape, mesh details
   double initial_dt = 0;
   std::string dt_limit; // which condition sets the initial dt

@@ -92,10 +92,8 @@ PlanReport Simulation::plan(const Scene& scene) {
                         : SphLists<float>::footprint(r.list_most, r.wall_list_most, verlet, walls);
     r.list_bytes_fluid = fp.per_fluid;
     r.list_bytes_boundary = fp.per_boundary;
-    r.list_bytes_cell = fp.per_cell;
     r.bytes_lists = static_cast<std::size_t>(double(r.fluid) * fp.per_fluid +
-                                             double(r.boundary) * fp.per_boundary +
-                                             double(geo.cells()) * fp.per_cell);
+                                             double(r.boundary) * fp.per_boundary);
   }
   // Initial dt from the initial velocities and gravity (the first forces are not evaluated).
   const auto& s = scene.solver;
@@ -186,8 +184,7 @@ double rank_bytes(const PlanReport& r, const RankShare& s, int ranks) {
   b += share(r.bytes_fluid, r.fluid, s.owned[F] + s.ghosts[F]);
   b += share(r.bytes_boundary, r.boundary, s.owned[B] + s.ghosts[B]);
   b += r.list_bytes_fluid * double(s.owned[F] + s.ghosts[F]) +
-       r.list_bytes_boundary * double(s.owned[B] + s.ghosts[B]) +
-       r.list_bytes_cell * double(s.grid_cells);
+       r.list_bytes_boundary * double(s.owned[B] + s.ghosts[B]);
   b += share(r.bytes_knit - r.bytes_knit_rows, r.knit, s.owned[K] + s.ghosts[K]);
   b += share(r.bytes_knit_rows, r.knit, s.owned[K]);
   if (ranks > 1 && r.knit > 0) // KnitHalo's id -> local table, the cells' slots (4 bytes each)

@@ -37,7 +37,8 @@ struct Displacement {
   }
 };
 
-/// A box of cells [lo, lo + n) of a grid, walked by a linear index k (x fastest).
+/// A box of cells [lo, lo + n) of a grid, walked by a linear index k (x fastest); the boxes of
+/// displacements are held by k, over this region only.
 struct CellRegion {
   int lo[3], n[3];
   KF_HD KF_INLINE std::size_t count() const {
@@ -54,8 +55,8 @@ struct CellRegion {
 template <typename T>
 using Box = typename SphLists<T>::Box;
 
-/// The box of the displacements since the build of the particles the build put in cell c
-/// (linear index); the fluid keeps its order until the next build. The group's lanes split the
+/// The box of the displacements since the build of the particles the build put in the region's
+/// cell k; the fluid keeps its order until the next build. The group's lanes split the
 /// cell's particles (one thread walking ~50 in a row waited on each load in turn); min and max
 /// are exact, so the box does not depend on the split.
 template <typename T>
@@ -69,37 +70,37 @@ struct CellDisplacementBox {
     const std::size_t c = region.cell(k, cells.geo);
     Box<T> b = Box<T>::empty();
     const std::uint32_t r = cells.rank[c];
-    for (std::uint32_t k = cells.start[r] + g.lane; k < cells.end[r]; k += g.size)
-      b.add(Vec3<T>(x[k] - x0[k]));
+    for (std::uint32_t i = cells.start[r] + g.lane; i < cells.end[r]; i += g.size)
+      b.add(Vec3<T>(x[i] - x0[i]));
     b.lo = g.min_each(b.lo);
     b.hi = g.max_each(b.hi);
     if (g.lane == 0)
-      out[c] = b;
+      out[k] = b;
   }
 };
 
-/// The union of the boxes of the cells within `reach` of cell c along one axis (0, 1, 2): three
-/// passes, one an axis, give the union over the (2 reach + 1)^3 cells around c. Only the cells
-/// of `region` are read and written: the cells outside it hold no particle of the build.
+/// The union of the boxes of the cells within `reach` of the region's cell k along one axis (0,
+/// 1, 2): three passes, one an axis, give the union over the (2 reach + 1)^3 cells around it.
+/// Only the region's cells are read and written: the cells outside it hold no particle of the
+/// build.
 template <typename T>
 struct SpreadBoxes {
-  GridGeometry<T> geo;
   CellRegion region;
   int axis;
   int reach;
   const Box<T>* in;
-  KF_HD KF_INLINE Box<T> around(std::size_t c) const {
-    const std::size_t nx = std::size_t(geo.nx), nxy = nx * std::size_t(geo.ny);
-    const int at = axis == 0   ? int(c % nx)
-                   : axis == 1 ? int(c / nx % std::size_t(geo.ny))
-                               : int(c / nxy);
-    const int first = region.lo[axis], last = region.lo[axis] + region.n[axis] - 1;
+  KF_HD KF_INLINE Box<T> around(std::size_t k) const {
+    const std::size_t nx = std::size_t(region.n[0]), nxy = nx * std::size_t(region.n[1]);
+    const int at = axis == 0   ? int(k % nx)
+                   : axis == 1 ? int(k / nx % std::size_t(region.n[1]))
+                               : int(k / nxy);
+    const int last = region.n[axis] - 1;
     const std::size_t stride = axis == 0 ? 1 : axis == 1 ? nx : nxy;
-    const int k0 = at - reach > first ? at - reach : first,
-              k1 = at + reach < last ? at + reach : last;
-    Box<T> u = in[c - std::size_t(at - k0) * stride];
-    for (int k = k0 + 1; k <= k1; ++k)
-      u.add(in[c + std::size_t(k) * stride - std::size_t(at) * stride]);
+    const int j0 = at - reach > 0 ? at - reach : 0, j1 = at + reach < last ? at + reach : last;
+    const std::size_t k0 = k - std::size_t(at - j0) * stride;
+    Box<T> u = in[k0];
+    for (int j = j0 + 1; j <= j1; ++j)
+      u.add(in[k0 + std::size_t(j - j0) * stride]);
     return u;
   }
 };
@@ -108,10 +109,7 @@ template <typename T>
 struct SpreadInto {
   SpreadBoxes<T> s;
   Box<T>* out;
-  KF_HD void operator()(std::size_t k) const {
-    const std::size_t c = s.region.cell(k, s.geo);
-    out[c] = s.around(c);
-  }
+  KF_HD void operator()(std::size_t k) const { out[k] = s.around(k); }
 };
 
 /// The last axis's pass, reduced: the squared diagonal of cell c's union box (0 when empty).
@@ -119,7 +117,7 @@ template <typename T>
 struct SpreadDiagonal {
   SpreadBoxes<T> s;
   KF_HD KF_INLINE exec::Maxima<T, 1> operator()(std::size_t k) const {
-    const Box<T> u = s.around(s.region.cell(k, s.geo));
+    const Box<T> u = s.around(k);
     const T zero = T(0);
     const T dx = u.hi.x - u.lo.x, dy = u.hi.y - u.lo.y, dz = u.hi.z - u.lo.z;
     const T ex = dx > zero ? dx : zero, ey = dy > zero ? dy : zero, ez = dz > zero ? dz : zero;
@@ -186,8 +184,8 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
   // appends, 6.6 with this builder and 4-slot groups, 4.2 with 8-slot groups.
   const FluidView<T> fv = f.view(); // xm: FluidSet::reorder wrote it
   built_ = {fv, cells, b, r2};
-  // The first build waits for its rows to fit: the walls' rows below take the fluid rows' width
-  // (32 before anything was listed: most overflowed and were walked until the next build).
+  // The first build waits for its rows to fit (once a run: at the first 32 slots most rows
+  // overflow, and settle() would build them again all the same).
   build_rows<T>(ex, lists_, built_, lists_.capacity() == 0);
   if (skin_ > T(0)) {
     x0_.resize(n);
@@ -195,8 +193,6 @@ void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>&
     bound_ = T(0);
     pair_ = T(0);
     cells_ = cells;
-    box_.resize(cells.geo.cells());
-    spread_.resize(cells.geo.cells());
     walls_listed_ = b.n > 0;
     if (walls_listed_)
       build_walls(ex, b, cells, r2, fluid_near);
@@ -291,14 +287,23 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
       region.n[a] = std::min(hi + reach, dims[a] - 1) - region.lo[a] + 1;
     }
     const std::size_t cells = n > 0 ? region.count() : 0;
+    // The boxes over the region only, taken when this bound first runs (most runs' lists end
+    // on the global bounds alone) and grown snugly; every box is written again, so room that
+    // must grow is freed first (the pour's boxes over its whole grid held 48 MB).
+    if (cells > box_.capacity()) {
+      box_.release();
+      spread_.release();
+    }
+    box_.resize_snug(cells);
+    spread_.resize_snug(cells);
     exec::for_each_lanes<8>(
         ex, cells, CellDisplacementBox<T>{cells_, region, f.x.data(), x0_.data(), box_.data()},
         "fluid.moved_box");
-    exec::for_each(ex, cells, SpreadInto<T>{{geo, region, 0, reach, box_.data()}, spread_.data()},
+    exec::for_each(ex, cells, SpreadInto<T>{{region, 0, reach, box_.data()}, spread_.data()},
                    "fluid.moved_box");
-    exec::for_each(ex, cells, SpreadInto<T>{{geo, region, 1, reach, spread_.data()}, box_.data()},
+    exec::for_each(ex, cells, SpreadInto<T>{{region, 1, reach, spread_.data()}, box_.data()},
                    "fluid.moved_box");
-    exec::max_into_each<T, 1>(ex, cells, SpreadDiagonal<T>{{geo, region, 2, reach, box_.data()}},
+    exec::max_into_each<T, 1>(ex, cells, SpreadDiagonal<T>{{region, 2, reach, box_.data()}},
                               moved_.data() + 13, "fluid.moved_box");
     read_.start(moved_.data());
     m[7] = read_.wait()[13];

@@ -34,9 +34,9 @@
 
 namespace kf {
 
-/// SphLists<T>::footprint's: bytes a fluid particle, a boundary particle and a grid cell.
+/// SphLists<T>::footprint's: bytes a fluid particle and a boundary particle.
 struct SphListsFootprint {
-  double per_fluid = 0, per_boundary = 0, per_cell = 0;
+  double per_fluid = 0, per_boundary = 0;
 };
 
 template <typename T>
@@ -130,10 +130,10 @@ public:
            box_.capacity_bytes() + spread_.capacity_bytes();
   }
   /// What such lists hold once built for fluid rows of `most` particles at most and wall rows
-  /// of `walls_most` (the bytes() of a run, estimated ahead: `knitflow plan`): bytes a fluid
-  /// particle (its row and count, with a skin the position listed), a boundary particle (with a
-  /// skin, its wall row: `walls`) and a cell of the fluid's grid (with a skin, the two boxes of
-  /// displacements).
+  /// of `walls_most` (the bytes() of a run after its set-up, estimated ahead: `knitflow plan`):
+  /// bytes a fluid particle (its row and count, with a skin the position listed) and a boundary
+  /// particle (with a skin, its wall row: `walls`). The local bound's boxes of displacements
+  /// come later, when it first runs, over the cells the fluid fills (none at the set-up).
   static SphListsFootprint footprint(std::uint32_t most, std::uint32_t walls_most, bool skin,
                                      bool walls) {
     const std::uint32_t width = NeighbourList<T>::settled_capacity(most);
@@ -142,8 +142,6 @@ public:
     if (skin && walls)
       f.per_boundary =
           sizeof(std::uint32_t) * (NeighbourList<T>::settled_capacity(walls_most) + 1.0);
-    if (skin)
-      f.per_cell = 2.0 * sizeof(Box);
     return f;
   }
   /// The last device reading: max |d| and the bound on |d_i - d_j| it gave (the smallest of
