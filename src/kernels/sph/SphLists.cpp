@@ -287,9 +287,9 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
       region.n[a] = std::min(hi + reach, dims[a] - 1) - region.lo[a] + 1;
     }
     const std::size_t cells = n > 0 ? region.count() : 0;
-    // The boxes over the region only, taken when this bound first runs (most runs' lists end
-    // on the global bounds alone) and grown snugly; every box is written again, so room that
-    // must grow is freed first (the pour's boxes over its whole grid held 48 MB).
+    // The boxes over the region only, taken when this bound first runs (a run whose lists the
+    // global bounds keep alone never takes them) and grown snugly; every box is written again,
+    // so room that must grow is freed first (the pour's boxes over its whole grid held 48 MB).
     if (cells > box_.capacity()) {
       box_.release();
       spread_.release();
