@@ -809,6 +809,32 @@ TEST_P(ExecTest, DeviceBufferResizeKeepsLeadingContents) {
   EXPECT_GE(buf.capacity_bytes(), 5000 * sizeof(std::uint32_t));
 }
 
+TEST_P(ExecTest, DeviceBufferGrowthDiscardingHoldsOnlyTheNewRoom) {
+  DeviceBuffer<std::uint32_t> buf(b(), 0, "buf");
+  buf.assign(random_u32(1000, 0xFFFFFFFFu, 502));
+  const std::size_t before = kf::exec::held_bytes(b()).now;
+  kf::exec::reset_peak_bytes(b());
+  buf.reserve_discarding(800); // within its room: nothing moves
+  EXPECT_EQ(kf::exec::held_bytes(b()).peak, before);
+  EXPECT_EQ(buf.size(), 1000u);
+  buf.reserve_discarding(4000);
+  // The old room was freed before the new was taken: the peak is the ledger's less the old
+  // room plus the new (with reserve: both at once).
+  const std::size_t old_room = 1000 * sizeof(std::uint32_t);
+  EXPECT_EQ(kf::exec::held_bytes(b()).peak, before - old_room + 4000 * sizeof(std::uint32_t));
+  EXPECT_EQ(buf.capacity(), 4000u);
+  EXPECT_EQ(buf.size(), 0u);        // the contents are gone
+  buf.resize_snug_discarding(3000); // within: the room stays
+  EXPECT_EQ(buf.capacity(), 4000u);
+  EXPECT_EQ(buf.size(), 3000u);
+  buf.resize_snug_discarding(8000); // grows by a sixteenth more, as resize_snug
+  EXPECT_EQ(buf.capacity(), 8500u);
+  EXPECT_EQ(buf.size(), 8000u);
+  const std::vector<std::uint32_t> h = random_u32(8000, 0xFFFFFFFFu, 503);
+  buf.assign(h); // and usable
+  EXPECT_EQ(buf.to_host(), h);
+}
+
 TEST_P(ExecTest, DeviceBufferShrinkToFitKeepsContentsAndFreesTheRest) {
   const auto h = random_u32(4000, 0xFFFFFFFFu, 501);
   DeviceBuffer<std::uint32_t> buf(b(), 0, "buf");

@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 namespace kf {
 
@@ -25,15 +24,16 @@ std::string describe_obstacle(const Obstacle& o) {
   return line + buf;
 }
 
-/// Points (i, j, k) of the cubic lattice of unit spacing closer than q to the origin, k >= k0:
-/// a row of the fluid's lists at the start, where fluid and walls fill one lattice (all k); a
-/// wall's row, the fluid above a flat wall (k >= 1: its first layer a spacing above the wall's).
-std::uint32_t lattice_points_within(double q, int k0) {
+/// Points (i, j, k) of the cubic lattice of unit spacing closer than q to the origin: a row of
+/// the fluid's lists at the start, where fluid and walls fill one lattice; `above_a_wall`, only
+/// those with k >= 1, a wall particle's row under the fluid of a flat wall (its first layer a
+/// spacing above the wall's).
+std::uint32_t lattice_points_within(double q, bool above_a_wall) {
   const int n = static_cast<int>(std::floor(q));
   std::uint32_t c = 0;
   for (int i = -n; i <= n; ++i)
     for (int j = -n; j <= n; ++j)
-      for (int k = std::max(-n, k0); k <= n; ++k)
+      for (int k = above_a_wall ? 1 : -n; k <= n; ++k)
         c += double(i * i + j * j + k * k) < q * q;
   return c;
 }
@@ -85,8 +85,8 @@ PlanReport Simulation::plan(const Scene& scene) {
     const bool verlet = scene.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet;
     const double reach = h * (1 + (verlet ? scene.solver.neighbour_skin : 0));
     const double q = reach / scene.fluid.spacing;
-    r.list_most = lattice_points_within(q, std::numeric_limits<int>::min());
-    r.wall_list_most = lattice_points_within(q, 1);
+    r.list_most = lattice_points_within(q, false);
+    r.wall_list_most = lattice_points_within(q, true);
     const bool walls = r.boundary > 0;
     const auto fp = dbl ? SphLists<double>::footprint(r.list_most, r.wall_list_most, verlet, walls)
                         : SphLists<float>::footprint(r.list_most, r.wall_list_most, verlet, walls);

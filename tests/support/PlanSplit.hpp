@@ -40,7 +40,8 @@ inline void expect_plan_is_the_runs_split(const Scene& s, const char* what) {
 inline void expect_plan_memory_is_the_runs(const Scene& s, const char* what, double spread) {
   comm::MpiContext mpi;
   const PlanReport plan = Simulation::plan(s);
-  const double one = double(plan.bytes()) / double(Simulation::create(s, exec::Backend::Cpu)->memory_bytes());
+  const double one =
+      double(plan.bytes()) / double(Simulation::create(s, exec::Backend::Cpu)->memory_bytes());
   const PartitionReport split = Simulation::plan_split(s, mpi.size());
   auto run = Simulation::create(s, exec::Backend::Cpu, &mpi);
   const double mine =

@@ -60,12 +60,26 @@ public:
       reallocate(size_);
   }
 
-  /// Frees the storage, contents and all: for a buffer about to grow whose contents will all
-  /// be written again, so that old and new are never held at once (reserve copies).
+  /// Frees the storage, contents and all.
   void release() {
     free_bytes(backend_, ptr_);
     ptr_ = nullptr;
     size_ = capacity_ = 0;
+  }
+  /// reserve() for contents that will all be written again: storage that must grow is freed
+  /// first, so that old and new are never held at once (reserve copies; a growth's peak held
+  /// both). The contents are lost where it grows.
+  void reserve_discarding(std::size_t n) {
+    if (n > capacity_) {
+      release();
+      reserve(n);
+    }
+  }
+  /// resize_snug() whose contents need not be kept (reserve_discarding).
+  void resize_snug_discarding(std::size_t n) {
+    if (n > capacity_)
+      reserve_discarding(capacity_ == 0 ? n : n + n / 16);
+    size_ = n;
   }
 
   /// resize(), growing to n and a sixteenth more where it grows: for a column of particles, whose

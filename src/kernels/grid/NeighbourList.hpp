@@ -373,16 +373,14 @@ private:
   /// n rows at the present capacity. The rows' room grows snugly (the rows of a rank's owned
   /// and ghost particles, whose count moves a little from one build to the next) and the
   /// lists' room is the rows' at that width: grown geometrically, the largest buffer a fluid
-  /// rank holds stood up to half empty. Every caller writes every row after this, so a list
-  /// that must grow is freed first: reserve would copy it and hold old and new at once.
+  /// rank holds stood up to half empty. Every caller writes every row after this, so the
+  /// lists' contents need not be kept where their room changes.
   void size_rows(std::size_t n) {
     count_.resize_snug(n);
     const std::size_t room = std::size_t(capacity_) * count_.capacity();
-    // A room that must grow, or narrowed rows (build_for) leaving much of it unused: the old
-    // room is freed first.
-    if (room > list_.capacity() || list_.capacity() > room + room / 8)
+    if (list_.capacity() > room + room / 8) // rows narrowed (build_for): the rest freed
       list_.release();
-    list_.reserve(room);
+    list_.reserve_discarding(room);
     list_.resize(std::size_t(capacity_) * n);
   }
   /// launch(sink) fills every row, at the present capacity (32 at first).

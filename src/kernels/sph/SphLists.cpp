@@ -288,14 +288,10 @@ bool SphLists<T>::stale_after(const exec::Exec& ex, const FluidSet<T>& f, T moti
     }
     const std::size_t cells = n > 0 ? region.count() : 0;
     // The boxes over the region only, taken when this bound first runs (a run whose lists the
-    // global bounds keep alone never takes them) and grown snugly; every box is written again,
-    // so room that must grow is freed first (the pour's boxes over its whole grid held 48 MB).
-    if (cells > box_.capacity()) {
-      box_.release();
-      spread_.release();
-    }
-    box_.resize_snug(cells);
-    spread_.resize_snug(cells);
+    // global bounds keep alone never takes them) and grown snugly; every box is written again
+    // (the pour's boxes over its whole grid held 48 MB).
+    box_.resize_snug_discarding(cells);
+    spread_.resize_snug_discarding(cells);
     exec::for_each_lanes<8>(
         ex, cells, CellDisplacementBox<T>{cells_, region, f.x.data(), x0_.data(), box_.data()},
         "fluid.moved_box");
