@@ -127,7 +127,7 @@ void print_partition(const kf::Scene& scene, int ranks, const kf::PlanReport& r)
   std::printf(
       "memory     per rank on %d ranks: the most %s (rank %d), the mean %s (as the memory "
       "line's measure: the particles' and the knit's columns, the fluid's lists, the grids, the "
-      "solids)\n",
+      "solids, the coupling)\n",
       ranks, kf::format_bytes(most).c_str(), largest, kf::format_bytes(sum / ranks).c_str());
   if (p.domain_cells > 0)
     std::printf("grids      each rank's a window of the domain's %zu cells (its blocks and the "
@@ -254,6 +254,10 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   if (r.bytes_lists > 0) // their width grows with the density over a run: the start's
     lists = ", the fluid's lists " + kf::format_bytes(r.bytes_lists) +
             " (the start's: " + std::to_string(r.list_most) + " neighbours at most)";
+  if (r.bytes_coupling > 0) // its lists' rows: one a fluid particle, as wide as the densest
+    lists += ", the coupling " + kf::format_bytes(r.bytes_coupling) +
+             " (its lists from the "
+             "first step)";
   std::printf(
       "memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s, "
       "solids %s%s)\n",

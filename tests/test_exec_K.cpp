@@ -6,6 +6,7 @@
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/exec/Backend.hpp"
 #include "kernels/exec/DeviceBuffer.hpp"
+#include "kernels/exec/PeakByLabel.hpp"
 #include "kernels/exec/PendingRead.hpp"
 #include "kernels/exec/Streams.hpp"
 #include "kernels/integrate/StepSize.hpp"
@@ -833,6 +834,38 @@ TEST_P(ExecTest, DeviceBufferGrowthDiscardingHoldsOnlyTheNewRoom) {
   const std::vector<std::uint32_t> h = random_u32(8000, 0xFFFFFFFFu, 503);
   buf.assign(h); // and usable
   EXPECT_EQ(buf.to_host(), h);
+}
+
+TEST_P(ExecTest, PeakByLabelIsWhatWasHeldAtThePeak) {
+  using kf::exec::peak_by_label;
+  const auto bytes_of = [](const std::vector<kf::exec::LabelledBytes>& by, const char* label) {
+    for (const auto& l : by)
+      if (l.label == label)
+        return l.bytes;
+    return std::size_t(0);
+  };
+  kf::exec::reset_peak_bytes(b());
+  DeviceBuffer<std::uint32_t> a(b(), 1000, "test.peak_a");
+  DeviceBuffer<std::uint32_t> c(b(), 2000, "test.peak_c");
+  a = DeviceBuffer<std::uint32_t>(b(), 0, "test.peak_a"); // a's room freed below the peak
+  DeviceBuffer<std::uint32_t> d(b(), 500, "test.peak_d"); // under it: not at the peak
+  auto by = peak_by_label(b());
+  EXPECT_EQ(bytes_of(by, "test.peak_a"), 4000u);
+  EXPECT_EQ(bytes_of(by, "test.peak_c"), 8000u);
+  EXPECT_EQ(bytes_of(by, "test.peak_d"), 0u);
+  DeviceBuffer<std::uint32_t> e(b(), 5000, "test.peak_a"); // a new peak: a's label again
+  by = peak_by_label(b());
+  EXPECT_EQ(bytes_of(by, "test.peak_a"), 20000u);
+  EXPECT_EQ(bytes_of(by, "test.peak_c"), 8000u);
+  EXPECT_EQ(bytes_of(by, "test.peak_d"), 2000u);
+  // The labels' bytes sum to the ledger's peak, largest first.
+  std::size_t sum = 0;
+  for (std::size_t k = 0; k < by.size(); ++k) {
+    sum += by[k].bytes;
+    if (k > 0)
+      EXPECT_GE(by[k - 1].bytes, by[k].bytes);
+  }
+  EXPECT_EQ(sum, kf::exec::held_bytes(b()).peak);
 }
 
 TEST_P(ExecTest, DeviceBufferShrinkToFitKeepsContentsAndFreesTheRest) {

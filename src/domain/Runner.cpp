@@ -347,6 +347,8 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
     MPI_Reduce(&host, &host_total, 1, MPI_DOUBLE, MPI_SUM, 0, mpi.comm());
     sum.host_peak_bytes = {host_most, host_total / mpi.size()};
     sum.backend = opt.backend;
+    if (opt.profile)
+      sum.peak_by_label = exec::peak_by_label(opt.backend);
   }
   if (mpi.size() > 1 && sum.split.domain_cells > 0) {
     const double share = double(sum.split.grid_cells) / double(sum.split.domain_cells);
@@ -358,6 +360,39 @@ RunSummary run_scene(const Scene& scene_in, const RunOptions& opt, const comm::M
   }
   return sum;
 }
+
+namespace {
+
+/// The profiled run's peak by buffer: the largest, then the rest in one line.
+void print_peak_by_label(std::ostream& o, const RunSummary& s) {
+  const auto& by = s.peak_by_label;
+  if (by.empty())
+    return;
+  double total = 0;
+  for (const auto& l : by)
+    total += double(l.bytes);
+  o << "memory at the peak by buffer" << (s.split.ranks > 1 ? " (rank 0)" : "") << ":\n";
+  constexpr std::size_t kShown = 12;
+  char buf[160];
+  double rest = 0;
+  for (std::size_t k = 0; k < by.size(); ++k) {
+    if (k >= kShown) {
+      rest += double(by[k].bytes);
+      continue;
+    }
+    std::snprintf(buf, sizeof buf, "  %-32s %10s %6.1f%%\n", by[k].label.c_str(),
+                  format_bytes(double(by[k].bytes)).c_str(), 100 * double(by[k].bytes) / total);
+    o << buf;
+  }
+  if (rest > 0) {
+    const std::string others = std::to_string(by.size() - kShown) + " others";
+    std::snprintf(buf, sizeof buf, "  %-32s %10s %6.1f%%\n", others.c_str(),
+                  format_bytes(rest).c_str(), 100 * rest / total);
+    o << buf;
+  }
+}
+
+} // namespace
 
 std::string format_summary(const RunSummary& s) {
   std::ostringstream o;
@@ -429,6 +464,7 @@ std::string format_summary(const RunSummary& s) {
         o << " on a rank (the mean rank " << format_bytes(s.host_peak_bytes[1]) << ")";
     }
     o << "\n";
+    print_peak_by_label(o, s);
   }
   if (const auto& r = s.split; r.ranks > 1) {
     const double knit = std::max(0.0, r.exchange_seconds - r.migration_seconds - r.refresh_seconds -

@@ -6,6 +6,7 @@
 #include "domain/Scene.hpp"
 #include "domain/Simulation.hpp"
 #include "kernels/exec/Backend.hpp"
+#include "kernels/exec/PeakByLabel.hpp"
 
 #include <array>
 #include <iosfwd>
@@ -65,6 +66,8 @@ struct RunSummary {
   // included (each rank samples only its share of the scene), and on the CPU backend its
   // buffers too.
   std::array<double, 2> host_peak_bytes{};
+  // What the backend held at its peak by buffer (exec::peak_by_label; rank 0's, profiled runs).
+  std::vector<exec::LabelledBytes> peak_by_label;
   exec::Backend backend = exec::Backend::Cpu;
 };
 

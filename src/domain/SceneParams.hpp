@@ -5,6 +5,7 @@
 #include "kernels/coupling/KnitFluidCoupling.hpp"
 #include "kernels/sph/Sph.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace kf {
@@ -55,6 +56,15 @@ CouplingParams<T> coupling_params(const Scene& s, double knit_spacing) {
   p.volume_per_mass = static_cast<T>(s.knit.thickness / s.knit.mass_per_area);
   p.gravity = vec_cast<T>(s.gravity);
   return p;
+}
+
+/// The coupling's knit grid: over the domain, cells 50% over the reach (the capillary's is the
+/// fluid's support): a third of the margin is the grid's skin (sorted again when a point moved
+/// that far), two thirds the per-step lists' (KnitFluidCoupling).
+template <typename T>
+GridGeometry<T> coupling_grid(const Scene& s, const CouplingParams<T>& p) {
+  const double reach = std::max(double(p.reach), p.capillary ? double(p.h) : 0.0);
+  return NeighbourGrid<T>::cover(s.domain.min, s.domain.max, 1.5 * reach);
 }
 
 /// The scene's equation of state, in the precision U.

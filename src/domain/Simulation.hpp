@@ -86,6 +86,10 @@ struct PlanReport {
   // particle and a boundary particle.
   std::size_t bytes_lists = 0;
   std::uint32_t list_most = 0, wall_list_most = 0;
+  // The knit-fluid coupling once its lists are built (KnitFluidCoupling::footprint): its grid's
+  // tables over the domain (whole on every rank), bytes a fluid particle and a knit point.
+  std::size_t bytes_coupling = 0, coupling_bytes_grid = 0;
+  std::size_t coupling_bytes_fluid = 0, coupling_bytes_knit = 0;
   double list_bytes_fluid = 0, list_bytes_boundary = 0;
   std::vector<std::string> obstacles; // one line per obstacle: name, shape, mesh details
   double initial_dt = 0;
@@ -99,7 +103,7 @@ struct PlanReport {
 
   /// What the ranks share between them (the solids' sampled distances are held whole by each).
   std::size_t bytes_shared() const {
-    return bytes_fluid + bytes_boundary + bytes_grid + bytes_knit + bytes_lists;
+    return bytes_fluid + bytes_boundary + bytes_grid + bytes_knit + bytes_lists + bytes_coupling;
   }
   /// The one-rank total, solids included.
   std::size_t bytes() const { return bytes_shared() + bytes_solids; }

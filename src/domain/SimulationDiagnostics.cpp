@@ -160,6 +160,8 @@ std::size_t SimulationT<T>::memory_bytes() const {
     b += knit_->bytes();
   if (knit_halo_)
     b += knit_halo_->bytes();
+  if (coupling_)
+    b += coupling_->bytes();
   return b;
 }
 

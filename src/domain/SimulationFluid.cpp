@@ -119,13 +119,13 @@ void SimulationT<T>::fit_grids_to_region() {
   const int levels = NeighbourGrid<T>::usable_order_levels(
       whole.cells() + 1, static_cast<int>(scene_.solver.cell_order));
   if (fluid_on_) {
-    fluid_grid_.emplace(ex_.backend, geo, span, levels);
+    fluid_grid_.emplace(ex_.backend, geo, span, levels, "fluid.grid");
     fluid_near_.resize(0); // the last sort's flags: of the old grid
     if (fluid_list_)
       fluid_list_->forget();
   }
   if (boundary_on_)
-    boundary_grid_.emplace(ex_.backend, geo, span, levels); // sorted by the caller next
+    boundary_grid_.emplace(ex_.backend, geo, span, levels, "boundary.grid"); // the caller sorts it
 }
 
 template <typename T>

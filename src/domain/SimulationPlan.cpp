@@ -133,6 +133,21 @@ PlanReport Simulation::plan(const Scene& scene) {
         r.coupling_reach = p.reach;
         pressure_scale = p.pressure_scale;
         r.coupling_stiffness = p.contact ? p.dem.k : 0;
+        if (scene.has(Module::Fluid)) {
+          const auto footprint = [&](auto zero) { // in the scene's precision
+            using U = decltype(zero);
+            const auto fp = KnitFluidCoupling<U>::footprint(
+                coupling_grid(scene, coupling_params<U>(scene, knit.longest_spacing())));
+            r.coupling_bytes_grid = fp.grid;
+            r.coupling_bytes_fluid = fp.per_fluid;
+            r.coupling_bytes_knit = fp.per_knit;
+            r.bytes_coupling = fp.bytes(r.fluid, r.knit);
+          };
+          if (dbl)
+            footprint(0.0);
+          else
+            footprint(0.0f);
+        }
         if (p.contact) {
           const CouplingLimits lim = coupling_limits(scene, p.dem.k, knit.min_free_mass());
           knit.set_substep_limit(lim.knit_substep);
@@ -187,6 +202,10 @@ double rank_bytes(const PlanReport& r, const RankShare& s, int ranks) {
        r.list_bytes_boundary * double(s.owned[B] + s.ghosts[B]);
   b += share(r.bytes_knit - r.bytes_knit_rows, r.knit, s.owned[K] + s.ghosts[K]);
   b += share(r.bytes_knit_rows, r.knit, s.owned[K]);
+  if (r.bytes_coupling > 0) // its grid is the domain's on every rank; rows for ghosts too
+    b += double(r.coupling_bytes_grid) +
+         double(r.coupling_bytes_fluid) * double(s.owned[F] + s.ghosts[F]) +
+         double(r.coupling_bytes_knit) * double(s.owned[K] + s.ghosts[K]);
   if (ranks > 1 && r.knit > 0) // KnitHalo's id -> local table, the cells' slots (4 bytes each)
     b += 4.0 * double(r.knit + r.volume_cells);
   return b;

@@ -322,7 +322,7 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
       whole_fluid_mass_ += double(static_cast<T>(m));
     if (!split_over)
       fluid_grid_.emplace(ex_.backend, whole_grid_, span,
-                          static_cast<int>(scene_.solver.cell_order));
+                          static_cast<int>(scene_.solver.cell_order), "fluid.grid");
     if (scene_.solver.neighbour_list != Scene::Solver::NeighbourLists::Off)
       fluid_list_.emplace(ex_.backend, static_cast<T>(skin_));
   }
@@ -353,7 +353,7 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
     boundary_->id.assign(ids);
     if (!split_over)
       boundary_grid_.emplace(ex_.backend, whole_grid_, span,
-                             static_cast<int>(scene_.solver.cell_order));
+                             static_cast<int>(scene_.solver.cell_order), "boundary.grid");
   }
 }
 
@@ -388,10 +388,7 @@ void SimulationT<T>::init_coupling() {
     throw Error("solver.neighbour_list = \"verlet\": the knit-fluid coupling reaches " +
                 std::to_string(reach) + " m, more than the fluid's support (" + std::to_string(h_) +
                 " m); use neighbour_list = \"off\"");
-  // Cells 50% over the reach: a third of the margin is the grid's skin (it is sorted again when a
-  // point moved that far), two thirds the per-step lists' (KnitFluidCoupling).
-  coupling_.emplace(ex_.backend, scene_.solver.kernel, p,
-                    NeighbourGrid<T>::cover(scene_.domain.min, scene_.domain.max, 1.5 * reach));
+  coupling_.emplace(ex_.backend, scene_.solver.kernel, p, coupling_grid(scene_, p));
   if (p.capillary && scene_.capillary.model == Scene::AbsorptionModel::Conserving)
     init_absorption(p);
   if (sheet_guard_on_)

@@ -415,9 +415,9 @@ TEST(Distributed, ThePlanIsTheRunsSplit) {
 }
 
 // And its memory a rank is what the run's rank holds, as nearly as its one-rank figure is.
-// Measured: plan over the run 1.017 on one rank (0.464 before plan counted the fluid's lists),
-// 1.038 / 1.002 on 2 ranks, 1.031 / 1.042 / 1.000 on 3: within 2.5% of one rank's (a rank's
-// lists and walls a particle as the whole's); the bound 3%.
+// Measured after the first step: plan over the run 1.022 on one rank (0.464 before plan counted
+// the fluid's lists), 1.044 / 1.003 on 2 ranks, 1.037 / 1.048 / 1.001 on 3: within 2.5% of one
+// rank's (a rank's lists and walls a particle as the whole's); the bound 3%.
 TEST(Distributed, ThePlansMemoryIsTheRunsRanks) {
   Scene s = dambreak("float", "summation");
   s.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;

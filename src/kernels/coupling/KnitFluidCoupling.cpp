@@ -11,14 +11,14 @@ KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
                                         const CouplingParams<T>& params,
                                         const GridGeometry<T>& grid, std::uint32_t list_capacity,
                                         std::uint32_t knit_capacity)
-    : kernel_(kernel), params_(params), grid_(b, grid),
+    : kernel_(kernel), params_(params), grid_(b, grid, 1, 0, "coupling.grid"),
       watch_(b, (grid.cell - coupling_reach(params)) / T(3), "coupling.moved"),
       saturation_(b, 0, "coupling.saturation"), pressure_(b, 0, "coupling.pressure"),
       fluid_mass_(b, 0, "coupling.fluid_mass"), x_(b, 0, "coupling.knit_x"),
       v_(b, 0, "coupling.knit_v"), xs_(b, 0, "coupling.knit_x_sorted"), m_(b, 0, "coupling.knit_m"),
       p_(b, 0, "coupling.knit_p"), impulse_(b, 0, "coupling.impulse"),
-      near_flag_(b, 0, "coupling.near_flag"), list_(b), knit_rows_(b),
-      pair_force_(b, 0, "coupling.pair_force"),
+      near_flag_(b, 0, "coupling.near_flag"), list_(b, "coupling.lists"),
+      knit_rows_(b, "coupling.knit_rows"), pair_force_(b, 0, "coupling.pair_force"),
       list_skin_(T(2) * (grid.cell - coupling_reach(params)) / T(3)), list_capacity_(list_capacity),
       knit_capacity_(knit_capacity ? knit_capacity : list_capacity), cell_(grid.cell) {
   const T reach = coupling_reach(params);
@@ -276,6 +276,25 @@ std::size_t KnitFluidCoupling<T>::bytes() const {
          pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() + x_.capacity_bytes() +
          v_.capacity_bytes() + xs_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
          impulse_.capacity_bytes();
+}
+
+template <typename T>
+typename KnitFluidCoupling<T>::Footprint
+KnitFluidCoupling<T>::footprint(const GridGeometry<T>& grid, std::uint32_t list_capacity,
+                                std::uint32_t knit_capacity) {
+  constexpr std::size_t u = sizeof(std::uint32_t), t = sizeof(T), v = sizeof(Vec3<T>);
+  const std::size_t row = NeighbourList<T>::whole_groups(list_capacity);
+  const std::size_t knit_row =
+      NeighbourList<T>::whole_groups(knit_capacity ? knit_capacity : list_capacity);
+  Footprint f;
+  f.grid = std::size_t(grid.cells()) * 3 * u; // a cell's start, end and rank
+  // Its near flag, impulse, row count, and a row of slots and of their pair forces.
+  f.per_fluid = u + v + u + row * (u + v);
+  // The grid's key and permutation, the watch's reference, the transposed rows (a count and the
+  // build's unsorted slots and keys beside the sorted slots), the sorted and per-step copies
+  // (saturation, pressure, fluid mass; x, v, the sort's x; m, p).
+  f.per_knit = 2 * u + v + u + knit_row * 3 * u + 3 * t + 3 * v + 2 * t;
+  return f;
 }
 
 template class KnitFluidCoupling<float>;

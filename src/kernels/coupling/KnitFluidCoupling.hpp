@@ -75,7 +75,7 @@ public:
   /// same); a fuller point walks the fluid grid's cells. A point in water on both sides has
   /// ~80 within the list's radius.
   KnitFluidCoupling(exec::Backend b, KernelType kernel, const CouplingParams<T>& params,
-                    const GridGeometry<T>& grid, std::uint32_t list_capacity = 96,
+                    const GridGeometry<T>& grid, std::uint32_t list_capacity = kListCapacity,
                     std::uint32_t knit_capacity = 0);
 
   /// Saturation, capillary pressure and absorbed mass of every knit point (when capillary), the
@@ -147,6 +147,21 @@ public:
   std::uint64_t sorts() const { return sorts_; }
   /// The per-step lists' builds so far (begin_step; fewer than its calls where an anchor kept
   /// them).
+  /// What it holds once its lists are built (the first begin_step; `knitflow plan`), as the
+  /// constructor's capacities make it: the grid's tables over `grid`, and bytes a fluid
+  /// particle and a knit point. Every fluid particle has a row of the lists and of their pair
+  /// forces (rows for the near ones only would need their count on the host): most of it.
+  struct Footprint {
+    std::size_t grid = 0, per_fluid = 0, per_knit = 0;
+    std::size_t bytes(std::size_t fluid, std::size_t knit) const {
+      return grid + per_fluid * fluid + per_knit * knit;
+    }
+  };
+  static Footprint footprint(const GridGeometry<T>& grid,
+                             std::uint32_t list_capacity = kListCapacity,
+                             std::uint32_t knit_capacity = 0);
+  static constexpr std::uint32_t kListCapacity = 96;
+
   std::uint64_t list_builds() const { return list_builds_; }
   /// How far a fluid particle may be from where the near flags were taken for it (the anchor's
   /// budget, a watch skin, while the lists are an anchor's; else 0).

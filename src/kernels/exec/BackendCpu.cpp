@@ -3,12 +3,14 @@
 #include "core/Error.hpp"
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/exec/Backend.hpp"
+#include "kernels/exec/PeakByLabel.hpp"
 
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <new>
+#include <set>
 #include <unordered_map>
 #include <vector>
 
@@ -110,29 +112,54 @@ std::string describe(Backend b) {
 
 namespace {
 
-/// What alloc_bytes holds on each backend (held_bytes): buffers grow rarely (capacities are
-/// kept), so a lock an allocation costs nothing measurable.
+/// What alloc_bytes holds on each backend (held_bytes), and by label (peak_by_label): buffers
+/// grow rarely (capacities are kept), so a lock and a small copy at a new peak cost nothing
+/// measurable.
 struct Ledger {
+  struct Entry {
+    std::size_t bytes = 0;
+    std::size_t label = 0; // index into labels
+  };
   std::mutex lock;
-  std::unordered_map<void*, std::size_t> size;
+  std::unordered_map<void*, Entry> size;
   HeldBytes held[2];
+  std::unordered_map<std::string, std::size_t> label_index;
+  std::vector<std::string> labels;
+  std::vector<std::size_t> label_now[2], label_at_peak[2]; // bytes by label index
   static Ledger& get() {
     static Ledger l;
     return l;
   }
-  void add(Backend b, void* p, std::size_t bytes) {
+  std::size_t intern(const char* what) {
+    const std::string name = what && *what ? what : "(unnamed)";
+    const auto [it, fresh] = label_index.try_emplace(name, labels.size());
+    if (fresh)
+      labels.push_back(name);
+    return it->second;
+  }
+  void add(Backend b, void* p, std::size_t bytes, const char* what) {
     const std::lock_guard<std::mutex> g(lock);
-    size[p] = bytes;
-    HeldBytes& h = held[static_cast<int>(b)];
+    const int k = static_cast<int>(b);
+    const std::size_t l = intern(what);
+    size[p] = {bytes, l};
+    if (label_now[k].size() <= l)
+      label_now[k].resize(l + 1, 0);
+    label_now[k][l] += bytes;
+    HeldBytes& h = held[k];
     h.now += bytes;
-    h.peak = std::max(h.peak, h.now);
+    if (h.now > h.peak) {
+      h.peak = h.now;
+      label_at_peak[k] = label_now[k];
+    }
   }
   void remove(Backend b, void* p) noexcept {
     const std::lock_guard<std::mutex> g(lock);
     const auto it = size.find(p);
     if (it == size.end())
       return;
-    held[static_cast<int>(b)].now -= it->second;
+    const int k = static_cast<int>(b);
+    held[k].now -= it->second.bytes;
+    label_now[k][it->second.label] -= it->second.bytes;
     size.erase(it);
   }
 };
@@ -157,8 +184,30 @@ HeldBytes held_bytes(Backend b) {
 void reset_peak_bytes(Backend b) {
   Ledger& l = Ledger::get();
   const std::lock_guard<std::mutex> g(l.lock);
-  HeldBytes& h = l.held[static_cast<int>(b)];
-  h.peak = h.now;
+  const int k = static_cast<int>(b);
+  l.held[k].peak = l.held[k].now;
+  l.label_at_peak[k] = l.label_now[k];
+}
+
+const char* joined_label(const char* prefix, const char* suffix) {
+  static std::mutex lock;
+  static std::set<std::string> names; // a set's elements never move
+  const std::lock_guard<std::mutex> g(lock);
+  return names.insert(std::string(prefix) + "." + suffix).first->c_str();
+}
+
+std::vector<LabelledBytes> peak_by_label(Backend b) {
+  Ledger& l = Ledger::get();
+  const std::lock_guard<std::mutex> g(l.lock);
+  const auto& at = l.label_at_peak[static_cast<int>(b)];
+  std::vector<LabelledBytes> out;
+  for (std::size_t i = 0; i < at.size(); ++i)
+    if (at[i] > 0)
+      out.push_back({l.labels[i], at[i]});
+  std::sort(out.begin(), out.end(), [](const LabelledBytes& a, const LabelledBytes& c) {
+    return a.bytes != c.bytes ? a.bytes > c.bytes : a.label < c.label;
+  });
+  return out;
 }
 
 void* alloc_bytes(Backend b, std::size_t bytes, const char* what) {
@@ -174,7 +223,7 @@ void* alloc_bytes(Backend b, std::size_t bytes, const char* what) {
   } else {
     p = aligned_host(bytes, what);
   }
-  Ledger::get().add(b, p, bytes);
+  Ledger::get().add(b, p, bytes, what);
   return p;
 }
 

@@ -1,6 +1,7 @@
 #include "kernels/grid/NeighbourGrid.hpp"
 
 #include "core/Error.hpp"
+#include "kernels/exec/PeakByLabel.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -164,10 +165,12 @@ GridGeometry<T> NeighbourGrid<T>::within(const GridGeometry<T>& whole, std::arra
 
 template <typename T>
 NeighbourGrid<T>::NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span,
-                                int order_levels)
-    : geo_(geo), span_(span), rank_(b, 0, "grid.rank"), start_(b, 0, "grid.start"),
-      end_(b, 0, "grid.end"), keys_(b, 0, "grid.keys"), perm_(b, 0, "grid.permutation"),
-      kept_(b, 1, "grid.kept") {
+                                int order_levels, const char* name)
+    : geo_(geo), span_(span), rank_(b, 0, exec::joined_label(name, "rank")),
+      start_(b, 0, exec::joined_label(name, "start")), end_(b, 0, exec::joined_label(name, "end")),
+      keys_(b, 0, exec::joined_label(name, "keys")),
+      perm_(b, 0, exec::joined_label(name, "permutation")),
+      kept_(b, 1, exec::joined_label(name, "kept")) {
   if (span < 1)
     throw Error("neighbour grid: span must be at least one cell");
   if (order_levels < 0 || order_levels > kMaxOrderLevels)

@@ -56,7 +56,9 @@ public:
   /// Morton order of 2^levels sub-cells a side, as far as the sort key's 32 bits allow (fewer
   /// levels on a grid of more than 2^(32 - 3 levels) cells); neighbour passes that gather by
   /// particle then read nearby memory for nearby lanes. Cells and their ranges do not change.
-  NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span = 1, int order_levels = 0);
+  /// name: its buffers' labels ("fluid.grid": "fluid.grid.start", ...; exec::peak_by_label).
+  NeighbourGrid(exec::Backend b, const GridGeometry<T>& geo, int span = 1, int order_levels = 0,
+                const char* name = "grid");
 
   /// Grid covering [lo, hi] with cells of edge `cell` plus `pad` cells of padding on every side.
   static GridGeometry<T> cover(const Vec3d& lo, const Vec3d& hi, double cell, int pad = 1);

@@ -1,5 +1,7 @@
 #include "kernels/grid/NeighbourList.hpp"
 
+#include "kernels/exec/PeakByLabel.hpp"
+
 namespace kf {
 
 namespace {
@@ -12,9 +14,11 @@ struct CountOf {
 } // namespace
 
 template <typename T>
-NeighbourList<T>::NeighbourList(exec::Backend b)
-    : count_(b, 0, "neighbours.count"), list_(b, 0, "neighbours.list"),
-      most_dev_(b, 1, "neighbours.most"), most_read_(b, 1, "neighbours.most") {}
+NeighbourList<T>::NeighbourList(exec::Backend b, const char* name)
+    : count_(b, 0, exec::joined_label(name, "count")),
+      list_(b, 0, exec::joined_label(name, "list")),
+      most_dev_(b, 1, exec::joined_label(name, "most")),
+      most_read_(b, 1, exec::joined_label(name, "most")) {}
 
 template <typename T>
 void NeighbourList<T>::build(const exec::Exec& ex, const Vec3<T>* x, std::size_t n,

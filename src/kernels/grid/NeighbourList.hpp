@@ -276,7 +276,8 @@ struct LaneListBuilder {
 template <typename T>
 class NeighbourList {
 public:
-  explicit NeighbourList(exec::Backend b);
+  /// name: its buffers' labels ("fluid.lists": "fluid.lists.list", ...; exec::peak_by_label).
+  explicit NeighbourList(exec::Backend b, const char* name = "neighbours");
 
   /// Lists, for each of the n points x (sorted as `cells` describes), every j with
   /// |x_i - x_j|^2 < radius2 (i itself included), in the order the cell walk meets them. The

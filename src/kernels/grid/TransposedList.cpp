@@ -1,15 +1,18 @@
 #include "kernels/grid/TransposedList.hpp"
 
 #include "core/Error.hpp"
+#include "kernels/exec/PeakByLabel.hpp"
 
 #include <string>
 
 namespace kf {
 
 template <typename T>
-TransposedList<T>::TransposedList(exec::Backend b)
-    : count_(b, 0, "transpose.count"), unsorted_(b, 0, "transpose.unsorted"),
-      unsorted_row_(b, 0, "transpose.unsorted"), list_(b, 0, "transpose.list") {}
+TransposedList<T>::TransposedList(exec::Backend b, const char* name)
+    : count_(b, 0, exec::joined_label(name, "count")),
+      unsorted_(b, 0, exec::joined_label(name, "unsorted")),
+      unsorted_row_(b, 0, exec::joined_label(name, "unsorted")),
+      list_(b, 0, exec::joined_label(name, "list")) {}
 
 template <typename T>
 void TransposedList<T>::build(const exec::Exec& ex, const ListView<T>& src,

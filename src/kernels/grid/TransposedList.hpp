@@ -82,7 +82,8 @@ struct Sort {
 template <typename T>
 class TransposedList {
 public:
-  explicit TransposedList(exec::Backend b);
+  /// name: its buffers' labels ("coupling.knit_rows": "coupling.knit_rows.list", ...).
+  explicit TransposedList(exec::Backend b, const char* name = "transpose");
 
   /// Rows for n targets: row t lists, in ascending order of source row, the slot src.slot(j, k)
   /// of every source row j (with active[j] set, or all when active is null) whose entry k is

@@ -8,11 +8,12 @@ KnitSelfContact<T>::KnitSelfContact(exec::Backend b, const GridGeometry<T>& geo,
                                     const SelfContactParams<T>& params, std::uint32_t list_capacity,
                                     bool windowed)
     : params_(params), whole_(geo),
-      grid_(std::in_place, b, windowed ? NeighbourGrid<T>::within(geo, {0, 0, 0}, {0, 0, 0}) : geo),
+      grid_(std::in_place, b, windowed ? NeighbourGrid<T>::within(geo, {0, 0, 0}, {0, 0, 0}) : geo,
+            1, 0, "knit.self.grid"),
       x_(b, 0, "knit.self.x"), v_(b, 0, "knit.self.v"), rest_(b, 0, "knit.self.rest"),
       m_(b, 0, "knit.self.m"), piece_(b, 0, "knit.self.piece"), id_(b, 0, "knit.self.id"),
-      watch_(b, (geo.cell - T(2) * params.radius) / T(2), "knit.self.moved"), list_(b),
-      cell_(geo.cell), list_capacity_(list_capacity) {
+      watch_(b, (geo.cell - T(2) * params.radius) / T(2), "knit.self.moved"),
+      list_(b, "knit.self.lists"), cell_(geo.cell), list_capacity_(list_capacity) {
   if (!(geo.cell > T(2) * params.radius))
     throw Error("knit self-collision: grid cell " + std::to_string(double(geo.cell)) +
                 " m is not larger than the contact reach 2R = " +
@@ -23,7 +24,7 @@ template <typename T>
 void KnitSelfContact<T>::fit_window(std::array<int, 3> lo, std::array<int, 3> hi) {
   const GridGeometry<T> geo = NeighbourGrid<T>::within(whole_, lo, hi);
   if (!geo.same_cells(grid_->geometry()))
-    grid_.emplace(x_.backend(), geo);
+    grid_.emplace(x_.backend(), geo, 1, 0, "knit.self.grid");
 }
 
 template <typename T>

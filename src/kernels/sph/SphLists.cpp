@@ -162,9 +162,9 @@ void build_rows(const exec::Exec& ex, Lists& lists, const Built& k, bool wait) {
 
 template <typename T>
 SphLists<T>::SphLists(exec::Backend b, T skin)
-    : skin_(skin), lists_(b), walls_(b), x0_(b, 0, "fluid.listed_x"), moved_(b, 14, "fluid.moved"),
-      read_(b, 14, "fluid.moved"), box_(b, 0, "fluid.moved_box"), spread_(b, 0, "fluid.moved_box") {
-}
+    : skin_(skin), lists_(b, "fluid.lists"), walls_(b, "walls.lists"), x0_(b, 0, "fluid.listed_x"),
+      moved_(b, 14, "fluid.moved"), read_(b, 14, "fluid.moved"), box_(b, 0, "fluid.moved_box"),
+      spread_(b, 0, "fluid.moved_box") {}
 
 template <typename T>
 void SphLists<T>::build(const exec::Exec& ex, FluidSet<T>& f, const CellView<T>& cells,
