@@ -254,10 +254,10 @@ int cmd_plan(const Args& a, const kf::comm::MpiContext& mpi) {
   if (r.bytes_lists > 0) // their width grows with the density over a run: the start's
     lists = ", the fluid's lists " + kf::format_bytes(r.bytes_lists) +
             " (the start's: " + std::to_string(r.list_most) + " neighbours at most)";
-  if (r.bytes_coupling > 0) // its lists' rows: one a fluid particle, as wide as the densest
+  if (r.bytes_coupling > 0) // its lists' rows: one a fluid particle near the knit, at most
     lists += ", the coupling " + kf::format_bytes(r.bytes_coupling) +
-             " (its lists from the "
-             "first step)";
+             " (its lists' rows for up to " + std::to_string(r.coupling_near) +
+             " fluid particles near the knit)";
   std::printf(
       "memory     %s per rank on %d rank(s) (fluid %s, boundary %s, knit %s, grids %s, "
       "solids %s%s)\n",

@@ -155,7 +155,7 @@ enum class Anchor {
 
 template <typename T>
 void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t list_capacity = 256,
-           std::uint32_t knit_capacity = 0, Anchor anchor = Anchor::None) {
+           std::uint32_t knit_capacity = 0, Anchor anchor = Anchor::None, bool rows_short = false) {
   const Cloud c0 = make_cloud(5);   // saturation and pressure come from here (begin_step)
   Cloud c = c0;                     // the pair forces from here
   const double skin = 0.2 * kH / 3; // the knit grid's below: a third of its cells' margin
@@ -195,8 +195,14 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
   fx.knit.a.assign(a0);
   // No motion expected over the step: the substeps watch the knit on the device only.
   if (anchor == Anchor::None) {
-    cp.begin_step(fx.ex, fx.knit, fx.side(), {}, T(0));
-    EXPECT_EQ(cp.list_builds(), 1u);
+    if (rows_short) { // the first build finds the knit in a corner: rows for few particles
+      fx.knit.x.assign(std::vector<Vec3<T>>(c0.kx.size(), Vec3<T>{T(0), T(0), T(0)}));
+      cp.begin_step(fx.ex, fx.knit, fx.side(), {}, T(0));
+      fx.knit.x.assign(cast<T>(c0.kx));
+    }
+    // (rows_short: the knit has moved; a motion past the skin has the grid sorted again)
+    cp.begin_step(fx.ex, fx.knit, fx.side(), {}, rows_short ? T(1) : T(0));
+    EXPECT_EQ(cp.list_builds(), rows_short ? 2u : 1u);
   } else {
     // Where the fluid's lists were built: each particle up to 0.9 skins (Kept) from where it
     // is now, the fluid's order; the bound as the fluid's lists would report it.
@@ -228,7 +234,13 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
   fx.knit.x.assign(cast<T>(c.kx));
   const T weight = T(0.25);
   cp.add_forces(fx.ex, fx.knit, fx.side(), weight);
-  EXPECT_EQ(cp.sorts(), 1u) << "the forces must come from the grid sorted at begin_step";
+  EXPECT_EQ(cp.sorts(), rows_short ? 2u : 1u)
+      << "the forces must come from the grid sorted at begin_step";
+  if (rows_short) { // the premise: more near particles than rows, the knit's side walking
+    std::uint32_t flag = 0;
+    exec::copy_bytes(&flag, exec::Backend::Cpu, cp.knit_rows().incomplete(), backend, 4);
+    EXPECT_GT(flag, 0u) << "the rows did not run short";
+  }
   if (knit_capacity) { // the premise: some knit points read their listed pairs, some walk
     const ListView<T> rows = cp.knit_rows().view();
     std::vector<std::uint32_t> count(c.kx.size());
@@ -504,6 +516,18 @@ TEST(CouplingKernels, OverflowingListsWalkTheirCellsCuda) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
   check<float>(exec::Backend::Cuda, Motion::None, 16);
+}
+// The lists' rows, one a fluid particle near the knit, sized by the build before (read behind
+// it): here it found the knit in a corner, few near it, and this build finds most of the fluid
+// near. The rows past the room walk their cells, the knit's side walks the fluid grid (the
+// transpose is marked incomplete): the same forces.
+TEST(CouplingKernels, RowsPastTheRoomWalkTheirCellsCpu) {
+  check<double>(exec::Backend::Cpu, Motion::None, 256, 0, Anchor::None, true);
+}
+TEST(CouplingKernels, RowsPastTheRoomWalkTheirCellsCuda) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device";
+  check<float>(exec::Backend::Cuda, Motion::None, 256, 0, Anchor::None, true);
 }
 // Knit rows of 128 fluid particles: the sheet's inner points have more within the lists' radius
 // and walk the fluid grid (computing their pairs again), its edges read the pairs the fluid side

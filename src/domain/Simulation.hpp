@@ -46,8 +46,11 @@ struct Diagnostics {
   double knit_self_min_gap = 0;         // closest pair distance / 2R (1e30 when none in reach)
   // Knit-fluid coupling (zero without modules contact / capillary).
   std::uint64_t coupling_contacts = 0; // fluid-knit pairs within the contact reach now
-  double coupling_energy = 0;          // their penalty energy [J]
-  double absorbed_mass = 0;            // sum of the knit points' m_fluid [kg]
+  // Fluid particles near the knit at the coupling's last list build: its lists' rows (summed
+  // over ranks, ghosts on each).
+  std::uint64_t coupling_rows = 0;
+  double coupling_energy = 0; // their penalty energy [J]
+  double absorbed_mass = 0;   // sum of the knit points' m_fluid [kg]
   double max_saturation = 0, mean_saturation = 0;
   std::uint64_t wet_points = 0; // knit points with s > 0.01
   double fluid_mass = 0;        // sum of the free fluid particles' masses [kg]
@@ -87,9 +90,11 @@ struct PlanReport {
   std::size_t bytes_lists = 0;
   std::uint32_t list_most = 0, wall_list_most = 0;
   // The knit-fluid coupling once its lists are built (KnitFluidCoupling::footprint): its grid's
-  // tables over the domain (whole on every rank), bytes a fluid particle and a knit point.
-  std::size_t bytes_coupling = 0, coupling_bytes_grid = 0;
-  std::size_t coupling_bytes_fluid = 0, coupling_bytes_knit = 0;
+  // tables over the domain (whole on every rank), bytes a fluid particle, a knit point and a row
+  // of its lists, one a fluid particle near the knit (`coupling_near`, KnitFluidCoupling::
+  // near_bound: the fluid around the knit at rest, at its lattice spacing).
+  std::size_t bytes_coupling = 0, coupling_bytes_grid = 0, coupling_near = 0;
+  std::size_t coupling_bytes_fluid = 0, coupling_bytes_knit = 0, coupling_bytes_row = 0;
   double list_bytes_fluid = 0, list_bytes_boundary = 0;
   std::vector<std::string> obstacles; // one line per obstacle: name, shape, mesh details
   double initial_dt = 0;

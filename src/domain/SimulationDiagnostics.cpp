@@ -39,6 +39,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
       auto& self = const_cast<SimulationT<T>&>(*this);
       const CouplingStats cs = self.coupling_->stats(ex_, self.knit_->set(), self.fluid_side());
       d.coupling_contacts = cs.contacts;
+      d.coupling_rows = self.coupling_->near_particles();
       d.coupling_energy = cs.energy;
       d.absorbed_mass = cs.absorbed_mass;
       d.max_saturation = cs.max_saturation;
@@ -106,6 +107,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
       job.min(d.knit_min_rigid_distance);
       if (coupling_) {
         job.sum(d.coupling_contacts);
+        job.sum(d.coupling_rows);
         job.sum(d.coupling_energy);
         job.sum(d.absorbed_mass);
         job.max(d.max_saturation);

@@ -136,12 +136,20 @@ PlanReport Simulation::plan(const Scene& scene) {
         if (scene.has(Module::Fluid)) {
           const auto footprint = [&](auto zero) { // in the scene's precision
             using U = decltype(zero);
-            const auto fp = KnitFluidCoupling<U>::footprint(
-                coupling_grid(scene, coupling_params<U>(scene, knit.longest_spacing())));
+            const GridGeometry<U> grid =
+                coupling_grid(scene, coupling_params<U>(scene, knit.longest_spacing()));
+            const auto fp = KnitFluidCoupling<U>::footprint(grid);
+            std::vector<Vec3<U>> x(knit.mesh_rest().size());
+            for (std::size_t i = 0; i < x.size(); ++i)
+              x[i] = vec_cast<U>(knit.mesh_rest()[i]);
+            r.coupling_near = std::min<std::size_t>(
+                r.fluid,
+                KnitFluidCoupling<U>::near_bound(grid, x.data(), x.size(), scene.fluid.spacing));
             r.coupling_bytes_grid = fp.grid;
             r.coupling_bytes_fluid = fp.per_fluid;
             r.coupling_bytes_knit = fp.per_knit;
-            r.bytes_coupling = fp.bytes(r.fluid, r.knit);
+            r.coupling_bytes_row = fp.per_row;
+            r.bytes_coupling = fp.bytes(r.fluid, r.knit, r.coupling_near);
           };
           if (dbl)
             footprint(0.0);
@@ -202,10 +210,16 @@ double rank_bytes(const PlanReport& r, const RankShare& s, int ranks) {
        r.list_bytes_boundary * double(s.owned[B] + s.ghosts[B]);
   b += share(r.bytes_knit - r.bytes_knit_rows, r.knit, s.owned[K] + s.ghosts[K]);
   b += share(r.bytes_knit_rows, r.knit, s.owned[K]);
-  if (r.bytes_coupling > 0) // its grid is the domain's on every rank; rows for ghosts too
+  if (r.bytes_coupling > 0) { // its grid is the domain's on every rank; rows for ghosts too
+    const double knit = double(s.owned[K] + s.ghosts[K]);
+    const double near = double(r.coupling_near) * knit / double(std::max<std::size_t>(r.knit, 1));
     b += double(r.coupling_bytes_grid) +
          double(r.coupling_bytes_fluid) * double(s.owned[F] + s.ghosts[F]) +
-         double(r.coupling_bytes_knit) * double(s.owned[K] + s.ghosts[K]);
+         double(r.coupling_bytes_knit) * knit +
+         double(r.coupling_bytes_row) *
+             double(KnitFluidCoupling<float>::rows_for(static_cast<std::size_t>(near),
+                                                       std::size_t(s.owned[F] + s.ghosts[F])));
+  }
   if (ranks > 1 && r.knit > 0) // KnitHalo's id -> local table, the cells' slots (4 bytes each)
     b += 4.0 * double(r.knit + r.volume_cells);
   return b;

@@ -155,8 +155,9 @@ struct FluidCouplingEvaluator {
   CellView<T> knit_cells;
   T weight;
   Vec3<T>* impulse;
-  const std::uint32_t* near; // per fluid particle: 1 near the knit at the grid's sort
-  ListView<T> list;          // per fluid particle: knit points (grid order) within reach + skin
+  const std::uint32_t* near;   // per fluid particle: 1 near the knit at the grid's sort
+  const std::uint32_t* row_of; // per near fluid particle: its row of `list` (past its rows: none)
+  ListView<T> list;            // per row: knit points (grid order) within reach + skin
   const T* moved2;
   T skin2;
   T walk2; // (cell - reach)^2: the grid's cells and the near flags hold up to this motion
@@ -184,8 +185,9 @@ struct FluidCouplingEvaluator {
       if (force(i, fij))
         sum += fij;
     };
-    if (listed && list.complete(j))
-      list.for_each_slot(j, g.lane, g.size, [&](std::size_t s, std::uint32_t i) {
+    const std::uint32_t r = listed && near[j] ? row_of[j] : 0u;
+    if (listed && near[j] && r < list.rows && list.complete(r))
+      list.for_each_slot(r, g.lane, g.size, [&](std::size_t s, std::uint32_t i) {
         Vec3<T> fij{T(0), T(0), T(0)};
         if (force(i, fij))
           sum += fij;

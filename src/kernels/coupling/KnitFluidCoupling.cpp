@@ -1,10 +1,40 @@
 #include "kernels/coupling/KnitFluidCoupling.hpp"
 
+#include "kernels/exec/ScanOnDevice.hpp"
 #include "kernels/sph/SmoothingKernels.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
 
 #include <string>
 
 namespace kf {
+
+namespace {
+
+/// Row r is a near particle's when r is below their count.
+struct RowsActive {
+  const std::uint32_t* count;
+  std::uint32_t* active;
+  KF_HD void operator()(std::size_t r) const { active[r] = r < *count ? 1u : 0u; }
+};
+
+/// A near particle's position in its row (those past the rows held have none).
+template <typename T>
+struct RowsPlaced {
+  const std::uint32_t* near;
+  const std::uint32_t* row_of;
+  const Vec3<T>* x;
+  Vec3<T>* row_x;
+  std::uint32_t rows;
+  KF_HD void operator()(std::size_t j) const {
+    if (near[j] && row_of[j] < rows)
+      row_x[row_of[j]] = x[j];
+  }
+};
+
+} // namespace
 
 template <typename T>
 KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
@@ -17,8 +47,11 @@ KnitFluidCoupling<T>::KnitFluidCoupling(exec::Backend b, KernelType kernel,
       fluid_mass_(b, 0, "coupling.fluid_mass"), x_(b, 0, "coupling.knit_x"),
       v_(b, 0, "coupling.knit_v"), xs_(b, 0, "coupling.knit_x_sorted"), m_(b, 0, "coupling.knit_m"),
       p_(b, 0, "coupling.knit_p"), impulse_(b, 0, "coupling.impulse"),
-      near_flag_(b, 0, "coupling.near_flag"), list_(b, "coupling.lists"),
-      knit_rows_(b, "coupling.knit_rows"), pair_force_(b, 0, "coupling.pair_force"),
+      near_flag_(b, 0, "coupling.near_flag"), row_of_(b, 0, "coupling.row_of"),
+      row_active_(b, 0, "coupling.row_active"), near_count_(b, 1, "coupling.near_count"),
+      row_x_(b, 0, "coupling.row_x"), near_read_(b, 1, "coupling.near_count"),
+      list_(b, "coupling.lists"), knit_rows_(b, "coupling.knit_rows"),
+      pair_force_(b, 0, "coupling.pair_force"),
       list_skin_(T(2) * (grid.cell - coupling_reach(params)) / T(3)), list_capacity_(list_capacity),
       knit_capacity_(knit_capacity ? knit_capacity : list_capacity), cell_(grid.cell) {
   const T reach = coupling_reach(params);
@@ -146,16 +179,51 @@ void KnitFluidCoupling<T>::begin_lists(const exec::Exec& ex, KnitSet<T>& knit,
     return;
   const Vec3<T>* at = anchored ? anchor.x0 : fluid.f.x;
   find_fluid_near_knit(ex, at, fluid.f.n);
+  size_rows(ex, fluid.f.n);
+  exec::for_each(ex, rows_, RowsActive{near_count_.data(), row_active_.data()}, "coupling.rows");
+  exec::for_each(ex, fluid.f.n,
+                 RowsPlaced<T>{near_flag_.data(), row_of_.data(), at, row_x_.data(),
+                               static_cast<std::uint32_t>(rows_)},
+                 "coupling.rows");
   const T r = coupling_reach(params_) + list_skin_;
-  list_.template build_for<kFluidSideLanes>(ex, at, near_flag_.data(), fluid.f.n, xs_.data(),
-                                            grid_.view(), r * r, list_capacity_);
+  list_.template build_for<kFluidSideLanes>(ex, row_x_.data(), row_active_.data(), rows_,
+                                            xs_.data(), grid_.view(), r * r, list_capacity_);
   // The same pairs seen from the knit, for its side of every substep (the lists' rows hold
-  // grid slots: perm maps them to the knit's points).
-  knit_rows_.build(ex, list_.view(), near_flag_.data(), perm().data(), n, knit_capacity_);
-  pair_force_.resize(list_.view().capacity * fluid.f.n);
+  // grid slots: perm maps them to the knit's points). Rows in the fluid's order: the knit's
+  // sums go in the order a row a fluid particle gave them.
+  knit_rows_.build(ex, list_.view(), row_active_.data(), perm().data(), n, knit_capacity_);
+  knit_rows_.incomplete_past(ex, near_count_.data(), rows_);
+  near_read_.start(near_count_.data());
+  pair_force_.resize(list_.view().capacity * rows_);
   // Only a build for an anchor may be kept: one for the fluid where it is now is for this step.
   built_ = anchored ? std::optional<Built>(now) : std::nullopt;
   ++list_builds_;
+}
+
+template <typename T>
+void KnitFluidCoupling<T>::size_rows(const exec::Exec& ex, std::size_t n) {
+  row_of_.resize(n);
+  exec::exclusive_scan_on_device(ex, near_flag_, row_of_, near_count_.data(), "coupling.rows");
+  // The first build waits for its count (once a run); later ones take the last build's, read
+  // behind it (a build with more near particles than rows is still exact: see the header).
+  std::size_t near = 0;
+  if (!rows_sized_) {
+    near_read_.start(near_count_.data());
+    near = near_read_.wait()[0];
+    rows_sized_ = true;
+  } else if (near_read_.pending()) {
+    near = near_read_.wait()[0];
+    if (near > rows_)
+      ++rows_past_room_;
+  } else {
+    near = last_near_;
+  }
+  last_near_ = static_cast<std::uint32_t>(near);
+  if (rows_for(near, n) > rows_) {
+    rows_ = rows_for(near, n);
+    row_active_.resize(rows_);
+    row_x_.resize(rows_);
+  }
 }
 
 template <typename T>
@@ -179,11 +247,12 @@ void KnitFluidCoupling<T>::add_forces(const exec::Exec& ex, KnitSet<T>& knit,
     using K = decltype(k);
     exec::for_each_lanes<kFluidSideLanes>(
         ex, fluid.f.n,
-        FluidCouplingEvaluator<T, K>{
-            k, params_, fluid.f, SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()},
-            grid_.view(), weight, impulse_.data(), near_flag_.data(), list_.view(), watch_.moved2(),
-            watch_.skin2(), (walk_margin() - flag_slack_) * (walk_margin() - flag_slack_),
-            static_cast<std::uint32_t>(x_.size()), pair_force_.data()},
+        FluidCouplingEvaluator<T, K>{k, params_, fluid.f,
+                                     SortedKnitSide<T>{x_.data(), v_.data(), m_.data(), p_.data()},
+                                     grid_.view(), weight, impulse_.data(), near_flag_.data(),
+                                     row_of_.data(), list_.view(), watch_.moved2(), watch_.skin2(),
+                                     (walk_margin() - flag_slack_) * (walk_margin() - flag_slack_),
+                                     static_cast<std::uint32_t>(x_.size()), pair_force_.data()},
         "coupling.fluid");
     auto kv = knit.view();
     kv.n = active(knit);
@@ -271,7 +340,8 @@ CouplingStats KnitFluidCoupling<T>::stats(const exec::Exec& ex, KnitSet<T>& knit
 
 template <typename T>
 std::size_t KnitFluidCoupling<T>::bytes() const {
-  return grid_.bytes() + watch_.bytes() + near_flag_.capacity_bytes() + list_.bytes() +
+  return grid_.bytes() + watch_.bytes() + near_flag_.capacity_bytes() + row_of_.capacity_bytes() +
+         row_active_.capacity_bytes() + row_x_.capacity_bytes() + list_.bytes() +
          knit_rows_.bytes() + pair_force_.capacity_bytes() + saturation_.capacity_bytes() +
          pressure_.capacity_bytes() + fluid_mass_.capacity_bytes() + x_.capacity_bytes() +
          v_.capacity_bytes() + xs_.capacity_bytes() + m_.capacity_bytes() + p_.capacity_bytes() +
@@ -288,13 +358,34 @@ KnitFluidCoupling<T>::footprint(const GridGeometry<T>& grid, std::uint32_t list_
       NeighbourList<T>::whole_groups(knit_capacity ? knit_capacity : list_capacity);
   Footprint f;
   f.grid = std::size_t(grid.cells()) * 3 * u; // a cell's start, end and rank
-  // Its near flag, impulse, row count, and a row of slots and of their pair forces.
-  f.per_fluid = u + v + u + row * (u + v);
+  f.per_fluid = u + v + u;                    // its near flag, impulse and row
+  // Whether it is one, its particle's position, its count, its slots and their pair forces.
+  f.per_row = u + v + u + row * (u + v);
   // The grid's key and permutation, the watch's reference, the transposed rows (a count and the
   // build's unsorted slots and keys beside the sorted slots), the sorted and per-step copies
   // (saturation, pressure, fluid mass; x, v, the sort's x; m, p).
   f.per_knit = 2 * u + v + u + knit_row * 3 * u + 3 * t + 3 * v + 2 * t;
   return f;
+}
+
+template <typename T>
+std::size_t KnitFluidCoupling<T>::near_bound(const GridGeometry<T>& grid, const Vec3<T>* knit_x,
+                                             std::size_t knit, double spacing) {
+  std::vector<std::uint8_t> near(grid.cells(), 0);
+  std::size_t cells = 0;
+  for (std::size_t i = 0; i < knit; ++i) {
+    int ix, iy, iz;
+    grid.coords(knit_x[i], ix, iy, iz);
+    for (int z = std::max(iz - 1, 0); z <= std::min(iz + 1, grid.nz - 1); ++z)
+      for (int y = std::max(iy - 1, 0); y <= std::min(iy + 1, grid.ny - 1); ++y)
+        for (int x = std::max(ix - 1, 0); x <= std::min(ix + 1, grid.nx - 1); ++x) {
+          std::uint8_t& c = near[grid.linear(x, y, z)];
+          cells += c ? 0 : 1;
+          c = 1;
+        }
+  }
+  const double per_cell = std::pow(double(grid.cell) / spacing, 3.0);
+  return static_cast<std::size_t>(std::ceil(1.05 * per_cell * double(cells)));
 }
 
 template class KnitFluidCoupling<float>;

@@ -17,6 +17,7 @@
 
 #include "core/SolverOptions.hpp"
 
+#include <algorithm>
 #include <array>
 #include <functional>
 #include <limits>
@@ -145,23 +146,37 @@ public:
   void sort_knit(const exec::Exec& ex, KnitSet<T>& knit);
   /// Knit grid sorts so far.
   std::uint64_t sorts() const { return sorts_; }
-  /// The per-step lists' builds so far (begin_step; fewer than its calls where an anchor kept
-  /// them).
   /// What it holds once its lists are built (the first begin_step; `knitflow plan`), as the
-  /// constructor's capacities make it: the grid's tables over `grid`, and bytes a fluid
-  /// particle and a knit point. Every fluid particle has a row of the lists and of their pair
-  /// forces (rows for the near ones only would need their count on the host): most of it.
+  /// constructor's capacities make it: the grid's tables over `grid`, bytes a fluid particle
+  /// and a knit point, and bytes a row of the lists (a near fluid particle: its knit points and
+  /// their pair forces, most of it; rows for the near ones and a quarter more).
   struct Footprint {
-    std::size_t grid = 0, per_fluid = 0, per_knit = 0;
-    std::size_t bytes(std::size_t fluid, std::size_t knit) const {
-      return grid + per_fluid * fluid + per_knit * knit;
+    std::size_t grid = 0, per_fluid = 0, per_knit = 0, per_row = 0;
+    std::size_t bytes(std::size_t fluid, std::size_t knit, std::size_t near) const {
+      return grid + per_fluid * fluid + per_knit * knit + per_row * rows_for(near, fluid);
     }
   };
+  /// The most fluid particles near a knit at `knit_x` (`knit` points, host side): those in the
+  /// knit's cells of `grid` and the cells around them, at the fluid's lattice `spacing` (5% more
+  /// for its compression). An estimate for plan: the knit moves (a sheet keeps its area).
+  static std::size_t near_bound(const GridGeometry<T>& grid, const Vec3<T>* knit_x,
+                                std::size_t knit, double spacing);
+  /// Rows held for `near` near fluid particles of `fluid`: a quarter more, to grow into, but
+  /// never more than the fluid (a build's near particles are some of it).
+  static constexpr std::size_t rows_for(std::size_t near, std::size_t fluid) {
+    return std::min(near + near / 4 + 64, fluid);
+  }
+  /// Near fluid particles at the last build (read behind it), and the builds that had more than
+  /// rows for them (their rows past the room walked).
+  std::uint32_t near_particles() const { return last_near_; }
+  std::uint64_t rows_past_room() const { return rows_past_room_; }
   static Footprint footprint(const GridGeometry<T>& grid,
                              std::uint32_t list_capacity = kListCapacity,
                              std::uint32_t knit_capacity = 0);
   static constexpr std::uint32_t kListCapacity = 96;
 
+  /// The per-step lists' builds so far (begin_step; fewer than its calls where an anchor kept
+  /// them).
   std::uint64_t list_builds() const { return list_builds_; }
   /// How far a fluid particle may be from where the near flags were taken for it (the anchor's
   /// budget, a watch skin, while the lists are an anchor's; else 0).
@@ -209,9 +224,21 @@ private:
   // sorted between them, so only these can feel the knit (while the skin holds). A flag, not a
   // compacted list: the list's length would have to be read on the host.
   exec::DeviceBuffer<std::uint32_t> near_flag_;
-  // For each near fluid particle, the knit points within reach + list_skin_ of it, built once
-  // per step; valid while no knit point moved farther than the watch's skin since the grid's
-  // sort (docs/ARCHITECTURE.md "Knit-fluid coupling on the GPU" derives the skins).
+  // The near particles' rows, in the fluid's order: each one's row (an exclusive scan of the
+  // flags), and per row its particle's position and whether it is one (rows past the count are
+  // not). The count stays on the device: the host reads it behind the build, and the next build
+  // holds rows for it and a quarter more. A build with more near particles than rows lists the
+  // first; the rest walk their cells, and the knit's side walks too (rows_past_room_).
+  exec::DeviceBuffer<std::uint32_t> row_of_, row_active_, near_count_;
+  exec::DeviceBuffer<Vec3<T>> row_x_;
+  exec::PendingRead<std::uint32_t> near_read_;
+  std::size_t rows_ = 0;
+  bool rows_sized_ = false;          // the first build waits for its count
+  std::uint64_t rows_past_room_ = 0; // builds whose near particles outnumbered the rows (read late)
+  void size_rows(const exec::Exec& ex, std::size_t n);
+  // For each near fluid particle's row, the knit points within reach + list_skin_ of it, built
+  // once per step; valid while no knit point moved farther than the watch's skin since the
+  // grid's sort (docs/ARCHITECTURE.md "Knit-fluid coupling on the GPU" derives the skins).
   NeighbourList<T> list_;
   // list_ transposed: per knit point (the set's order), the slots of the fluid rows that hold
   // it, in the fluid's order; its side of each substep sums the forces the fluid side kept per
@@ -229,6 +256,7 @@ private:
   };
   std::optional<Built> built_;
   std::uint64_t list_builds_ = 0;
+  std::uint32_t last_near_ = 0;
   T flag_slack_ = 0;
   // N ranks (distribute): as KnitSelfContact's.
   std::size_t active(const KnitSet<T>& knit) const { return std::min(active_, knit.size()); }

@@ -4,6 +4,7 @@
 #include "kernels/exec/Algorithms.hpp"
 #include "kernels/exec/Backend.hpp"
 #include "kernels/exec/PeakByLabel.hpp"
+#include "kernels/exec/ScanOnDevice.hpp"
 
 #include <algorithm>
 #include <cstdlib>
@@ -42,6 +43,8 @@ void cuda_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::size_t n,
                       const char* label);
 std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
                                   DeviceBuffer<std::uint32_t>& out, const char* label);
+void cuda_exclusive_sum(const std::uint32_t* in, std::uint32_t* out, std::size_t n,
+                        const char* label);
 #endif
 
 #if !defined(KF_WITH_CUDA)
@@ -504,6 +507,42 @@ std::uint64_t exclusive_scan(const Exec& ex, const DeviceBuffer<std::uint32_t>& 
     sum += v;
   }
   return sum;
+}
+
+namespace {
+
+struct ScanTotal {
+  const std::uint32_t* in;
+  const std::uint32_t* out;
+  std::size_t n;
+  std::uint32_t* total;
+  KF_HD void operator()(std::size_t) const { *total = n ? out[n - 1] + in[n - 1] : 0u; }
+};
+
+} // namespace
+
+void exclusive_scan_on_device(const Exec& ex, const DeviceBuffer<std::uint32_t>& in,
+                              DeviceBuffer<std::uint32_t>& out, std::uint32_t* total,
+                              const char* label) {
+  const std::size_t n = in.size();
+  if (out.size() != n)
+    throw Error(std::string(label) + ": exclusive_scan_on_device output size differs from input");
+  if (n > 0 && out.data() == in.data())
+    throw Error(std::string(label) + ": exclusive_scan_on_device in place (the total reads both)");
+  if (ex.backend == Backend::Cuda) {
+#if defined(KF_WITH_CUDA)
+    cuda_exclusive_sum(in.data(), out.data(), n, label);
+#else
+    no_cuda(label);
+#endif
+  } else {
+    std::uint32_t sum = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      out.data()[i] = sum;
+      sum += in.data()[i];
+    }
+  }
+  for_each(ex, 1, ScanTotal{in.data(), out.data(), n, total}, label);
 }
 
 } // namespace kf::exec

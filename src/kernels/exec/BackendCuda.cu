@@ -587,6 +587,21 @@ void cuda_sort_by_key(std::uint32_t* keys, std::uint32_t* values, std::size_t co
             ctx() + " (copying values back)");
 }
 
+void cuda_exclusive_sum(const std::uint32_t* in, std::uint32_t* out, std::size_t count,
+                        const char* label) {
+  if (count == 0)
+    return;
+  const std::uint32_t n = checked_count(count, "exclusive_scan_on_device", label);
+  KernelTimeScope timed(label);
+  const auto ctx = [&] {
+    return std::string(label) + ": exclusive_scan_on_device of " + std::to_string(n) + " elements";
+  };
+  std::size_t bytes = 0;
+  KF_CUDA(cub::DeviceScan::ExclusiveSum(nullptr, bytes, in, out, n), ctx());
+  void* temp = cuda_scratch(ScratchSlot::Scan, bytes, label);
+  KF_CUDA(cub::DeviceScan::ExclusiveSum(temp, bytes, in, out, n), ctx());
+}
+
 std::uint64_t cuda_exclusive_scan(const DeviceBuffer<std::uint32_t>& in,
                                   DeviceBuffer<std::uint32_t>& out, const char* label) {
   const std::uint32_t n = checked_count(in.size(), "exclusive_scan", label);

@@ -46,6 +46,25 @@ void TransposedList<T>::build(const exec::Exec& ex, const ListView<T>& src,
       "transpose.sort");
 }
 
+namespace {
+struct MarkPast {
+  const std::uint32_t* sources;
+  std::uint32_t rows;
+  std::uint32_t* incomplete;
+  KF_HD void operator()(std::size_t) const {
+    if (*sources > rows)
+      *incomplete += 1u;
+  }
+};
+} // namespace
+
+template <typename T>
+void TransposedList<T>::incomplete_past(const exec::Exec& ex, const std::uint32_t* sources,
+                                        std::size_t rows) {
+  exec::for_each(ex, 1, MarkPast{sources, static_cast<std::uint32_t>(rows), count_.data() + rows_},
+                 "transpose.incomplete");
+}
+
 template class TransposedList<float>;
 template class TransposedList<double>;
 

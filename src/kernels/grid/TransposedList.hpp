@@ -93,6 +93,9 @@ public:
   /// to be read). The source list's slots must fit in 32 bits.
   void build(const exec::Exec& ex, const ListView<T>& src, const std::uint32_t* active,
              const std::uint32_t* map, std::size_t n, std::uint32_t capacity);
+  /// Marks the transpose incomplete (*incomplete()) when *sources, a count on the device, is
+  /// over `rows`: the source's rows past its room were never listed (their pairs unknown).
+  void incomplete_past(const exec::Exec& ex, const std::uint32_t* sources, std::size_t rows);
   ListView<T> view() const { return {count_.data(), list_.data(), capacity_, rows_}; }
   /// Device word: nonzero when some source row's pairs were not all listed (build).
   const std::uint32_t* incomplete() const { return count_.data() + rows_; }
