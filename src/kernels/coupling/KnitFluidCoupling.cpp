@@ -5,9 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <vector>
-
 #include <string>
+#include <vector>
 
 namespace kf {
 
