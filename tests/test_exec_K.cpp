@@ -862,8 +862,9 @@ TEST_P(ExecTest, PeakByLabelIsWhatWasHeldAtThePeak) {
   std::size_t sum = 0;
   for (std::size_t k = 0; k < by.size(); ++k) {
     sum += by[k].bytes;
-    if (k > 0)
+    if (k > 0) {
       EXPECT_GE(by[k - 1].bytes, by[k].bytes);
+    }
   }
   EXPECT_EQ(sum, kf::exec::held_bytes(b()).peak);
 }

@@ -58,13 +58,19 @@ CouplingParams<T> coupling_params(const Scene& s, double knit_spacing) {
   return p;
 }
 
-/// The coupling's knit grid: over the domain, cells 50% over the reach (the capillary's is the
-/// fluid's support): a third of the margin is the grid's skin (sorted again when a point moved
-/// that far), two thirds the per-step lists' (KnitFluidCoupling).
+/// How far the coupling reaches into the fluid: the contact's reach, or with the capillary model
+/// the fluid's support (its saturation's kernel).
+template <typename T>
+double coupling_fluid_reach(const Scene& s, const CouplingParams<T>& p) {
+  return std::max(double(p.reach), p.capillary ? s.support_radius() : 0.0);
+}
+
+/// The coupling's knit grid: over the domain, cells 50% over that reach: a third of the margin
+/// is the grid's skin (sorted again when a point moved that far), two thirds the per-step lists'
+/// (KnitFluidCoupling).
 template <typename T>
 GridGeometry<T> coupling_grid(const Scene& s, const CouplingParams<T>& p) {
-  const double reach = std::max(double(p.reach), p.capillary ? double(p.h) : 0.0);
-  return NeighbourGrid<T>::cover(s.domain.min, s.domain.max, 1.5 * reach);
+  return NeighbourGrid<T>::cover(s.domain.min, s.domain.max, 1.5 * coupling_fluid_reach(s, p));
 }
 
 /// The scene's equation of state, in the precision U.

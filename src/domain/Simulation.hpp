@@ -46,11 +46,11 @@ struct Diagnostics {
   double knit_self_min_gap = 0;         // closest pair distance / 2R (1e30 when none in reach)
   // Knit-fluid coupling (zero without modules contact / capillary).
   std::uint64_t coupling_contacts = 0; // fluid-knit pairs within the contact reach now
-  // Fluid particles near the knit at the coupling's last list build: its lists' rows (summed
-  // over ranks, ghosts on each).
+  double coupling_energy = 0;          // their penalty energy [J]
+  // Fluid particles near the knit at a recent build of the coupling's lists: its lists' rows
+  // (KnitFluidCoupling::near_particles; summed over ranks, ghosts on each).
   std::uint64_t coupling_rows = 0;
-  double coupling_energy = 0; // their penalty energy [J]
-  double absorbed_mass = 0;   // sum of the knit points' m_fluid [kg]
+  double absorbed_mass = 0; // sum of the knit points' m_fluid [kg]
   double max_saturation = 0, mean_saturation = 0;
   std::uint64_t wet_points = 0; // knit points with s > 0.01
   double fluid_mass = 0;        // sum of the free fluid particles' masses [kg]

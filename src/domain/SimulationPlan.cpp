@@ -133,28 +133,20 @@ PlanReport Simulation::plan(const Scene& scene) {
         r.coupling_reach = p.reach;
         pressure_scale = p.pressure_scale;
         r.coupling_stiffness = p.contact ? p.dem.k : 0;
-        if (scene.has(Module::Fluid)) {
-          const auto footprint = [&](auto zero) { // in the scene's precision
-            using U = decltype(zero);
-            const GridGeometry<U> grid =
-                coupling_grid(scene, coupling_params<U>(scene, knit.longest_spacing()));
-            const auto fp = KnitFluidCoupling<U>::footprint(grid);
-            std::vector<Vec3<U>> x(knit.mesh_rest().size());
-            for (std::size_t i = 0; i < x.size(); ++i)
-              x[i] = vec_cast<U>(knit.mesh_rest()[i]);
-            r.coupling_near = std::min<std::size_t>(
-                r.fluid,
-                KnitFluidCoupling<U>::near_bound(grid, x.data(), x.size(), scene.fluid.spacing));
-            r.coupling_bytes_grid = fp.grid;
-            r.coupling_bytes_fluid = fp.per_fluid;
-            r.coupling_bytes_knit = fp.per_knit;
-            r.coupling_bytes_row = fp.per_row;
-            r.bytes_coupling = fp.bytes(r.fluid, r.knit, r.coupling_near);
-          };
-          if (dbl)
-            footprint(0.0);
-          else
-            footprint(0.0f);
+        if (scene.has(Module::Fluid)) { // in the knit's precision, the scene's
+          using U = decltype(knit.mesh_rest()[0].x);
+          const GridGeometry<U> grid =
+              coupling_grid(scene, coupling_params<U>(scene, knit.longest_spacing()));
+          const auto fp = KnitFluidCoupling<U>::footprint(grid);
+          const auto& x = knit.mesh_rest();
+          r.coupling_near = std::min<std::size_t>(
+              r.fluid,
+              KnitFluidCoupling<U>::near_bound(grid, x.data(), x.size(), scene.fluid.spacing));
+          r.coupling_bytes_grid = fp.grid;
+          r.coupling_bytes_fluid = fp.per_fluid;
+          r.coupling_bytes_knit = fp.per_knit;
+          r.coupling_bytes_row = fp.per_row;
+          r.bytes_coupling = fp.bytes(r.fluid, r.knit, r.coupling_near);
         }
         if (p.contact) {
           const CouplingLimits lim = coupling_limits(scene, p.dem.k, knit.min_free_mass());

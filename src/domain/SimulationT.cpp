@@ -381,7 +381,7 @@ void SimulationT<T>::init_absorption(const CouplingParams<T>& cp) {
 template <typename T>
 void SimulationT<T>::init_coupling() {
   const CouplingParams<T> p = coupling_params<T>(scene_, knit_->longest_spacing());
-  const double reach = std::max(double(p.reach), p.capillary ? h_ : 0.0);
+  const double reach = coupling_fluid_reach(scene_, p);
   // The coupling walks the fluid's grid, which "verlet" lists sort only now and then: a walk
   // finds every particle within h of a point (SphLists), so the reach must fit in that.
   if (skin_ > 0 && reach > h_)

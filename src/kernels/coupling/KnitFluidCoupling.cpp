@@ -203,20 +203,13 @@ template <typename T>
 void KnitFluidCoupling<T>::size_rows(const exec::Exec& ex, std::size_t n) {
   row_of_.resize(n);
   exec::exclusive_scan_on_device(ex, near_flag_, row_of_, near_count_.data(), "coupling.rows");
-  // The first build waits for its count (once a run); later ones take the last build's, read
-  // behind it (a build with more near particles than rows is still exact: see the header).
-  std::size_t near = 0;
-  if (!rows_sized_) {
+  // The first build waits for its own count (once a run); later ones take the last build's,
+  // whose read every build starts behind it (a build with more near particles than rows is
+  // still exact: see the header).
+  if (!rows_sized_)
     near_read_.start(near_count_.data());
-    near = near_read_.wait()[0];
-    rows_sized_ = true;
-  } else if (near_read_.pending()) {
-    near = near_read_.wait()[0];
-    if (near > rows_)
-      ++rows_past_room_;
-  } else {
-    near = last_near_;
-  }
+  rows_sized_ = true;
+  const std::size_t near = near_read_.wait()[0];
   last_near_ = static_cast<std::uint32_t>(near);
   if (rows_for(near, n) > rows_) {
     rows_ = rows_for(near, n);

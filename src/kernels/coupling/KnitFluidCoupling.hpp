@@ -166,10 +166,9 @@ public:
   static constexpr std::size_t rows_for(std::size_t near, std::size_t fluid) {
     return std::min(near + near / 4 + 64, fluid);
   }
-  /// Near fluid particles at the last build (read behind it), and the builds that had more than
-  /// rows for them (their rows past the room walked).
+  /// Near fluid particles at the build before the last (its count read behind it), or at the
+  /// first build.
   std::uint32_t near_particles() const { return last_near_; }
-  std::uint64_t rows_past_room() const { return rows_past_room_; }
   static Footprint footprint(const GridGeometry<T>& grid,
                              std::uint32_t list_capacity = kListCapacity,
                              std::uint32_t knit_capacity = 0);
@@ -221,20 +220,19 @@ private:
   exec::DeviceBuffer<Vec3<T>> impulse_; // fluid order
   // 1 for the fluid particles with a knit point in their 27 knit-grid cells, found once per step
   // (begin_step): the fluid is held still through the knit's substeps and the knit grid is not
-  // sorted between them, so only these can feel the knit (while the skin holds). A flag, not a
-  // compacted list: the list's length would have to be read on the host.
+  // sorted between them, so only these can feel the knit (while the skin holds). Flags, which
+  // the passes over the fluid read where they are; the lists' rows are made from them below.
   exec::DeviceBuffer<std::uint32_t> near_flag_;
   // The near particles' rows, in the fluid's order: each one's row (an exclusive scan of the
   // flags), and per row its particle's position and whether it is one (rows past the count are
   // not). The count stays on the device: the host reads it behind the build, and the next build
   // holds rows for it and a quarter more. A build with more near particles than rows lists the
-  // first; the rest walk their cells, and the knit's side walks too (rows_past_room_).
+  // first; the rest walk their cells, and the knit's side walks too (incomplete_past).
   exec::DeviceBuffer<std::uint32_t> row_of_, row_active_, near_count_;
   exec::DeviceBuffer<Vec3<T>> row_x_;
   exec::PendingRead<std::uint32_t> near_read_;
   std::size_t rows_ = 0;
-  bool rows_sized_ = false;          // the first build waits for its count
-  std::uint64_t rows_past_room_ = 0; // builds whose near particles outnumbered the rows (read late)
+  bool rows_sized_ = false; // the first build waits for its count
   void size_rows(const exec::Exec& ex, std::size_t n);
   // For each near fluid particle's row, the knit points within reach + list_skin_ of it, built
   // once per step; valid while no knit point moved farther than the watch's skin since the

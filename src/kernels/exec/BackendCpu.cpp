@@ -531,16 +531,12 @@ void exclusive_scan_on_device(const Exec& ex, const DeviceBuffer<std::uint32_t>&
     throw Error(std::string(label) + ": exclusive_scan_on_device in place (the total reads both)");
   if (ex.backend == Backend::Cuda) {
 #if defined(KF_WITH_CUDA)
-    cuda_exclusive_sum(in.data(), out.data(), n, label);
+    cuda_exclusive_sum(in.data(), out.data(), n, label); // the scan alone: no total read back
 #else
     no_cuda(label);
 #endif
   } else {
-    std::uint32_t sum = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      out.data()[i] = sum;
-      sum += in.data()[i];
-    }
+    exclusive_scan(ex, in, out, label); // on the CPU its total waits for nothing
   }
   for_each(ex, 1, ScanTotal{in.data(), out.data(), n, total}, label);
 }
