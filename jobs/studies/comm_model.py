@@ -176,6 +176,17 @@ class Model:
                       self.one_gpu(n + self.gc * g))
         self.k = sum(ks) / len(ks)
 
+    def use_one_gpu(self, one):
+        """T1 from other one-GPU rows (another GPU), after the fit: k and w are shares of a
+        rank's step and x0 a fixed cost, so they carry over; T1 is what the GPU sets."""
+        sizes = {}
+        for r in one:
+            sizes.setdefault(round(r["fluid"], -3), []).append(r["ms_per_step"] * 1e-3)
+        self.curve = sorted((n, sum(t) / len(t)) for n, t in sizes.items())
+        if len(self.curve) < 3:
+            raise SystemExit("comm_model: --one-gpu needs one-GPU rows at three or more sizes")
+        self.a, self.b = lstsq2([r["fluid"] for r in one], [r["ms_per_step"] * 1e-3 for r in one])
+
     def one_gpu(self, n):
         """Seconds a step with n fluid particles on one GPU (T1)."""
         c = self.curve
@@ -255,6 +266,11 @@ def main():
                     help="a ghost's share of a particle-step in the measured runs' code")
     ap.add_argument("--ghost-cost", type=float, default=GHOST_COST_NOW,
                     help="the same in the code the predictions are for")
+    ap.add_argument("--one-gpu", default="",
+                    help="CSVs (comma-separated) whose one-GPU rows give the predictions' T1 "
+                         "(another GPU's curve: scaling.py --ranks 1 --series strong --total SIZES); "
+                         "k, x0 and w stay the "
+                         "calibration runs' (ratios of a rank's step, and a fixed cost)")
     ap.add_argument("--out", default=os.path.join(HERE, "out"))
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
@@ -295,6 +311,12 @@ def main():
 
     m.x0 -= a.x0_less_us * 1e-6  # after the fit's comparison above: the runs had it
     m.gc = a.ghost_cost  # likewise: the runs' ghosts cost what their code made them
+    if a.one_gpu:
+        m.use_one_gpu([r for r in read_rows([p for p in a.one_gpu.split(",") if p])
+                       if r["ranks"] == 1])
+        print("\nthe predictions' T1: %s (%d sizes: %s ms a step at %s fluid)"
+              % (a.one_gpu, len(m.curve), ", ".join("%.3f" % (t * 1e3) for _, t in m.curve),
+                 ", ".join("%.2gM" % (n / 1e6) for n, _ in m.curve)))
     print("\na ghost costs %.2f of a particle-step in the measured runs, %.2f in the predictions"
           % (a.ghost_cost_runs, a.ghost_cost))
     ps = [1, 2, 4, 8, 64, 512]

@@ -13,23 +13,23 @@ namespace kf {
 namespace {
 
 /// Row r is a near particle's when r is below their count.
-struct RowsActive {
-  const std::uint32_t* count;
-  std::uint32_t* active;
-  KF_HD void operator()(std::size_t r) const { active[r] = r < *count ? 1u : 0u; }
-};
-
-/// A near particle's position in its row (those past the rows held have none).
+/// The rows' flags (row r holds a near particle: r below the near count) and each near
+/// particle's position in its row (those past the rows held have none): one launch over the
+/// larger of the two (the fluid may have shrunk below the rows kept).
 template <typename T>
 struct RowsPlaced {
   const std::uint32_t* near;
   const std::uint32_t* row_of;
+  const std::uint32_t* count;
   const Vec3<T>* x;
   Vec3<T>* row_x;
-  std::uint32_t rows;
-  KF_HD void operator()(std::size_t j) const {
-    if (near[j] && row_of[j] < rows)
-      row_x[row_of[j]] = x[j];
+  std::uint32_t* active;
+  std::uint32_t rows, fluid;
+  KF_HD void operator()(std::size_t k) const {
+    if (k < rows)
+      active[k] = k < *count ? 1u : 0u;
+    if (k < fluid && near[k] && row_of[k] < rows)
+      row_x[row_of[k]] = x[k];
   }
 };
 
@@ -179,10 +179,10 @@ void KnitFluidCoupling<T>::begin_lists(const exec::Exec& ex, KnitSet<T>& knit,
   const Vec3<T>* at = anchored ? anchor.x0 : fluid.f.x;
   find_fluid_near_knit(ex, at, fluid.f.n);
   size_rows(ex, fluid.f.n);
-  exec::for_each(ex, rows_, RowsActive{near_count_.data(), row_active_.data()}, "coupling.rows");
-  exec::for_each(ex, fluid.f.n,
-                 RowsPlaced<T>{near_flag_.data(), row_of_.data(), at, row_x_.data(),
-                               static_cast<std::uint32_t>(rows_)},
+  exec::for_each(ex, std::max(rows_, fluid.f.n),
+                 RowsPlaced<T>{near_flag_.data(), row_of_.data(), near_count_.data(), at,
+                               row_x_.data(), row_active_.data(), static_cast<std::uint32_t>(rows_),
+                               static_cast<std::uint32_t>(fluid.f.n)},
                  "coupling.rows");
   const T r = coupling_reach(params_) + list_skin_;
   list_.template build_for<kFluidSideLanes>(ex, row_x_.data(), row_active_.data(), rows_,
@@ -190,8 +190,8 @@ void KnitFluidCoupling<T>::begin_lists(const exec::Exec& ex, KnitSet<T>& knit,
   // The same pairs seen from the knit, for its side of every substep (the lists' rows hold
   // grid slots: perm maps them to the knit's points). Rows in the fluid's order: the knit's
   // sums go in the order a row a fluid particle gave them.
-  knit_rows_.build(ex, list_.view(), row_active_.data(), perm().data(), n, knit_capacity_);
-  knit_rows_.incomplete_past(ex, near_count_.data(), rows_);
+  knit_rows_.build(ex, list_.view(), row_active_.data(), perm().data(), n, knit_capacity_,
+                   near_count_.data());
   near_read_.start(near_count_.data());
   pair_force_.resize(list_.view().capacity * rows_);
   // Only a build for an anchor may be kept: one for the fluid where it is now is for this step.

@@ -227,7 +227,8 @@ private:
   // flags), and per row its particle's position and whether it is one (rows past the count are
   // not). The count stays on the device: the host reads it behind the build, and the next build
   // holds rows for it and a quarter more. A build with more near particles than rows lists the
-  // first; the rest walk their cells, and the knit's side walks too (incomplete_past).
+  // first; the rest walk their cells, and the knit's side walks too (the transpose marked
+  // incomplete).
   exec::DeviceBuffer<std::uint32_t> row_of_, row_active_, near_count_;
   exec::DeviceBuffer<Vec3<T>> row_x_;
   exec::PendingRead<std::uint32_t> near_read_;

@@ -17,7 +17,7 @@ TransposedList<T>::TransposedList(exec::Backend b, const char* name)
 template <typename T>
 void TransposedList<T>::build(const exec::Exec& ex, const ListView<T>& src,
                               const std::uint32_t* active, const std::uint32_t* map, std::size_t n,
-                              std::uint32_t capacity) {
+                              std::uint32_t capacity, const std::uint32_t* sources) {
   if (std::uint64_t(src.capacity) * src.rows > 0xFFFFFFFFull)
     throw Error("transposed list: the source list's " + std::to_string(src.capacity) + " x " +
                 std::to_string(src.rows) + " slots do not fit in 32-bit entries");
@@ -32,7 +32,7 @@ void TransposedList<T>::build(const exec::Exec& ex, const ListView<T>& src,
   // Lanes a source row as the coupling's fluid side reads it: rows of up to ~100 entries.
   exec::for_each_lanes<8>(ex, src.rows,
                           transpose_detail::Fill<T>{src, active, map, count_.data(),
-                                                    count_.data() + n, unsorted,
+                                                    count_.data() + n, sources, unsorted,
                                                     unsorted_row_.data()},
                           "transpose.fill");
   // 16 lanes a row: each step of the rank sort's inner loop reads one key for all of a row's
@@ -44,25 +44,6 @@ void TransposedList<T>::build(const exec::Exec& ex, const ListView<T>& src,
           count_.data(), ListView<T>{count_.data(), unsorted_.data(), capacity_, n},
           unsorted_row_.data(), ListSink{count_.data(), list_.data(), capacity_, n}},
       "transpose.sort");
-}
-
-namespace {
-struct MarkPast {
-  const std::uint32_t* sources;
-  std::uint32_t rows;
-  std::uint32_t* incomplete;
-  KF_HD void operator()(std::size_t) const {
-    if (*sources > rows)
-      *incomplete += 1u;
-  }
-};
-} // namespace
-
-template <typename T>
-void TransposedList<T>::incomplete_past(const exec::Exec& ex, const std::uint32_t* sources,
-                                        std::size_t rows) {
-  exec::for_each(ex, 1, MarkPast{sources, static_cast<std::uint32_t>(rows), count_.data() + rows_},
-                 "transpose.incomplete");
 }
 
 template class TransposedList<float>;

@@ -29,10 +29,16 @@ struct Fill {
   const std::uint32_t* map;    // a source entry -> its target (nullptr: the entry itself)
   std::uint32_t* count;        // per target, then the incomplete word
   std::uint32_t* incomplete;
+  const std::uint32_t* sources; // a count on the device of the rows meant (nullptr: src.rows)
   ListSink unsorted;
   std::uint32_t* unsorted_row; // beside each unsorted slot: its source row (the sort's key)
 
   KF_HD void operator()(std::size_t j, exec::Lanes g = {}) const {
+    // More rows meant than listed: the rows past the room were never listed (their pairs
+    // unknown). Here, not in a launch of its own: one thread's word a build cost the pour's
+    // whole run 31 ms of launches on an H100.
+    if (j == 0 && g.lane == 0 && sources && *sources > src.rows)
+      exec::atomic_fetch_add(incomplete, 1u);
     if (active && !active[j])
       return;
     const std::uint32_t c = src.count[j];
@@ -90,12 +96,12 @@ public:
   /// e with map[e] == t (e == t without a map). A row of more than `capacity` pairs keeps only
   /// its count (ListView::complete is false there); a source row that overflowed its own
   /// capacity leaves its pairs unknown and sets *incomplete() (the whole transpose is then not
-  /// to be read). The source list's slots must fit in 32 bits.
+  /// to be read). `sources`, where given, is a count on the device of the source rows meant:
+  /// when it is over src.rows, the rows past the list's room were never listed, and the
+  /// transpose is marked incomplete too. The source list's slots must fit in 32 bits.
   void build(const exec::Exec& ex, const ListView<T>& src, const std::uint32_t* active,
-             const std::uint32_t* map, std::size_t n, std::uint32_t capacity);
-  /// Marks the transpose incomplete (*incomplete()) when *sources, a count on the device, is
-  /// over `rows`: the source's rows past its room were never listed (their pairs unknown).
-  void incomplete_past(const exec::Exec& ex, const std::uint32_t* sources, std::size_t rows);
+             const std::uint32_t* map, std::size_t n, std::uint32_t capacity,
+             const std::uint32_t* sources = nullptr);
   ListView<T> view() const { return {count_.data(), list_.data(), capacity_, rows_}; }
   /// Device word: nonzero when some source row's pairs were not all listed (build).
   const std::uint32_t* incomplete() const { return count_.data() + rows_; }
