@@ -56,6 +56,8 @@ a GPU (DGX H100: one ConnectX-7 a GPU). Latency between nodes: 20 us a message o
     jobs/studies/comm_model.py --split-fixed-us 30              # the density border's latency
     jobs/studies/comm_model.py --border-hidden-us 30            # ... hidden (the side stream)
     jobs/studies/comm_model.py --measured a.csv,b.csv --out DIR
+    jobs/studies/comm_model.py --one-gpu docs/data/p5_h100_2026-12-05d/one_gpu_sizes_h100.csv
+                                                                # an H100's T1 (the H200 pair's fit)
 
 Without arguments it gives docs/PERFORMANCE.md's current figures: calibrated by the six CSVs of
 docs/data/p9_h200x2_2026-11-30/ (2 x H200, NCCL), the exchanges' fixed cost 30 us lower than
@@ -268,9 +270,9 @@ def main():
                     help="the same in the code the predictions are for")
     ap.add_argument("--one-gpu", default="",
                     help="CSVs (comma-separated) whose one-GPU rows give the predictions' T1 "
-                         "(another GPU's curve: scaling.py --ranks 1 --series strong --total SIZES); "
-                         "k, x0 and w stay the "
-                         "calibration runs' (ratios of a rank's step, and a fixed cost)")
+                         "(another GPU's curve: scaling.py --ranks 1 --series strong --total "
+                         "SIZES); k, x0 and w stay the calibration runs' (shares of a rank's "
+                         "step, and a fixed cost)")
     ap.add_argument("--out", default=os.path.join(HERE, "out"))
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)

@@ -12,7 +12,6 @@ namespace kf {
 
 namespace {
 
-/// Row r is a near particle's when r is below their count.
 /// The rows' flags (row r holds a near particle: r below the near count) and each near
 /// particle's position in its row (those past the rows held have none): one launch over the
 /// larger of the two (the fluid may have shrunk below the rows kept).
