@@ -146,6 +146,8 @@ Decomposition Decomposition::partition(const BlockGrid& grid,
   d.ranks_ = ranks;
   for (int b = 0; b < nb; ++b)
     d.owner_[b] = g.owner_[group_of[b]];
+  d.tolerance_ = g.tolerance_;
+  d.landed_ = d.worst_phase_imbalance(all_counts, costs); // the blocks' walls, not the groups'
   return d;
 }
 
@@ -183,6 +185,9 @@ Decomposition Decomposition::partition_blocks(
   for (int b = 0; b < nb; ++b)
     knit_total += cost_of(b, 1);
   const int constraints = knit_total > 0 ? 2 : 1;
+  if (!(tolerance > 0))
+    tolerance = allowance_for(constraints);
+  d.tolerance_ = tolerance;
   std::vector<idx_t> vwgt(std::size_t(nb) * constraints);
   for (int c = 0; c < constraints; ++c) {
     double total = 0;
@@ -264,6 +269,7 @@ Decomposition Decomposition::partition_blocks(
   }
   for (int b = 0; b < nb; ++b)
     d.owner_[b] = static_cast<int>(part[b]);
+  d.landed_ = d.worst_phase_imbalance(all_counts, costs);
   return d;
 }
 
@@ -366,8 +372,8 @@ bool Decomposition::repartition_pays(double most, double mean, std::uint64_t int
   return !(last_cost > 0) || (most - mean) * static_cast<double>(intervals_held) >= last_cost;
 }
 
-bool Decomposition::repartition_promises(double counted, double tolerance) {
-  return counted > 1.0 + 2.0 * (tolerance - 1.0);
+bool Decomposition::repartition_promises(double counted, double tolerance, double landed) {
+  return counted > std::max(1.0 + 2.0 * (tolerance - 1.0), landed + (tolerance - 1.0));
 }
 
 double Decomposition::imbalance(const std::vector<double>& per_rank) {

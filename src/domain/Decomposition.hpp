@@ -78,15 +78,26 @@ public:
   /// Partitions the block graph into `ranks` parts (METIS_PartGraphKway, contiguous parts) for
   /// the given per-block particle counts per phase, weighted by `costs`. `ghost_width` weights
   /// the graph's edges (the particles two blocks would exchange). `tolerance` is METIS's load
-  /// imbalance allowance (1.05: 5%). Past kMostGraphVertices blocks, groups of m x m x m blocks
-  /// are partitioned instead (the smallest m that brings them under it), each group's blocks
-  /// going to its rank.
+  /// imbalance allowance (1.05: 5%; 0: allowance_for the constraints the counts make). Past
+  /// kMostGraphVertices blocks, groups of m x m x m blocks are partitioned instead (the smallest
+  /// m that brings them under it), each group's blocks going to its rank.
   static Decomposition partition(const BlockGrid& grid,
                                  const std::vector<std::array<double, kPhases>>& counts,
                                  const PhaseCosts& costs, int ranks, double ghost_width,
-                                 double tolerance = kTolerance);
-  /// METIS's load imbalance allowance by default: 3%.
+                                 double tolerance = 0);
+  /// METIS's load imbalance allowance with two constraints (the fluid's stages and the knit's
+  /// substeps): 3%. A tighter one costs the coupled scenes halo (the pour on 2 ranks at 1%:
+  /// 1.2 -> 2.8 MiB a step, METIS's regions in pieces) for no better balance.
   static constexpr double kTolerance = 1.03;
+  /// ... with one: 1%. METIS spends its allowance on the cut (it lands at it: the 8M dam break
+  /// 1.029 / 1.030 on 2 / 8 ranks at 3%), and every stage waits for the slowest rank; at 1% it
+  /// lands at 1.009 / 1.010 for a halo 5% larger / 4% smaller (`knitflow plan`; docs/
+  /// PERFORMANCE.md, "P5: METIS's allowance").
+  static constexpr double kOneConstraintTolerance = 1.01;
+  /// The allowance for a partition with `constraints` constraints.
+  static constexpr double allowance_for(int constraints) {
+    return constraints > 1 ? kTolerance : kOneConstraintTolerance;
+  }
   /// METIS's time grows with the graph, and every rank pays it at each re-partition: the 8M dam
   /// break's 100,800 blocks took 0.23 s on one core of the 2-core VM, its 13,200 groups of 2 x 2
   /// x 2 0.02 s (balanced within 2.3% against 1.5%; docs/PERFORMANCE.md). 20,000 groups leave
@@ -96,9 +107,13 @@ public:
   static Decomposition partition_blocks(const BlockGrid& grid,
                                         const std::vector<std::array<double, kPhases>>& counts,
                                         const PhaseCosts& costs, int ranks, double ghost_width,
-                                        double tolerance = kTolerance);
+                                        double tolerance = 0);
 
   const BlockGrid& grid() const { return grid_; }
+  /// The allowance METIS was given (its default for one rank, which needs no call).
+  double tolerance() const { return tolerance_; }
+  /// Where it landed: the partition's worst_phase_imbalance of the counts it was made from.
+  double landed() const { return landed_; }
   int ranks() const { return ranks_; }
   int owner_of_block(int b) const { return owner_[b]; }
   int owner(const Vec3d& x) const { return owner_[grid_.block_of(x)]; }
@@ -150,8 +165,11 @@ public:
   /// `counted` imbalance (worst_phase_imbalance, as METIS balances): METIS lands within its
   /// allowance (1.028-1.031 measured for 3%), so a partition counted within twice it has at most
   /// that to gain, and a measured imbalance past the trigger is not the particles' (ranks sharing a
-  /// GPU stretch each other's passes: docs/PERFORMANCE.md, P5 on one H200).
-  static bool repartition_promises(double counted, double tolerance = kTolerance);
+  /// GPU stretch each other's passes: docs/PERFORMANCE.md, P5 on one H200). Where the last
+  /// partition `landed` past its allowance (blocks too coarse for it), counted must pass that
+  /// landing by the allowance: a new one would land there again.
+  static bool repartition_promises(double counted, double tolerance = kTolerance,
+                                   double landed = 1.0);
 
 private:
   /// The first and last block coordinates of rank r's blocks along each axis (last -1: none).
@@ -160,6 +178,7 @@ private:
   BlockGrid grid_;
   int ranks_ = 1;
   std::vector<int> owner_;
+  double tolerance_ = kOneConstraintTolerance, landed_ = 1.0;
 };
 
 } // namespace kf

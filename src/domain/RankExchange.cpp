@@ -303,7 +303,9 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   // partition would balance them no better, and the time measured is not theirs. Only the counts
   // were spent (3.5 ms of the 8M dam break's 61 ms re-partition on 2 ranks sharing an H200).
   last_counted_imbalance_ = decomposition_->worst_phase_imbalance(per_block, costs());
-  if (scene_.parallel.payback && !Decomposition::repartition_promises(last_counted_imbalance_)) {
+  if (scene_.parallel.payback &&
+      !Decomposition::repartition_promises(last_counted_imbalance_, decomposition_->tolerance(),
+                                           decomposition_->landed())) {
     ++declined_balanced_;
     declined_counted_ = std::max(declined_counted_, last_counted_imbalance_);
     return b;
