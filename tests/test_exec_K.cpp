@@ -8,6 +8,7 @@
 #include "kernels/exec/DeviceBuffer.hpp"
 #include "kernels/exec/PeakByLabel.hpp"
 #include "kernels/exec/PendingRead.hpp"
+#include "kernels/exec/ScanOnDevice.hpp"
 #include "kernels/exec/Streams.hpp"
 #include "kernels/integrate/StepSize.hpp"
 
@@ -737,6 +738,29 @@ TEST_P(ExecTest, ExclusiveScanMatchesStd) {
           << "n=" << n << " max=" << max;
       EXPECT_EQ(in.to_host(), want) << "in place, n=" << n << " max=" << max;
     }
+  }
+}
+
+TEST_P(ExecTest, ExclusiveScanOnDeviceLeavesItsTotalThereOrOut) {
+  for (std::size_t n : {std::size_t{0}, std::size_t{1}, std::size_t{1000}, std::size_t{100003}}) {
+    const auto h = random_u32(n, 1, 500u + static_cast<std::uint32_t>(n)); // flags, as its use
+    std::vector<std::uint32_t> want(n);
+    std::exclusive_scan(h.begin(), h.end(), want.begin(), std::uint32_t{0});
+    const std::uint32_t want_total = std::accumulate(h.begin(), h.end(), std::uint32_t{0});
+    DeviceBuffer<std::uint32_t> in(b(), 0, "in"), out(b(), n, "out"), total(b(), 1, "total");
+    in.assign(h);
+    for (bool with_total : {true, false}) {
+      out.poison();
+      total.poison();
+      const std::uint32_t poison = total.to_host()[0];
+      kf::exec::exclusive_scan_on_device(ex(), in, out, with_total ? total.data() : nullptr,
+                                         "test.scan_on_device");
+      EXPECT_EQ(out.to_host(), want) << "n=" << n << " with_total=" << with_total;
+      // Without one the total's buffer stays as it was: nothing written past the scan.
+      EXPECT_EQ(total.to_host()[0], with_total ? want_total : poison)
+          << "n=" << n << " with_total=" << with_total;
+    }
+    EXPECT_EQ(in.to_host(), h) << "input modified, n=" << n;
   }
 }
 

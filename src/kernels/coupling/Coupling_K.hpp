@@ -171,7 +171,10 @@ struct FluidCouplingEvaluator {
     const T m2 = *moved2;
     const bool listed = m2 <= skin2; // NaN: neither
     const bool walked = m2 <= walk2;
-    if (walked && !near[j])
+    // The row read beside the flag, not after it: a near particle's walk waits on one load, not
+    // on two in a row (every index of the fluid has a word of row_of).
+    const std::uint32_t nj = near[j], rj = row_of[j];
+    if (walked && !nj)
       return;
     const Vec3<T> xj = f.x[j], vj = f.v[j];
     const T mj = f.m[j], rhoj = f.rho[j];
@@ -185,9 +188,8 @@ struct FluidCouplingEvaluator {
       if (force(i, fij))
         sum += fij;
     };
-    const std::uint32_t r = listed && near[j] ? row_of[j] : 0u;
-    if (listed && near[j] && r < list.rows && list.complete(r))
-      list.for_each_slot(r, g.lane, g.size, [&](std::size_t s, std::uint32_t i) {
+    if (listed && nj && rj < list.rows && list.complete(rj))
+      list.for_each_slot(rj, g.lane, g.size, [&](std::size_t s, std::uint32_t i) {
         Vec3<T> fij{T(0), T(0), T(0)};
         if (force(i, fij))
           sum += fij;

@@ -12,21 +12,26 @@ namespace kf {
 
 namespace {
 
-/// The rows' flags (row r holds a near particle: r below the near count) and each near
-/// particle's position in its row (those past the rows held have none): one launch over the
-/// larger of the two (the fluid may have shrunk below the rows kept).
+/// The rows' flags (row r holds a near particle: r below the near count), each near particle's
+/// position in its row (those past the rows held have none) and the near count: one launch over
+/// the larger of the two (the fluid may have shrunk below the rows kept), at least one. Each
+/// thread takes the count from the scan's last entry (the scan leaves the total out: a launch a
+/// build fewer); the first writes it for the knit's rows and the host's read.
 template <typename T>
 struct RowsPlaced {
   const std::uint32_t* near;
   const std::uint32_t* row_of;
-  const std::uint32_t* count;
+  std::uint32_t* count;
   const Vec3<T>* x;
   Vec3<T>* row_x;
   std::uint32_t* active;
   std::uint32_t rows, fluid;
   KF_HD void operator()(std::size_t k) const {
+    const std::uint32_t total = fluid ? row_of[fluid - 1] + near[fluid - 1] : 0u;
+    if (k == 0)
+      *count = total;
     if (k < rows)
-      active[k] = k < *count ? 1u : 0u;
+      active[k] = k < total ? 1u : 0u;
     if (k < fluid && near[k] && row_of[k] < rows)
       row_x[row_of[k]] = x[k];
   }
@@ -178,7 +183,7 @@ void KnitFluidCoupling<T>::begin_lists(const exec::Exec& ex, KnitSet<T>& knit,
   const Vec3<T>* at = anchored ? anchor.x0 : fluid.f.x;
   find_fluid_near_knit(ex, at, fluid.f.n);
   size_rows(ex, fluid.f.n);
-  exec::for_each(ex, std::max(rows_, fluid.f.n),
+  exec::for_each(ex, std::max({rows_, fluid.f.n, std::size_t{1}}),
                  RowsPlaced<T>{near_flag_.data(), row_of_.data(), near_count_.data(), at,
                                row_x_.data(), row_active_.data(), static_cast<std::uint32_t>(rows_),
                                static_cast<std::uint32_t>(fluid.f.n)},
@@ -201,10 +206,11 @@ void KnitFluidCoupling<T>::begin_lists(const exec::Exec& ex, KnitSet<T>& knit,
 template <typename T>
 void KnitFluidCoupling<T>::size_rows(const exec::Exec& ex, std::size_t n) {
   row_of_.resize(n);
-  exec::exclusive_scan_on_device(ex, near_flag_, row_of_, near_count_.data(), "coupling.rows");
-  // The first build waits for its own count (once a run); later ones take the last build's,
-  // whose read every build starts behind it (a build with more near particles than rows is
-  // still exact: see the header).
+  // The first build waits for its own count (once a run: the scan's total); later ones take the
+  // last build's, which RowsPlaced writes and every build starts reading behind it (a build with
+  // more near particles than rows is still exact: see the header).
+  exec::exclusive_scan_on_device(ex, near_flag_, row_of_,
+                                 rows_sized_ ? nullptr : near_count_.data(), "coupling.rows");
   if (!rows_sized_)
     near_read_.start(near_count_.data());
   rows_sized_ = true;

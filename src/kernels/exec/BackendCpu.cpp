@@ -538,7 +538,8 @@ void exclusive_scan_on_device(const Exec& ex, const DeviceBuffer<std::uint32_t>&
   } else {
     exclusive_scan(ex, in, out, label); // on the CPU its total waits for nothing
   }
-  for_each(ex, 1, ScanTotal{in.data(), out.data(), n, total}, label);
+  if (total)
+    for_each(ex, 1, ScanTotal{in.data(), out.data(), n, total}, label);
 }
 
 } // namespace kf::exec
