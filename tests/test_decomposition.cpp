@@ -428,7 +428,10 @@ TEST(Decomposition, ARepartitionPromisesOnlyWhereTheCountsAreOffBalance) {
     const double again = Decomposition::imbalance(after.rank_costs(fallen, PhaseCosts{}));
     std::printf("%d ranks: counted %.4f fresh, %.3f once fallen, %.4f re-partitioned\n", ranks,
                 fresh, moved, again);
-    // As RankExchange asks: with each partition's own allowance and landing.
+    // METIS lands within twice its allowance (1% here: one constraint)...
+    EXPECT_FALSE(Decomposition::repartition_promises(fresh, before.tolerance())) << ranks;
+    EXPECT_FALSE(Decomposition::repartition_promises(again, after.tolerance())) << ranks;
+    // ... and RankExchange asks with each partition's own allowance and landing.
     EXPECT_DOUBLE_EQ(before.landed(), fresh) << ranks << " ranks";
     EXPECT_FALSE(Decomposition::repartition_promises(fresh, before.tolerance(), before.landed()))
         << ranks << " ranks";

@@ -3,8 +3,8 @@
 # each build's run alternated ROUNDS times (the done line and the end state's diagnostics, which
 # must agree between builds that change no arithmetic), then each build's kernel times
 # (KF_KERNEL_TIMES=1) of one more run, the kernels whose labels match KERNELS (default the
-# coupling's; KERNELS=none: no such run). The pour counterpart of one_rank_builds.sh. After `. .devrt/prelude.sh`, from the
-# project root:
+# coupling's; KERNELS=none: no such run). The pour counterpart of one_rank_builds.sh. After
+# `. .devrt/prelude.sh`, from the project root:
 #   ROUNDS=3 jobs/gpu/pour_builds.sh OLD NEW [NEWER ...]
 set -uo pipefail
 rounds=${ROUNDS:-3}

@@ -45,9 +45,9 @@ H100s (jobs/gpu/p9_gpus.sh; CSVs in jobs/studies/data/) showed what it missed, a
       and 0.52 ms; a constant X had priced 16M a rank at 0.20 ms and so 32M on 2 GPUs at 1.99x
       against 1.84x measured); x1 where runs with more peers exist. The calibration runs'
       partitions had METIS's 3% allowance (landing at 1.029 on the 8M dam break); since
-      2026-12-06 a fluid-only split gets 1% (1.009): runs with it would refit w. Between nodes (P > 8) each
-      of the step's E = 3 exchanges pays the network's latency over NVLink's, and the bytes
-      cross InfiniBand.
+      2026-12-06 a fluid-only split gets 1% (1.009): runs with it would refit w. Between nodes
+      (P > 8) each of the step's E = 3 exchanges pays the network's latency over NVLink's, and
+      the bytes cross InfiniBand.
 
 Links: NVLink 4, 450 GB/s a direction a GPU (NVIDIA H100 SXM5 data sheet: 900 GB/s total), 8 GPUs
 a node (the measured host: 4 H100 SXM, NV18 between every pair); InfiniBand NDR 400 Gb/s = 50 GB/s
