@@ -27,7 +27,7 @@ struct RowsPlaced {
   std::uint32_t* active;
   std::uint32_t rows, fluid;
   KF_HD void operator()(std::size_t k) const {
-    const std::uint32_t total = fluid ? row_of[fluid - 1] + near[fluid - 1] : 0u;
+    const std::uint32_t total = exec::exclusive_scan_total(near, row_of, fluid);
     if (k == 0)
       *count = total;
     if (k < rows)

@@ -516,7 +516,7 @@ struct ScanTotal {
   const std::uint32_t* out;
   std::size_t n;
   std::uint32_t* total;
-  KF_HD void operator()(std::size_t) const { *total = n ? out[n - 1] + in[n - 1] : 0u; }
+  KF_HD void operator()(std::size_t) const { *total = exclusive_scan_total(in, out, n); }
 };
 
 } // namespace
