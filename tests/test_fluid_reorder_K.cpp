@@ -83,7 +83,10 @@ void check(exec::Backend backend) {
   const struct {
     std::size_t keep;
     bool acceleration, copies;
-  } rounds[] = {{n, true, false}, {n, false, true}, {n - 500, true, true}, {n - 900, false, false},
+  } rounds[] = {{n, true, false},
+                {n, false, true},
+                {n - 500, true, true},
+                {n - 900, false, false},
                 {n - 1400, true, true}};
   for (const auto& r : rounds) {
     const std::size_t size = f.size();
@@ -161,8 +164,12 @@ void check(exec::Backend backend) {
   EXPECT_GE(f.vol.size(), n);
 }
 
-TEST(FluidReorder, MatchesHostPermutationCpuFloat) { check<float>(exec::Backend::Cpu); }
-TEST(FluidReorder, MatchesHostPermutationCpuDouble) { check<double>(exec::Backend::Cpu); }
+TEST(FluidReorder, MatchesHostPermutationCpuFloat) {
+  check<float>(exec::Backend::Cpu);
+}
+TEST(FluidReorder, MatchesHostPermutationCpuDouble) {
+  check<double>(exec::Backend::Cpu);
+}
 TEST(FluidReorder, MatchesHostPermutationCudaFloat) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";

@@ -100,8 +100,8 @@ void check(exec::Backend backend) {
   sph_density_predict(ex, prm, f.view(), T(0)); // p, vp, vol from rho (and xm)
   exec::DeviceBuffer<std::uint8_t> near(backend, 0, "test.near");
   grid.occupied_around(ex, near);
-  const BoundaryNeighbours<T> bn{b.x.data(), b.volume.data(), nullptr, nullptr, nullptr, false,
-                                 grid.view(), nb};
+  const BoundaryNeighbours<T> bn{b.x.data(), b.volume.data(), nullptr,     nullptr,
+                                 nullptr,    false,           grid.view(), nb};
   SphLists<T> lists(backend, T(s));
   lists.build(ex, f, grid.view(), bn, T(h), near.data());
   lists.settle(ex); // the fluid rows' capacity grows here
@@ -157,8 +157,12 @@ void check(exec::Backend backend) {
   expect_same(walk1, listed2, "rows of 8 (overflows walk)");
 }
 
-TEST(WallLists, EqualTheWalkCpuFloat) { check<float>(exec::Backend::Cpu); }
-TEST(WallLists, EqualTheWalkCpuDouble) { check<double>(exec::Backend::Cpu); }
+TEST(WallLists, EqualTheWalkCpuFloat) {
+  check<float>(exec::Backend::Cpu);
+}
+TEST(WallLists, EqualTheWalkCpuDouble) {
+  check<double>(exec::Backend::Cpu);
+}
 TEST(WallLists, EqualTheWalkCudaFloat) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device";
