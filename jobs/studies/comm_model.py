@@ -67,6 +67,11 @@ those runs' (the walls' refresh they paid is gone since), a ghost at GHOST_COST_
 H100 runs (jobs/studies/data/p9_*.csv, code of 2026-11-29) calibrate it with
 `--measured "$(ls jobs/studies/data/p9_*.csv | paste -sd,)" --x0-less-us 0`.
 
+Under each strong series it prints, for P5's goals (1.8x on 2 GPUs, 6x on 8), the one-GPU step
+a rank's work (its fluid and its ghosts' share) would have to take for the split to reach the
+goal with k, w and x0 as calibrated (the model solved for T1), beside what the one-GPU curve
+gives: how far the small sizes' step is from what the goal asks.
+
 Writes DIR/comm_model.csv (predictions), DIR/comm_model_fit.csv (each measured run against the
 model) and DIR/comm_model.png."""
 import argparse
@@ -79,6 +84,7 @@ GHOST_COST_RUNS = 0.71        # a ghost's share of a particle-step in the calibr
 GHOST_COST_NOW = 0.32         # ... since the forces pass skips the ghosts (docstring)
 BYTES_PER_GHOST = 16          # a refresh: (x, v) 24 B or (rho, P) 8 B in float; 32 B over 2
 EXCHANGES = 3                 # a step: migration (and its ghosts) and two refreshes
+STRONG_GOALS = [(2, 1.8), (8, 6.0)]  # P5's strong goals on paper: GPUs, speedup
 NVLINK, IB = 450e9, 50e9      # B/s a direction a GPU
 LAT_NODE, LAT_NET = 10e-6, 20e-6
 GPUS_PER_NODE = 8
@@ -212,6 +218,23 @@ class Model:
             x += EXCHANGES * (LAT_NET - LAT_NODE) + 2 * g * BYTES_PER_GHOST * (1 / IB - 1 / NVLINK)
         return x
 
+    def rank_step_for(self, total, p, goal):
+        """The one-GPU step T1(n + c G) a rank of `total` fluid on p GPUs must take for the
+        split to reach `goal` times one GPU's step (the model's terms solved for T1)."""
+        n = total / p
+        g, peers = ghosts(n, p, self.gf)
+        rest = self.x0 + self.x1 * peers + 2 * g * BYTES_PER_GHOST / NVLINK + self.fixed
+        need = (self.one_gpu(total) / goal - rest) / (self.k + self.w)
+        # Checked against step(): with T1 at the rank's work set to `need`, the split's step is
+        # one GPU's over the goal (the algebra above must stay step()'s).
+        work, curve = n + self.gc * g, self.one_gpu
+        self.one_gpu = lambda x: need if abs(x - work) <= 1e-6 * work else curve(x)
+        try:
+            assert abs(self.step(n, p) - curve(total) / goal) <= 1e-9 * curve(total)
+        finally:
+            del self.one_gpu  # back to the class's method
+        return need
+
     def step(self, n, p, runs=False):
         """Seconds a step with n fluid particles a rank on p GPUs (runs: in the calibration
         runs' code, which paid `hidden`)."""
@@ -220,6 +243,11 @@ class Model:
         g, _ = ghosts(n, p, self.gf)
         return (self.k * self.one_gpu(n + self.gc * g) + self.fixed +
                 (self.hidden if runs else 0.0) + self.exchange(n, p))
+
+
+def rank_work(m, n, p):
+    """The particles a rank's step costs as, on one GPU: its n fluid and its ghosts' share."""
+    return n + m.gc * ghosts(n, p, m.gf)[0]
 
 
 def p5_step(n, p, factor):
@@ -344,6 +372,13 @@ def main():
         if name.startswith("strong"):
             print("  %-14s %s" % ("  a free split", "  ".join(
                 "P=%d %.2f" % (p, m.one_gpu(n_of(1)) / m.one_gpu(n_of(p))) for p in ps)))
+            for p, goal in STRONG_GOALS:
+                need, now = m.rank_step_for(n_of(1), p, goal), m.one_gpu(rank_work(m, n_of(p), p))
+                print("  %-14s P=%d: %.1fx (one GPU's %.3f ms / %.1f) needs a rank's one-GPU step "
+                      "(%.2fM: its fluid and its ghosts' share) of %.3f ms; the curve gives %.3f "
+                      "(%+.0f%%)" % ("  the goal", p, goal, m.one_gpu(n_of(1)) * 1e3, goal,
+                                    rank_work(m, n_of(p), p) / 1e6, need * 1e3, now * 1e3,
+                                    100 * (now / need - 1)))
     keys = ["case", "gpus", "particles_per_gpu", "step_ms", "exchange_ms", "efficiency", "speedup", "p5_model"]
     with open(os.path.join(a.out, "comm_model.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=keys)
