@@ -260,13 +260,18 @@ void SimulationT<T>::compute_forces() {
 
 template <typename T>
 void SimulationT<T>::extrapolate_boundary_pressure() {
+  // The first pass over each build of the walls' lists writes every wall; the next ones skip
+  // the dry walls, whose values hold until the next build.
+  const ListView<T> walls = fluid_list_ ? fluid_list_->walls() : ListView<T>{};
+  const bool dry_written = walls.count && walls_written_ == fluid_list_->walls_builds();
   auto pass = [&](const exec::Rows* rows) {
     const LocalWork work(ranks_ ? &*ranks_ : nullptr);
     if (boundary_->size() > 0)
       boundary_pressure(ex_, sph_, boundary_->view(), fluid_->view(), fluid_grid_->view(),
-                        shapes_.data(), fluid_near_.data(),
-                        fluid_list_ ? fluid_list_->walls() : ListView<T>{}, rows);
+                        shapes_.data(), fluid_near_.data(), walls, rows, dry_written);
   };
+  if (walls.count)
+    walls_written_ = fluid_list_->walls_builds();
   if (!ranks_) {
     pass(nullptr);
     return;

@@ -310,6 +310,9 @@ private:
   // solver.neighbour_list "on" or "verlet"; "verlet" lists reach skin_ past the support and are
   // kept, with the fluid's order and grid, over steps (SphLists).
   std::optional<SphLists<T>> fluid_list_;
+  // The walls' builds (SphLists::walls_builds) whose lists a walls' pass has run over, writing
+  // every wall: later passes over them skip the dry walls.
+  std::uint64_t walls_written_ = ~std::uint64_t{0};
   double skin_ = 0;
   // The watchdog's sums (fluid, knit) and, on N ranks with fluid ghosts in the set, which rows
   // are owned (SimulationWatch.cpp).

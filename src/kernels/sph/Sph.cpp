@@ -38,11 +38,11 @@ template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
                        const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes,
                        const std::uint8_t* fluid_near, const ListView<T>& walls,
-                       const exec::Rows* rows) {
+                       const exec::Rows* rows, bool dry_written) {
   const exec::Rows over = rows ? *rows : exec::Rows{nullptr, b.n};
   auto run = [&](auto k, auto listed) {
     using E = BoundaryPressureEvaluator<T, decltype(k), decltype(listed)::value>;
-    exec::for_rows(ex, over, E{k, prm, b, f, fluid_cells, shapes, fluid_near, walls},
+    exec::for_rows(ex, over, E{k, prm, b, f, fluid_cells, shapes, fluid_near, walls, dry_written},
                    "boundary.pressure");
   };
   with_kernel<T>(prm.kernel, prm.h, [&](auto k) {
@@ -109,9 +109,9 @@ void sph_mover_work(const exec::Exec& ex, const SphParams<T>& prm, const FluidVi
   template void sph_density_rows<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>,          \
                                     CellView<T>, const BoundaryNeighbours<T>&, const ListView<T>&, \
                                     const exec::Rows&);                                            \
-  template void boundary_pressure<T>(const exec::Exec&, const SphParams<T>&, BoundaryView<T>,      \
-                                     const FluidView<T>&, CellView<T>, const RigidShape<T>*,       \
-                                     const std::uint8_t*, const ListView<T>&, const exec::Rows*);  \
+  template void boundary_pressure<T>(                                                              \
+      const exec::Exec&, const SphParams<T>&, BoundaryView<T>, const FluidView<T>&, CellView<T>,   \
+      const RigidShape<T>*, const std::uint8_t*, const ListView<T>&, const exec::Rows*, bool);     \
   template void sph_density_predict<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, T);   \
   template void sph_forces<T>(const exec::Exec&, const SphParams<T>&, FluidView<T>, CellView<T>,   \
                               const BoundaryNeighbours<T>&, const ListView<T>&, T,                 \

@@ -85,12 +85,14 @@ void sph_density_rows(const exec::Exec& ex, const SphParams<T>& prm, FluidView<T
 /// Reads the fluid's gather copies (xm, vp): after sph_density or sph_density_predict at the same
 /// positions. `walls` (SphLists::walls, or empty): each boundary particle's fluid candidates,
 /// read instead of the walk where its row is complete. `rows` (null: every boundary particle):
-/// the particles the pass runs over.
+/// the particles the pass runs over. `dry_written`: a pass over these walls' lists wrote every
+/// particle since they were built, so a dry one (an empty row: no fluid within h + s of it at
+/// the build, none within h until the next) holds its values (P_b = 0) and is skipped.
 template <typename T>
 void boundary_pressure(const exec::Exec& ex, const SphParams<T>& prm, BoundaryView<T> b,
                        const FluidView<T>& f, CellView<T> fluid_cells, const RigidShape<T>* shapes,
                        const std::uint8_t* fluid_near = nullptr, const ListView<T>& walls = {},
-                       const exec::Rows* rows = nullptr);
+                       const exec::Rows* rows = nullptr, bool dry_written = false);
 
 /// The continuity equation's part of a step before the neighbour pass (prm.density =
 /// Continuity): the pressure of the density predicted for the step's end, rho + dt (2 drho -

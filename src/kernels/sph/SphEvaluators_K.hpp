@@ -88,9 +88,13 @@ struct BoundaryPressureEvaluator {
   const RigidShape<T>* shapes;
   const std::uint8_t* near; // per fluid cell: fluid candidates around it (null: walk every cell)
   ListView<T> walls;        // Listed: row k, boundary particle k's fluid candidates
+  bool dry_written = false; // Listed: skip the empty rows (boundary_pressure)
 
   KF_HD void operator()(std::size_t k) const {
-    const Vec3<T> xb = b.x[k];
+    const Vec3<T> xb = b.x[k]; // before the test: a wet wall's walk waits on no more loads
+    if constexpr (Listed) // a dry wall's writes: most of the pass's bytes in a tank
+      if (dry_written && walls.count[k] == 0)
+        return;
     const T h2 = kernel.h * kernel.h;
     T sum_w = T(0), sum_p = T(0);
     Vec3<T> sum_rho_r{T(0), T(0), T(0)}, sum_v{T(0), T(0), T(0)};

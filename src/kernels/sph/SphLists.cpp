@@ -227,6 +227,7 @@ void SphLists<T>::build_walls(const exec::Exec& ex, const BoundaryNeighbours<T>&
     list(walls_width_);
   }
   walls_.start_most(ex);
+  ++walls_builds_;
 }
 
 template <typename T>

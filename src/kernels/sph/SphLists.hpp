@@ -100,6 +100,9 @@ public:
   /// The walls' lists: row k, boundary particle k's fluid candidates (ListView::complete false
   /// where a row overflowed its capacity: walk the cells); empty (count null) without them.
   ListView<T> walls() const { return walls_listed_ ? walls_.view() : ListView<T>{}; }
+  /// The walls' builds so far: a pass that wrote every wall since the last one may skip the dry
+  /// (boundary_pressure's dry_written).
+  std::uint64_t walls_builds() const { return walls_builds_; }
 
   /// Why the rules ended the lists, counted over the run (stale_after's readings that answered
   /// true; forced builds are not counted).
@@ -177,6 +180,7 @@ private:
   NeighbourList<T> walls_;
   bool walls_listed_ = false;
   std::uint32_t walls_width_ = 0; // the walls' rows' (0 before the first build)
+  std::uint64_t walls_builds_ = 0;
   exec::DeviceBuffer<Vec3<T>> x0_;
   // Since the build: [0] max |d|^2, [1-6] max(d_c, 0) and max(-d_c, 0) for c = x, y, z; [7-12]
   // the box of the cells the build filled, max c_a and max (n_a - 1 - c_a) for a = x, y, z (the
