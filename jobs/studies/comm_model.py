@@ -208,46 +208,40 @@ class Model:
         (n0, t0), (n1, t1) = c[i - 1], c[i]
         return t0 + (t1 - t0) * (n - n0) / (n1 - n0)
 
-    def exchange(self, n, p):
+    def rank_work(self, n, p):
+        """The particles a rank's step costs as on one GPU: its n fluid and its ghosts' share."""
+        return n + self.gc * ghosts(n, p, self.gf)[0]
+
+    def exchange(self, n, p, t1=None):
+        """The exchanges of a rank's step; t1: its work's one-GPU step (None: from the curve)."""
         if p == 1:
             return 0.0
         g, peers = ghosts(n, p, self.gf)
-        x = (self.x0 + self.x1 * peers + self.w * self.one_gpu(n + self.gc * g) +
-             2 * g * BYTES_PER_GHOST / NVLINK)
+        if t1 is None:
+            t1 = self.one_gpu(self.rank_work(n, p))
+        x = self.x0 + self.x1 * peers + self.w * t1 + 2 * g * BYTES_PER_GHOST / NVLINK
         if p > GPUS_PER_NODE:
             x += EXCHANGES * (LAT_NET - LAT_NODE) + 2 * g * BYTES_PER_GHOST * (1 / IB - 1 / NVLINK)
         return x
 
-    def rank_step_for(self, total, p, goal):
-        """The one-GPU step T1(n + c G) a rank of `total` fluid on p GPUs must take for the
-        split to reach `goal` times one GPU's step (the model's terms solved for T1)."""
-        n = total / p
-        g, peers = ghosts(n, p, self.gf)
-        rest = self.x0 + self.x1 * peers + 2 * g * BYTES_PER_GHOST / NVLINK + self.fixed
-        need = (self.one_gpu(total) / goal - rest) / (self.k + self.w)
-        # Checked against step(): with T1 at the rank's work set to `need`, the split's step is
-        # one GPU's over the goal (the algebra above must stay step()'s).
-        work, curve = n + self.gc * g, self.one_gpu
-        self.one_gpu = lambda x: need if abs(x - work) <= 1e-6 * work else curve(x)
-        try:
-            assert abs(self.step(n, p) - curve(total) / goal) <= 1e-9 * curve(total)
-        finally:
-            del self.one_gpu  # back to the class's method
-        return need
-
-    def step(self, n, p, runs=False):
+    def step(self, n, p, runs=False, t1=None):
         """Seconds a step with n fluid particles a rank on p GPUs (runs: in the calibration
-        runs' code, which paid `hidden`)."""
+        runs' code, which paid `hidden`); t1: the rank's work's one-GPU step (None: from the
+        curve)."""
         if p == 1:
-            return self.one_gpu(n)
-        g, _ = ghosts(n, p, self.gf)
-        return (self.k * self.one_gpu(n + self.gc * g) + self.fixed +
-                (self.hidden if runs else 0.0) + self.exchange(n, p))
+            return self.one_gpu(n) if t1 is None else t1
+        if t1 is None:
+            t1 = self.one_gpu(self.rank_work(n, p))
+        return (self.k * t1 + self.fixed + (self.hidden if runs else 0.0) +
+                self.exchange(n, p, t1))
 
-
-def rank_work(m, n, p):
-    """The particles a rank's step costs as, on one GPU: its n fluid and its ghosts' share."""
-    return n + m.gc * ghosts(n, p, m.gf)[0]
+    def rank_step_for(self, total, p, goal):
+        """The one-GPU step of a rank's work (rank_work) for a split of `total` fluid over p GPUs
+        to reach `goal` times one GPU's step: step() is linear in it, so solved from two of
+        its values."""
+        n, target = total / p, self.one_gpu(total) / goal
+        at0, at1 = self.step(n, p, t1=0.0), self.step(n, p, t1=1.0)
+        return (target - at0) / (at1 - at0)
 
 
 def p5_step(n, p, factor):
@@ -373,11 +367,12 @@ def main():
             print("  %-14s %s" % ("  a free split", "  ".join(
                 "P=%d %.2f" % (p, m.one_gpu(n_of(1)) / m.one_gpu(n_of(p))) for p in ps)))
             for p, goal in STRONG_GOALS:
-                need, now = m.rank_step_for(n_of(1), p, goal), m.one_gpu(rank_work(m, n_of(p), p))
+                work = m.rank_work(n_of(p), p)
+                need, now = m.rank_step_for(n_of(1), p, goal), m.one_gpu(work)
                 print("  %-14s P=%d: %.1fx (one GPU's %.3f ms / %.1f) needs a rank's one-GPU step "
                       "(%.2fM: its fluid and its ghosts' share) of %.3f ms; the curve gives %.3f "
                       "(%+.0f%%)" % ("  the goal", p, goal, m.one_gpu(n_of(1)) * 1e3, goal,
-                                    rank_work(m, n_of(p), p) / 1e6, need * 1e3, now * 1e3,
+                                    work / 1e6, need * 1e3, now * 1e3,
                                     100 * (now / need - 1)))
     keys = ["case", "gpus", "particles_per_gpu", "step_ms", "exchange_ms", "efficiency", "speedup", "p5_model"]
     with open(os.path.join(a.out, "comm_model.csv"), "w", newline="") as f:
