@@ -25,10 +25,5 @@ for which in before after; do
   run "$which" "${!which}" scenes/drape.toml "$out/drape_${which}.log"
 done
 bash jobs/gpu/p5_no_loss.sh "$before" "$after" 1
-KF_KERNEL_TIMES=1 "$after" run scenes/pour.toml --device cuda $off --output "$out/o" \
-  >"$out/pour_kernels.log" 2>&1
-grep -A25 'kernel times' "$out/pour_kernels.log"
-KF_KERNEL_TIMES=1 "$after" run scenes/drape.toml --device cuda $off --output "$out/o" \
-  >"$out/drape_kernels.log" 2>&1
-grep -A12 'kernel times' "$out/drape_kernels.log"
 rm -rf "$out/o"
+bash jobs/gpu/knit_kernel_times.sh "$after" "$out"
