@@ -57,19 +57,21 @@ TEST(CostModel, TheCompiledInModelHasTheStudiedDevices) {
     EXPECT_GT(it->start_s, 0) << name;
     EXPECT_GT(it->fluid_s + it->boundary_s, 0) << name;
     // The fit is checked against the studies' runs: those without a knit within 25% (the
-    // issue's bound; measured 20% H100, 20% H200 (2026-12-01, fourth: the support's exponent
-    // and a step's cost a pair fitted), 19% the 2-core CPU). The CPU's tank runs whose
+    // issue's bound; measured 10% H100 (2026-12-06: every study case's full runs on one H100),
+    // 20% H200 (2026-12-01, fourth: the support's exponent and a step's cost a pair fitted),
+    // 19% the 2-core CPU). The CPU's tank runs whose
     // single timings missed (support 1.5 and 2.5, the kernels: 27-33%) are the medians of three
     // since 2026-12-01 (jobs/studies/repeated.py): identical runs on that VM vary by +-15%.
     const double fluid = it->worst_off_fluid > 0 ? it->worst_off_fluid : it->worst_off;
     EXPECT_LE(fluid, 0.25) << name;
   }
-  // The knit's terms, fitted on the H200 and the CPU (minimax on the knit's runs): the H200's
-  // worst over all 136 runs 22% (the pour's and the wicking strip's studies after P10 stages 8-9,
-  // the other knit cases' after stages 5-7, the dam break's; the knit's fixed costs a step and a
-  // run, the conserving model's a Darcy substep: 34% without them); the CPU's 49 runs within
-  // 19% (its knit runs within 12%).
-  for (const char* name : {"h200", "cpu-2core"}) {
+  // The knit's terms, fitted on every device (minimax on the knit's runs): the H100's worst
+  // over its 109 runs 21% (2026-12-06; the drape at 256 stitches, the wicking strip's ends of
+  // its axes); the H200's over 136 runs 22% (the pour's and the wicking strip's studies after
+  // P10 stages 8-9, the other knit cases' after stages 5-7, the dam break's; the knit's fixed
+  // costs a step and a run, the conserving model's a Darcy substep: 34% without them); the CPU's
+  // 49 runs within 19% (its knit runs within 12%).
+  for (const char* name : {"h100", "h200", "cpu-2core"}) {
     const auto it = std::find_if(model.begin(), model.end(),
                                  [&](const DeviceCost& d) { return d.name == name; });
     ASSERT_NE(it, model.end());
