@@ -59,9 +59,9 @@ TEST(CostModel, TheCompiledInModelHasTheStudiedDevices) {
     // The fit is checked against the studies' runs: those without a knit within 25% (the
     // issue's bound; measured 10% H100 (2026-12-06: every study case's full runs on one H100),
     // 20% H200 (2026-12-01, fourth: the support's exponent and a step's cost a pair fitted),
-    // 19% the 2-core CPU). The CPU's tank runs whose
-    // single timings missed (support 1.5 and 2.5, the kernels: 27-33%) are the medians of three
-    // since 2026-12-01 (jobs/studies/repeated.py): identical runs on that VM vary by +-15%.
+    // 19% the 2-core CPU). The CPU's tank runs whose single timings missed (support 1.5 and
+    // 2.5, the kernels: 27-33%) are the medians of three since 2026-12-01
+    // (jobs/studies/repeated.py): identical runs on that VM vary by +-15%.
     const double fluid = it->worst_off_fluid > 0 ? it->worst_off_fluid : it->worst_off;
     EXPECT_LE(fluid, 0.25) << name;
   }
