@@ -4,6 +4,7 @@
 // and on the GPU when one is present.
 #include "kernels/coupling/KnitFluidCoupling.hpp"
 #include "kernels/sph/SmoothingKernels.hpp"
+#include "support/VecCast.hpp"
 
 #include <gtest/gtest.h>
 
@@ -83,14 +84,6 @@ CouplingParams<T> params_in() {
 }
 
 template <typename T>
-std::vector<Vec3<T>> cast(const std::vector<Vec3d>& a) {
-  std::vector<Vec3<T>> o;
-  for (const auto& q : a)
-    o.push_back(vec_cast<T>(q));
-  return o;
-}
-
-template <typename T>
 struct Fixture {
   exec::Exec ex;
   KnitSet<T> knit;
@@ -101,16 +94,16 @@ struct Fixture {
         fluid_grid(b, NeighbourGrid<T>::cover({0, 0, 0}, {0.1, 0.1, 0.1}, kH)) {
     const std::size_t n = c.kx.size(), nf = c.fx.size();
     knit.resize(n);
-    knit.x.assign(cast<T>(c.kx));
-    knit.x_rest.assign(cast<T>(c.kx));
-    knit.v.assign(cast<T>(c.kv));
+    knit.x.assign(test::vec_cast_all<T>(c.kx));
+    knit.x_rest.assign(test::vec_cast_all<T>(c.kx));
+    knit.v.assign(test::vec_cast_all<T>(c.kv));
     knit.m.assign(std::vector<T>(c.km.begin(), c.km.end()));
     knit.handle.assign(c.handle);
     knit.a.assign(std::vector<Vec3<T>>(n, Vec3<T>{}));
     // The fluid as the coupling sees it after a sort: positions in grid order.
     fluid.resize(nf);
-    fluid.x.assign(cast<T>(c.fx));
-    fluid.v.assign(cast<T>(c.fv));
+    fluid.x.assign(test::vec_cast_all<T>(c.fx));
+    fluid.v.assign(test::vec_cast_all<T>(c.fv));
     fluid.a.assign(std::vector<Vec3<T>>(nf, Vec3<T>{}));
     fluid.m.assign(std::vector<T>(c.fm.begin(), c.fm.end()));
     fluid.rho.assign(std::vector<T>(c.frho.begin(), c.frho.end()));
@@ -198,7 +191,7 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
     if (rows_short) { // the first build finds the knit in a corner: rows for few particles
       fx.knit.x.assign(std::vector<Vec3<T>>(c0.kx.size(), Vec3<T>{T(0), T(0), T(0)}));
       cp.begin_step(fx.ex, fx.knit, fx.side(), {}, T(0));
-      fx.knit.x.assign(cast<T>(c0.kx));
+      fx.knit.x.assign(test::vec_cast_all<T>(c0.kx));
     }
     // (rows_short: the knit has moved; a motion past the skin has the grid sorted again)
     cp.begin_step(fx.ex, fx.knit, fx.side(), {}, rows_short ? T(1) : T(0));
@@ -231,7 +224,7 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
       EXPECT_EQ(cp.flag_slack(), T(0));
     }
   }
-  fx.knit.x.assign(cast<T>(c.kx));
+  fx.knit.x.assign(test::vec_cast_all<T>(c.kx));
   const T weight = T(0.25);
   cp.add_forces(fx.ex, fx.knit, fx.side(), weight);
   EXPECT_EQ(cp.sorts(), rows_short ? 2u : 1u)

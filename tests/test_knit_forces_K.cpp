@@ -8,12 +8,13 @@
 #include "kernels/knit/Knit.hpp"
 #include "kernels/knit/SelfContact.hpp"
 #include "support/Backends.hpp"
+#include "support/Bits.hpp"
+#include "support/VecCast.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <random>
 
@@ -77,28 +78,15 @@ Scene make_scene() {
 }
 
 template <typename T>
-std::vector<Vec3<T>> cast(const std::vector<Vec3d>& a) {
-  std::vector<Vec3<T>> o;
-  for (const auto& q : a)
-    o.push_back(vec_cast<T>(q));
-  return o;
-}
-
-template <typename T>
-bool same_bits(const std::vector<Vec3<T>>& a, const std::vector<Vec3<T>>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(a[0])) == 0;
-}
-
-template <typename T>
 void check(exec::Backend backend) {
   const Scene sc = make_scene();
   const std::size_t n = sc.x.size(), nf = sc.fx.size();
   exec::Exec ex{backend};
   KnitSet<T> knit(backend);
   knit.resize(n);
-  knit.x.assign(cast<T>(sc.x));
-  knit.v.assign(cast<T>(sc.v));
-  knit.x_rest.assign(cast<T>(sc.rest));
+  knit.x.assign(test::vec_cast_all<T>(sc.x));
+  knit.v.assign(test::vec_cast_all<T>(sc.v));
+  knit.x_rest.assign(test::vec_cast_all<T>(sc.rest));
   knit.m.assign(std::vector<T>(sc.m.begin(), sc.m.end()));
   knit.piece.assign(std::vector<std::uint16_t>(n, 0));
   knit.handle.assign(sc.handle);
@@ -117,8 +105,8 @@ void check(exec::Backend backend) {
 
   FluidSet<T> fluid(backend);
   fluid.resize(nf);
-  fluid.x.assign(cast<T>(sc.fx));
-  fluid.v.assign(cast<T>(sc.fv));
+  fluid.x.assign(test::vec_cast_all<T>(sc.fx));
+  fluid.v.assign(test::vec_cast_all<T>(sc.fv));
   fluid.a.assign(std::vector<Vec3<T>>(nf, Vec3<T>{}));
   fluid.m.assign(std::vector<T>(sc.fm.begin(), sc.fm.end()));
   fluid.p.assign(std::vector<T>(nf, T(0)));
@@ -168,11 +156,11 @@ void check(exec::Backend backend) {
   knit.a.assign(poison);
   self.update(ex, knit);
   knit_forces(ex, n, terms(), 0);
-  EXPECT_TRUE(same_bits(knit.a.to_host(), a_one)) << "springs + self-contact, two passes";
+  EXPECT_TRUE(test::same_bits(knit.a.to_host(), a_one)) << "springs + self-contact, two passes";
   // The premise: the fold's sheets touch.
   const SelfContactStats st = self.stats(ex, knit);
   EXPECT_GT(st.contacts, 100u) << "too few self-contacts to test";
-  EXPECT_TRUE(same_bits(a_one, a_two)) << "springs + self-contact in one pass";
+  EXPECT_TRUE(test::same_bits(a_one, a_two)) << "springs + self-contact in one pass";
   for (std::size_t i = 0; i < n; ++i)
     ASSERT_TRUE(std::isfinite(a_one[i].x) && std::isfinite(a_one[i].y) && std::isfinite(a_one[i].z))
         << "point " << i << " not written";
@@ -185,7 +173,7 @@ void check(exec::Backend backend) {
   self.begin_step(ex, knit, T(0)); // no motion expected: the substeps watch on the device
   ASSERT_FALSE(self.checks_on_host()) << "the premise: the self-contact's copies gathered on the "
                                          "device, in the coupling's pass";
-  std::vector<Vec3<T>> x1 = cast<T>(sc.x);
+  std::vector<Vec3<T>> x1 = test::vec_cast_all<T>(sc.x);
   {
     std::mt19937 rng(17);
     std::uniform_real_distribution<double> u(-1, 1);
@@ -195,8 +183,8 @@ void check(exec::Backend backend) {
       q += vec_cast<T>(Vec3d{u(rng), u(rng), u(rng)} * step);
   }
   auto coupled = [&](bool one_pass, std::vector<Vec3<T>>& a, std::vector<Vec3<T>>& v) {
-    fluid.v.assign(cast<T>(sc.fv)); // in grid order below: only compared with itself
-    knit.x.assign(cast<T>(sc.x));
+    fluid.v.assign(test::vec_cast_all<T>(sc.fv)); // in grid order below: only compared with itself
+    knit.x.assign(test::vec_cast_all<T>(sc.x));
     cp.begin_step(ex, knit, side, {}, T(0));
     self.update(ex, knit); // the copies at x0
     knit.x.assign(x1);
@@ -222,9 +210,10 @@ void check(exec::Backend backend) {
   const CouplingStats cs = cp.stats(ex, knit, side);
   EXPECT_GT(cs.contacts, 50u) << "too few fluid-knit contacts to test";
   EXPECT_GT(cs.wet_points, n / 4) << "too little fluid around the knit to test";
-  EXPECT_TRUE(same_bits(a_fused, a_sep)) << "springs + self-contact + coupling in one pass";
-  EXPECT_TRUE(same_bits(v_fused, v_sep)) << "the fluid's impulses";
-  EXPECT_FALSE(same_bits(a_fused, a_one)) << "the coupling added nothing: the test sees nothing";
+  EXPECT_TRUE(test::same_bits(a_fused, a_sep)) << "springs + self-contact + coupling in one pass";
+  EXPECT_TRUE(test::same_bits(v_fused, v_sep)) << "the fluid's impulses";
+  EXPECT_FALSE(test::same_bits(a_fused, a_one))
+      << "the coupling added nothing: the test sees nothing";
   EXPECT_EQ(cp.sorts(), 1u) << "the coupling's grid must stay as begin_step first sorted it";
   EXPECT_EQ(self.sorts(), 1u) << "the self-contact's grid must stay as first sorted";
   std::size_t held = 0;

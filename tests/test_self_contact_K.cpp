@@ -3,6 +3,7 @@
 // the corrected signs (repulsion, friction against the sliding). On the CPU, and on the GPU when
 // one is present.
 #include "kernels/knit/SelfContact.hpp"
+#include "support/VecCast.hpp"
 
 #include <gtest/gtest.h>
 
@@ -109,15 +110,9 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
   exec::Exec ex{backend};
   KnitSet<T> set(backend);
   set.resize(n);
-  auto cast = [](const std::vector<Vec3d>& a) {
-    std::vector<Vec3<T>> o;
-    for (const auto& q : a)
-      o.push_back(vec_cast<T>(q));
-    return o;
-  };
-  set.x.assign(cast(sorted_at.x));
-  set.v.assign(cast(c.v));
-  set.x_rest.assign(cast(c.rest));
+  set.x.assign(test::vec_cast_all<T>(sorted_at.x));
+  set.v.assign(test::vec_cast_all<T>(c.v));
+  set.x_rest.assign(test::vec_cast_all<T>(c.rest));
   set.m.assign(std::vector<T>(c.m.begin(), c.m.end()));
   set.piece.assign(c.piece);
   set.handle.assign(c.handle);
@@ -136,7 +131,7 @@ void check(exec::Backend backend, Motion motion = Motion::None, std::uint32_t li
     sc.begin_step(ex, set, T(0)); // no motion expected: the substeps watch on the device
     ASSERT_FALSE(sc.checks_on_host());
   }
-  set.x.assign(cast(c.x));
+  set.x.assign(test::vec_cast_all<T>(c.x));
   sc.update(ex, set);
   sc.add_forces(ex, set);
   EXPECT_EQ(sc.sorts(), 1u) << "the forces must come from the grid sorted at the old positions";
