@@ -12,6 +12,7 @@
 #include "support/RandomPoints.hpp"
 
 #include "support/Backends.hpp"
+#include "support/VecCast.hpp"
 
 #include <gtest/gtest.h>
 
@@ -37,21 +38,13 @@ Decomposition split(const BlockGrid& g, const std::vector<Vec3d>& x, int ranks) 
 }
 
 template <typename T>
-std::vector<Vec3<T>> as(const std::vector<Vec3d>& x) {
-  std::vector<Vec3<T>> out(x.size());
-  for (std::size_t i = 0; i < x.size(); ++i)
-    out[i] = vec_cast<T>(x[i]);
-  return out;
-}
-
-template <typename T>
 void departures_are_the_hosts(exec::Backend b) {
   // Points spilling past the box on every side; the high x and low z sides are open.
   const Vec3d lo{0, 0, 0}, hi{0.6, 0.3, 0.4};
   const BlockGrid g(lo, hi, 0.05);
   const auto xd = uniform_points(20000, {-0.03, -0.03, -0.03}, {0.63, 0.33, 0.43}, 7);
   const std::array<bool, 6> walls{true, false, true, true, false, true};
-  const auto x = as<T>(xd);
+  const auto x = test::vec_cast_all<T>(xd);
   std::vector<T> m(x.size());
   for (std::size_t i = 0; i < m.size(); ++i)
     m[i] = T(1) + T(i % 13) / T(7);
@@ -206,7 +199,7 @@ TEST(RankSelector, BlockCountsAreTheHostsCounts) {
     RankSelector<float> sel(b);
     sel.set(d, 1);
     exec::DeviceBuffer<Vec3<float>> x(b, 0, "test.x");
-    x.assign(as<float>(xd));
+    x.assign(test::vec_cast_all<float>(xd));
     exec::DeviceBuffer<std::uint32_t> flags(b, 0, "test.only");
     flags.assign(only);
     for (bool flagged : {false, true}) {
