@@ -10,6 +10,9 @@
 # Usage: jobs/gpu/p7_studies.sh KNITFLOW OUTDIR [CASES] [AXES]
 set -uo pipefail
 exe=$1 out=$2 cases=${3:-all} axes=${4:-all}
+# The CSVs' commit is the packed binaries' (scripts/pack-gpu.sh), not this copy's git history.
+root="$(cd "$(dirname "$0")/../.." && pwd)"
+[ -z "${KF_COMMIT:-}" ] && [ -f "$root/.devrt/commit" ] && export KF_COMMIT="$(cat "$root/.devrt/commit")"
 [ "$cases" = all ] && cases=hydrostatic,dambreak,catenary,wicking,drape,pour
 work=$(mktemp -d)
 mkdir -p "$out/studies"
