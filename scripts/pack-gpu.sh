@@ -6,9 +6,9 @@
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 bash "$root/../shared/gpu/pack-runtime.sh" "$root/.devrt" "$@"
-# The commit the binaries were built from, for the jobs' records: the GPU machine's copy of the
-# tree may carry an older history (a study's CSV named the session's first commit). "+changes"
-# where the sources differ from it.
+# The commit at packing (the recipe builds just before), for the jobs' records: the GPU machine's
+# copy of the tree may carry an older history (a study's CSV named the session's first commit).
+# "+changes" where src/ or apps/ differ from it.
 commit=$(git -C "$root" rev-parse --short HEAD)
 git -C "$root" diff --quiet HEAD -- src apps || commit="$commit+changes"
 echo "$commit" > "$root/.devrt/commit"
