@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# compute-sanitizer over the split on one GPU (after `. .devrt/prelude.sh`, from the project
+# root): two ranks sharing the GPU, as P5's one-GPU checks run them.
+#  - the MPI test programs' GPU cases (the transports: CUDA IPC and MPI staged through pinned
+#    host messages; the halo's device rows; the dam break, the knit and the coupled pour split
+#    on the GPU against the one-rank GPU run);
+#  - knitflow's scenes on 2 ranks, small and short: the dam break with "verlet" lists and a
+#    re-partition every 20 steps, the pour (paper model), the wicking strip (conserving model),
+#    the drape, the garment.
+# Tools: memcheck (out-of-bounds and misaligned device accesses, CUDA API errors, device
+# memory leaked at exit), racecheck (shared-memory hazards), synccheck (barriers), initcheck
+# (device memory read before it was written; knitflow's runs only).
+# Usage: jobs/gpu/p5_sanitizer.sh OUTDIR [TOOLS]   (default TOOLS "memcheck racecheck synccheck
+#   initcheck"); one line a run: its rc and compute-sanitizer's summary, logs in OUTDIR.
+set -uo pipefail
+out=$1 tools=${2:-memcheck racecheck synccheck initcheck}
+mkdir -p "$out"
+export PATH="$PATH:build/cuda/apps:build/cuda/tests"
+san=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 2>/dev/null | head -1)
+[ -n "$san" ] || { echo "no compute-sanitizer"; exit 2; }
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt"
+"$san" --version | tail -1 >> "$out/gpu.txt"
+fails=0
+# check LABEL TOOL CMD...: runs CMD on 2 ranks, each rank under compute-sanitizer TOOL.
+check() {
+  local label=$1 tool=$2
+  shift 2
+  local log="$out/${label}_${tool}"
+  local t0=$SECONDS
+  mpirun -n 2 --oversubscribe "$san" --tool "$tool" --error-exitcode 9 \
+    --log-file "$log.%p.san" "$@" > "$log.log" 2>&1
+  local rc=$?
+  local summary
+  summary=$(grep -h -E 'ERROR SUMMARY|RACECHECK SUMMARY|LEAK SUMMARY' "$log".*.san | sort | uniq -c | tr -s ' ' | paste -sd';')
+  echo "$label $tool rc=$rc $((SECONDS - t0)) s: ${summary:-no summary}"
+  [ $rc -eq 0 ] || fails=$((fails + 1))
+}
+tests=(
+  "test_transport_mpi TransportMpi.DeviceTransports*:TransportMpi.IpcCarries*:TransportMpi.FactoryChooses*"
+  "test_halo_mpi Halo.DeviceRows*"
+  "test_distributed_mpi Distributed.OnTheGpu*"
+  "test_distributed_knit_mpi DistributedKnit.OnTheGpu*"
+)
+small=(--device cuda --set output.enabled=false)
+for tool in $tools; do
+  if [ "$tool" != initcheck ]; then
+    for t in "${tests[@]}"; do
+      set -- $t
+      check "$1" "$tool" "$1" --gtest_filter="$2"
+    done
+  fi
+  check dambreak "$tool" knitflow run scenes/dambreak.toml "${small[@]}" \
+    --set fluid.spacing=0.02 --set 'solver.neighbour_list="verlet"' --set parallel.imbalance=1.0 \
+    --set parallel.payback=false --set parallel.check_every=20 --set solver.max_steps=60
+  check pour "$tool" knitflow run scenes/pour.toml "${small[@]}" --set fluid.spacing=0.012 \
+    --set knit.piece.0.wales=24 --set knit.piece.0.courses=24 --set solver.max_steps=40
+  check wicking "$tool" knitflow run scenes/wicking.toml "${small[@]}" --set fluid.spacing=0.01 \
+    --set knit.piece.0.courses=32 --set solver.max_steps=40
+  check drape "$tool" knitflow run scenes/drape.toml "${small[@]}" --set knit.piece.0.wales=32 \
+    --set knit.piece.0.courses=32 --set solver.max_steps=40
+  check garment "$tool" knitflow run scenes/garment.toml "${small[@]}" --set solver.max_steps=20
+done
+echo "runs failed: $fails"
+[ $fails -eq 0 ]
