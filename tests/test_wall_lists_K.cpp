@@ -73,6 +73,21 @@ void check(exec::Backend backend) {
         xb.push_back(vec_cast<T>(Vec3d{x, y, z}));
   const std::size_t n = xf.size(), nb = xb.size();
   exec::Exec ex{backend};
+  const auto geometry = NeighbourGrid<T>::cover(Vec3d{lo.x, lo.y, -0.05}, hi, h + s);
+  // The walls in their own grid's order, as the solver keeps them: the fluid's rows find their
+  // walls through that grid (a grid over the fluid here read b.x at the fluid's indices, past its
+  // end: AddressSanitizer).
+  NeighbourGrid<T> wall_grid(backend, geometry);
+  {
+    exec::DeviceBuffer<Vec3<T>> x(backend);
+    x.assign(xb);
+    wall_grid.build(ex, x.data(), nb);
+    const auto perm = wall_grid.permutation().to_host();
+    std::vector<Vec3<T>> sorted(nb);
+    for (std::size_t k = 0; k < nb; ++k)
+      sorted[k] = xb[perm[k]];
+    xb = sorted;
+  }
   SphParams<T> prm;
   prm.kernel = KernelType::CubicSpline;
   prm.h = T(h);
@@ -95,14 +110,14 @@ void check(exec::Backend backend) {
   b.x.assign(xb);
   b.obstacle.assign(std::vector<std::uint32_t>(nb, kWallObstacle));
   b.volume.assign(std::vector<T>(nb, T(dp * dp * dp)));
-  NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(Vec3d{lo.x, lo.y, -0.05}, hi, h + s));
+  NeighbourGrid<T> grid(backend, geometry);
   grid.build(ex, f.x.data(), n);
   f.reorder(ex, grid.permutation());
   sph_density_predict(ex, prm, f.view(), T(0)); // p, vp, vol from rho (and xm)
   exec::DeviceBuffer<std::uint8_t> near(backend, 0, "test.near");
   grid.occupied_around(ex, near);
-  const BoundaryNeighbours<T> bn{b.x.data(), b.volume.data(), nullptr,     nullptr,
-                                 nullptr,    false,           grid.view(), nb};
+  const BoundaryNeighbours<T> bn{b.x.data(), b.volume.data(), nullptr,          nullptr,
+                                 nullptr,    false,           wall_grid.view(), nb};
   SphLists<T> lists(backend, T(s));
   lists.build(ex, f, grid.view(), bn, T(h), near.data());
   lists.settle(ex); // the fluid rows' capacity grows here
