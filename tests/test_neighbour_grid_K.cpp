@@ -9,6 +9,8 @@
 #include "kernels/sph/SphLists.hpp"
 #include "kernels/sph/SphNeighbours_K.hpp"
 
+#include "support/GridOrder.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -202,12 +204,7 @@ void check_lists(exec::Backend backend) {
   exec::Exec ex{backend};
   NeighbourGrid<T> grid(backend, NeighbourGrid<T>::cover(lo, hi, h));
   exec::DeviceBuffer<Vec3<T>> x(backend);
-  x.assign(host);
-  grid.build(ex, x.data(), n);
-  const auto perm = grid.permutation().to_host();
-  std::vector<Vec3<T>> sorted(n);
-  for (std::size_t i = 0; i < n; ++i)
-    sorted[i] = host[perm[i]];
+  const auto sorted = test::in_grid_order(grid, ex, host);
   x.assign(sorted);
   NeighbourList<T> lists(backend);
   const T h2 = static_cast<T>(h * h);
@@ -313,18 +310,8 @@ void check_sph_chunk_builder(exec::Backend backend, int span) {
   // Cells of h / span searched span cells on: (2 span + 1)^2 rows a group, 49 (more than a
   // warp's lanes) with span 3.
   const auto geo = NeighbourGrid<T>::cover(lo, hi, h / span, span);
-  auto sorted_by = [&](NeighbourGrid<T>& g, const std::vector<Vec3<T>>& pts) {
-    exec::DeviceBuffer<Vec3<T>> x(backend);
-    x.assign(pts);
-    g.build(ex, x.data(), pts.size());
-    const auto perm = g.permutation().to_host();
-    std::vector<Vec3<T>> s(pts.size());
-    for (std::size_t i = 0; i < pts.size(); ++i)
-      s[i] = pts[perm[i]];
-    return s;
-  };
   NeighbourGrid<T> fgrid(backend, geo, span), bgrid(backend, geo, span);
-  const auto xf = sorted_by(fgrid, fluid), xb = sorted_by(bgrid, wall);
+  const auto xf = test::in_grid_order(fgrid, ex, fluid), xb = test::in_grid_order(bgrid, ex, wall);
   std::vector<Vec4<T>> xm_host;
   for (const auto& p : xf)
     xm_host.push_back({p.x, p.y, p.z, T(1)});

@@ -10,6 +10,7 @@
 #include "kernels/sph/SphLists.hpp"
 
 #include "support/Bits.hpp"
+#include "support/GridOrder.hpp"
 
 #include <gtest/gtest.h>
 
@@ -78,16 +79,7 @@ void check(exec::Backend backend) {
   // walls through that grid (a grid over the fluid here read b.x at the fluid's indices, past its
   // end: AddressSanitizer).
   NeighbourGrid<T> wall_grid(backend, geometry);
-  {
-    exec::DeviceBuffer<Vec3<T>> x(backend);
-    x.assign(xb);
-    wall_grid.build(ex, x.data(), nb);
-    const auto perm = wall_grid.permutation().to_host();
-    std::vector<Vec3<T>> sorted(nb);
-    for (std::size_t k = 0; k < nb; ++k)
-      sorted[k] = xb[perm[k]];
-    xb = sorted;
-  }
+  xb = test::in_grid_order(wall_grid, ex, xb);
   SphParams<T> prm;
   prm.kernel = KernelType::CubicSpline;
   prm.h = T(h);
