@@ -142,7 +142,7 @@ public:
   std::size_t bytes() const;
   /// Of bytes(): the springs' and cells' rows, held for owned points only on N ranks.
   std::size_t row_bytes() const { return springs_.bytes() + volumes_.bytes(); }
-  std::uint64_t collisions() const { return collisions_.to_host()[0]; }
+  std::uint64_t collisions() const { return collisions_.host_value(0); }
   /// stats: also the self-contact's statistics the energy reads (one pass for both).
   KnitEnergy energy(SelfContactStats* stats = nullptr);
   const SpringTopology<T>& springs() const { return springs_; }

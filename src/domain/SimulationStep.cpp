@@ -17,7 +17,7 @@ double SimulationT<T>::stable_dt() {
     if (!ranks_)
       return std::min(dt, knit_stable_dt(nullptr));
     knit_->motion_bounds_to(bounds_.data());
-    auto kb = bounds_.to_host()[0];
+    auto kb = bounds_.host_value(0);
     job_bounds(&kb, 1);
     return std::min(dt, knit_stable_dt(&kb));
   }
@@ -28,7 +28,7 @@ double SimulationT<T>::stable_dt() {
   auto f = fluid_->view();
   MotionBounds<T> mb;
   if (fluid_bounds_ready_)
-    mb = bounds_.to_host()[1];
+    mb = bounds_.host_value(1);
   else
     mb = motion_bounds(ex_, f.v, f.a, f.n, "integrate.dt");
   if (ranks_)           // one dt for the job: the largest speed and acceleration of all ranks

@@ -313,6 +313,9 @@ void SimulationT<T>::init_particles(const comm::MpiContext* split_over) {
     fluid_->a.assign(std::vector<Vec3<T>>(n, Vec3<T>{}));
     fluid_->m.assign(std::vector<T>(n, static_cast<T>(m)));
     fluid_->rho.assign(rho);
+    // Written by the first density pass; zero before it so that a split run's first migration
+    // and growth copy written values (compute-sanitizer initcheck).
+    fluid_->p.assign(std::vector<T>(n, T(0)));
     fluid_->drho.assign(std::vector<T>(n, T(0)));
     fluid_->drho_prev.assign(std::vector<T>(n, T(0)));
     fluid_->id.assign(ids);

@@ -185,13 +185,13 @@ private:
   // Particles put back by the guard, whole run: a counter in device memory, read only for
   // snapshots and diagnostics so the step never waits for it.
   exec::DeviceBuffer<std::uint64_t> guard_count_{exec::Backend::Cpu, 0, "boundary.guard_count"};
-  std::uint64_t guard_corrections() const { return guard_count_.to_host()[0]; }
+  std::uint64_t guard_corrections() const { return guard_count_.host_value(0); }
   std::uint64_t outflow_particles_ = 0, fluid_sorts_ = 0;
   double outflow_mass_ = 0; // removed before the restart this run started from (its snapshot's)
   // The mass removed by sorts since (sort_removing_outside), summed on the device: read with the
   // diagnostics, not at every sort.
   exec::DeviceBuffer<double> sorted_outflow_mass_{exec::Backend::Cpu, 0, "fluid.outflow"};
-  double outflow_mass() const { return outflow_mass_ + sorted_outflow_mass_.to_host()[0]; }
+  double outflow_mass() const { return outflow_mass_ + sorted_outflow_mass_.host_value(0); }
   bool profiling_ = false;
 
   std::optional<KnitSystem<T>> knit_;
@@ -206,7 +206,7 @@ private:
   // The knit's positions at the step's start (its faces' motion over the step).
   exec::DeviceBuffer<Vec3<T>> sheet_x0_{exec::Backend::Cpu, 0, "sheet_guard.knit_x0"};
   std::uint64_t sheet_corrections() const {
-    return sheet_count_.size() ? sheet_count_.to_host()[0] : 0;
+    return sheet_count_.size() ? sheet_count_.host_value(0) : 0;
   }
   void init_sheet_guard();
   /// After the fluid's drift: fluid whose step crossed the knit's sheet goes back to its side

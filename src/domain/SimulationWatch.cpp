@@ -19,9 +19,9 @@ Vec3d lowest_corner(const Scene& s) {
 
 template <typename T>
 double SimulationT<T>::work_done() const {
-  double w = work_.size() ? work_.to_host()[0] : 0.0;
+  double w = work_.size() ? work_.host_value(0) : 0.0;
   if (contact_work_.size())
-    w += double(static_cast<std::int64_t>(contact_work_.to_host()[0])) * contact_unit_;
+    w += double(static_cast<std::int64_t>(contact_work_.host_value(0))) * contact_unit_;
   return w;
 }
 

@@ -1,8 +1,10 @@
 #pragma once
+#include "core/Error.hpp"
 #include "kernels/exec/Backend.hpp"
 
 #include <algorithm>
 #include <cstring>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -111,6 +113,17 @@ public:
     std::vector<T> v(size_);
     if (size_)
       copy_bytes(v.data(), Backend::Cpu, ptr_, backend_, size_ * sizeof(T));
+    return v;
+  }
+
+  /// Copies element i to the host: a small read of one result among several, the others (unwritten
+  /// in a run without their phase) left unread.
+  T host_value(std::size_t i) const {
+    if (i >= size_)
+      throw Error(std::string(what_) + ": element " + std::to_string(i) + " of " +
+                  std::to_string(size_));
+    T v;
+    copy_bytes(&v, Backend::Cpu, ptr_ + i, backend_, sizeof(T));
     return v;
   }
 

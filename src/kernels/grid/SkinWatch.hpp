@@ -108,7 +108,7 @@ public:
   /// reset, read on the host (waits for the device). A NaN position reads as infinitely far.
   T moved(const exec::Exec& ex, const exec::DeviceBuffer<Vec3<T>>& x) {
     observe(ex, x);
-    T m2 = moved2_.to_host()[0];
+    T m2 = moved2_.host_value(0);
     if (job_max_)
       m2 = job_max_(m2 == m2 ? m2 : std::numeric_limits<T>::max());
     return m2 >= T(0) && m2 < std::numeric_limits<T>::max() ? ksqrt(m2)
@@ -123,7 +123,7 @@ public:
     T moved2 = std::numeric_limits<T>::max();
     T bound = std::numeric_limits<T>::infinity();
   };
-  State state() const { return {x0_.to_host(), moved2_.to_host()[0], bound_}; }
+  State state() const { return {x0_.to_host(), moved2_.host_value(0), bound_}; }
   /// After the owner sorted its structure for s.x0 (which reset() the watch to them).
   void restore(const State& s) {
     moved2_.assign(std::vector<T>{s.moved2});
