@@ -563,11 +563,12 @@ void check_local_rule(exec::Backend backend) {
 // The staged appender against the plain one (RowAppender, entry by entry): random hit masks
 // over 32-candidate blocks, pushed 16 bits at a time with a flush after each, as the chunk
 // builder does; rows that fit, rows that overflow their capacity, empty rows. The rows are
-// poisoned first; the last group's slots past the count must hold kNoEntry.
+// poisoned first; the last group's slots past the count must hold kNoEntry, in both.
 // build_for with eight lanes a query point writes the rows the one-lane build writes, slot for
 // slot: the same candidates in the same order, the same counts past a row's capacity (an
-// overflow its user must see), nothing for an inactive query point. Query points elsewhere than
-// the candidates (a fluid over a knit), ~40 candidates in range each against a capacity of 24.
+// overflow its user must see), nothing for an inactive query point, the last group padded. Query
+// points elsewhere than the candidates (a fluid over a knit), ~40 candidates in range each against
+// a capacity of 24.
 template <typename T>
 void check_lane_build_for(exec::Backend backend) {
   const double h = 0.1;
@@ -621,6 +622,11 @@ void check_lane_build_for(exec::Backend backend) {
     for (std::size_t k = 0; k < m; ++k)
       ASSERT_EQ(rows[1][n + layout.slot(i, k)], rows[0][n + layout.slot(i, k)])
           << "query point " << i << " slot " << k;
+    // The last group's rest: kNoEntry in both (the GPU's readers load whole groups).
+    for (std::size_t k = m; k % kListGroup != 0; ++k)
+      for (int l : {0, 1})
+        ASSERT_EQ(rows[l][n + layout.slot(i, k)], kNoEntry)
+            << (l ? "eight lanes" : "one lane") << ", query point " << i << " slot " << k;
   }
   EXPECT_GT(overflowing, n / 10) << "the test must overflow some rows";
   EXPECT_GT(listed, 10 * n) << "too few neighbours to test";
@@ -813,10 +819,14 @@ TEST(StagedRowAppender, MatchesEntryByEntryAppends) {
         ASSERT_EQ(list[view.slot(i, k)], expected[k]) << "capacity " << capacity << " slot " << k;
       // The last written group is padded; groups past it and other rows stay untouched.
       const std::size_t padded = (stored + kListGroup - 1) / kListGroup * kListGroup;
-      for (std::size_t k = stored; k < padded; ++k)
+      for (std::size_t k = stored; k < padded; ++k) {
         EXPECT_EQ(list[view.slot(i, k)], kNoEntry) << "slot " << k;
-      for (std::size_t k = padded; k < capacity; ++k)
+        EXPECT_EQ(list_ref[view.slot(i, k)], kNoEntry) << "RowAppender, slot " << k;
+      }
+      for (std::size_t k = padded; k < capacity; ++k) {
         EXPECT_EQ(list[view.slot(i, k)], kPoison) << "slot " << k;
+        EXPECT_EQ(list_ref[view.slot(i, k)], kPoison) << "RowAppender, slot " << k;
+      }
       for (std::size_t r : {std::size_t(0), std::size_t(2)}) {
         EXPECT_EQ(count[r], kPoison);
         for (std::size_t k = 0; k < capacity; ++k)

@@ -17,6 +17,11 @@ namespace kf {
 
 /// Slots per group in the lists' layout: 8 indices, one 32-byte memory sector.
 constexpr std::uint32_t kListGroup = 8;
+/// What a row's last group holds past its count (no particle: a reader that went past the
+/// count would fault rather than read particle 0). Every builder pads it: the GPU's readers
+/// load whole groups (ListView::for_each_group), so the padding is read, and left unwritten it
+/// drew compute-sanitizer initcheck's reports on every pass over the walls' lists.
+constexpr std::uint32_t kNoEntry = 0xFFFFFFFFu;
 
 /// Calls each(e[u]) for the eight slots of a group when `whole`, without a test between them:
 /// the compiler may then issue several entries' gathers before the first one's arithmetic (with
@@ -182,23 +187,22 @@ public:
     }
     ++c_;
   }
-  /// Writes the last 1-7 neighbours and the count.
+  /// Writes the last 1-7 neighbours, the group padded with kNoEntry (two 16-byte stores, the
+  /// whole sector), and the count.
   KF_HD KF_INLINE void finish() {
     const std::uint32_t tail = c_ & ~(kListGroup - 1); // the group not yet written
     if (tail < out_.capacity && tail < c_) {
       std::uint32_t* g = group(tail);
-      std::uint32_t k = tail;
-      if (c_ - tail >= 4) {
+      const std::uint32_t r = c_ - tail; // 1-7; b holds the last r % 4, q a full quad if r >= 4
+      const std::uint32_t e0 = b0_, e1 = r % 4 > 1 ? b1_ : kNoEntry,
+                          e2 = r % 4 > 2 ? b2_ : kNoEntry;
+      if (r >= 4) {
         list_detail::store4(g, q0_, q1_, q2_, q3_);
-        g += 4;
-        k += 4;
+        list_detail::store4(g + 4, r > 4 ? e0 : kNoEntry, e1, e2, kNoEntry);
+      } else {
+        list_detail::store4(g, e0, e1, e2, kNoEntry);
+        list_detail::store4(g + 4, kNoEntry, kNoEntry, kNoEntry, kNoEntry);
       }
-      if (k < c_)
-        g[0] = b0_;
-      if (k + 1 < c_)
-        g[1] = b1_;
-      if (k + 2 < c_)
-        g[2] = b2_;
     }
     out_.count[i_] = c_;
   }
@@ -266,8 +270,11 @@ struct LaneListBuilder {
           }
         });
     }
-    if (g.lane == 0)
+    if (g.lane == 0) { // the last group's rest padded (RowAppender::finish)
       b.out.count[i] = c;
+      for (std::uint32_t k = c; k % kListGroup != 0 && k < b.out.capacity; ++k)
+        *b.out.slot(i, k) = kNoEntry;
+    }
   }
 };
 

@@ -9,9 +9,6 @@ namespace kf {
 /// Slots in a StagedRowAppender's ring: up to kStageSlots - kListGroup + 1 = 25 pushes between
 /// two flushes.
 constexpr std::uint32_t kStageSlots = 32;
-/// What a row's last group holds past its count (no particle: a reader that went past the
-/// count would fault rather than read particle 0).
-constexpr std::uint32_t kNoEntry = 0xFFFFFFFFu;
 
 /// Appends one particle's neighbours to its row (as RowAppender: counts all, writes those that
 /// fit), staged in a ring of kStageSlots slots and written a whole group of eight at a time by
