@@ -14,6 +14,9 @@
 #   initcheck"); one line a run: its rc and compute-sanitizer's summary, logs in OUTDIR.
 #   SAN_ONLY="test_halo_mpi pour ..." keeps only the named runs (test programs or scenes): under
 #   memcheck on an H100 the split dam break's tests take ~100 s, the scenes 1-4 s each.
+#   SAN_ARGS adds compute-sanitizer options (--print-limit N: 100 reports a rank by default).
+#   SAN_STEPS=N runs every scene N steps (initcheck is the slowest tool: the dam break's 60 steps
+#   passed 100 s; its first re-partition comes at step 20).
 set -uo pipefail
 out=$1 tools=${2:-memcheck racecheck synccheck initcheck}
 mkdir -p "$out"
@@ -23,6 +26,21 @@ san=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt"
 "$san" --version | tail -1 >> "$out/gpu.txt"
 fails=0
+# places LOG...: the distinct places of the logs' reports (their kind, the device line, the first
+# three of knitflow's host frames), most frequent first: what the print limit's 100 a rank show.
+places() {
+  awk '
+    function flush() { if (key != "") n[key]++; key = ""; frames = 0 }
+    /^========= [^ ]/ { flush(); if ($0 !~ /SUMMARY|COMPUTE-SANITIZER/) key = $0; next }
+    key != "" && /^=========     at / { key = key " | " $0; next }
+    key != "" && /Host Frame: kf::/ && $0 !~ /kf::exec::/ && frames < 3 {
+      key = key " <- " $0; frames++ }
+    END { flush(); for (k in n) print n[k] "x " k }' "$@" |
+    sed -E 's/0x[0-9a-f]+//g; s/=========  *//g; s/Host Frame: //g; s/ \[\] in [a-z_]+//g' |
+    sed -E 's/ at host access to  of size [0-9,]+ bytes//; s/  +/ /g' |
+    awk '{c[substr($0, index($0, " ") + 1)] += $1} END {for (k in c) print c[k] "x " k}' |
+    sort -rn | head -12 | sed 's/^/    /'
+}
 # check LABEL TOOL CMD...: runs CMD on 2 ranks, each rank under compute-sanitizer TOOL.
 check() {
   local label=$1 tool=$2
@@ -30,12 +48,13 @@ check() {
   [ -z "${SAN_ONLY:-}" ] || [[ " $SAN_ONLY " == *" $label "* ]] || return 0
   local log="$out/${label}_${tool}"
   local t0=$SECONDS
-  mpirun -n 2 --oversubscribe "$san" --tool "$tool" --error-exitcode 9 \
+  mpirun -n 2 --oversubscribe "$san" --tool "$tool" --error-exitcode 9 ${SAN_ARGS:-} \
     --log-file "$log.%p.san" "$@" > "$log.log" 2>&1
   local rc=$?
   local summary
   summary=$(grep -h -E 'ERROR SUMMARY|RACECHECK SUMMARY|LEAK SUMMARY' "$log".*.san | sort | uniq -c | tr -s ' ' | paste -sd';')
   echo "$label $tool rc=$rc $((SECONDS - t0)) s: ${summary:-no summary}"
+  [ $rc -eq 0 ] || places "$log".*.san
   [ $rc -eq 0 ] || fails=$((fails + 1))
 }
 tests=(
@@ -44,8 +63,12 @@ tests=(
   "test_distributed_mpi Distributed.OnTheGpu*"
   "test_distributed_knit_mpi DistributedKnit.OnTheGpu*"
 )
-small=(--device cuda --set output.enabled=false)
 for tool in $tools; do
+  small=(--device cuda --set output.enabled=false)
+  # initcheck cannot see a peer process's writes to memory imported through CUDA IPC: every copy
+  # out of a peer's packed buffer reads as uninitialized. The MPI transport carries the same
+  # bytes staged through pinned host memory, each rank's device copies of its own memory checked.
+  [ "$tool" = initcheck ] && small+=(--set 'parallel.transport="mpi"')
   if [ "$tool" != initcheck ]; then
     for t in "${tests[@]}"; do
       set -- $t
@@ -54,14 +77,14 @@ for tool in $tools; do
   fi
   check dambreak "$tool" knitflow run scenes/dambreak.toml "${small[@]}" \
     --set fluid.spacing=0.02 --set 'solver.neighbour_list="verlet"' --set parallel.imbalance=1.0 \
-    --set parallel.payback=false --set parallel.check_every=20 --set solver.max_steps=60
+    --set parallel.payback=false --set parallel.check_every=20 --set solver.max_steps=${SAN_STEPS:-60}
   check pour "$tool" knitflow run scenes/pour.toml "${small[@]}" --set fluid.spacing=0.012 \
-    --set knit.piece.0.wales=24 --set knit.piece.0.courses=24 --set solver.max_steps=40
+    --set knit.piece.0.wales=24 --set knit.piece.0.courses=24 --set solver.max_steps=${SAN_STEPS:-40}
   check wicking "$tool" knitflow run scenes/wicking.toml "${small[@]}" --set fluid.spacing=0.01 \
-    --set knit.piece.0.courses=32 --set solver.max_steps=40
+    --set knit.piece.0.courses=32 --set solver.max_steps=${SAN_STEPS:-40}
   check drape "$tool" knitflow run scenes/drape.toml "${small[@]}" --set knit.piece.0.wales=32 \
-    --set knit.piece.0.courses=32 --set solver.max_steps=40
-  check garment "$tool" knitflow run scenes/garment.toml "${small[@]}" --set solver.max_steps=20
+    --set knit.piece.0.courses=32 --set solver.max_steps=${SAN_STEPS:-40}
+  check garment "$tool" knitflow run scenes/garment.toml "${small[@]}" --set solver.max_steps=${SAN_STEPS:-20}
 done
 echo "runs failed: $fails"
 [ $fails -eq 0 ]
