@@ -938,6 +938,23 @@ TEST_P(ExecTest, DeviceBufferCopiesAndMoves) {
   EXPECT_EQ(a.size(), 0u); // NOLINT(bugprone-use-after-move): moved-from is empty by contract
 }
 
+// host_value(i) reads element i, and only it: the elements around it may be unwritten (a run
+// without their phase); an index past the size is an error naming the buffer.
+TEST_P(ExecTest, DeviceBufferHostValueIsTheElement) {
+  const auto h = random_f64(5, 31);
+  DeviceBuffer<double> a(b(), 0, "test.values");
+  a.assign(h);
+  for (std::size_t i = 0; i < h.size(); ++i)
+    EXPECT_EQ(a.host_value(i), h[i]) << i;
+  try {
+    (void)a.host_value(5);
+    ADD_FAILURE() << "no error for element 5 of 5";
+  } catch (const kf::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("test.values: element 5 of 5"), std::string::npos)
+        << e.what();
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Backends, ExecTest, ::testing::Values(Backend::Cpu, Backend::Cuda),
                          [](const ::testing::TestParamInfo<Backend>& info) {
                            return info.param == Backend::Cpu ? std::string("Cpu")
