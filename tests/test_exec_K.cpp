@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <numeric>
@@ -953,6 +954,23 @@ TEST_P(ExecTest, DeviceBufferHostValueIsTheElement) {
     EXPECT_NE(std::string(e.what()).find("test.values: element 5 of 5"), std::string::npos)
         << e.what();
   }
+}
+
+// KF_POISON_ALLOCATIONS=1 (ctest's "_poisoned" runs): a fresh buffer holds 0xFF bytes, NaN in
+// every float, so that the tests run under it see any value read before it was written.
+TEST_P(ExecTest, AFreshBufferIsPoisonedWhenAsked) {
+  const char* v = std::getenv("KF_POISON_ALLOCATIONS");
+  if (!v || v[0] != '1')
+    GTEST_SKIP() << "KF_POISON_ALLOCATIONS is not 1 (test_exec_K_poisoned sets it)";
+  DeviceBuffer<float> f(b(), 1000, "test.fresh");
+  for (float x : f.to_host())
+    ASSERT_TRUE(std::isnan(x));
+  DeviceBuffer<std::uint32_t> u(b(), 0, "test.grown");
+  u.assign(std::vector<std::uint32_t>(10, 7u));
+  u.resize(5000); // the growth's new room, past the ten copied
+  const auto h = u.to_host();
+  for (std::size_t i = 10; i < h.size(); ++i)
+    ASSERT_EQ(h[i], 0xFFFFFFFFu) << i;
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, ExecTest, ::testing::Values(Backend::Cpu, Backend::Cuda),

@@ -213,6 +213,20 @@ std::vector<LabelledBytes> peak_by_label(Backend b) {
   return out;
 }
 
+namespace {
+/// KF_POISON_ALLOCATIONS=1: every allocation starts as 0xFF bytes (NaN in every float and
+/// double, the largest value of every unsigned), so that a value read before anything wrote it
+/// shows in the results: the CPU's counterpart of compute-sanitizer initcheck, for the tests
+/// (those registered "_poisoned"). Read once per process.
+bool poison_allocations() {
+  static const bool on = [] {
+    const char* v = std::getenv("KF_POISON_ALLOCATIONS");
+    return v != nullptr && v[0] == '1';
+  }();
+  return on;
+}
+} // namespace
+
 void* alloc_bytes(Backend b, std::size_t bytes, const char* what) {
   if (bytes == 0)
     return nullptr;
@@ -220,11 +234,15 @@ void* alloc_bytes(Backend b, std::size_t bytes, const char* what) {
   if (b == Backend::Cuda) {
 #if defined(KF_WITH_CUDA)
     p = cuda_alloc(bytes, what);
+    if (poison_allocations())
+      cuda_copy(p, true, std::vector<unsigned char>(bytes, 0xFF).data(), false, bytes);
 #else
     no_cuda(what);
 #endif
   } else {
     p = aligned_host(bytes, what);
+    if (poison_allocations())
+      std::memset(p, 0xFF, bytes);
   }
   Ledger::get().add(b, p, bytes, what);
   return p;
