@@ -9,7 +9,7 @@
 #    the drape, the garment.
 # Tools: memcheck (out-of-bounds and misaligned device accesses, CUDA API errors, device
 # memory leaked at exit), racecheck (shared-memory hazards), synccheck (barriers), initcheck
-# (device memory read before it was written; knitflow's runs only).
+# (device memory read before it was written; knitflow's runs only, over the MPI transport).
 # Usage: jobs/gpu/p5_sanitizer.sh OUTDIR [TOOLS]   (default TOOLS "memcheck racecheck synccheck
 #   initcheck"); one line a run: its rc and compute-sanitizer's summary, logs in OUTDIR.
 #   SAN_ONLY="test_halo_mpi pour ..." keeps only the named runs (test programs or scenes): under
