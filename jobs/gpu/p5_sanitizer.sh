@@ -84,8 +84,13 @@ for tool in $tools; do
   check pour "$tool" knitflow run scenes/pour.toml "${small[@]}" --set fluid.spacing=0.012 \
     --set knit.piece.0.wales=24 --set knit.piece.0.courses=24 --set solver.max_steps=${SAN_STEPS:-40} \
     --set 'fluid.block.0.min=[-0.04,-0.04,0.535]' --set 'fluid.block.0.max=[0.04,0.04,0.65]'
+  # The strip's foot starts 1 cm deep in the pool (the scene lowers it there over ~220 steps):
+  # the conserving absorption runs from the first step (80 contacts, 42 wet points by step 21).
   check wicking "$tool" knitflow run scenes/wicking.toml "${small[@]}" --set fluid.spacing=0.01 \
-    --set knit.piece.0.courses=32 --set solver.max_steps=${SAN_STEPS:-40}
+    --set knit.piece.0.courses=32 --set solver.max_steps=${SAN_STEPS:-40} \
+    --set 'knit.piece.0.center=[0,0,0.10]' --set 'knit.pin.0.min=[-0.02,-0.01,0.175]' \
+    --set 'knit.pin.0.max=[0.02,0.01,0.185]' --set 'knit.pin.1.min=[-0.02,-0.01,0.015]' \
+    --set 'knit.pin.1.max=[0.02,0.01,0.025]'
   check drape "$tool" knitflow run scenes/drape.toml "${small[@]}" --set knit.piece.0.wales=32 \
     --set knit.piece.0.courses=32 --set solver.max_steps=${SAN_STEPS:-40}
   check garment "$tool" knitflow run scenes/garment.toml "${small[@]}" --set solver.max_steps=${SAN_STEPS:-20}
