@@ -40,6 +40,8 @@ struct HeldBytes {
 HeldBytes held_bytes(Backend b);
 void reset_peak_bytes(Backend b);
 void copy_bytes(void* dst, Backend dst_b, const void* src, Backend src_b, std::size_t bytes);
+/// Sets `bytes` bytes at p to `byte`, finished on return (poisoning: tests, KF_POISON_ALLOCATIONS).
+void fill_bytes(Backend b, void* p, unsigned char byte, std::size_t bytes);
 /// Waits until all work queued on the backend is finished (no-op on CPU).
 void synchronize(Backend b);
 /// Host memory that copies to and from the backend move at full speed: page-locked for a device

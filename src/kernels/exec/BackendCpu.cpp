@@ -26,6 +26,7 @@ namespace kf::exec {
 void* cuda_alloc(std::size_t bytes, const char* what);
 void cuda_free(void* p) noexcept;
 void cuda_copy(void* dst, bool dst_dev, const void* src, bool src_dev, std::size_t bytes);
+void cuda_fill(void* p, unsigned char byte, std::size_t bytes);
 void cuda_synchronize();
 void* cuda_alloc_pinned(std::size_t bytes, const char* what);
 void cuda_free_pinned(void* p) noexcept;
@@ -234,16 +235,14 @@ void* alloc_bytes(Backend b, std::size_t bytes, const char* what) {
   if (b == Backend::Cuda) {
 #if defined(KF_WITH_CUDA)
     p = cuda_alloc(bytes, what);
-    if (poison_allocations())
-      cuda_copy(p, true, std::vector<unsigned char>(bytes, 0xFF).data(), false, bytes);
 #else
     no_cuda(what);
 #endif
   } else {
     p = aligned_host(bytes, what);
-    if (poison_allocations())
-      std::memset(p, 0xFF, bytes);
   }
+  if (poison_allocations())
+    fill_bytes(b, p, 0xFF, bytes);
   Ledger::get().add(b, p, bytes, what);
   return p;
 }
@@ -272,6 +271,20 @@ void copy_bytes(void* dst, Backend dst_b, const void* src, Backend src_b, std::s
   cuda_copy(dst, dst_b == Backend::Cuda, src, src_b == Backend::Cuda, bytes);
 #else
   no_cuda("copy_bytes");
+#endif
+}
+
+void fill_bytes(Backend b, void* p, unsigned char byte, std::size_t bytes) {
+  if (bytes == 0)
+    return;
+  if (b == Backend::Cpu) {
+    std::memset(p, byte, bytes);
+    return;
+  }
+#if defined(KF_WITH_CUDA)
+  cuda_fill(p, byte, bytes);
+#else
+  no_cuda("fill_bytes");
 #endif
 }
 

@@ -401,6 +401,12 @@ void cuda_copy(void* dst, bool dst_dev, const void* src, bool src_dev, std::size
                                                  (dst_dev ? "device" : "host"));
 }
 
+void cuda_fill(void* p, unsigned char byte, std::size_t bytes) {
+  // Synchronised: a stream that does not wait on the legacy default one may use p next.
+  KF_CUDA(cudaMemset(p, byte, bytes), "setting " + std::to_string(bytes) + " bytes");
+  KF_CUDA(cudaDeviceSynchronize(), "setting " + std::to_string(bytes) + " bytes");
+}
+
 void* cuda_alloc_pinned(std::size_t bytes, const char* what) {
   void* p = nullptr;
   KF_CUDA(cudaMallocHost(&p, bytes), std::string("allocating ") + std::to_string(bytes) +

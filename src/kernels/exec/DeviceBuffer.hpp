@@ -135,12 +135,7 @@ public:
   }
 
   /// Fills every byte with `byte` (tests poison outputs with 0xFF so unwritten elements show).
-  void poison(unsigned char byte = 0xFF) {
-    if (!size_)
-      return;
-    std::vector<unsigned char> h(bytes(), byte);
-    copy_bytes(ptr_, backend_, h.data(), Backend::Cpu, bytes());
-  }
+  void poison(unsigned char byte = 0xFF) { fill_bytes(backend_, ptr_, byte, bytes()); }
 
 private:
   /// Room for n >= size() elements, the first size() kept (alloc_bytes holds nothing for 0).
