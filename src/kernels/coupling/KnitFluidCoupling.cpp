@@ -218,8 +218,10 @@ void KnitFluidCoupling<T>::size_rows(const exec::Exec& ex, std::size_t n) {
   last_near_ = static_cast<std::uint32_t>(near);
   if (rows_for(near, n) > rows_) {
     rows_ = rows_for(near, n);
-    row_active_.resize(rows_);
-    row_x_.resize(rows_);
+    // Written anew by RowsPlaced after every sizing (every row's flag, the near rows' x): a copy
+    // of the old would carry rows past the near count never written (initcheck's finding).
+    row_active_.resize_snug_discarding(rows_);
+    row_x_.resize_snug_discarding(rows_);
   }
 }
 
