@@ -103,7 +103,9 @@ TEST(Pour, TwoThousandStepsCoarserOnTheCpu) {
   // `knitflow plan`'s memory against the run's peak: an upper figure (a GPU chosen by it is
   // not short), as near as its bound on the fluid near the knit allows. Here the bound is the
   // whole fluid (the knit's cells and those around hold more at its spacing) where at most 29%
-  // came near: plan 2.2% over the peak (measured); before it counted the coupling, 53% of it.
+  // came near: plan 8.8% over the peak (measured; the rows' columns for the whole fluid, 8,000
+  // rows where 2,334 were used). It was 2.2% over while the coupling's pair forces grew by a copy
+  // (old and new held at once at the peak, 2.8 MB); before it counted the coupling, 53% of it.
   const PlanReport plan = Simulation::plan(s);
   std::printf("the coarse pour: the CPU backend's peak %.0f bytes, plan %.4f of it; the coupling's "
               "rows up to %llu fluid particles, plan's bound %zu\n",
@@ -111,7 +113,7 @@ TEST(Pour, TwoThousandStepsCoarserOnTheCpu) {
               static_cast<unsigned long long>(held.most_rows), plan.coupling_near);
   EXPECT_LE(held.most_rows, plan.coupling_near);
   EXPECT_GE(double(plan.bytes()), held.peak);
-  EXPECT_LE(double(plan.bytes()), 1.05 * held.peak);
+  EXPECT_LE(double(plan.bytes()), 1.10 * held.peak);
 }
 
 // The run's own sum of what it holds (Simulation::memory_bytes, the summary's and plan's measure)

@@ -197,7 +197,9 @@ void KnitFluidCoupling<T>::begin_lists(const exec::Exec& ex, KnitSet<T>& knit,
   knit_rows_.build(ex, list_.view(), row_active_.data(), perm().data(), n, knit_capacity_,
                    near_count_.data());
   near_read_.start(near_count_.data());
-  pair_force_.resize(list_.view().capacity * rows_);
+  // A slot a pair of these lists, written by the fluid's side before the knit's reads it: the
+  // old lists' forces are not kept where it grows.
+  pair_force_.resize_snug_discarding(list_.view().capacity * rows_);
   // Only a build for an anchor may be kept: one for the fluid where it is now is for this step.
   built_ = anchored ? std::optional<Built>(now) : std::nullopt;
   ++list_builds_;
