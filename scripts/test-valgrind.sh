@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# knitflow's scenes on the CPU backend under Valgrind's memcheck, on 1 and on 2 ranks: a
+# decision or a system call made on a value never written (the CPU's counterpart of
+# compute-sanitizer's initcheck, and stricter about what counts: memcheck reports a use, not a
+# copy), reads and writes past a block, frees gone wrong. The CPU backend's buffers come from
+# `exec::alloc_bytes` unwritten, so a pass that reads a slot nothing wrote shows here where the
+# poisoned runs (KF_POISON_ALLOCATIONS, which this run must not set: the 0xFF fill counts as
+# written) show only a read whose NaN reaches a result. The scenes as jobs/gpu/p5_sanitizer.sh
+# runs them (the pour's stream just above the knit, the wicking strip's foot in its pool, the
+# dam break re-partitioned every 20 steps), the coupling running within the steps. Not part of
+# .ci/run (memcheck runs a step ~50x slower). Release build: frames name functions, not lines.
+# Usage: scripts/test-valgrind.sh [STEPS] [RUNS]   (default 200; RUNS e.g. "pour wicking")
+#   logs in build/valgrind/; one line a run; exit 1 if any run reports.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+command -v valgrind >/dev/null || {
+  SUDO=""
+  [ "$(id -u)" -ne 0 ] && SUDO="sudo"
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends valgrind >/dev/null
+}
+scripts/install-deps.sh
+if [ "$(id -u)" -eq 0 ]; then export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1; fi
+[ -x build/cpu/apps/knitflow ] || { cmake --preset cpu >/dev/null && cmake --build build/cpu -j"$(nproc)" --target knitflow >/dev/null; }
+steps=${1:-200} only=${2:-}
+out=build/valgrind
+mkdir -p "$out"
+rm -f "$out"/*.vg
+unset KF_POISON_ALLOCATIONS
+export OMP_NUM_THREADS=1
+# Open MPI's own (its shared file) and the few PMIx / Open MPI reports it lacks (ours).
+supp=(--suppressions=/usr/share/openmpi/openmpi-valgrind.supp
+  --suppressions="$PWD/tests/sanitizers/valgrind.supp")
+fails=0
+check() { # LABEL RANKS ARGS...
+  local label=$1 ranks=$2
+  shift 2
+  [ -z "$only" ] || [[ " $only " == *" $label "* ]] || return 0
+  local log="$out/${label}_np$ranks" t0=$SECONDS
+  mpiexec -n "$ranks" --oversubscribe valgrind --tool=memcheck --error-limit=no --track-origins=yes \
+    --num-callers=20 --error-exitcode=9 "${supp[@]}" --log-file="$log.%p.vg" \
+    build/cpu/apps/knitflow run "$@" --device cpu --set output.enabled=false \
+    --set solver.max_steps="$steps" > "$log.log" 2>&1
+  local rc=$?
+  local errors
+  errors=$(grep -h "ERROR SUMMARY" "$log".*.vg | awk '{s += $4} END {print s + 0}')
+  echo "$label, $ranks rank(s): rc=$rc, $errors errors, $((SECONDS - t0)) s; $(grep -h -E '^coupling:' "$log.log" | head -1)"
+  if [ $rc -ne 0 ] || [ "$errors" != 0 ]; then
+    fails=$((fails + 1))
+    # Each report's kind and its first three of knitflow's frames, most frequent first.
+    awk '/^==[0-9]+== [A-Z]/ && !/SUMMARY|Memcheck|Copyright|Using|Command|HEAP|LEAK|in use|total heap|definitely|indirectly|possibly|still|suppressed|For lists|Rerun|Thread|Uninitialised value was created/ {
+           if (key != "") print key; key = substr($0, index($0, " ") + 1); n = 0; next }
+         key != "" && /kf::/ && n < 3 { sub(/.*: /, ""); key = key " <- " $0; n++ }
+         END { if (key != "") print key }' "$log".*.vg | sed -E 's/ \(in [^)]*\)//g' |
+      sort | uniq -c | sort -rn | head -8 | sed 's/^/    /'
+  fi
+}
+for ranks in 1 2; do
+  check dambreak "$ranks" scenes/dambreak.toml --set fluid.spacing=0.02 \
+    --set 'solver.neighbour_list="verlet"' --set parallel.imbalance=1.0 \
+    --set parallel.payback=false --set parallel.check_every=20
+  check pour "$ranks" scenes/pour.toml --set fluid.spacing=0.012 --set knit.piece.0.wales=24 \
+    --set knit.piece.0.courses=24 --set 'fluid.block.0.min=[-0.04,-0.04,0.535]' \
+    --set 'fluid.block.0.max=[0.04,0.04,0.65]'
+  check wicking "$ranks" scenes/wicking.toml --set fluid.spacing=0.01 --set knit.piece.0.courses=32 \
+    --set 'knit.piece.0.center=[0,0,0.10]' --set 'knit.pin.0.min=[-0.02,-0.01,0.175]' \
+    --set 'knit.pin.0.max=[0.02,0.01,0.185]' --set 'knit.pin.1.min=[-0.02,-0.01,0.015]' \
+    --set 'knit.pin.1.max=[0.02,0.01,0.025]'
+  check drape "$ranks" scenes/drape.toml --set knit.piece.0.wales=32 --set knit.piece.0.courses=32
+  check garment "$ranks" scenes/garment.toml
+done
+echo "runs reporting: $fails"
+[ $fails -eq 0 ]
