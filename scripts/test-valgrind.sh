@@ -8,8 +8,9 @@
 # written) show only a read whose NaN reaches a result. The scenes as jobs/gpu/p5_sanitizer.sh
 # runs them (the pour's stream just above the knit, the wicking strip's foot in its pool, the
 # dam break re-partitioned every 20 steps), the coupling running within the steps. Not part of
-# .ci/run (memcheck runs a step ~50x slower). Release build: frames name functions, not lines.
-# Usage: scripts/test-valgrind.sh [STEPS] [RUNS]   (default 200; RUNS e.g. "pour wicking")
+# .ci/run (memcheck runs a step ~50x slower; all at 200 steps: ~4 min on 2 cores). Release build:
+# frames name functions, not lines. Then snapshots and restart across rank counts (below).
+# Usage: scripts/test-valgrind.sh [STEPS] [RUNS]   (default 200; RUNS e.g. "pour wicking restart")
 #   logs in build/valgrind/; one line a run; exit 1 if any run reports.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -31,15 +32,15 @@ export OMP_NUM_THREADS=1
 supp=(--suppressions=/usr/share/openmpi/openmpi-valgrind.supp
   --suppressions="$PWD/tests/sanitizers/valgrind.supp")
 fails=0
-check() { # LABEL RANKS ARGS...
+check() { # LABEL RANKS ARGS...   (IO=ARGS: the run's output, none by default; N=STEPS)
   local label=$1 ranks=$2
   shift 2
-  [ -z "$only" ] || [[ " $only " == *" $label "* ]] || return 0
+  [ -z "$only" ] || [[ " $only " == *" ${label%%_*} "* ]] || return 0
   local log="$out/${label}_np$ranks" t0=$SECONDS
   mpiexec -n "$ranks" --oversubscribe valgrind --tool=memcheck --error-limit=no --track-origins=yes \
     --num-callers=20 --error-exitcode=9 "${supp[@]}" --log-file="$log.%p.vg" \
-    build/cpu/apps/knitflow run "$@" --device cpu --set output.enabled=false \
-    --set solver.max_steps="$steps" > "$log.log" 2>&1
+    build/cpu/apps/knitflow run "$@" --device cpu ${IO:---set output.enabled=false} \
+    --set solver.max_steps="${N:-$steps}" > "$log.log" 2>&1
   local rc=$?
   local errors
   errors=$(grep -h "ERROR SUMMARY" "$log".*.vg | awk '{s += $4} END {print s + 0}')
@@ -54,6 +55,9 @@ check() { # LABEL RANKS ARGS...
       sort | uniq -c | sort -rn | head -8 | sed 's/^/    /'
   fi
 }
+strip=(--set fluid.spacing=0.01 --set knit.piece.0.courses=32 --set 'knit.piece.0.center=[0,0,0.10]'
+  --set 'knit.pin.0.min=[-0.02,-0.01,0.175]' --set 'knit.pin.0.max=[0.02,0.01,0.185]'
+  --set 'knit.pin.1.min=[-0.02,-0.01,0.015]' --set 'knit.pin.1.max=[0.02,0.01,0.025]')
 for ranks in 1 2; do
   check dambreak "$ranks" scenes/dambreak.toml --set fluid.spacing=0.02 \
     --set 'solver.neighbour_list="verlet"' --set parallel.imbalance=1.0 \
@@ -61,12 +65,20 @@ for ranks in 1 2; do
   check pour "$ranks" scenes/pour.toml --set fluid.spacing=0.012 --set knit.piece.0.wales=24 \
     --set knit.piece.0.courses=24 --set 'fluid.block.0.min=[-0.04,-0.04,0.535]' \
     --set 'fluid.block.0.max=[0.04,0.04,0.65]'
-  check wicking "$ranks" scenes/wicking.toml --set fluid.spacing=0.01 --set knit.piece.0.courses=32 \
-    --set 'knit.piece.0.center=[0,0,0.10]' --set 'knit.pin.0.min=[-0.02,-0.01,0.175]' \
-    --set 'knit.pin.0.max=[0.02,0.01,0.185]' --set 'knit.pin.1.min=[-0.02,-0.01,0.015]' \
-    --set 'knit.pin.1.max=[0.02,0.01,0.025]'
+  check wicking "$ranks" scenes/wicking.toml "${strip[@]}"
   check drape "$ranks" scenes/drape.toml --set knit.piece.0.wales=32 --set knit.piece.0.courses=32
   check garment "$ranks" scenes/garment.toml
+done
+# Snapshots and restart (the parallel HDF5 writer and reader, the conserving absorption's
+# state): the strip on 2 ranks writes a frame at t = 0.005 s (~110 steps), and continues from it
+# on 1 and on 3 ranks for 100 steps more.
+rm -rf "$out"/frames*
+io=(--output "$out/frames" --set output.interval=0.005)
+IO="${io[*]}" N=$((steps > 150 ? steps : 150)) check restart_write 2 scenes/wicking.toml "${strip[@]}"
+frame=$(ls "$out"/frames/frame_*.h5 2>/dev/null | tail -1)
+for ranks in 1 3; do # each from the 2 ranks' newest frame, writing elsewhere
+  IO="--output $out/frames_np$ranks --set output.interval=0.005 --restart ${frame:-none}" \
+    N=$(((steps > 150 ? steps : 150) + 100)) check restart_read "$ranks" scenes/wicking.toml "${strip[@]}"
 done
 echo "runs reporting: $fails"
 [ $fails -eq 0 ]
