@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # knitflow's scenes on the CPU backend under Valgrind's memcheck, on 1 and on 2 ranks: a
 # decision or a system call made on a value never written (the CPU's counterpart of
-# compute-sanitizer's initcheck, and stricter about what counts: memcheck reports a use, not a
-# copy), reads and writes past a block, frees gone wrong. The CPU backend's buffers come from
+# compute-sanitizer's initcheck, which reports the copy of such a value where memcheck reports its
+# use), reads and writes past a block, frees gone wrong. The CPU backend's buffers come from
 # `exec::alloc_bytes` unwritten, so a pass that reads a slot nothing wrote shows here where the
 # poisoned runs (KF_POISON_ALLOCATIONS, which this run must not set: the 0xFF fill counts as
 # written) show only a read whose NaN reaches a result. The scenes as jobs/gpu/p5_sanitizer.sh
@@ -10,7 +10,8 @@
 # dam break re-partitioned every 20 steps), the coupling running within the steps. Not part of
 # .ci/run (memcheck runs a step ~50x slower; all at 200 steps: ~4 min on 2 cores). Release build:
 # frames name functions, not lines. Then snapshots and restart across rank counts (below).
-# Usage: scripts/test-valgrind.sh [STEPS] [RUNS]   (default 200; RUNS e.g. "pour wicking restart")
+# Usage: scripts/test-valgrind.sh [STEPS] [RUNS]   (default 200; RUNS e.g. "pour wicking restart";
+#   "tests" adds the MPI test programs)
 #   logs in build/valgrind/; one line a run; exit 1 if any run reports.
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -80,5 +81,21 @@ for ranks in 1 3; do # each from the 2 ranks' newest frame, writing elsewhere
   IO="--output $out/frames_np$ranks --set output.interval=0.005 --restart ${frame:-none}" \
     N=$(((steps > 150 ? steps : 150) + 100)) check restart_read "$ranks" scenes/wicking.toml "${strip[@]}"
 done
+# The MPI test programs on 2 ranks, only when asked (RUNS naming "tests"; test_distributed_mpi
+# takes ~20 s in CI, far longer under memcheck): the transports, the snapshots, the split's
+# equality with one rank. Each program's own checks must pass too (rc).
+if [[ " $only " == *" tests "* ]]; then
+  for t in test_transport_mpi test_snapshot_mpi test_halo_mpi test_distributed_mpi; do
+    [ -x "build/cpu/tests/$t" ] || cmake --build build/cpu -j"$(nproc)" --target "$t" >/dev/null
+    log="$out/$t" t0=$SECONDS
+    mpiexec -n 2 --oversubscribe valgrind --tool=memcheck --error-limit=no --track-origins=yes \
+      --num-callers=20 --error-exitcode=9 "${supp[@]}" --log-file="$log.%p.vg" \
+      "build/cpu/tests/$t" > "$log.log" 2>&1
+    rc=$?
+    errors=$(grep -h "ERROR SUMMARY" "$log".*.vg | awk '{s += $4} END {print s + 0}')
+    echo "$t, 2 ranks: rc=$rc, $errors errors, $((SECONDS - t0)) s"
+    [ $rc -eq 0 ] && [ "$errors" = 0 ] || fails=$((fails + 1))
+  done
+fi
 echo "runs reporting: $fails"
 [ $fails -eq 0 ]
