@@ -33,18 +33,23 @@ export OMP_NUM_THREADS=1
 supp=(--suppressions=/usr/share/openmpi/openmpi-valgrind.supp
   --suppressions="$PWD/tests/sanitizers/valgrind.supp")
 fails=0
+memcheck() { # RANKS LOG CMD...: CMD on RANKS ranks, each under memcheck; its output in LOG.log
+  local ranks=$1 log=$2
+  shift 2
+  mpiexec -n "$ranks" --oversubscribe valgrind --tool=memcheck --error-limit=no --track-origins=yes \
+    --num-callers=20 --error-exitcode=9 "${supp[@]}" --log-file="$log.%p.vg" "$@" > "$log.log" 2>&1
+}
+reported() { grep -h "ERROR SUMMARY" "$1".*.vg | awk '{s += $4} END {print s + 0}'; } # LOG
 check() { # LABEL RANKS ARGS...   (IO=ARGS: the run's output, none by default; N=STEPS)
   local label=$1 ranks=$2
   shift 2
   [ -z "$only" ] || [[ " $only " == *" ${label%%_*} "* ]] || return 0
   local log="$out/${label}_np$ranks" t0=$SECONDS
-  mpiexec -n "$ranks" --oversubscribe valgrind --tool=memcheck --error-limit=no --track-origins=yes \
-    --num-callers=20 --error-exitcode=9 "${supp[@]}" --log-file="$log.%p.vg" \
-    build/cpu/apps/knitflow run "$@" --device cpu ${IO:---set output.enabled=false} \
-    --set solver.max_steps="${N:-$steps}" > "$log.log" 2>&1
+  memcheck "$ranks" "$log" build/cpu/apps/knitflow run "$@" --device cpu \
+    ${IO:---set output.enabled=false} --set solver.max_steps="${N:-$steps}"
   local rc=$?
   local errors
-  errors=$(grep -h "ERROR SUMMARY" "$log".*.vg | awk '{s += $4} END {print s + 0}')
+  errors=$(reported "$log")
   echo "$label, $ranks rank(s): rc=$rc, $errors errors, $((SECONDS - t0)) s; $(grep -h -E '^coupling:' "$log.log" | head -1)"
   if [ $rc -ne 0 ] || [ "$errors" != 0 ]; then
     fails=$((fails + 1))
@@ -56,30 +61,23 @@ check() { # LABEL RANKS ARGS...   (IO=ARGS: the run's output, none by default; N
       sort | uniq -c | sort -rn | head -8 | sed 's/^/    /'
   fi
 }
-strip=(--set fluid.spacing=0.01 --set knit.piece.0.courses=32 --set 'knit.piece.0.center=[0,0,0.10]'
-  --set 'knit.pin.0.min=[-0.02,-0.01,0.175]' --set 'knit.pin.0.max=[0.02,0.01,0.185]'
-  --set 'knit.pin.1.min=[-0.02,-0.01,0.015]' --set 'knit.pin.1.max=[0.02,0.01,0.025]')
+. scripts/sanitizer-scenes.sh
 for ranks in 1 2; do
-  check dambreak "$ranks" scenes/dambreak.toml --set fluid.spacing=0.02 \
-    --set 'solver.neighbour_list="verlet"' --set parallel.imbalance=1.0 \
-    --set parallel.payback=false --set parallel.check_every=20
-  check pour "$ranks" scenes/pour.toml --set fluid.spacing=0.012 --set knit.piece.0.wales=24 \
-    --set knit.piece.0.courses=24 --set 'fluid.block.0.min=[-0.04,-0.04,0.535]' \
-    --set 'fluid.block.0.max=[0.04,0.04,0.65]'
-  check wicking "$ranks" scenes/wicking.toml "${strip[@]}"
-  check drape "$ranks" scenes/drape.toml --set knit.piece.0.wales=32 --set knit.piece.0.courses=32
-  check garment "$ranks" scenes/garment.toml
+  for scene in dambreak pour wicking drape garment; do
+    args="san_$scene[@]"
+    check "$scene" "$ranks" "${!args}"
+  done
 done
 # Snapshots and restart (the parallel HDF5 writer and reader, the conserving absorption's
 # state): the strip on 2 ranks writes a frame at t = 0.005 s (~110 steps), and continues from it
 # on 1 and on 3 ranks for 100 steps more.
 rm -rf "$out"/frames*
 io=(--output "$out/frames" --set output.interval=0.005)
-IO="${io[*]}" N=$((steps > 150 ? steps : 150)) check restart_write 2 scenes/wicking.toml "${strip[@]}"
+IO="${io[*]}" N=$((steps > 150 ? steps : 150)) check restart_write 2 "${san_wicking[@]}"
 frame=$(ls "$out"/frames/frame_*.h5 2>/dev/null | tail -1)
 for ranks in 1 3; do # each from the 2 ranks' newest frame, writing elsewhere
   IO="--output $out/frames_np$ranks --set output.interval=0.005 --restart ${frame:-none}" \
-    N=$(((steps > 150 ? steps : 150) + 100)) check restart_read "$ranks" scenes/wicking.toml "${strip[@]}"
+    N=$(((steps > 150 ? steps : 150) + 100)) check restart_read "$ranks" "${san_wicking[@]}"
 done
 # The MPI test programs on 2 ranks, only when asked (RUNS naming "tests"; test_distributed_mpi
 # takes ~20 s in CI, far longer under memcheck): the transports, the snapshots, the split's
@@ -88,11 +86,9 @@ if [[ " $only " == *" tests "* ]]; then
   for t in test_transport_mpi test_snapshot_mpi test_halo_mpi test_distributed_mpi; do
     [ -x "build/cpu/tests/$t" ] || cmake --build build/cpu -j"$(nproc)" --target "$t" >/dev/null
     log="$out/$t" t0=$SECONDS
-    mpiexec -n 2 --oversubscribe valgrind --tool=memcheck --error-limit=no --track-origins=yes \
-      --num-callers=20 --error-exitcode=9 "${supp[@]}" --log-file="$log.%p.vg" \
-      "build/cpu/tests/$t" > "$log.log" 2>&1
+    memcheck 2 "$log" "build/cpu/tests/$t"
     rc=$?
-    errors=$(grep -h "ERROR SUMMARY" "$log".*.vg | awk '{s += $4} END {print s + 0}')
+    errors=$(reported "$log")
     echo "$t, 2 ranks: rc=$rc, $errors errors, $((SECONDS - t0)) s"
     [ $rc -eq 0 ] && [ "$errors" = 0 ] || fails=$((fails + 1))
   done

@@ -25,6 +25,7 @@ san=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 
 [ -n "$san" ] || { echo "no compute-sanitizer"; exit 2; }
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt"
 "$san" --version | tail -1 >> "$out/gpu.txt"
+. "$(dirname "$0")/../../scripts/sanitizer-scenes.sh"
 fails=0
 # places LOG...: the distinct places of the logs' reports (their kind, the device line, the first
 # three of knitflow's host frames), most frequent first: what the print limit's 100 a rank show.
@@ -75,25 +76,11 @@ for tool in $tools; do
       check "$1" "$tool" "$1" --gtest_filter="$2"
     done
   fi
-  check dambreak "$tool" knitflow run scenes/dambreak.toml "${small[@]}" \
-    --set fluid.spacing=0.02 --set 'solver.neighbour_list="verlet"' --set parallel.imbalance=1.0 \
-    --set parallel.payback=false --set parallel.check_every=20 --set solver.max_steps=${SAN_STEPS:-60}
-  # The stream starts just above the knit, so that the coupling (contacts, absorption, the
-  # coupling's ghosts) runs within the steps: from the scene's height it meets the knit after
-  # ~400 steps (before 2026-12-07, fourth session, the job's pour never reached it).
-  check pour "$tool" knitflow run scenes/pour.toml "${small[@]}" --set fluid.spacing=0.012 \
-    --set knit.piece.0.wales=24 --set knit.piece.0.courses=24 --set solver.max_steps=${SAN_STEPS:-40} \
-    --set 'fluid.block.0.min=[-0.04,-0.04,0.535]' --set 'fluid.block.0.max=[0.04,0.04,0.65]'
-  # The strip's foot starts 1 cm deep in the pool (the scene lowers it there over ~220 steps):
-  # the conserving absorption runs from the first step (80 contacts, 42 wet points by step 21).
-  check wicking "$tool" knitflow run scenes/wicking.toml "${small[@]}" --set fluid.spacing=0.01 \
-    --set knit.piece.0.courses=32 --set solver.max_steps=${SAN_STEPS:-40} \
-    --set 'knit.piece.0.center=[0,0,0.10]' --set 'knit.pin.0.min=[-0.02,-0.01,0.175]' \
-    --set 'knit.pin.0.max=[0.02,0.01,0.185]' --set 'knit.pin.1.min=[-0.02,-0.01,0.015]' \
-    --set 'knit.pin.1.max=[0.02,0.01,0.025]'
-  check drape "$tool" knitflow run scenes/drape.toml "${small[@]}" --set knit.piece.0.wales=32 \
-    --set knit.piece.0.courses=32 --set solver.max_steps=${SAN_STEPS:-40}
-  check garment "$tool" knitflow run scenes/garment.toml "${small[@]}" --set solver.max_steps=${SAN_STEPS:-20}
+  check dambreak "$tool" knitflow run "${san_dambreak[@]}" "${small[@]}" --set solver.max_steps=${SAN_STEPS:-60}
+  check pour "$tool" knitflow run "${san_pour[@]}" "${small[@]}" --set solver.max_steps=${SAN_STEPS:-40}
+  check wicking "$tool" knitflow run "${san_wicking[@]}" "${small[@]}" --set solver.max_steps=${SAN_STEPS:-40}
+  check drape "$tool" knitflow run "${san_drape[@]}" "${small[@]}" --set solver.max_steps=${SAN_STEPS:-40}
+  check garment "$tool" knitflow run "${san_garment[@]}" "${small[@]}" --set solver.max_steps=${SAN_STEPS:-20}
 done
 echo "runs failed: $fails"
 [ $fails -eq 0 ]
