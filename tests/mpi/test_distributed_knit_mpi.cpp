@@ -759,6 +759,12 @@ TEST(DistributedKnit, OnTheGpuTheCoupledSplitIsTheOneRankGpuRun) {
   Scene verlet = fixed(hammock("float"));
   verlet.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
   expect_same_coupled_run(verlet, 400, 200, "GPU hammock pour, float, verlet lists", true, gpu);
+}
+
+TEST(DistributedKnit, OnTheGpuTheAbsorbingSplitIsTheOneRankGpuRun) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device visible";
+  const auto gpu = exec::Backend::Cuda;
   expect_same_coupled_run(absorbing_hammock("double"), 1500, 50, "GPU absorbing hammock, double",
                           true, gpu);
 }

@@ -518,6 +518,8 @@ Scene moving_sphere() {
 
 } // namespace
 
+// The split on the GPU against the one-rank GPU run, one test a theme (each runs alone under a
+// compute-sanitizer tool within a GPU call's limit).
 TEST(Distributed, OnTheGpuTheSplitIsTheOneRankGpuRun) {
   if (!exec::cuda_available())
     GTEST_SKIP() << "no CUDA device visible";
@@ -530,6 +532,12 @@ TEST(Distributed, OnTheGpuTheSplitIsTheOneRankGpuRun) {
   s.parallel.payback = false; // at every check, whatever it costs
   s.parallel.check_every = 20;
   expect_same_run(s, 120, 40, "GPU dam break, re-partitioned every 20 steps", gpu);
+}
+
+TEST(Distributed, OnTheGpuOpenSidesAndObstaclesAreTheOneRankGpuRun) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device visible";
+  const auto gpu = exec::Backend::Cuda;
   expect_same_run(
       load_scene((test::source_dir() / "scenes" / "obstacles.toml").string(),
                  {"output.enabled=false", "fluid.spacing=0.02", "parallel.block_cells=2"}),
@@ -537,6 +545,12 @@ TEST(Distributed, OnTheGpuTheSplitIsTheOneRankGpuRun) {
   Scene jet = test::jet_scene(R"("x-", "y-", "y+", "z-", "z+")");
   jet.parallel.block_cells = 1;
   expect_same_run(jet, 150, 25, "GPU jet through an open side", gpu);
+}
+
+TEST(Distributed, OnTheGpuVerletListsAreTheOneRankGpuRun) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device visible";
+  const auto gpu = exec::Backend::Cuda;
   Scene verlet = dambreak("float", "summation");
   verlet.solver.neighbour_list = Scene::Solver::NeighbourLists::Verlet;
   expect_same_run(verlet, 200, 50, "GPU dam break, verlet lists", gpu, true);
@@ -548,6 +562,12 @@ TEST(Distributed, OnTheGpuTheSplitIsTheOneRankGpuRun) {
   verlet.parallel.transport = Scene::Parallel::Transport::Mpi;
   expect_same_run(verlet, 200, 50, "GPU dam break, verlet lists, mpi transport", gpu, true);
   expect_same_run(moving_sphere(), 200, 50, "GPU sphere moving through a tank", gpu, true);
+}
+
+TEST(Distributed, OnTheGpuTheFluidsOptionsAreTheOneRankGpuRun) {
+  if (!exec::cuda_available())
+    GTEST_SKIP() << "no CUDA device visible";
+  const auto gpu = exec::Backend::Cuda;
   // The fluid's options: the GPU's shift reads the ghosts the forces' pass read and the kept
   // ghosts take their owners' shifted positions on the device (refresh_positions); the
   // artificial viscosity reads the ghosts' velocities.
