@@ -118,8 +118,9 @@ void SpringTopology<T>::localize(const exec::Exec& ex, const HostRows& from,
     throw Error("knit springs: rows for " + std::to_string(from.points()) + " points, " +
                 std::to_string(owned) + " owned");
   width_ = from.width; // before rows(): the CPU's rows are width_ apart
-  count_.resize(owned);
-  entry_.resize(std::size_t(width_) * owned);
+  // Written anew below (a row's slots past its count never): grown without copying them.
+  count_.resize_snug_discarding(owned);
+  entry_.resize_snug_discarding(std::size_t(width_) * owned);
   exec::for_each(ex, owned,
                  LocalRowGather<SpringEntry<T>, OtherEndLocal<T>>{from.count.data(),
                                                                   from.entry.data(),

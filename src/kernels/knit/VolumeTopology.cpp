@@ -194,8 +194,10 @@ void VolumeTopology<T>::localize(const exec::Exec& ex, const Cells& cells, const
                 std::to_string(owned) + " owned");
   cells_ = cells.cells;
   width_ = from.width;
-  count_.resize(owned);
-  cell_.resize(std::size_t(width_) * owned);
+  // Every column here is written anew (a row's slots past its count never): each grows
+  // without copying.
+  count_.resize_snug_discarding(owned);
+  cell_.resize_snug_discarding(std::size_t(width_) * owned);
   exec::for_each(ex, owned,
                  LocalRowGather<std::uint32_t, SameEntry>{from.count.data(),
                                                           from.cell.data(),
@@ -208,15 +210,15 @@ void VolumeTopology<T>::localize(const exec::Exec& ex, const Cells& cells, const
   // Only the cells the owned points' rows name, compacted (a mark a mesh cell, scanned into
   // slots): a rank's backend holds its share of the cells' corners and constants, not the
   // whole mesh's; each row keeps its order, so the forces sum as before.
-  slot_.resize(cells.cells);
+  slot_.resize_snug_discarding(cells.cells);
   exec::fill(ex, slot_, std::uint32_t(0), "knit.volumes.localize");
   exec::for_each(ex, owned, MarkUsedCells{count_.data(), cell_.data(), rows(), slot_.data()},
                  "knit.volumes.localize");
   const auto used = static_cast<std::uint32_t>(
       cells.cells ? exec::exclusive_scan(ex, slot_, slot_, "knit.volumes.localize") : 0);
-  point_.resize(4 * std::size_t(used));
-  rest_.resize(used);
-  k_.resize(used);
+  point_.resize_snug_discarding(4 * std::size_t(used));
+  rest_.resize_snug_discarding(used);
+  k_.resize_snug_discarding(used);
   exec::for_each(ex, cells.cells,
                  CompactCell<T>{cells.point.data(),
                                 cells.rest.data(),

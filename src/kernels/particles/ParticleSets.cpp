@@ -129,12 +129,15 @@ void FluidSet<T>::each_sorted(Self& self, Carry carry, F&& f) {
 template <typename T>
 FluidView<T> FluidSet<T>::view() {
   const std::size_t n = size();
-  // Each on its own: reorder() swaps vp and vol (carried copies) but not xm.
+  // Each on its own: reorder() swaps vp and vol (carried copies) but not xm. Grown without
+  // copying: a growth means particles came (migration, ghosts, a restart's load), and every
+  // copy is written again before it is read (reorder carries them only where the count did
+  // not change since they were written: one rank's continuity predictor).
   for (auto* b : {&xm, &vp})
     if (b->size() < n)
-      b->resize_snug(n);
+      b->resize_snug_discarding(n);
   if (vol.size() < n)
-    vol.resize_snug(n);
+    vol.resize_snug_discarding(n);
   return {x.data(),    v.data(),         a.data(), m.data(),  rho.data(), p.data(),  id.data(),
           drho.data(), drho_prev.data(), n,        xm.data(), vp.data(),  vol.data()};
 }
