@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # knitflow's scenes on the CPU backend under Valgrind's memcheck, on 1 and on 2 ranks: a
-# decision or a system call made on a value never written (the CPU's counterpart of
-# compute-sanitizer's initcheck, which reports the copy of such a value where memcheck reports its
-# use), reads and writes past a block, frees gone wrong. The CPU backend's buffers come from
+# decision or a system call made on a value never written, and a copy out of the backend's
+# memory of bytes never written (`exec::copy_bytes` asks memcheck: a column's growth copying slots
+# nothing wrote, as compute-sanitizer's initcheck reports on the GPU), reads and writes past a
+# block, frees gone wrong. The CPU backend's buffers come from
 # `exec::alloc_bytes` unwritten, so a pass that reads a slot nothing wrote shows here where the
 # poisoned runs (KF_POISON_ALLOCATIONS, which this run must not set: the 0xFF fill counts as
 # written) show only a read whose NaN reaches a result. The scenes as jobs/gpu/p5_sanitizer.sh
