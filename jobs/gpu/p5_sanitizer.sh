@@ -15,8 +15,8 @@
 #   SAN_ONLY="test_halo_mpi pour ..." keeps only the named runs (test programs or scenes): under
 #   memcheck on an H100 the split dam break's tests take ~100 s, the scenes 1-4 s each.
 #   SAN_FILTER replaces the test programs' gtest filters (one theme of the split alone, e.g.
-#   SAN_ONLY=test_distributed_mpi SAN_FILTER='*OnTheGpuVerlet*': the four themes together
-#   passed 560 s under racecheck).
+#   SAN_ONLY=test_distributed_mpi SAN_FILTER='*OnTheGpuVerlet*': under racecheck the four themes
+#   in one run had finished two of their twelve splits when a 560 s call was cut).
 #   SAN_ARGS adds compute-sanitizer options (--print-limit N: 100 reports a rank by default).
 #   SAN_STEPS=N runs every scene N steps (initcheck is the slowest tool: the dam break's 60 steps
 #   passed 100 s; its first re-partition comes at step 20).
