@@ -5,6 +5,7 @@
 #include "kernels/knit/PointRows.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <numeric>
 #include <string>
 
@@ -43,11 +44,18 @@ void spring_rows(const std::vector<Spring>& springs, const std::vector<std::uint
   const RowLayout rows = layout(n_rows, width);
   SpringEntry<T>* entry = table(std::size_t(width) * n_rows);
   std::vector<std::uint32_t> fill(n_rows, 0);
+  // Member by member: in double an entry has 4 bytes of padding, zeroed with the table and
+  // left so (a whole-struct store may copy a temporary's undefined padding, which the copy to
+  // the backend then reads: Valgrind's copy check in exec::copy_bytes).
   auto put = [&](std::uint32_t a, std::uint32_t b, const Spring& s) {
     const std::uint32_t r = row_of[a];
-    if (r != kAbsentPoint)
-      entry[rows.at(fill[r]++, r)] = {b, static_cast<T>(s.rest), static_cast<T>(s.k),
-                                      static_cast<T>(s.c)};
+    if (r == kAbsentPoint)
+      return;
+    SpringEntry<T>& e = entry[rows.at(fill[r]++, r)];
+    e.other = b;
+    e.rest = static_cast<T>(s.rest);
+    e.k = static_cast<T>(s.k);
+    e.c = static_cast<T>(s.c);
   };
   for (const Spring& s : springs) {
     put(s.i, s.j, s);
@@ -78,7 +86,9 @@ void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_
       springs, row_of, n_points,
       [b](std::size_t n, std::uint32_t w) { return RowLayout::for_backend(b, n, w); },
       [&entry](std::size_t k) {
-        entry.assign(k, SpringEntry<T>{});
+        entry.resize(k);
+        if (k) // every byte, the padding too (an aggregate's {} need not zero it)
+          std::memset(static_cast<void*>(entry.data()), 0, k * sizeof(SpringEntry<T>));
         return entry.data();
       },
       count, by_kind_, width_);
