@@ -4,6 +4,9 @@
 # The dam break with "verlet" lists, re-partitioned every 20 steps (its first at step 20).
 san_dambreak=(scenes/dambreak.toml --set fluid.spacing=0.02 --set 'solver.neighbour_list="verlet"'
   --set parallel.imbalance=1.0 --set parallel.payback=false --set parallel.check_every=20)
+# The same with particle shifting (the fluid's option with a per-step scratch of its own, sized to
+# the fluid and its ghosts: the CPU's copy check found its growth copying the ghosts' slots).
+san_shifting=("${san_dambreak[@]}" --set 'solver.shifting="fickian"')
 # The stream starts just above the knit, so that the coupling (contacts, absorption, the
 # coupling's ghosts) runs within the steps: from the scene's height it meets the knit after ~400
 # steps (before 2026-12-07, fourth session, the GPU job's pour never reached it).

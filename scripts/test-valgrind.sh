@@ -8,9 +8,10 @@
 # poisoned runs (KF_POISON_ALLOCATIONS, which this run must not set: the 0xFF fill counts as
 # written) show only a read whose NaN reaches a result. The scenes as jobs/gpu/p5_sanitizer.sh
 # runs them (the pour's stream just above the knit, the wicking strip's foot in its pool, the
-# dam break re-partitioned every 20 steps), the coupling running within the steps. Not part of
-# .ci/run (memcheck runs a step ~50x slower; all at 200 steps: ~4 min on 2 cores). Release build:
-# frames name functions, not lines. Then snapshots and restart across rank counts (below).
+# dam break re-partitioned every 20 steps, with particle shifting too), the coupling running
+# within the steps. Not part of .ci/run (memcheck runs a step ~50x slower; all at 200 steps:
+# ~5 min on 2 cores). Release build: frames name functions, not lines. Then snapshots and
+# restart across rank counts (below).
 # Usage: scripts/test-valgrind.sh [STEPS] [RUNS]   (default 200; RUNS e.g. "pour wicking restart";
 #   "tests" adds the MPI test programs)
 #   logs in build/valgrind/; one line a run; exit 1 if any run reports.
@@ -64,7 +65,7 @@ check() { # LABEL RANKS ARGS...   (IO=ARGS: the run's output, none by default; N
 }
 . scripts/sanitizer-scenes.sh
 for ranks in 1 2; do
-  for scene in dambreak pour wicking drape garment; do
+  for scene in dambreak shifting pour wicking drape garment; do
     args="san_$scene[@]"
     check "$scene" "$ranks" "${!args}"
   done

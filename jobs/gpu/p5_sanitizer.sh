@@ -5,8 +5,8 @@
 #    host messages; the halo's device rows; the dam break, the knit and the coupled pour split
 #    on the GPU against the one-rank GPU run);
 #  - knitflow's scenes on 2 ranks, small and short: the dam break with "verlet" lists and a
-#    re-partition every 20 steps, the pour (paper model), the wicking strip (conserving model),
-#    the drape, the garment.
+#    re-partition every 20 steps (and again with particle shifting), the pour (paper model), the
+#    wicking strip (conserving model), the drape, the garment.
 # Tools: memcheck (out-of-bounds and misaligned device accesses, CUDA API errors, device
 # memory leaked at exit), racecheck (shared-memory hazards), synccheck (barriers), initcheck
 # (device memory read before it was written; knitflow's runs only, over the MPI transport).
@@ -80,6 +80,7 @@ for tool in $tools; do
     done
   fi
   check dambreak "$tool" knitflow run "${san_dambreak[@]}" "${small[@]}" --set solver.max_steps=${SAN_STEPS:-60}
+  check shifting "$tool" knitflow run "${san_shifting[@]}" "${small[@]}" --set solver.max_steps=${SAN_STEPS:-60}
   check pour "$tool" knitflow run "${san_pour[@]}" "${small[@]}" --set solver.max_steps=${SAN_STEPS:-40}
   check wicking "$tool" knitflow run "${san_wicking[@]}" "${small[@]}" --set solver.max_steps=${SAN_STEPS:-40}
   check drape "$tool" knitflow run "${san_drape[@]}" "${small[@]}" --set solver.max_steps=${SAN_STEPS:-40}
