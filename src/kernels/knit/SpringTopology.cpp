@@ -5,7 +5,6 @@
 #include "kernels/knit/PointRows.hpp"
 
 #include <algorithm>
-#include <cstring>
 #include <numeric>
 #include <string>
 
@@ -44,9 +43,9 @@ void spring_rows(const std::vector<Spring>& springs, const std::vector<std::uint
   const RowLayout rows = layout(n_rows, width);
   SpringEntry<T>* entry = table(std::size_t(width) * n_rows);
   std::vector<std::uint32_t> fill(n_rows, 0);
-  // Member by member: in double an entry has 4 bytes of padding, zeroed with the table and
-  // left so (a whole-struct store may copy a temporary's undefined padding, which the copy to
-  // the backend then reads: Valgrind's copy check in exec::copy_bytes).
+  // Member by member: in double an entry has 4 bytes of padding, zeroed with the table (both
+  // tables come zeroed byte by byte) and left so; a whole-struct store may copy a temporary's
+  // undefined padding, which the copy to the backend then reads (Valgrind's copy check).
   auto put = [&](std::uint32_t a, std::uint32_t b, const Spring& s) {
     const std::uint32_t r = row_of[a];
     if (r == kAbsentPoint)
@@ -79,21 +78,20 @@ template <typename T>
 void SpringTopology<T>::build(const std::vector<Spring>& springs, std::size_t n_points) {
   std::vector<std::uint32_t> count, row_of(n_points);
   std::iota(row_of.begin(), row_of.end(), 0u);
-  std::vector<SpringEntry<T>> entry;
+  // Zeroed byte by byte, padding too, in one pass (as host_rows' table): plain host memory here.
+  exec::HostReadable<SpringEntry<T>> entry;
   const exec::Backend b = count_.backend();
   width_ = 0;
   spring_rows<T>(
       springs, row_of, n_points,
       [b](std::size_t n, std::uint32_t w) { return RowLayout::for_backend(b, n, w); },
       [&entry](std::size_t k) {
-        entry.resize(k);
-        if (k) // every byte, the padding too (an aggregate's {} need not zero it)
-          std::memset(static_cast<void*>(entry.data()), 0, k * sizeof(SpringEntry<T>));
+        entry = exec::HostReadable<SpringEntry<T>>(exec::Backend::Cpu, k, "knit.springs.table");
         return entry.data();
       },
       count, by_kind_, width_);
   count_.assign(count);
-  entry_.assign(entry);
+  entry_.assign(entry.data(), entry.size());
   springs_ = springs.size();
 }
 
