@@ -520,9 +520,10 @@ std::string format_summary(const RunSummary& s) {
     std::snprintf(
         buf, sizeof buf,
         "coupling: %llu fluid-knit contacts now (penalty %.4g J) | absorbed fluid %.4g kg "
-        "| saturation max %.3f, mean %.4f, %llu wet points\n",
+        "| saturation max %.3f, mean %.4f, %llu wet points | its lists built %llu times\n",
         static_cast<unsigned long long>(d.coupling_contacts), d.coupling_energy, d.absorbed_mass,
-        d.max_saturation, d.mean_saturation, static_cast<unsigned long long>(d.wet_points));
+        d.max_saturation, d.mean_saturation, static_cast<unsigned long long>(d.wet_points),
+        static_cast<unsigned long long>(d.coupling_list_builds));
     o << buf;
     if (d.sheet_corrections) {
       std::snprintf(buf, sizeof buf,

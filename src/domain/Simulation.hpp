@@ -50,6 +50,9 @@ struct Diagnostics {
   // Fluid particles near the knit at a recent build of the coupling's lists: its lists' rows
   // (KnitFluidCoupling::near_particles; summed over ranks, ghosts on each).
   std::uint64_t coupling_rows = 0;
+  // Builds of the coupling's lists, whole run (this rank's; with "verlet" lists they last until
+  // the fluid's or the knit grid's next sort, on N ranks as on one).
+  std::uint64_t coupling_list_builds = 0;
   double absorbed_mass = 0; // sum of the knit points' m_fluid [kg]
   double max_saturation = 0, mean_saturation = 0;
   std::uint64_t wet_points = 0; // knit points with s > 0.01

@@ -40,6 +40,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
       const CouplingStats cs = self.coupling_->stats(ex_, self.knit_->set(), self.fluid_side());
       d.coupling_contacts = cs.contacts;
       d.coupling_rows = self.coupling_->near_particles();
+      d.coupling_list_builds = self.coupling_->list_builds();
       d.coupling_energy = cs.energy;
       d.absorbed_mass = cs.absorbed_mass;
       d.max_saturation = cs.max_saturation;

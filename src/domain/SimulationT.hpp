@@ -244,10 +244,12 @@ private:
     coupling_->begin_lists(ex_, knit_->set(), fluid_side(),
                            static_cast<T>(knit_->expected_motion(dt_)), coupling_anchor());
   }
-  /// On one rank with "verlet" lists: the fluid's lists' positions, so that the coupling's lists
-  /// last as long as they may (FluidAnchor). On N ranks the ghosts change at every step: none.
+  /// With "verlet" lists: the fluid's lists' positions, so that the coupling's lists last as
+  /// long as they may (FluidAnchor). On N ranks the ghosts are kept from one sort to the next
+  /// with them (RankExchange::keeps_ghosts): the rows stay in place, each ghost listed where its
+  /// owner was (both sorted at the same step), and the bound is the job's.
   FluidAnchor<T> coupling_anchor() const {
-    if (ranks_ || !fluid_list_)
+    if (!fluid_list_ || (ranks_ && !ranks_->keeps_ghosts()))
       return {};
     return {fluid_list_->listed_x(fluid_->size()), fluid_sorts_, fluid_list_->displacement_bound()};
   }
