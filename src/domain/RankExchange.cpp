@@ -238,11 +238,16 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   }
   const double most = mpi_.max(compute_seconds_), mean = mpi_.sum(compute_seconds_) / ranks();
   compute_seconds_ = 0;
-  std::array<double, kPhases> seconds = phase_seconds_;
+  std::array<double, kPhases> seconds = phase_seconds_, slowest = phase_seconds_;
   phase_seconds_ = {};
   MPI_Allreduce(MPI_IN_PLACE, seconds.data(), kPhases, MPI_DOUBLE, MPI_SUM, mpi_.comm());
+  MPI_Allreduce(MPI_IN_PLACE, slowest.data(), kPhases, MPI_DOUBLE, MPI_MAX, mpi_.comm());
   b.imbalance = mean > 0 ? most / mean : 1.0;
   last_imbalance_ = b.imbalance;
+  double slowest_sum = 0;
+  for (double t : slowest)
+    slowest_sum += t;
+  last_phase_imbalance_ = mean > 0 ? slowest_sum / mean : 1.0;
   ++checks_held_;
   if (b.imbalance <= scene_.parallel.imbalance)
     return b;

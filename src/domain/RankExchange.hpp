@@ -246,6 +246,11 @@ public:
   /// Seconds spent in the split's own work (migration, ghosts, refreshes, re-partitions).
   double exchange_seconds() const { return exchange_seconds_; }
   double last_imbalance() const { return last_imbalance_; }
+  /// At the last check: each phase's slowest rank, summed, over the mean rank's compute. The
+  /// phases meet at refreshes, so a rank slower in one phase and faster in another waits twice
+  /// while its total is balanced: this is at least last_imbalance() and bounds what the waits
+  /// between phases lose.
+  double last_phase_imbalance() const { return last_phase_imbalance_; }
   /// The phases' costs the last partition weighed by (measured from the second on).
   const PhaseCosts& phase_costs() const { return costs_; }
 
@@ -325,7 +330,8 @@ private:
   exec::Backend backend_;
   std::unique_ptr<comm::RowCopier> rows_;
   Parts parts_; // all but packing (the copier's)
-  double compute_seconds_ = 0, last_imbalance_ = 0, exchange_seconds_ = 0;
+  double compute_seconds_ = 0, last_imbalance_ = 0, last_phase_imbalance_ = 0,
+         exchange_seconds_ = 0;
   std::uint64_t repartitions_ = 0, declined_ = 0, declined_balanced_ = 0;
   double last_counted_imbalance_ = 0, declined_counted_ = 0;
   double last_repartition_seconds_ = 0, last_partition_seconds_ = 0;

@@ -422,8 +422,10 @@ std::string format_summary(const RunSummary& s) {
     }
     if (d.imbalance > 0) {
       std::snprintf(buf, sizeof buf,
-                    "ranks: compute imbalance %.3f at the last check, %llu re-partition(s)",
-                    d.imbalance, static_cast<unsigned long long>(d.repartitions));
+                    "ranks: compute imbalance %.3f at the last check (its phases' slowest ranks "
+                    "summed %.3f), %llu re-partition(s)",
+                    d.imbalance, d.phase_imbalance,
+                    static_cast<unsigned long long>(d.repartitions));
       o << buf;
       if (d.repartitions > 0) {
         std::snprintf(buf, sizeof buf, " (the last took %.3g s, METIS %.3g s of it)",

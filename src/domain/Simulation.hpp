@@ -66,6 +66,7 @@ struct Diagnostics {
   // `counted_imbalance`, the largest among those declines `declined_counted`), and what the last
   // one cost (the slowest rank's seconds; METIS's part).
   double imbalance = 0, counted_imbalance = 0, declined_counted = 0;
+  double phase_imbalance = 0; // each phase's slowest rank summed, over the mean (the waits' bound)
   std::uint64_t repartitions = 0, declined_repartitions = 0, balanced_declines = 0;
   double repartition_seconds = 0, partition_seconds = 0;
   double diffused_mass = 0; // moved between knit points [kg]

@@ -138,6 +138,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
     if (coupling_)
       d.mean_saturation = d.knit > 0 ? saturation_sum / double(d.knit) : 0.0;
     d.imbalance = ranks_->last_imbalance();
+    d.phase_imbalance = ranks_->last_phase_imbalance();
     d.repartitions = ranks_->repartitions();
     d.declined_repartitions = ranks_->declined_repartitions();
     d.balanced_declines = ranks_->balanced_declines();

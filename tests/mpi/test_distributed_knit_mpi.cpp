@@ -541,6 +541,12 @@ std::uint64_t expect_same_coupled_run(const Scene& s, int steps, int every, cons
   }
   EXPECT_GT(contacts, 0u) << what << ": the fluid never touched the knit";
   const Diagnostics d = split->diagnostics();
+  // The fluid's and the knit's phases, each rank's times summed over them: the sum of each
+  // phase's slowest rank is at least the slowest rank's sum (equal where one rank is the
+  // slowest in both), checked when a check has measured (imbalance 1e9: no re-partition).
+  if (d.imbalance > 0) {
+    EXPECT_GE(d.phase_imbalance, d.imbalance * (1 - 1e-12)) << what;
+  }
   if (s.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet && !parted) {
     // The coupling's lists last as on one rank (anchored at the fluid's listed positions, the
     // ghosts kept with them): built again at the same fluid sorts and knit grid sorts, which
@@ -568,6 +574,7 @@ std::uint64_t expect_same_coupled_run(const Scene& s, int steps, int every, cons
                 static_cast<unsigned long long>(contacts), wet,
                 static_cast<unsigned long long>(d.absorbed_particles),
                 static_cast<unsigned long long>(d.emitted_particles), drift);
+    std::printf("imbalance %.3f (phases' slowest summed %.3f); ", d.imbalance, d.phase_imbalance);
     std::printf("coupling's lists built %llu times (one rank %llu), fluid sorted %llu (%llu); ",
                 static_cast<unsigned long long>(d.coupling_list_builds),
                 static_cast<unsigned long long>(one->diagnostics().coupling_list_builds),

@@ -296,6 +296,9 @@ TEST(Distributed, RepartitioningKeepsTheOneRankRun) {
   const Diagnostics d = split->diagnostics();
   EXPECT_EQ(d.repartitions, 2u) << "checks at steps 20 and 40";
   EXPECT_GE(d.imbalance, 1.0);
+  // Fluid alone (the walls' passes timed with the fluid's): one phase, so each phase's slowest
+  // rank summed is the slowest rank's total, to rounding.
+  EXPECT_NEAR(d.phase_imbalance, d.imbalance, 1e-12 * d.imbalance);
   EXPECT_EQ(d.balanced_declines, 0u) << "payback off: at every check";
   // Paid for (the default), in a full tank without gravity (the fluid at rest, balanced by the
   // start's partition): the first re-partition would pay (nothing measured yet), and a threshold
