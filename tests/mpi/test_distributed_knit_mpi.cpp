@@ -540,7 +540,7 @@ std::uint64_t expect_same_coupled_run(const Scene& s, int steps, int every, cons
     EXPECT_LE(gap, 2 * reference) << what << ": the split run strayed further than rounding";
   }
   EXPECT_GT(contacts, 0u) << what << ": the fluid never touched the knit";
-  const Diagnostics d = split->diagnostics();
+  const Diagnostics d = split->diagnostics(), d_one = one->diagnostics();
   // The fluid's and the knit's phases, each rank's times summed over them: the sum of each
   // phase's slowest rank is at least the slowest rank's sum (equal where one rank is the
   // slowest in both), checked when a check has measured (imbalance 1e9: no re-partition).
@@ -552,8 +552,8 @@ std::uint64_t expect_same_coupled_run(const Scene& s, int steps, int every, cons
     // ghosts kept with them): built again at the same fluid sorts and knit grid sorts, which
     // every rank takes together (the knit's watch reads the job's motion). Before the anchor
     // on N ranks the split built them every step (401 against 34 in the hammock's 400 steps).
-    EXPECT_EQ(d.fluid_sorts, one->diagnostics().fluid_sorts) << what;
-    EXPECT_EQ(d.coupling_list_builds, one->diagnostics().coupling_list_builds)
+    EXPECT_EQ(d.fluid_sorts, d_one.fluid_sorts) << what;
+    EXPECT_EQ(d.coupling_list_builds, d_one.coupling_list_builds)
         << what << ": the split built the coupling's lists more often than one rank";
   }
   if (conserving) {
@@ -577,9 +577,9 @@ std::uint64_t expect_same_coupled_run(const Scene& s, int steps, int every, cons
     std::printf("imbalance %.3f (phases' slowest summed %.3f); ", d.imbalance, d.phase_imbalance);
     std::printf("coupling's lists built %llu times (one rank %llu), fluid sorted %llu (%llu); ",
                 static_cast<unsigned long long>(d.coupling_list_builds),
-                static_cast<unsigned long long>(one->diagnostics().coupling_list_builds),
+                static_cast<unsigned long long>(d_one.coupling_list_builds),
                 static_cast<unsigned long long>(d.fluid_sorts),
-                static_cast<unsigned long long>(one->diagnostics().fluid_sorts));
+                static_cast<unsigned long long>(d_one.fluid_sorts));
     if (d.sheet_corrections)
       std::printf("%llu steps through the sheet put back; ",
                   static_cast<unsigned long long>(d.sheet_corrections));
