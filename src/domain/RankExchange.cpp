@@ -248,6 +248,9 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   for (double t : slowest)
     slowest_sum += t;
   last_phase_imbalance_ = mean > 0 ? slowest_sum / mean : 1.0;
+  // Each phase's own spread: which phase's work is off, where the sum above says only how much.
+  for (int p = 0; p < kPhases; ++p)
+    last_phase_spread_[p] = seconds[p] > 0 ? slowest[p] / (seconds[p] / ranks()) : 0.0;
   ++checks_held_;
   if (b.imbalance <= scene_.parallel.imbalance)
     return b;

@@ -251,6 +251,11 @@ public:
   /// while its total is balanced: this is at least last_imbalance() and bounds what the waits
   /// between phases lose.
   double last_phase_imbalance() const { return last_phase_imbalance_; }
+  /// At the last check: each phase's slowest rank over that phase's mean (0: a phase not timed
+  /// apart, as the boundary's passes, timed with the fluid's). last_phase_imbalance() is their
+  /// mean weighted by each phase's share of the compute, so it lies between the least and the
+  /// most of them.
+  const std::array<double, kPhases>& last_phase_spread() const { return last_phase_spread_; }
   /// The phases' costs the last partition weighed by (measured from the second on).
   const PhaseCosts& phase_costs() const { return costs_; }
 
@@ -330,6 +335,7 @@ private:
   exec::Backend backend_;
   std::unique_ptr<comm::RowCopier> rows_;
   Parts parts_; // all but packing (the copier's)
+  std::array<double, kPhases> last_phase_spread_{};
   double compute_seconds_ = 0, last_imbalance_ = 0, last_phase_imbalance_ = 0,
          exchange_seconds_ = 0;
   std::uint64_t repartitions_ = 0, declined_ = 0, declined_balanced_ = 0;

@@ -423,8 +423,17 @@ std::string format_summary(const RunSummary& s) {
     if (d.imbalance > 0) {
       std::snprintf(buf, sizeof buf,
                     "ranks: compute imbalance %.3f at the last check (its phases' slowest ranks "
-                    "summed %.3f), %llu re-partition(s)",
-                    d.imbalance, d.phase_imbalance,
+                    "summed %.3f",
+                    d.imbalance, d.phase_imbalance);
+      o << buf;
+      // Each timed phase's own spread: which phase's work is off.
+      for (int p = 0; p < kPhases; ++p)
+        if (d.phase_spread[p] > 0) {
+          std::snprintf(buf, sizeof buf, "; %s %.3f", phase_name(static_cast<Phase>(p)),
+                        d.phase_spread[p]);
+          o << buf;
+        }
+      std::snprintf(buf, sizeof buf, "), %llu re-partition(s)",
                     static_cast<unsigned long long>(d.repartitions));
       o << buf;
       if (d.repartitions > 0) {

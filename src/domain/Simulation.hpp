@@ -67,6 +67,8 @@ struct Diagnostics {
   // one cost (the slowest rank's seconds; METIS's part).
   double imbalance = 0, counted_imbalance = 0, declined_counted = 0;
   double phase_imbalance = 0; // each phase's slowest rank summed, over the mean (the waits' bound)
+  // Each phase's slowest rank over that phase's mean (fluid, boundary, knit; 0: not timed apart).
+  std::array<double, kPhases> phase_spread{};
   std::uint64_t repartitions = 0, declined_repartitions = 0, balanced_declines = 0;
   double repartition_seconds = 0, partition_seconds = 0;
   double diffused_mass = 0; // moved between knit points [kg]

@@ -139,6 +139,8 @@ Diagnostics SimulationT<T>::diagnostics() const {
       d.mean_saturation = d.knit > 0 ? saturation_sum / double(d.knit) : 0.0;
     d.imbalance = ranks_->last_imbalance();
     d.phase_imbalance = ranks_->last_phase_imbalance();
+    const auto& spread = ranks_->last_phase_spread();
+    std::copy(spread.begin(), spread.end(), d.phase_spread.begin());
     d.repartitions = ranks_->repartitions();
     d.declined_repartitions = ranks_->declined_repartitions();
     d.balanced_declines = ranks_->balanced_declines();

@@ -546,6 +546,16 @@ std::uint64_t expect_same_coupled_run(const Scene& s, int steps, int every, cons
   // slowest in both), checked when a check has measured (imbalance 1e9: no re-partition).
   if (d.imbalance > 0) {
     EXPECT_GE(d.phase_imbalance, d.imbalance * (1 - 1e-12)) << what;
+    // That sum is the phases' own spreads (slowest over their mean) weighted by each phase's
+    // share of the mean compute, so it lies between the least and the most of them; both the
+    // fluid and the knit were timed (the boundary is timed with the fluid).
+    const double fluid = d.phase_spread[static_cast<int>(Phase::Fluid)],
+                 knit = d.phase_spread[static_cast<int>(Phase::Knit)];
+    EXPECT_GE(fluid, 1.0) << what;
+    EXPECT_GE(knit, 1.0) << what;
+    EXPECT_EQ(d.phase_spread[static_cast<int>(Phase::Boundary)], 0.0) << what;
+    EXPECT_GE(d.phase_imbalance, std::min(fluid, knit) * (1 - 1e-12)) << what;
+    EXPECT_LE(d.phase_imbalance, std::max(fluid, knit) * (1 + 1e-12)) << what;
   }
   if (s.solver.neighbour_list == Scene::Solver::NeighbourLists::Verlet && !parted) {
     // The coupling's lists last as on one rank (anchored at the fluid's listed positions, the
@@ -574,7 +584,9 @@ std::uint64_t expect_same_coupled_run(const Scene& s, int steps, int every, cons
                 static_cast<unsigned long long>(contacts), wet,
                 static_cast<unsigned long long>(d.absorbed_particles),
                 static_cast<unsigned long long>(d.emitted_particles), drift);
-    std::printf("imbalance %.3f (phases' slowest summed %.3f); ", d.imbalance, d.phase_imbalance);
+    std::printf("imbalance %.3f (phases' slowest summed %.3f: fluid %.3f, knit %.3f); ",
+                d.imbalance, d.phase_imbalance, d.phase_spread[static_cast<int>(Phase::Fluid)],
+                d.phase_spread[static_cast<int>(Phase::Knit)]);
     std::printf("coupling's lists built %llu times (one rank %llu), fluid sorted %llu (%llu); ",
                 static_cast<unsigned long long>(d.coupling_list_builds),
                 static_cast<unsigned long long>(d_one.coupling_list_builds),

@@ -299,6 +299,10 @@ TEST(Distributed, RepartitioningKeepsTheOneRankRun) {
   // Fluid alone (the walls' passes timed with the fluid's): one phase, so each phase's slowest
   // rank summed is the slowest rank's total, to rounding.
   EXPECT_NEAR(d.phase_imbalance, d.imbalance, 1e-12 * d.imbalance);
+  // ... and the fluid's own spread is that too; no other phase was timed.
+  EXPECT_NEAR(d.phase_spread[static_cast<int>(Phase::Fluid)], d.imbalance, 1e-12 * d.imbalance);
+  EXPECT_EQ(d.phase_spread[static_cast<int>(Phase::Boundary)], 0.0);
+  EXPECT_EQ(d.phase_spread[static_cast<int>(Phase::Knit)], 0.0);
   EXPECT_EQ(d.balanced_declines, 0u) << "payback off: at every check";
   // Paid for (the default), in a full tank without gravity (the fluid at rest, balanced by the
   // start's partition): the first re-partition would pay (nothing measured yet), and a threshold
