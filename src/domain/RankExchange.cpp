@@ -113,6 +113,7 @@ void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
                                  std::span<const Vec3<T>> knit, std::uint64_t step) {
   settle_forces();
   last_window_ = window_of(step);
+  last_check_step_ = step;
   std::vector<Vec3<T>> fx, bx;
   if (fluid)
     fx = fluid->x.to_host();
@@ -138,6 +139,7 @@ void RankExchange<T>::adopt(Decomposition d, FluidSet<T>* fluid, BoundarySet<T>*
                             std::uint64_t step) {
   settle_forces();
   last_window_ = window_of(step);
+  last_check_step_ = step;
   take_partition(std::move(d));
   if (fluid) {
     fluid_owned_ = fluid->size();
@@ -222,7 +224,8 @@ void RankExchange<T>::receive_boundary_ghosts(BoundarySet<T>& boundary, std::siz
 template <typename T>
 typename RankExchange<T>::Balance
 RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary,
-                         const exec::DeviceBuffer<Vec3<T>>* knit_x, std::size_t knit_owned) {
+                         const exec::DeviceBuffer<Vec3<T>>* knit_x, std::size_t knit_owned,
+                         const exec::DeviceBuffer<std::uint32_t>* knit_pairs) {
   Balance b;
   // At the first sort of each window of check_every steps after the one the run started in
   // (with lists kept over steps the sorts come when the fluid has moved, not every step).
@@ -238,10 +241,31 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   }
   const double most = mpi_.max(compute_seconds_), mean = mpi_.sum(compute_seconds_) / ranks();
   compute_seconds_ = 0;
+  const double own_knit_seconds = phase_seconds_[static_cast<int>(Phase::Knit)];
   std::array<double, kPhases> seconds = phase_seconds_, slowest = phase_seconds_;
   phase_seconds_ = {};
   MPI_Allreduce(MPI_IN_PLACE, seconds.data(), kPhases, MPI_DOUBLE, MPI_SUM, mpi_.comm());
   MPI_Allreduce(MPI_IN_PLACE, slowest.data(), kPhases, MPI_DOUBLE, MPI_MAX, mpi_.comm());
+  // The coupling's pairs beside the knit points, one sample a rank a check (PairCostFit): the
+  // knit seconds a step since the last check, the points and the pairs listed for them now.
+  const std::uint64_t steps_since = step > last_check_step_ ? step - last_check_step_ : 0;
+  last_check_step_ = step;
+  std::optional<HostValues<std::uint32_t>> pairs;
+  if (knit_x && knit_pairs && knit_pairs->size() >= knit_owned) {
+    pairs.emplace(*knit_pairs, knit_owned);
+    if (steps_since > 0) {
+      double listed = 0;
+      for (std::size_t i = 0; i < knit_owned; ++i)
+        listed += (*pairs)[i];
+      std::vector<double> sample{own_knit_seconds / double(steps_since), double(knit_owned),
+                                 listed};
+      std::vector<double> all(sample.size() * std::size_t(ranks()));
+      MPI_Allgather(sample.data(), static_cast<int>(sample.size()), MPI_DOUBLE, all.data(),
+                    static_cast<int>(sample.size()), MPI_DOUBLE, mpi_.comm());
+      for (int r = 0; r < ranks(); ++r)
+        pair_fit_.add(all[3 * r], all[3 * r + 1], all[3 * r + 2]);
+    }
+  }
   b.imbalance = mean > 0 ? most / mean : 1.0;
   last_imbalance_ = b.imbalance;
   double slowest_sum = 0;
@@ -284,9 +308,12 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
     add(select_.block_counts(boundary->x, boundary->size(), boundary_owned_flags()),
         Phase::Boundary);
   if (knit_x) {
+    // A knit point counts 1, and each coupling pair listed for it the weight measured so far.
+    const double w = pairs ? pair_fit_.weight() : 0.0;
     const HostValues<Vec3<T>> kx(*knit_x, knit_owned);
     for (std::size_t i = 0; i < kx.size(); ++i)
-      counts[kPhases * grid.block_of(vec_cast<double>(kx[i])) + static_cast<int>(Phase::Knit)] += 1;
+      counts[kPhases * grid.block_of(vec_cast<double>(kx[i])) + static_cast<int>(Phase::Knit)] +=
+          1 + (w > 0 ? w * (*pairs)[i] : 0.0);
   }
   MPI_Allreduce(MPI_IN_PLACE, counts.data(), static_cast<int>(counts.size()), MPI_DOUBLE, MPI_SUM,
                 mpi_.comm());

@@ -15,6 +15,7 @@
 #include "comm/Transport.hpp"
 #include "domain/Decomposition.hpp"
 #include "domain/DeviceRows.hpp"
+#include "domain/PairCostFit.hpp"
 #include "domain/RankLayout.hpp"
 #include "domain/RankSelector.hpp"
 #include "domain/Scene.hpp"
@@ -179,9 +180,12 @@ public:
   /// seconds on the phase over its particles since the last check), and the fluid and the boundary
   /// migrate to their new owners (sort the boundary after, then boundary_sorted()); the knit
   /// follows at KnitHalo's next choice. knit_x: the knit's positions, the first knit_owned this
-  /// rank's (read only at a re-partition).
+  /// rank's (read only at a re-partition). knit_pairs: the coupling's pairs listed for each knit
+  /// point (its first knit_owned, in the set's order; null without the coupling), sampled at
+  /// every check with the knit's seconds (PairCostFit) and weighed in the blocks' knit counts.
   Balance balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>* boundary,
-                  const exec::DeviceBuffer<Vec3<T>>* knit_x = nullptr, std::size_t knit_owned = 0);
+                  const exec::DeviceBuffer<Vec3<T>>* knit_x = nullptr, std::size_t knit_owned = 0,
+                  const exec::DeviceBuffer<std::uint32_t>* knit_pairs = nullptr);
   /// What the knit's exchange shares: the transport, the ranks next to this one's blocks (a
   /// particle moves less than a block a step), and the split's own time.
   comm::Transport& transport() { return *transport_; }
@@ -258,6 +262,8 @@ public:
   const std::array<double, kPhases>& last_phase_spread() const { return last_phase_spread_; }
   /// The phases' costs the last partition weighed by (measured from the second on).
   const PhaseCosts& phase_costs() const { return costs_; }
+  /// A coupling pair's cost in knit points, as measured so far (0: not yet told apart).
+  double pair_weight() const { return pair_fit_.weight(); }
 
   /// Boundary particles this rank owns (1) and holds as ghosts (0), in the set's order.
   const std::vector<std::uint8_t>& boundary_owned() const { return boundary_owned_; }
@@ -348,7 +354,9 @@ private:
   // Where a split pass's interior runs beside its border and the exchange (a device; null: after
   // them, on the CPU or with KF_SIDE_STREAM=0).
   std::unique_ptr<exec::SideStream> side_;
-  std::uint64_t last_window_ = 0; // window_of(step) at the last imbalance check
+  std::uint64_t last_window_ = 0;     // window_of(step) at the last imbalance check
+  std::uint64_t last_check_step_ = 0; // the step of the last check (or the start)
+  PairCostFit pair_fit_;
   std::uint64_t window_of(std::uint64_t step) const {
     return step / static_cast<std::uint64_t>(scene_.parallel.check_every);
   }

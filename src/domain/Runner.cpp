@@ -441,6 +441,11 @@ std::string format_summary(const RunSummary& s) {
                       d.repartition_seconds, d.partition_seconds);
         o << buf;
       }
+      if (d.pair_weight > 0) {
+        std::snprintf(buf, sizeof buf, ", a coupling pair weighed as %.3g knit points",
+                      d.pair_weight);
+        o << buf;
+      }
       if (d.declined_repartitions > 0) {
         std::snprintf(buf, sizeof buf,
                       ", %llu declined (the imbalance lost less than a re-partition costs)",

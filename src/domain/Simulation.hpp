@@ -69,6 +69,7 @@ struct Diagnostics {
   double phase_imbalance = 0; // each phase's slowest rank summed, over the mean (the waits' bound)
   // Each phase's slowest rank over that phase's mean (fluid, boundary, knit; 0: not timed apart).
   std::array<double, kPhases> phase_spread{};
+  double pair_weight = 0; // a knit-fluid coupling pair's measured cost in knit points (0: not yet)
   std::uint64_t repartitions = 0, declined_repartitions = 0, balanced_declines = 0;
   double repartition_seconds = 0, partition_seconds = 0;
   double diffused_mass = 0; // moved between knit points [kg]

@@ -141,6 +141,7 @@ Diagnostics SimulationT<T>::diagnostics() const {
     d.phase_imbalance = ranks_->last_phase_imbalance();
     const auto& spread = ranks_->last_phase_spread();
     std::copy(spread.begin(), spread.end(), d.phase_spread.begin());
+    d.pair_weight = ranks_->pair_weight();
     d.repartitions = ranks_->repartitions();
     d.declined_repartitions = ranks_->declined_repartitions();
     d.balanced_declines = ranks_->balanced_declines();

@@ -27,7 +27,8 @@ void SimulationT<T>::sort_fluid(bool remove_outflow, typename FluidSet<T>::Carry
       ranks_->drop_ghosts(ex_, *fluid_);
     if (ranks_
             ->balance(steps_, &*fluid_, boundary_on_ ? &*boundary_ : nullptr,
-                      knit_halo_ ? &knit_->set().x : nullptr, knit_halo_ ? knit_->owned() : 0)
+                      knit_halo_ ? &knit_->set().x : nullptr, knit_halo_ ? knit_->owned() : 0,
+                      knit_halo_ ? coupling_pairs() : nullptr)
             .repartitioned) {
       fit_grids_to_region();
       if (boundary_on_)

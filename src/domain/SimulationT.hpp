@@ -253,6 +253,14 @@ private:
       return {};
     return {fluid_list_->listed_x(fluid_->size()), fluid_sorts_, fluid_list_->displacement_bound()};
   }
+  /// The coupling's pairs listed for each knit point, in the knit set's order, for the blocks'
+  /// weights (RankExchange::balance); null without the coupling or before its lists were built
+  /// for the set as it is (a knit ghost choice builds them again at the next step's start).
+  const exec::DeviceBuffer<std::uint32_t>* coupling_pairs() {
+    if (!coupling_on_ || !coupling_ || coupling_->knit_rows().rows() != knit_->set().size())
+      return nullptr;
+    return &coupling_->knit_rows().counts();
+  }
   /// On N ranks: the knit ghosts take their owners' saturation, capillary pressure and wet mass.
   std::function<void()> share_saturation() {
     if (!knit_halo_)

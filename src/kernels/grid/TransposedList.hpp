@@ -103,6 +103,9 @@ public:
              const std::uint32_t* map, std::size_t n, std::uint32_t capacity,
              const std::uint32_t* sources = nullptr);
   ListView<T> view() const { return {count_.data(), list_.data(), capacity_, rows_}; }
+  /// Each target's pair count (its first rows(); a row over the capacity counts every pair).
+  const exec::DeviceBuffer<std::uint32_t>& counts() const { return count_; }
+  std::size_t rows() const { return rows_; }
   /// Device word: nonzero when some source row's pairs were not all listed (build).
   const std::uint32_t* incomplete() const { return count_.data() + rows_; }
   std::size_t bytes() const {
