@@ -248,23 +248,30 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   MPI_Allreduce(MPI_IN_PLACE, slowest.data(), kPhases, MPI_DOUBLE, MPI_MAX, mpi_.comm());
   // The coupling's pairs beside the knit points, one sample a rank a check (PairCostFit): the
   // knit seconds a step since the last check, the points and the pairs listed for them now.
+  // Gathered wherever the knit is (every rank alike), a rank without the pairs of its set as it
+  // is sending -1: the pairs weigh only where every rank has them.
   const std::uint64_t steps_since = step > last_check_step_ ? step - last_check_step_ : 0;
   last_check_step_ = step;
   std::optional<HostValues<std::uint32_t>> pairs;
-  if (knit_x && knit_pairs && knit_pairs->size() >= knit_owned) {
-    pairs.emplace(*knit_pairs, knit_owned);
-    if (steps_since > 0) {
-      double listed = 0;
+  bool pairs_everywhere = false;
+  if (knit_x) {
+    double listed = -1;
+    if (knit_pairs && knit_pairs->size() >= knit_owned) {
+      pairs.emplace(*knit_pairs, knit_owned);
+      listed = 0;
       for (std::size_t i = 0; i < knit_owned; ++i)
         listed += (*pairs)[i];
-      std::vector<double> sample{own_knit_seconds / double(steps_since), double(knit_owned),
-                                 listed};
-      std::vector<double> all(sample.size() * std::size_t(ranks()));
-      MPI_Allgather(sample.data(), static_cast<int>(sample.size()), MPI_DOUBLE, all.data(),
-                    static_cast<int>(sample.size()), MPI_DOUBLE, mpi_.comm());
+    }
+    const double steps = double(std::max<std::uint64_t>(steps_since, 1));
+    const double sample[3] = {own_knit_seconds / steps, double(knit_owned), listed};
+    std::vector<double> all(3 * std::size_t(ranks()));
+    MPI_Allgather(sample, 3, MPI_DOUBLE, all.data(), 3, MPI_DOUBLE, mpi_.comm());
+    pairs_everywhere = true;
+    for (int r = 0; r < ranks(); ++r)
+      pairs_everywhere = pairs_everywhere && all[3 * r + 2] >= 0;
+    if (pairs_everywhere && steps_since > 0)
       for (int r = 0; r < ranks(); ++r)
         pair_fit_.add(all[3 * r], all[3 * r + 1], all[3 * r + 2]);
-    }
   }
   b.imbalance = mean > 0 ? most / mean : 1.0;
   last_imbalance_ = b.imbalance;
@@ -309,7 +316,7 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
         Phase::Boundary);
   if (knit_x) {
     // A knit point counts 1, and each coupling pair listed for it the weight measured so far.
-    const double w = pairs ? pair_fit_.weight() : 0.0;
+    const double w = pairs_everywhere ? pair_fit_.weight() : 0.0;
     const HostValues<Vec3<T>> kx(*knit_x, knit_owned);
     for (std::size_t i = 0; i < kx.size(); ++i)
       counts[kPhases * grid.block_of(vec_cast<double>(kx[i])) + static_cast<int>(Phase::Knit)] +=

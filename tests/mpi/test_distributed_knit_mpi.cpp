@@ -584,6 +584,7 @@ std::uint64_t expect_same_coupled_run(const Scene& s, int steps, int every, cons
                 static_cast<unsigned long long>(contacts), wet,
                 static_cast<unsigned long long>(d.absorbed_particles),
                 static_cast<unsigned long long>(d.emitted_particles), drift);
+    std::printf("a coupling pair weighed as %.3g knit points; ", d.pair_weight);
     std::printf("imbalance %.3f (phases' slowest summed %.3f: fluid %.3f, knit %.3f); ",
                 d.imbalance, d.phase_imbalance, d.phase_spread[static_cast<int>(Phase::Fluid)],
                 d.phase_spread[static_cast<int>(Phase::Knit)]);
