@@ -112,7 +112,6 @@ template <typename T>
 void RankExchange<T>::distribute(FluidSet<T>* fluid, BoundarySet<T>* boundary,
                                  std::span<const Vec3<T>> knit, std::uint64_t step) {
   settle_forces();
-  last_window_ = window_of(step);
   last_check_step_ = step;
   std::vector<Vec3<T>> fx, bx;
   if (fluid)
@@ -138,7 +137,6 @@ template <typename T>
 void RankExchange<T>::adopt(Decomposition d, FluidSet<T>* fluid, BoundarySet<T>* boundary,
                             std::uint64_t step) {
   settle_forces();
-  last_window_ = window_of(step);
   last_check_step_ = step;
   take_partition(std::move(d));
   if (fluid) {
@@ -232,7 +230,9 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   if (!balance_due(step))
     return b;
   settle_forces();
-  last_window_ = step / static_cast<std::uint64_t>(scene_.parallel.check_every);
+  // The steps since the last check (at least one: balance_due saw a later window).
+  const std::uint64_t steps_since = step - last_check_step_;
+  last_check_step_ = step;
   const Timed part{parts_.rebalance};
   for (int p = 0; p < kPhases; ++p) {
     const double s = clocks_[p]->collect();
@@ -250,8 +250,6 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
   // knit seconds a step since the last check, the points and the pairs listed for them now.
   // Gathered wherever the knit is (every rank alike), a rank without the pairs of its set as it
   // is sending -1: the pairs weigh only where every rank has them.
-  const std::uint64_t steps_since = step > last_check_step_ ? step - last_check_step_ : 0;
-  last_check_step_ = step;
   std::optional<HostValues<std::uint32_t>> pairs;
   bool pairs_everywhere = false;
   if (knit_x) {
@@ -262,14 +260,13 @@ RankExchange<T>::balance(std::uint64_t step, FluidSet<T>* fluid, BoundarySet<T>*
       for (std::size_t i = 0; i < knit_owned; ++i)
         listed += (*pairs)[i];
     }
-    const double steps = double(std::max<std::uint64_t>(steps_since, 1));
-    const double sample[3] = {own_knit_seconds / steps, double(knit_owned), listed};
+    const double sample[3] = {own_knit_seconds / double(steps_since), double(knit_owned), listed};
     std::vector<double> all(3 * std::size_t(ranks()));
     MPI_Allgather(sample, 3, MPI_DOUBLE, all.data(), 3, MPI_DOUBLE, mpi_.comm());
     pairs_everywhere = true;
     for (int r = 0; r < ranks(); ++r)
       pairs_everywhere = pairs_everywhere && all[3 * r + 2] >= 0;
-    if (pairs_everywhere && steps_since > 0)
+    if (pairs_everywhere)
       for (int r = 0; r < ranks(); ++r)
         pair_fit_.add(all[3 * r], all[3 * r + 1], all[3 * r + 2]);
   }

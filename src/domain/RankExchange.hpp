@@ -171,7 +171,9 @@ public:
   };
   /// Whether balance() at this step checks the imbalance (and may re-partition: the fluid must
   /// then hold only what this rank owns).
-  bool balance_due(std::uint64_t step) const { return window_of(step) > last_window_; }
+  bool balance_due(std::uint64_t step) const {
+    return window_of(step) > window_of(last_check_step_);
+  }
   /// At the first sort [parallel] check_every steps or more after the last check (call before a
   /// rebuild, the fluid holding only what this rank owns): when the measured imbalance passes
   /// [parallel] imbalance (and, with [parallel] payback, the time it loses until the next
@@ -354,8 +356,7 @@ private:
   // Where a split pass's interior runs beside its border and the exchange (a device; null: after
   // them, on the CPU or with KF_SIDE_STREAM=0).
   std::unique_ptr<exec::SideStream> side_;
-  std::uint64_t last_window_ = 0;     // window_of(step) at the last imbalance check
-  std::uint64_t last_check_step_ = 0; // the step of the last check (or the start)
+  std::uint64_t last_check_step_ = 0; // the step of the last imbalance check (or the start)
   PairCostFit pair_fit_;
   std::uint64_t window_of(std::uint64_t step) const {
     return step / static_cast<std::uint64_t>(scene_.parallel.check_every);
